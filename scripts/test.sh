@@ -1,0 +1,15 @@
+#!/usr/bin/env bash
+# Sets up everything the tests need on a fresh machine (Rust toolchain + Python 3.11 only)
+# and runs every test: cargo's (unit, integration, property, golden) and the Python ones
+# (Blender add-on in headless bpy, pyrender reference). Safe to re-run: the venv is reused.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+echo "== cargo test (release: the same build the CLI uses)"
+cargo test --release --locked
+
+if ls tests/python/test_*.py >/dev/null 2>&1; then
+    echo "== python tests"
+    bash scripts/setup-python.sh
+    .venv/bin/python -m pytest -q tests/python
+fi

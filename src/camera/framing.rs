@@ -1,0 +1,385 @@
+//! Choosing a camera's parameters from the settings and the scene (render space, where the
+//! scene's bounding sphere is centred at the origin with radius ~1).
+//!
+//! Every ray of a converging cubist camera passes through its focal centre C, so the picture
+//! is the scene seen along lines through C. With C inside an object the picture is a
+//! magnified radial map of the surface around C (SPEC "Framing"). The default framing
+//! (`fit`) therefore puts C on the view axis *behind* the scene, as close as it can while
+//! every vertex stays within `FIT_FILL` of the convergence half-angles: the whole object is
+//! in view, seen around its sides, with a margin of background. `--framing centre` puts C
+//! at the centre of the bounding box (the thesis's literal choice). `auto` picks the
+//! cylindrical camera for tall scenes (height >= `TALL_RATIO` x width and depth), as the
+//! thesis does for standing figures, and the spherical camera otherwise.
+
+use glam::DVec3;
+
+use super::{Camera, CameraFrame, Cylindrical, Orthographic, Perspective, Planar, Spherical};
+use crate::error::{Error, Result};
+use crate::scene::{Projection, World};
+use crate::settings::{CameraKind, Framing, Settings};
+
+/// Fraction of the convergence half-angles the scene fills under `fit`.
+pub const FIT_FILL: f64 = 0.8;
+/// Fraction of the image the scene's outline fills for perspective/orthographic defaults.
+pub const PINHOLE_FILL: f64 = 0.9;
+/// Height / width ratio from which `auto` picks the cylindrical camera.
+pub const TALL_RATIO: f64 = 1.6;
+/// Vertices sampled for fitting (every n-th triangle corner beyond this many).
+const FIT_SAMPLES: usize = 30_000;
+
+/// A camera with what was decided for it, for `--verbose` and the add-on.
+pub struct Framed {
+    pub camera: Box<dyn Camera>,
+    pub kind: CameraKind,
+    /// Convergence angle or field of view, degrees.
+    pub angle_deg: f64,
+    /// Focal centre (point, or the centre of the focal line), render space, when there is one.
+    pub focal_centre: Option<DVec3>,
+    pub frame: CameraFrame,
+    pub warnings: Vec<String>,
+}
+
+impl Framed {
+    pub fn describe(&self, world: &World) -> String {
+        let mut s = format!("{} camera, {:.1} deg", self.kind, self.angle_deg);
+        if let Some(c) = self.focal_centre {
+            let w = world.to_render.inverse_point(c.as_vec3());
+            s += &format!(", focal centre ({:.4}, {:.4}, {:.4})", w.x, w.y, w.z);
+        }
+        s
+    }
+}
+
+/// Scene vertices (a bounded sample) in render space.
+fn sample_points(world: &World) -> Vec<DVec3> {
+    let n = world.positions.len() * 3;
+    let step = n.div_ceil(FIT_SAMPLES).max(1);
+    world
+        .positions
+        .iter()
+        .flatten()
+        .step_by(step)
+        .map(|p| p.as_dvec3())
+        .collect()
+}
+
+/// Angles (horizontal, vertical) from the view axis at which a camera with focal centre `c`
+/// sees `p`, for `p` in front of `c`. Spherical: the inverse of `Spherical::outward`;
+/// cylindrical: horizontal only; planar: the tangent-plane angles of eq 4.1.
+fn view_angles(kind: CameraKind, f: &CameraFrame, c: DVec3, p: DVec3) -> (f64, f64) {
+    let w = p - c;
+    let (x, y, z) = (w.dot(f.right), w.dot(f.up), -w.dot(f.forward));
+    match kind {
+        CameraKind::Cylindrical => (x.atan2(z).abs(), 0.0),
+        CameraKind::Planar => (x.atan2(z).abs(), y.atan2(z).abs()),
+        _ => {
+            let len = w.length().max(1e-300);
+            ((x / len).clamp(-1.0, 1.0).asin().abs(), y.atan2(z).abs())
+        }
+    }
+}
+
+/// Distance k behind `axis` (along the view) for the focal centre: the smallest k at which
+/// every sampled vertex is in front of C and within `FIT_FILL` of the half-angles (each
+/// capped at 80 deg, so C stays outside the scene even at 360 deg).
+fn fit_depth(
+    points: &[DVec3],
+    kind: CameraKind,
+    f: &CameraFrame,
+    axis: DVec3,
+    half: (f64, f64),
+    radius: f64,
+) -> f64 {
+    let cap = 80f64.to_radians();
+    let lim = if kind == CameraKind::Planar {
+        // The planar camera maps tan(angle) linearly to the image: fill in tangent space.
+        let t = |h: f64| (FIT_FILL * h.tan()).atan().min(cap);
+        (t(half.0), t(half.1))
+    } else {
+        ((FIT_FILL * half.0).min(cap), (FIT_FILL * half.1).min(cap))
+    };
+    if lim.0 <= 0.0 || (kind != CameraKind::Cylindrical && lim.1 <= 0.0) {
+        return 1e6 * radius;
+    }
+    let depth_max = points
+        .iter()
+        .map(|p| (*p - axis).dot(f.forward))
+        .fold(f64::NEG_INFINITY, f64::max);
+    let k_min = depth_max.max(-radius) + 0.02 * radius;
+    let fits = |k: f64| {
+        let c = axis + f.forward * k;
+        points.iter().all(|p| {
+            let (a, b) = view_angles(kind, f, c, *p);
+            a <= lim.0 && (kind == CameraKind::Cylindrical || b <= lim.1)
+        })
+    };
+    if points.is_empty() || fits(k_min) {
+        return k_min;
+    }
+    let mut hi = k_min + radius;
+    while !fits(hi) {
+        hi = k_min + (hi - k_min) * 2.0;
+        if hi > 1e6 * radius {
+            return 1e6 * radius;
+        }
+    }
+    let mut lo = k_min;
+    for _ in 0..50 {
+        let mid = 0.5 * (lo + hi);
+        if fits(mid) { hi = mid } else { lo = mid }
+    }
+    hi
+}
+
+pub fn frame_camera(settings: &Settings, world: &World) -> Result<Framed> {
+    let mut warnings = Vec::new();
+    let aspect = settings.width as f64 / settings.height as f64;
+    let sim = world.to_render;
+    let radius = (world.radius as f64).max(1e-9);
+    let clip = radius * 1.001;
+    let scene_cam = world.camera.as_ref();
+
+    // 1. The view frame: explicit settings, else the scene's camera, else looking down -Z.
+    let target = settings
+        .camera_target
+        .map(|t| sim.point_f64(DVec3::from(t)));
+    let position = settings
+        .camera_position
+        .map(|p| sim.point_f64(DVec3::from(p)));
+    let (forward, up) = match (position, target) {
+        (Some(p), Some(t)) => (t - p, None),
+        (Some(p), None) => (-p, None),
+        (None, _) => match scene_cam {
+            Some(c) => (c.forward, Some(c.up)),
+            None => (DVec3::NEG_Z, None),
+        },
+    };
+    let up = settings
+        .camera_up
+        .map(DVec3::from)
+        .or(up)
+        .unwrap_or(DVec3::Y);
+    let forward = if forward.length_squared() > 0.0 {
+        forward
+    } else {
+        DVec3::NEG_Z
+    };
+    let (mut frame, fixed) = CameraFrame::new(DVec3::ZERO, forward, up).ok_or_else(|| {
+        Error::setting(
+            "camera_up",
+            "cannot build a camera frame from these vectors",
+        )
+    })?;
+    if fixed {
+        warnings.push(
+            "camera up vector is parallel to the view direction; replaced by a perpendicular axis"
+                .into(),
+        );
+    }
+    let fwd = frame.forward;
+    // 2. The camera position if one is given (settings, target, or the scene's camera).
+    let given_position = match (position, target) {
+        (Some(p), _) => Some(p),
+        (None, Some(t)) => Some(t - fwd * 3.0 * radius),
+        (None, None) => scene_cam.map(|c| c.position),
+    };
+    // The point of the view axis level with the scene's centre: C is placed from here.
+    let axis = match given_position {
+        Some(p) => p + fwd * (DVec3::ZERO - p).dot(fwd),
+        None => DVec3::ZERO,
+    };
+
+    let points = sample_points(world);
+    let extent = |v: DVec3| {
+        let (lo, hi) = points
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+                (lo.min(p.dot(v)), hi.max(p.dot(v)))
+            });
+        if lo.is_finite() { (lo, hi) } else { (0.0, 0.0) }
+    };
+    let (ext_r, ext_u, ext_f) = (extent(frame.right), extent(frame.up), extent(frame.forward));
+    let size = DVec3::new(ext_r.1 - ext_r.0, ext_u.1 - ext_u.0, ext_f.1 - ext_f.0);
+    let kind = match settings.camera {
+        CameraKind::Auto => {
+            if size.y >= TALL_RATIO * size.x.max(size.z) {
+                CameraKind::Cylindrical
+            } else {
+                CameraKind::Spherical
+            }
+        }
+        k => k,
+    };
+    let gltf_fov = scene_cam.and_then(|c| match c.projection {
+        Projection::Perspective { yfov } => Some(yfov.to_degrees()),
+        _ => None,
+    });
+    let angle_deg = settings.angle_deg(kind, gltf_fov);
+    if kind == CameraKind::Planar && !(0.0..180.0).contains(&angle_deg) {
+        return Err(Error::setting(
+            "ambiguity",
+            format!("{angle_deg} deg is impossible for the planar camera: [0, 180)"),
+        ));
+    }
+    let alpha = angle_deg.to_radians();
+    // The scene's own focus applies only to its own camera.
+    let scene_focus = if position.is_none() && target.is_none() {
+        scene_cam.and_then(|c| c.focus_distance)
+    } else {
+        None
+    };
+    let focus = settings
+        .focus_distance
+        .map(|f| sim.length(f))
+        .or(scene_focus);
+    let size_setting = settings.camera_size.map(|s| sim.length(s));
+
+    let camera: Box<dyn Camera>;
+    let focal_centre;
+    match kind {
+        CameraKind::Spherical | CameraKind::Cylindrical | CameraKind::Auto => {
+            let half = if kind == CameraKind::Spherical {
+                (alpha / 2.0, alpha / aspect / 2.0)
+            } else {
+                (alpha / 2.0, 0.0)
+            };
+            let framed_c = || match settings.framing {
+                Framing::Centre => axis,
+                Framing::Fit => axis + fwd * fit_depth(&points, kind, &frame, axis, half, radius),
+            };
+            let (c, distance) = match (focus, given_position) {
+                (Some(f), Some(p)) => (p + fwd * f, f),
+                (Some(f), None) => (framed_c(), f),
+                (None, Some(p)) => {
+                    let c = framed_c();
+                    (c, (c - p).length().max(1e-9))
+                }
+                // Rays start on a sphere enclosing the scene.
+                (None, None) => {
+                    let c = framed_c();
+                    (c, c.length() + 1.5 * radius)
+                }
+            };
+            frame.position = c - fwd * distance;
+            if kind == CameraKind::Cylindrical {
+                let height = size_setting.unwrap_or((size.y * 1.08).max(1e-6));
+                // The band is centred on the scene's vertical middle.
+                let centre = c + frame.up * (0.5 * (ext_u.0 + ext_u.1) - c.dot(frame.up));
+                camera = Box::new(Cylindrical {
+                    frame,
+                    centre,
+                    distance,
+                    angle_x: alpha,
+                    height,
+                    clip_radius: clip,
+                });
+                focal_centre = Some(centre);
+            } else {
+                camera = Box::new(Spherical {
+                    frame,
+                    centre: c,
+                    distance,
+                    angle_x: alpha,
+                    angle_y: alpha / aspect,
+                    clip_radius: clip,
+                });
+                focal_centre = Some(c);
+            }
+        }
+        CameraKind::Planar => {
+            let tan = (alpha / 2.0).tan();
+            let half = ((aspect * tan).atan(), alpha / 2.0);
+            // Plane centre c_p and size s; L = s cot(alpha/2) / 2 follows (eq 4.1).
+            let (cp, s) = if let Some(f) = focus {
+                // The plane at the camera position, f_p at the focus distance.
+                let cp = given_position.unwrap_or(axis - fwd * f);
+                (cp, size_setting.unwrap_or(2.0 * f * tan))
+            } else if alpha < 1e-5 {
+                // The orthographic limit (the fit below would put f_p a million radii away):
+                // f_p at infinity, the plane frames the scene.
+                let s = size_setting.unwrap_or(
+                    (ext_u.1 - ext_u.0).max((ext_r.1 - ext_r.0) / aspect) / PINHOLE_FILL,
+                );
+                (axis - fwd * 3.0 * radius, s.max(1e-9))
+            } else {
+                let fp = match settings.framing {
+                    Framing::Centre => axis,
+                    Framing::Fit => {
+                        axis + fwd * fit_depth(&points, kind, &frame, axis, half, radius)
+                    }
+                };
+                match size_setting {
+                    Some(s) => (fp - fwd * (s / (2.0 * tan)), s),
+                    None => {
+                        // The plane just in front of the scene; f_p at C.
+                        let near = points
+                            .iter()
+                            .map(|p| (*p - axis).dot(fwd))
+                            .fold(f64::INFINITY, f64::min);
+                        let near = if near.is_finite() { near } else { -radius };
+                        let cp = axis + fwd * (near - 0.5 * radius);
+                        let l = (fp - cp).dot(fwd).max(1e-9);
+                        (cp, 2.0 * l * tan)
+                    }
+                }
+            };
+            frame.position = cp;
+            let planar = Planar::new(frame, s.max(1e-12), aspect, alpha, clip);
+            focal_centre = planar.focal_point();
+            camera = Box::new(planar);
+        }
+        CameraKind::Perspective => {
+            let tan_half = (alpha / 2.0).tan();
+            let half_min = if aspect >= 1.0 {
+                tan_half
+            } else {
+                tan_half * aspect
+            };
+            let p = given_position.unwrap_or_else(|| {
+                // The bounding sphere's outline fills PINHOLE_FILL of the smaller image side.
+                let rho = (PINHOLE_FILL * half_min).atan();
+                -fwd * (radius / rho.sin())
+            });
+            frame.position = p;
+            let f = focus.unwrap_or_else(|| (DVec3::ZERO - p).dot(fwd).max(1e-6));
+            camera = Box::new(Perspective {
+                frame,
+                tan_half_fov: tan_half,
+                aspect,
+                focus: f,
+                clip_radius: clip,
+            });
+            focal_centre = None;
+        }
+        CameraKind::Orthographic => {
+            let gltf_height = scene_cam.and_then(|c| match c.projection {
+                Projection::Orthographic { ymag } if settings.camera_position.is_none() => {
+                    Some(2.0 * ymag)
+                }
+                _ => None,
+            });
+            let height = size_setting
+                .or(gltf_height)
+                .unwrap_or_else(|| 2.0 * radius / PINHOLE_FILL / aspect.min(1.0));
+            let p = given_position.unwrap_or(-fwd * 3.0 * radius);
+            frame.position = p;
+            let f = focus.unwrap_or_else(|| (DVec3::ZERO - p).dot(fwd).max(1e-6));
+            camera = Box::new(Orthographic {
+                frame,
+                height,
+                aspect,
+                focus: f,
+                clip_radius: clip,
+            });
+            focal_centre = None;
+        }
+    }
+    Ok(Framed {
+        camera,
+        kind,
+        angle_deg,
+        focal_centre,
+        frame,
+        warnings,
+    })
+}

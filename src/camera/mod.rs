@@ -1,0 +1,127 @@
+//! Cameras turn a screen point into a ray, and nothing else (they never see the sampler,
+//! the film or the scene). One file per model of SPEC "Cameras"; `framing.rs` chooses their
+//! parameters from the settings and the scene.
+//!
+//! Screen points are (x, y) in [-0.5, 0.5]^2 with (0.5, 0.5) the top-right corner.
+
+mod cylindrical;
+pub mod framing;
+mod orthographic;
+mod perspective;
+mod planar;
+mod spherical;
+
+use glam::{DVec2, DVec3, Vec3};
+
+pub use cylindrical::Cylindrical;
+pub use framing::{Framed, frame_camera};
+pub use orthographic::Orthographic;
+pub use perspective::Perspective;
+pub use planar::Planar;
+pub use spherical::Spherical;
+
+/// A primary ray. `focus` is the signed distance along the ray to its focal point (where the
+/// camera's rays converge); infinite for parallel rays. Re-aiming a facet (SPEC "Spatial
+/// imprecision") moves this point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraRay {
+    pub origin: Vec3,
+    /// Unit length.
+    pub dir: Vec3,
+    pub focus: f32,
+}
+
+impl CameraRay {
+    /// The ray's focal point (meaningful when `focus` is finite).
+    pub fn focal_point(&self) -> Vec3 {
+        self.origin + self.dir * self.focus
+    }
+}
+
+/// A camera model: screen point -> ray, in render space.
+pub trait Camera: Send + Sync {
+    /// The ray through screen point `p` (see the module doc for the convention).
+    fn ray(&self, p: DVec2) -> CameraRay;
+
+    /// Whether all rays share one focal point (spherical, planar): re-aiming then moves it.
+    fn converges(&self) -> bool;
+}
+
+/// An orthonormal camera frame: `forward` is the view direction c_d, `up` is u and
+/// `right` is the horizontal direction h (the image's +x), right-handed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraFrame {
+    pub position: DVec3,
+    pub forward: DVec3,
+    pub up: DVec3,
+    pub right: DVec3,
+}
+
+impl CameraFrame {
+    /// Orthonormalises (forward, up). An `up` parallel to `forward` (looking straight down,
+    /// say) is replaced by the world axis least aligned with `forward`; the returned flag says so.
+    pub fn new(position: DVec3, forward: DVec3, up: DVec3) -> Option<(CameraFrame, bool)> {
+        let f = forward.try_normalize()?;
+        let mut fixed = false;
+        let mut u = (up - f * up.dot(f)).try_normalize();
+        if u.is_none() || up.normalize_or_zero().dot(f).abs() > 0.999_999 {
+            fixed = true;
+            let a = f.abs();
+            let axis = if a.y <= a.x && a.y <= a.z {
+                DVec3::Y
+            } else if a.z <= a.x {
+                DVec3::Z
+            } else {
+                DVec3::X
+            };
+            u = (axis - f * axis.dot(f)).try_normalize();
+        }
+        let u = u?;
+        let right = f.cross(u);
+        Some((
+            CameraFrame {
+                position,
+                forward: f,
+                up: u,
+                right,
+            },
+            fixed,
+        ))
+    }
+}
+
+/// Converts the f64 ray every camera computes into a `CameraRay`, starting it where its line
+/// enters the scene's bounding sphere when it would otherwise start far outside it. Nothing
+/// lies outside that sphere, so hits are unchanged, and far-away origins (a planar camera at
+/// ambiguity -> 0 has its focal point at infinity) keep full f32 precision.
+pub(crate) fn finish_ray(origin: DVec3, dir: DVec3, focus: f64, clip_radius: f64) -> CameraRay {
+    let dir = dir.try_normalize().unwrap_or(DVec3::Z);
+    let (mut origin, mut focus) = (origin, focus);
+    let r = clip_radius;
+    // The render space's scene sphere is centred at the origin.
+    let b = origin.dot(dir);
+    if origin.length() > 2.0 * r {
+        // r^2 - (distance from the centre to the line)^2, without cancellation for far origins.
+        let disc = r * r - (origin - dir * b).length_squared();
+        let t_enter = if disc >= 0.0 { -b - disc.sqrt() } else { -b };
+        // Stop a little outside the sphere (never past the closest approach when missing).
+        let t = (t_enter - 0.01 * r).max(0.0);
+        if t > 0.0 && t.is_finite() {
+            origin += dir * t;
+            focus -= t;
+        }
+    }
+    let focus = if focus.is_finite() {
+        focus.clamp(-f32::MAX as f64, f32::MAX as f64) as f32
+    } else {
+        f32::INFINITY
+    };
+    CameraRay {
+        origin: origin.as_vec3(),
+        dir: dir.as_vec3(),
+        focus,
+    }
+}
+
+#[cfg(test)]
+mod tests;

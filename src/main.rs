@@ -1,0 +1,184 @@
+//! The `cubist` binary: parse flags, build validated settings, call the library, map errors
+//! to exit codes (1 failure, 2 usage).
+
+use std::io::IsTerminal;
+use std::process::ExitCode;
+
+use anyhow::Context;
+use clap::Parser;
+use cubist::cli::{Cli, Command, FacesArgs, ProgressMode, RenderArgs};
+use cubist::eval::visible_faces;
+use cubist::output::{pass_path, write_png};
+use cubist::progress::Progress;
+use cubist::settings::CameraKind;
+use cubist::{Error, Prepared};
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            let _ = e.print();
+            return ExitCode::from(if e.use_stderr() { 2 } else { 0 });
+        }
+    };
+    let result = match cli.command {
+        Command::Render(args) => run_render(args),
+        Command::Faces(args) => run_faces(args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            let usage = e.downcast_ref::<Error>().is_some_and(Error::is_usage);
+            eprintln!("error: {e:#}");
+            ExitCode::from(if usage { 2 } else { 1 })
+        }
+    }
+}
+
+fn progress_for(mode: ProgressMode) -> Progress {
+    let mode = match mode {
+        ProgressMode::Auto if std::io::stderr().is_terminal() => ProgressMode::Bar,
+        ProgressMode::Auto => ProgressMode::None,
+        m => m,
+    };
+    match mode {
+        ProgressMode::Bar => {
+            let bar = indicatif::ProgressBar::new(1000);
+            bar.set_style(
+                indicatif::ProgressStyle::with_template("{msg:>12} [{bar:40}] {percent:>3}%")
+                    .expect("static template")
+                    .progress_chars("=> "),
+            );
+            Progress::new(Box::new(move |stage, f| {
+                bar.set_message(stage.to_string());
+                bar.set_position((f * 1000.0) as u64);
+                if f >= 1.0 && stage == "done" {
+                    bar.finish_and_clear();
+                }
+            }))
+        }
+        ProgressMode::Lines => {
+            Progress::new(Box::new(|stage, f| eprintln!("PROGRESS {f:.4} {stage}")))
+        }
+        _ => Progress::silent(),
+    }
+}
+
+fn run_render(args: RenderArgs) -> anyhow::Result<()> {
+    let settings = args.settings.resolve(args.config.as_deref())?;
+    cubist::output::check_png_path(&args.output)?;
+    let progress = progress_for(args.progress);
+    progress.begin("loading", 1);
+    let prep = Prepared::load(args.scene.as_deref())?;
+    let rendered = cubist::render(&prep, &settings, &progress)?;
+    progress.begin("writing", 1);
+    write_png(&args.output, &rendered.image)?;
+    for (pass, img) in &rendered.passes {
+        write_png(&pass_path(&args.output, pass.as_str()), img)?;
+    }
+    progress.begin("done", 1);
+    progress.finish();
+    for w in &rendered.warnings {
+        eprintln!("warning: {w}");
+    }
+    if args.verbose {
+        eprintln!(
+            "scene: {} ({} triangles, {} objects)",
+            prep.scene.source.display(),
+            prep.world.triangle_count(),
+            prep.world.objects.len()
+        );
+        eprintln!("camera: {}", rendered.camera);
+        eprintln!(
+            "{:>14}: {:>9.1} ms",
+            "load+bvh",
+            prep.build_time.as_secs_f64() * 1e3
+        );
+        for (stage, t) in &rendered.timings.0 {
+            eprintln!("{stage:>14}: {:>9.1} ms", t.as_secs_f64() * 1e3);
+        }
+    }
+    Ok(())
+}
+
+/// Parses `KIND[:DEG]`.
+fn parse_view(s: &str) -> anyhow::Result<(CameraKind, Option<f64>)> {
+    use clap::ValueEnum;
+    let (kind, angle) = match s.split_once(':') {
+        Some((k, a)) => (
+            k,
+            Some(
+                a.trim()
+                    .parse::<f64>()
+                    .with_context(|| format!("view `{s}`: `{a}` is not a number of degrees"))?,
+            ),
+        ),
+        None => (s, None),
+    };
+    let kind = CameraKind::from_str(kind.trim(), true).map_err(|_| {
+        Error::setting("view", format!("`{s}`: unknown camera `{kind}` (spherical, cylindrical, planar, perspective, orthographic)"))
+    })?;
+    Ok((kind, angle))
+}
+
+fn run_faces(args: FacesArgs) -> anyhow::Result<()> {
+    let base = args.settings.resolve(args.config.as_deref())?;
+    let mut views = Vec::new();
+    for v in &args.views {
+        views.push(parse_view(v)?);
+    }
+    if views.is_empty() {
+        if args.angles.is_empty() {
+            views.push((base.camera, base.ambiguity));
+        } else {
+            views.extend(args.angles.iter().map(|a| (base.camera, Some(*a))));
+        }
+    }
+    let mut rows = Vec::new();
+    for scene in &args.scenes {
+        let prep = Prepared::load(Some(scene))?;
+        for &(kind, angle) in &views {
+            let mut s = base.clone();
+            s.camera = kind;
+            s.ambiguity = angle.or(base.ambiguity);
+            s.validate()?;
+            let faces = visible_faces(&prep, &s)?;
+            let used_angle = (kind != CameraKind::Orthographic).then(|| s.angle_deg(kind, None));
+            rows.push(serde_json::json!({
+                "scene": scene.display().to_string(),
+                "camera": kind.as_str(),
+                "angle": used_angle,
+                "visible": faces.visible,
+                "total": faces.total,
+                "percent": (faces.percent() * 100.0).round() / 100.0,
+            }));
+        }
+    }
+    if args.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(
+                &serde_json::json!({ "width": base.width, "height": base.height, "spp": base.spp, "rows": rows })
+            )?
+        );
+    } else {
+        println!("| scene | camera | angle | visible | total | % |");
+        println!("|---|---|---|---|---|---|");
+        for r in &rows {
+            let angle = r["angle"]
+                .as_f64()
+                .map(|a| format!("{a}"))
+                .unwrap_or_else(|| "-".into());
+            println!(
+                "| {} | {} | {} | {} | {} | {:.1} |",
+                r["scene"].as_str().unwrap_or(""),
+                r["camera"].as_str().unwrap_or(""),
+                angle,
+                r["visible"],
+                r["total"],
+                r["percent"].as_f64().unwrap_or(0.0)
+            );
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,179 @@
+//! The scene as loaded: meshes in their own coordinates, objects placing them, materials,
+//! textures, lights and the scene's camera, all in the file's units (f64 transforms).
+//!
+//! `gltf.rs` is the only user of the gltf crate; `default.rs` builds the built-in still life;
+//! `world.rs` flattens a scene into render space for tracing.
+
+mod accessor;
+pub mod default;
+mod gltf;
+pub mod texture;
+pub mod world;
+
+use std::path::{Path, PathBuf};
+
+use glam::{DMat4, DVec3, Vec2, Vec3, Vec4};
+
+pub use texture::{Filter, Texture, Wrap};
+pub use world::World;
+
+use crate::error::Result;
+
+/// One glTF primitive's triangles in the mesh's own coordinates, vertices in file order.
+/// Saliency is computed per `Mesh`, so a mesh instanced twice is analysed once.
+#[derive(Clone, Debug)]
+pub struct Mesh {
+    /// `mesh name` or `mesh name/primitive i` when a mesh has several primitives.
+    pub name: String,
+    pub positions: Vec<Vec3>,
+    /// Unit normals; computed (area-weighted) when the file has none.
+    pub normals: Vec<Vec3>,
+    pub uvs: Option<Vec<Vec2>>,
+    /// COLOR_0 as linear RGBA.
+    pub colors: Option<Vec<Vec4>>,
+    pub triangles: Vec<[u32; 3]>,
+    pub material: Option<usize>,
+}
+
+/// A mesh placed in the scene (a glTF node x primitive): the paper's "object".
+#[derive(Clone, Debug)]
+pub struct Object {
+    pub name: String,
+    pub mesh: usize,
+    /// Local to scene units, in f64 so far-from-origin scenes keep their precision.
+    pub transform: DMat4,
+}
+
+/// A UV transform (KHR_texture_transform) and the UV set a texture reads.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TextureRef {
+    pub texture: usize,
+    pub uv_set: u32,
+    /// Row-major 2x3 affine map applied to UVs: [a, b, c, d, e, f] -> (a u + b v + c, d u + e v + f).
+    pub uv_transform: [f32; 6],
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    /// Linear RGBA.
+    pub base_color: Vec4,
+    pub base_color_texture: Option<TextureRef>,
+    pub metallic: f32,
+    pub roughness: f32,
+    /// KHR_materials_unlit: the base colour is the final colour.
+    pub unlit: bool,
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        Material {
+            name: "default".into(),
+            base_color: Vec4::new(0.8, 0.8, 0.8, 1.0),
+            base_color_texture: None,
+            metallic: 0.0,
+            roughness: 0.6,
+            unlit: false,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LightKind {
+    /// Parallel light along `direction`; intensity in lux.
+    Directional,
+    /// Intensity in candela.
+    Point,
+    /// Cone angles in radians; intensity in candela.
+    Spot { inner: f32, outer: f32 },
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Light {
+    pub kind: LightKind,
+    /// Linear RGB.
+    pub color: Vec3,
+    pub intensity: f32,
+    /// Scene units (ignored for directional lights).
+    pub position: DVec3,
+    /// Unit direction the light travels (ignored for point lights).
+    pub direction: DVec3,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Projection {
+    /// Vertical field of view, radians.
+    Perspective { yfov: f64 },
+    /// Half the view's height, scene units.
+    Orthographic { ymag: f64 },
+}
+
+/// The scene's own camera (the first camera node of the default scene).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneCamera {
+    pub position: DVec3,
+    /// Unit view direction.
+    pub forward: DVec3,
+    /// Unit up, orthogonal to `forward`.
+    pub up: DVec3,
+    pub projection: Projection,
+    /// Distance to the cubist focal centre along `forward`, scene units, when the scene
+    /// chooses one (the built-in still life does; glTF has no such field).
+    pub focus_distance: Option<f64>,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct Scene {
+    /// The file it came from, or `<default scene>`.
+    pub source: PathBuf,
+    pub meshes: Vec<Mesh>,
+    pub objects: Vec<Object>,
+    pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
+    pub lights: Vec<Light>,
+    pub camera: Option<SceneCamera>,
+    /// Content we skipped (points, lines, animations...), one line each, for the user.
+    pub warnings: Vec<String>,
+}
+
+impl Scene {
+    /// Loads a .gltf or .glb file.
+    pub fn load(path: &Path) -> Result<Scene> {
+        gltf::load(path)
+    }
+
+    /// Reads a glTF document from memory (a .glb, or a .gltf whose buffers are data: URIs).
+    /// Used by the fuzzer: external files are refused.
+    pub fn from_slice(bytes: &[u8]) -> Result<Scene> {
+        gltf::load_slice(bytes, Path::new("<memory>"))
+    }
+
+    /// The built-in still life rendered when no scene is given.
+    pub fn default_scene() -> Scene {
+        default::still_life()
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.objects
+            .iter()
+            .map(|o| self.meshes[o.mesh].triangles.len())
+            .sum()
+    }
+}
+
+/// Area-weighted vertex normals; vertices only touched by degenerate triangles get +Y.
+pub fn compute_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> {
+    let mut n = vec![Vec3::ZERO; positions.len()];
+    for t in triangles {
+        let [a, b, c] = t.map(|i| positions[i as usize]);
+        let face = (b - a).cross(c - a); // length = 2 x area: area weighting
+        if face.is_finite() {
+            for &i in t {
+                n[i as usize] += face;
+            }
+        }
+    }
+    n.into_iter()
+        .map(|v| v.try_normalize().unwrap_or(Vec3::Y))
+        .collect()
+}
