@@ -4,9 +4,7 @@
 use std::time::Duration;
 
 use glam::{Vec3, Vec3A};
-use obvhs::{
-    BvhBuildParams, bvh2::Bvh2, bvh2::builder::build_bvh2_from_tris, ray::Ray, triangle::Triangle,
-};
+use obvhs::{BvhBuildParams, bvh2::Bvh2, bvh2::builder::build_bvh2_from_tris, ray::Ray, triangle::Triangle};
 
 use crate::scene::World;
 
@@ -66,42 +64,23 @@ impl Accel {
     /// triangle appears once). The build is deterministic for a given triangle list.
     pub fn new(world: &World) -> Accel {
         if world.positions.is_empty() {
-            return Accel {
-                bvh: None,
-                tris: Vec::new(),
-            };
+            return Accel { bvh: None, tris: Vec::new() };
         }
         let tris: Vec<Triangle> = world
             .positions
             .iter()
-            .map(|[a, b, c]| Triangle {
-                v0: (*a).into(),
-                v1: (*b).into(),
-                v2: (*c).into(),
-            })
+            .map(|[a, b, c]| Triangle { v0: (*a).into(), v1: (*b).into(), v2: (*c).into() })
             .collect();
-        let bvh = build_bvh2_from_tris(
-            &tris,
-            BvhBuildParams::medium_build(),
-            &mut Duration::default(),
-        );
+        let bvh = build_bvh2_from_tris(&tris, BvhBuildParams::medium_build(), &mut Duration::default());
         let ordered = bvh
             .primitive_indices
             .iter()
             .map(|&i| {
                 let t = &tris[i as usize];
-                Tri {
-                    v0: t.v0,
-                    e1: t.v1 - t.v0,
-                    e2: t.v2 - t.v0,
-                    id: i,
-                }
+                Tri { v0: t.v0, e1: t.v1 - t.v0, e2: t.v2 - t.v0, id: i }
             })
             .collect();
-        Accel {
-            bvh: Some(bvh),
-            tris: ordered,
-        }
+        Accel { bvh: Some(bvh), tris: ordered }
     }
 
     /// The closest hit along `origin + t dir`, t in [tmin, tmax]. Equal distances resolve to
@@ -125,12 +104,7 @@ impl Accel {
                         Some(b) => t < b.t || (t == b.t && tri.id < b.tri),
                     };
                     if better {
-                        best = Some(Hit {
-                            tri: tri.id,
-                            t,
-                            u,
-                            v,
-                        });
+                        best = Some(Hit { tri: tri.id, t, u, v });
                     }
                     // Slightly beyond t, so nodes whose entry is exactly t are still visited
                     // and an equal-distance triangle there can win the id tie-break.
@@ -154,9 +128,7 @@ impl Accel {
         let (o, d) = (Vec3A::from(origin), Vec3A::from(dir));
         let ray = Ray::new(o, d, tmin, tmax);
         !bvh.ray_traverse_miss(ray, |_, slot| {
-            self.tris[slot]
-                .intersect(o, d, tmin, tmax)
-                .map_or(f32::INFINITY, |(t, _, _)| t)
+            self.tris[slot].intersect(o, d, tmin, tmax).map_or(f32::INFINITY, |(t, _, _)| t)
         })
     }
 
@@ -169,9 +141,7 @@ impl Accel {
         let (o, d) = (Vec3A::from(origin), Vec3A::from(dir));
         let mut hit = obvhs::ray::RayHit::none();
         bvh.ray_traverse(Ray::new_inf(o, d), &mut hit, |r, slot| {
-            self.tris[slot]
-                .intersect(o, d, 0.0, r.tmax)
-                .map_or(f32::INFINITY, |(t, _, _)| t)
+            self.tris[slot].intersect(o, d, 0.0, r.tmax).map_or(f32::INFINITY, |(t, _, _)| t)
         })
     }
 }
@@ -189,56 +159,33 @@ mod tests {
 
     #[test]
     fn hits_a_triangle_with_barycentrics() {
-        let w = world_of(vec![[
-            Vec3::new(0.0, 0.0, 0.0),
-            Vec3::new(1.0, 0.0, 0.0),
-            Vec3::new(0.0, 1.0, 0.0),
-        ]]);
+        let w = world_of(vec![[Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0)]]);
         let a = Accel::new(&w);
-        let h = a
-            .closest(Vec3::new(0.25, 0.5, 1.0), Vec3::NEG_Z, 0.0, f32::INFINITY)
-            .unwrap();
+        let h = a.closest(Vec3::new(0.25, 0.5, 1.0), Vec3::NEG_Z, 0.0, f32::INFINITY).unwrap();
         assert_eq!(h.tri, 0);
         assert!((h.t - 1.0).abs() < 1e-6);
         assert!((h.u - 0.25).abs() < 1e-6 && (h.v - 0.5).abs() < 1e-6);
-        assert!(
-            a.closest(Vec3::new(2.0, 2.0, 1.0), Vec3::NEG_Z, 0.0, f32::INFINITY)
-                .is_none()
-        );
+        assert!(a.closest(Vec3::new(2.0, 2.0, 1.0), Vec3::NEG_Z, 0.0, f32::INFINITY).is_none());
         assert!(a.occluded(Vec3::new(0.25, 0.25, 1.0), Vec3::NEG_Z, 0.0, 2.0));
         assert!(!a.occluded(Vec3::new(0.25, 0.25, 1.0), Vec3::NEG_Z, 0.0, 0.5));
     }
 
     #[test]
     fn closest_of_two_and_ties_go_to_the_lower_id() {
-        let t = |z: f32| {
-            [
-                Vec3::new(-1.0, -1.0, z),
-                Vec3::new(1.0, -1.0, z),
-                Vec3::new(0.0, 1.0, z),
-            ]
-        };
+        let t = |z: f32| [Vec3::new(-1.0, -1.0, z), Vec3::new(1.0, -1.0, z), Vec3::new(0.0, 1.0, z)];
         let w = world_of(vec![t(-1.0), t(0.0), t(0.0)]);
         let a = Accel::new(&w);
-        let h = a
-            .closest(Vec3::new(0.0, 0.0, 5.0), Vec3::NEG_Z, 0.0, f32::INFINITY)
-            .unwrap();
+        let h = a.closest(Vec3::new(0.0, 0.0, 5.0), Vec3::NEG_Z, 0.0, f32::INFINITY).unwrap();
         assert_eq!(h.tri, 1);
     }
 
     #[test]
     fn degenerate_and_nan_never_hit() {
-        let w = world_of(vec![
-            [Vec3::ZERO, Vec3::X, Vec3::X * 2.0],
-            [Vec3::ZERO, Vec3::ZERO, Vec3::ZERO],
-        ]);
+        let w = world_of(vec![[Vec3::ZERO, Vec3::X, Vec3::X * 2.0], [Vec3::ZERO, Vec3::ZERO, Vec3::ZERO]]);
         let a = Accel::new(&w);
         for o in [Vec3::new(0.5, 0.0, 1.0), Vec3::new(0.2, 0.2, 1.0)] {
             assert!(a.closest(o, Vec3::NEG_Z, 0.0, f32::INFINITY).is_none());
         }
-        assert!(
-            a.closest(Vec3::NAN, Vec3::NEG_Z, 0.0, f32::INFINITY)
-                .is_none()
-        );
+        assert!(a.closest(Vec3::NAN, Vec3::NEG_Z, 0.0, f32::INFINITY).is_none());
     }
 }

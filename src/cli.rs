@@ -10,9 +10,7 @@ use serde::Serialize;
 use serde_json::{Map, Value};
 
 use crate::error::Result;
-use crate::settings::{
-    CameraKind, FacetProjection, Faceting, Framing, Imprecision, Palette, Pass, Preset, Settings,
-};
+use crate::settings::{CameraKind, FacetProjection, Faceting, Framing, Imprecision, Palette, Pass, Preset, Settings};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -172,13 +170,7 @@ pub struct SettingsArgs {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub shadows: Option<bool>,
     /// Background colour R,G,B, linear, 0..1 [default: 0.62,0.56,0.46]
-    #[arg(
-        long,
-        value_delimiter = ',',
-        num_args = 1,
-        value_name = "R,G,B",
-        help_heading = "Shading"
-    )]
+    #[arg(long, value_delimiter = ',', num_args = 1, value_name = "R,G,B", help_heading = "Shading")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub background: Option<Vec<f32>>,
     /// Transparent background (alpha 0) [default: false]
@@ -223,23 +215,11 @@ pub struct SettingsArgs {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub occlusion: Option<f64>,
     /// Segment: segments per level, comma-separated [default: 5,30,120]
-    #[arg(
-        long,
-        value_delimiter = ',',
-        num_args = 1,
-        value_name = "N,...",
-        help_heading = "Facets"
-    )]
+    #[arg(long, value_delimiter = ',', num_args = 1, value_name = "N,...", help_heading = "Facets")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub segments: Option<Vec<u32>>,
     /// Segment: mean-saliency threshold per level, 0..1 [default: 0,0.05,0.08]
-    #[arg(
-        long,
-        value_delimiter = ',',
-        num_args = 1,
-        value_name = "T,...",
-        help_heading = "Facets"
-    )]
+    #[arg(long, value_delimiter = ',', num_args = 1, value_name = "T,...", help_heading = "Facets")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub thresholds: Option<Vec<f64>>,
 
@@ -248,19 +228,11 @@ pub struct SettingsArgs {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub imprecision: Option<Imprecision>,
     /// Largest facet-centre to saliency-centre shift, pixels at 1000 px; the paper recommends 50-200 [default: 0]
-    #[arg(
-        long,
-        help_heading = "Spatial imprecision",
-        allow_negative_numbers = true
-    )]
+    #[arg(long, help_heading = "Spatial imprecision", allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub discontinuity: Option<f64>,
     /// Pixels outside a facet that count for its saliency centre, at 1000 px [default: 0]
-    #[arg(
-        long,
-        help_heading = "Spatial imprecision",
-        allow_negative_numbers = true
-    )]
+    #[arg(long, help_heading = "Spatial imprecision", allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub neighborhood: Option<f64>,
     /// Rays of a re-aimed facet: converging on its new focal point, or linear (eq 4.6) [default: converging]

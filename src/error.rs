@@ -41,31 +41,19 @@ pub enum Error {
 
 impl Error {
     pub fn scene(path: &Path, message: impl Into<String>) -> Self {
-        Error::Scene {
-            path: path.to_path_buf(),
-            message: message.into(),
-        }
+        Error::Scene { path: path.to_path_buf(), message: message.into() }
     }
 
     pub fn setting(key: &'static str, message: impl Into<String>) -> Self {
-        Error::Setting {
-            key,
-            message: message.into(),
-        }
+        Error::Setting { key, message: message.into() }
     }
 
     pub fn input(path: &Path, message: impl Into<String>) -> Self {
-        Error::Input {
-            path: path.to_path_buf(),
-            message: message.into(),
-        }
+        Error::Input { path: path.to_path_buf(), message: message.into() }
     }
 
     pub fn output(path: &Path, message: impl std::fmt::Display) -> Self {
-        Error::Output {
-            path: path.to_path_buf(),
-            message: message.to_string(),
-        }
+        Error::Output { path: path.to_path_buf(), message: message.to_string() }
     }
 
     /// Usage errors (a bad flag or settings value) exit with 2, everything else with 1.

@@ -21,11 +21,7 @@ pub struct VisibleFaces {
 
 impl VisibleFaces {
     pub fn percent(&self) -> f64 {
-        if self.total == 0 {
-            0.0
-        } else {
-            100.0 * self.visible as f64 / self.total as f64
-        }
+        if self.total == 0 { 0.0 } else { 100.0 * self.visible as f64 / self.total as f64 }
     }
 }
 
@@ -48,18 +44,8 @@ pub fn count_visible(frame: &Frame, total: usize) -> VisibleFaces {
 pub fn visible_faces(prep: &Prepared, settings: &Settings) -> Result<VisibleFaces> {
     let framed = frame_camera(settings, &prep.world)?;
     let mut frame = Frame::new(settings.width, settings.height, settings.spp);
-    let tracer = Tracer {
-        world: &prep.world,
-        accel: &prep.accel,
-        rig: None,
-        background: glam::Vec3::ZERO,
-        seed: settings.seed,
-    };
-    tracer.render(
-        &mut frame,
-        &|_, p| framed.camera.ray(p),
-        None,
-        &Progress::silent(),
-    );
+    let tracer =
+        Tracer { world: &prep.world, accel: &prep.accel, rig: None, background: glam::Vec3::ZERO, seed: settings.seed };
+    tracer.render(&mut frame, &|_, p| framed.camera.ray(p), None, &Progress::silent());
     Ok(count_visible(&frame, prep.world.triangle_count()))
 }

@@ -19,11 +19,7 @@ pub struct SampleHit {
 }
 
 impl SampleHit {
-    pub const MISS: SampleHit = SampleHit {
-        tri: NO_HIT,
-        u: 0.0,
-        v: 0.0,
-    };
+    pub const MISS: SampleHit = SampleHit { tri: NO_HIT, u: 0.0, v: 0.0 };
     pub fn is_hit(&self) -> bool {
         self.tri != NO_HIT
     }
@@ -44,14 +40,8 @@ pub struct PixelHit {
 }
 
 impl PixelHit {
-    pub const MISS: PixelHit = PixelHit {
-        tri: NO_HIT,
-        object: NO_HIT,
-        t: f32::INFINITY,
-        normal: Vec3::ZERO,
-        u: 0.0,
-        v: 0.0,
-    };
+    pub const MISS: PixelHit =
+        PixelHit { tri: NO_HIT, object: NO_HIT, t: f32::INFINITY, normal: Vec3::ZERO, u: 0.0, v: 0.0 };
     pub fn is_hit(&self) -> bool {
         self.tri != NO_HIT
     }

@@ -57,9 +57,7 @@ fn progress_for(mode: ProgressMode) -> Progress {
                 }
             }))
         }
-        ProgressMode::Lines => {
-            Progress::new(Box::new(|stage, f| eprintln!("PROGRESS {f:.4} {stage}")))
-        }
+        ProgressMode::Lines => Progress::new(Box::new(|stage, f| eprintln!("PROGRESS {f:.4} {stage}"))),
         _ => Progress::silent(),
     }
 }
@@ -89,11 +87,7 @@ fn run_render(args: RenderArgs) -> anyhow::Result<()> {
             prep.world.objects.len()
         );
         eprintln!("camera: {}", rendered.camera);
-        eprintln!(
-            "{:>14}: {:>9.1} ms",
-            "load+bvh",
-            prep.build_time.as_secs_f64() * 1e3
-        );
+        eprintln!("{:>14}: {:>9.1} ms", "load+bvh", prep.build_time.as_secs_f64() * 1e3);
         for (stage, t) in &rendered.timings.0 {
             eprintln!("{stage:>14}: {:>9.1} ms", t.as_secs_f64() * 1e3);
         }
@@ -105,18 +99,16 @@ fn run_render(args: RenderArgs) -> anyhow::Result<()> {
 fn parse_view(s: &str) -> anyhow::Result<(CameraKind, Option<f64>)> {
     use clap::ValueEnum;
     let (kind, angle) = match s.split_once(':') {
-        Some((k, a)) => (
-            k,
-            Some(
-                a.trim()
-                    .parse::<f64>()
-                    .with_context(|| format!("view `{s}`: `{a}` is not a number of degrees"))?,
-            ),
-        ),
+        Some((k, a)) => {
+            (k, Some(a.trim().parse::<f64>().with_context(|| format!("view `{s}`: `{a}` is not a number of degrees"))?))
+        }
         None => (s, None),
     };
     let kind = CameraKind::from_str(kind.trim(), true).map_err(|_| {
-        Error::setting("view", format!("`{s}`: unknown camera `{kind}` (spherical, cylindrical, planar, perspective, orthographic)"))
+        Error::setting(
+            "view",
+            format!("`{s}`: unknown camera `{kind}` (spherical, cylindrical, planar, perspective, orthographic)"),
+        )
     })?;
     Ok((kind, angle))
 }
@@ -165,10 +157,7 @@ fn run_faces(args: FacesArgs) -> anyhow::Result<()> {
         println!("| scene | camera | angle | visible | total | % |");
         println!("|---|---|---|---|---|---|");
         for r in &rows {
-            let angle = r["angle"]
-                .as_f64()
-                .map(|a| format!("{a}"))
-                .unwrap_or_else(|| "-".into());
+            let angle = r["angle"].as_f64().map(|a| format!("{a}")).unwrap_or_else(|| "-".into());
             println!(
                 "| {} | {} | {} | {} | {} | {:.1} |",
                 r["scene"].as_str().unwrap_or(""),

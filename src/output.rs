@@ -19,49 +19,31 @@ pub fn encode(frame: &Frame, background: [f32; 3], transparent: bool) -> RgbaIma
     for (px, c) in img.pixels_mut().zip(&frame.color) {
         let (rgb, a) = if transparent {
             let a = c.w;
-            let rgb = if a > 0.0 {
-                (c.truncate() - bg * (1.0 - a)) / a
-            } else {
-                glam::Vec3::ZERO
-            };
+            let rgb = if a > 0.0 { (c.truncate() - bg * (1.0 - a)) / a } else { glam::Vec3::ZERO };
             (rgb, a)
         } else {
             (c.truncate(), 1.0)
         };
         let q = |v: f32| (linear_to_srgb(v) * 255.0 + 0.5) as u8;
-        px.0 = [
-            q(rgb.x),
-            q(rgb.y),
-            q(rgb.z),
-            (a.clamp(0.0, 1.0) * 255.0 + 0.5) as u8,
-        ];
+        px.0 = [q(rgb.x), q(rgb.y), q(rgb.z), (a.clamp(0.0, 1.0) * 255.0 + 0.5) as u8];
     }
     img
 }
 
 /// A sibling temporary path for atomic writes.
 fn temp_path(path: &Path) -> PathBuf {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "output".into());
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "output".into());
     path.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
 }
 
 /// Writes `bytes` to `path` atomically.
-pub fn write_atomic(
-    path: &Path,
-    write: impl FnOnce(&Path) -> std::result::Result<(), String>,
-) -> Result<()> {
+pub fn write_atomic(path: &Path, write: impl FnOnce(&Path) -> std::result::Result<(), String>) -> Result<()> {
     if path.file_name().is_none() {
         return Err(Error::output(path, "not a file name"));
     }
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         if !dir.is_dir() {
-            return Err(Error::output(
-                path,
-                format!("directory {} does not exist", dir.display()),
-            ));
+            return Err(Error::output(path, format!("directory {} does not exist", dir.display())));
         }
     }
     let tmp = temp_path(path);
@@ -80,22 +62,13 @@ pub fn write_atomic(
 /// Writes a PNG atomically. Only .png output is supported (lossless, alpha).
 pub fn write_png(path: &Path, img: &RgbaImage) -> Result<()> {
     check_png_path(path)?;
-    write_atomic(path, |tmp| {
-        img.save_with_format(tmp, ImageFormat::Png)
-            .map_err(|e| e.to_string())
-    })
+    write_atomic(path, |tmp| img.save_with_format(tmp, ImageFormat::Png).map_err(|e| e.to_string()))
 }
 
 /// Writes 16-bit grey PNGs (facet ids) atomically.
-pub fn write_png16(
-    path: &Path,
-    img: &image::ImageBuffer<image::Luma<u16>, Vec<u16>>,
-) -> Result<()> {
+pub fn write_png16(path: &Path, img: &image::ImageBuffer<image::Luma<u16>, Vec<u16>>) -> Result<()> {
     check_png_path(path)?;
-    write_atomic(path, |tmp| {
-        img.save_with_format(tmp, ImageFormat::Png)
-            .map_err(|e| e.to_string())
-    })
+    write_atomic(path, |tmp| img.save_with_format(tmp, ImageFormat::Png).map_err(|e| e.to_string()))
 }
 
 /// Writes text (JSON) atomically.
@@ -108,25 +81,15 @@ pub fn write_text(path: &Path, text: &str) -> Result<()> {
 }
 
 pub fn check_png_path(path: &Path) -> Result<()> {
-    match path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase)
-    {
+    match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase) {
         Some(e) if e == "png" => Ok(()),
-        _ => Err(Error::Setting {
-            key: "output",
-            message: format!("{}: output images must be .png", path.display()),
-        }),
+        _ => Err(Error::Setting { key: "output", message: format!("{}: output images must be .png", path.display()) }),
     }
 }
 
 /// `dir/stem.png` -> `dir/stem.<pass>.png`.
 pub fn pass_path(output: &Path, pass: &str) -> PathBuf {
-    let stem = output
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "cubist".into());
+    let stem = output.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "cubist".into());
     output.with_file_name(format!("{stem}.{pass}.png"))
 }
 
@@ -148,10 +111,7 @@ mod tests {
 
     #[test]
     fn pass_paths_sit_beside_the_output() {
-        assert_eq!(
-            pass_path(Path::new("a/b/out.png"), "saliency"),
-            Path::new("a/b/out.saliency.png")
-        );
+        assert_eq!(pass_path(Path::new("a/b/out.png"), "saliency"), Path::new("a/b/out.saliency.png"));
     }
 
     #[test]

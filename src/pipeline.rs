@@ -33,12 +33,7 @@ impl Prepared {
         let t = Instant::now();
         let world = World::new(&scene);
         let accel = Accel::new(&world);
-        Prepared {
-            scene,
-            world,
-            accel,
-            build_time: t.elapsed(),
-        }
+        Prepared { scene, world, accel, build_time: t.elapsed() }
     }
 
     /// Loads `path`, or the built-in still life when None.
@@ -81,45 +76,23 @@ pub fn render(prep: &Prepared, settings: &Settings, progress: &Progress) -> Resu
     let mut warnings = prep.scene.warnings.clone();
     let framed = frame_camera(settings, &prep.world)?;
     warnings.extend(framed.warnings.iter().cloned());
-    let rig = LightRig::new(
-        &prep.world,
-        &framed.frame,
-        settings.shadows,
-        settings.exposure,
-    );
+    let rig = LightRig::new(&prep.world, &framed.frame, settings.shadows, settings.exposure);
     let background = Vec3::from(settings.background);
-    let tracer = Tracer {
-        world: &prep.world,
-        accel: &prep.accel,
-        rig: Some(&rig),
-        background,
-        seed: settings.seed,
-    };
+    let tracer = Tracer { world: &prep.world, accel: &prep.accel, rig: Some(&rig), background, seed: settings.seed };
 
     let mut frame = Frame::new(settings.width, settings.height, settings.spp);
     progress.begin("pre-render", frame.pixel_count() as u64);
-    timings.time("pre-render", || {
-        tracer.render(&mut frame, &|_, p| framed.camera.ray(p), None, progress)
-    });
+    timings.time("pre-render", || tracer.render(&mut frame, &|_, p| framed.camera.ray(p), None, progress));
     progress.finish();
 
-    let image = timings.time("encode", || {
-        encode(&frame, settings.background, settings.transparent)
-    });
+    let image = timings.time("encode", || encode(&frame, settings.background, settings.transparent));
     let mut passes = Vec::new();
     for &pass in &settings.passes {
         if let Some(img) = geometry_pass(&frame, pass) {
             passes.push((pass, img));
         }
     }
-    Ok(Rendered {
-        frame,
-        image,
-        passes,
-        timings,
-        warnings,
-        camera: framed.describe(&prep.world),
-    })
+    Ok(Rendered { frame, image, passes, timings, warnings, camera: framed.describe(&prep.world) })
 }
 
 /// Passes read straight off the hit buffers.
@@ -130,12 +103,7 @@ fn geometry_pass(frame: &Frame, pass: Pass) -> Option<RgbaImage> {
             for (px, h) in img.pixels_mut().zip(&frame.hits) {
                 px.0 = if h.is_hit() {
                     let c = splitmix64(h.object as u64 + 1);
-                    [
-                        (c >> 16) as u8 | 0x30,
-                        (c >> 24) as u8 | 0x30,
-                        (c >> 32) as u8 | 0x30,
-                        255,
-                    ]
+                    [(c >> 16) as u8 | 0x30, (c >> 24) as u8 | 0x30, (c >> 32) as u8 | 0x30, 255]
                 } else {
                     [0, 0, 0, 255]
                 };
@@ -145,12 +113,7 @@ fn geometry_pass(frame: &Frame, pass: Pass) -> Option<RgbaImage> {
             for (px, h) in img.pixels_mut().zip(&frame.hits) {
                 let n = h.normal * 0.5 + Vec3::splat(0.5);
                 px.0 = if h.is_hit() {
-                    [
-                        (n.x * 255.0) as u8,
-                        (n.y * 255.0) as u8,
-                        (n.z * 255.0) as u8,
-                        255,
-                    ]
+                    [(n.x * 255.0) as u8, (n.y * 255.0) as u8, (n.z * 255.0) as u8, 255]
                 } else {
                     [0, 0, 0, 255]
                 };
@@ -161,9 +124,7 @@ fn geometry_pass(frame: &Frame, pass: Pass) -> Option<RgbaImage> {
                 .hits
                 .iter()
                 .filter(|h| h.is_hit())
-                .fold((f32::INFINITY, 0.0f32), |(lo, hi), h| {
-                    (lo.min(h.t), hi.max(h.t))
-                });
+                .fold((f32::INFINITY, 0.0f32), |(lo, hi), h| (lo.min(h.t), hi.max(h.t)));
             for (px, h) in img.pixels_mut().zip(&frame.hits) {
                 let g = if h.is_hit() && hi > lo {
                     255.0 * (1.0 - (h.t - lo) / (hi - lo)) * 0.9 + 25.0

@@ -45,18 +45,12 @@ pub fn sample_offset(seed: u64, pixel: u64, s: u32, spp: u32) -> DVec2 {
     let h = splitmix64(seed ^ splitmix64(pixel.wrapping_mul(0x1_0000_0001).wrapping_add(s as u64)));
     let jx = unit_f64(h);
     let jy = unit_f64(splitmix64(h));
-    DVec2::new(
-        ((s % nx) as f64 + jx) / nx as f64,
-        ((s / nx) as f64 + jy) / ny as f64,
-    )
+    DVec2::new(((s % nx) as f64 + jx) / nx as f64, ((s / nx) as f64 + jy) / ny as f64)
 }
 
 /// The screen point of pixel (x, y) at sub-pixel `offset` (row 0 is the top).
 pub fn screen_point(x: u32, y: u32, offset: DVec2, width: u32, height: u32) -> DVec2 {
-    DVec2::new(
-        (x as f64 + offset.x) / width as f64 - 0.5,
-        0.5 - (y as f64 + offset.y) / height as f64,
-    )
+    DVec2::new((x as f64 + offset.x) / width as f64 - 0.5, 0.5 - (y as f64 + offset.y) / height as f64)
 }
 
 /// Everything a trace needs besides the rays.
@@ -93,11 +87,7 @@ impl Tracer<'_> {
             let centre_dist = (off - DVec2::splat(0.5)).length_squared();
             match hit {
                 Some(h) => {
-                    samples[s as usize] = SampleHit {
-                        tri: h.tri,
-                        u: h.u,
-                        v: h.v,
-                    };
+                    samples[s as usize] = SampleHit { tri: h.tri, u: h.u, v: h.v };
                     covered += 1;
                     let sp = surface(self.world, &h, ray.origin, ray.dir);
                     if let Some(rig) = self.rig {
@@ -105,17 +95,8 @@ impl Tracer<'_> {
                     }
                     if centre_dist < best.0 {
                         let object = self.world.triangle_object[h.tri as usize];
-                        best = (
-                            centre_dist,
-                            PixelHit {
-                                tri: h.tri,
-                                object,
-                                t: h.t,
-                                normal: sp.normal,
-                                u: h.u,
-                                v: h.v,
-                            },
-                        );
+                        best =
+                            (centre_dist, PixelHit { tri: h.tri, object, t: h.t, normal: sp.normal, u: h.u, v: h.v });
                     }
                 }
                 None => {
@@ -129,21 +110,12 @@ impl Tracer<'_> {
         }
         let hit = best.1;
         debug_assert!(hit.tri == NO_HIT || hit.object != NO_HIT);
-        (
-            (color / spp as f32).extend(covered as f32 / spp as f32),
-            hit,
-        )
+        ((color / spp as f32).extend(covered as f32 / spp as f32), hit)
     }
 
     /// Traces `pixels` (all when None) of `frame` with `rays`, overwriting their colour, hit
     /// and sample buffers.
-    pub fn render(
-        &self,
-        frame: &mut Frame,
-        rays: &Rays,
-        pixels: Option<&[u32]>,
-        progress: &Progress,
-    ) {
+    pub fn render(&self, frame: &mut Frame, rays: &Rays, pixels: Option<&[u32]>, progress: &Progress) {
         let (w, h, spp) = (frame.width, frame.height, frame.spp as usize);
         match pixels {
             None => {
@@ -157,8 +129,7 @@ impl Tracer<'_> {
                     .for_each(|(y, ((c, hrow), srow))| {
                         for x in 0..wu {
                             let i = y * wu + x;
-                            let (col, hit) =
-                                self.trace_pixel(i, w, h, &mut srow[x * spp..(x + 1) * spp], rays);
+                            let (col, hit) = self.trace_pixel(i, w, h, &mut srow[x * spp..(x + 1) * spp], rays);
                             c[x] = col;
                             hrow[x] = hit;
                         }
@@ -174,13 +145,7 @@ impl Tracer<'_> {
                             .iter()
                             .enumerate()
                             .map(|(k, &i)| {
-                                self.trace_pixel(
-                                    i as usize,
-                                    w,
-                                    h,
-                                    &mut samples[k * spp..(k + 1) * spp],
-                                    rays,
-                                )
+                                self.trace_pixel(i as usize, w, h, &mut samples[k * spp..(k + 1) * spp], rays)
                             })
                             .collect();
                         progress.add(chunk.len() as u64);
@@ -192,8 +157,7 @@ impl Tracer<'_> {
                         let i = i as usize;
                         frame.color[i] = out[k].0;
                         frame.hits[i] = out[k].1;
-                        frame.samples[i * spp..(i + 1) * spp]
-                            .copy_from_slice(&samples[k * spp..(k + 1) * spp]);
+                        frame.samples[i * spp..(i + 1) * spp].copy_from_slice(&samples[k * spp..(k + 1) * spp]);
                     }
                 }
             }

@@ -323,9 +323,9 @@ impl Settings {
         let preset_of = |map: &Map<String, Value>| -> Result<Option<Preset>> {
             match map.get("preset") {
                 None => Ok(None),
-                Some(v) => serde_json::from_value(v.clone())
-                    .map(Some)
-                    .map_err(|e| Error::setting("preset", e.to_string())),
+                Some(v) => {
+                    serde_json::from_value(v.clone()).map(Some).map_err(|e| Error::setting("preset", e.to_string()))
+                }
             }
         };
         let preset = match preset_of(&flags)? {
@@ -345,41 +345,30 @@ impl Settings {
                 if !known.contains(&k) {
                     return Err(Error::Config {
                         path: path.to_path_buf(),
-                        message: format!(
-                            "unknown key `{k}` (see `cubist render --help` for every setting)"
-                        ),
+                        message: format!("unknown key `{k}` (see `cubist render --help` for every setting)"),
                     });
                 }
                 merged.insert(k, v);
             }
             // Deserialise once here so a bad value is blamed on the file, not the flags.
-            let _: Settings =
-                serde_json::from_value(Value::Object(merged.clone())).map_err(|e| {
-                    Error::Config {
-                        path: path.to_path_buf(),
-                        message: e.to_string(),
-                    }
-                })?;
+            let _: Settings = serde_json::from_value(Value::Object(merged.clone()))
+                .map_err(|e| Error::Config { path: path.to_path_buf(), message: e.to_string() })?;
         }
         for (k, v) in flags {
             merged.insert(k, v);
         }
-        let settings: Settings = serde_json::from_value(Value::Object(merged))
-            .map_err(|e| Error::setting("flags", e.to_string()))?;
+        let settings: Settings =
+            serde_json::from_value(Value::Object(merged)).map_err(|e| Error::setting("flags", e.to_string()))?;
         settings.validate()?;
         Ok(settings)
     }
 
     /// Reads a JSON settings file into the layer `from_layers` takes.
     pub fn read_json(path: &Path) -> Result<Value> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::Config {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        })?;
-        serde_json::from_str(&text).map_err(|e| Error::Config {
-            path: path.to_path_buf(),
-            message: format!("not valid JSON: {e}"),
-        })
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| Error::Config { path: path.to_path_buf(), message: e.to_string() })?;
+        serde_json::from_str(&text)
+            .map_err(|e| Error::Config { path: path.to_path_buf(), message: format!("not valid JSON: {e}") })
     }
 
     /// Pixel-valued parameters are given at 1000 px; this converts them to this image's
@@ -399,40 +388,28 @@ impl Settings {
 
     /// Whether any stage needs the scene's mesh saliency.
     pub fn needs_saliency(&self) -> bool {
-        let imprecision_uses = self.imprecision == Imprecision::Saliency
-            && self.faceting != Faceting::None
-            && self.discontinuity > 0.0;
-        imprecision_uses
-            || self.faceting == Faceting::Segment
-            || self.passes.contains(&Pass::Saliency)
+        let imprecision_uses =
+            self.imprecision == Imprecision::Saliency && self.faceting != Faceting::None && self.discontinuity > 0.0;
+        imprecision_uses || self.faceting == Faceting::Segment || self.passes.contains(&Pass::Saliency)
     }
 
     /// Checks every value's range; the error names the key.
     pub fn validate(&self) -> Result<()> {
         let s = self;
         if s.width == 0 || s.height == 0 {
-            return Err(Error::setting(
-                "width",
-                format!("image size {}x{} is empty", s.width, s.height),
-            ));
+            return Err(Error::setting("width", format!("image size {}x{} is empty", s.width, s.height)));
         }
         if s.width > MAX_SIDE || s.height > MAX_SIDE {
             return Err(Error::setting(
                 "width",
-                format!(
-                    "image size {}x{} exceeds the {MAX_SIDE} px limit per side",
-                    s.width, s.height
-                ),
+                format!("image size {}x{} exceeds the {MAX_SIDE} px limit per side", s.width, s.height),
             ));
         }
         let pixels = s.width as u64 * s.height as u64;
         if pixels > MAX_PIXELS {
             return Err(Error::setting(
                 "width",
-                format!(
-                    "{}x{} = {pixels} pixels exceeds the memory bound of {MAX_PIXELS} pixels",
-                    s.width, s.height
-                ),
+                format!("{}x{} = {pixels} pixels exceeds the memory bound of {MAX_PIXELS} pixels", s.width, s.height),
             ));
         }
         if s.spp == 0 {
@@ -449,10 +426,7 @@ impl Settings {
         }
         if let Some(a) = s.ambiguity {
             if !a.is_finite() {
-                return Err(Error::setting(
-                    "ambiguity",
-                    "must be a finite number of degrees",
-                ));
+                return Err(Error::setting("ambiguity", "must be a finite number of degrees"));
             }
             match s.camera {
                 CameraKind::Planar if !(0.0..180.0).contains(&a) => {
@@ -466,17 +440,13 @@ impl Settings {
                 CameraKind::Perspective if !(a > 0.0 && a < 180.0) => {
                     return Err(Error::setting(
                         "ambiguity",
-                        format!(
-                            "{a} deg is not a field of view: the perspective camera needs (0, 180)"
-                        ),
+                        format!("{a} deg is not a field of view: the perspective camera needs (0, 180)"),
                     ));
                 }
                 _ if !(0.0..=360.0).contains(&a) => {
                     return Err(Error::setting(
                         "ambiguity",
-                        format!(
-                            "{a} deg is out of range: the convergence angle must be in [0, 360]"
-                        ),
+                        format!("{a} deg is out of range: the convergence angle must be in [0, 360]"),
                     ));
                 }
                 _ => {}
@@ -484,24 +454,15 @@ impl Settings {
         }
         if let Some(f) = s.focus_distance {
             if !(f.is_finite() && f > 0.0) {
-                return Err(Error::setting(
-                    "focus_distance",
-                    format!("{f} must be a positive distance"),
-                ));
+                return Err(Error::setting("focus_distance", format!("{f} must be a positive distance")));
             }
         }
         if let Some(c) = s.camera_size {
             if !(c.is_finite() && c > 0.0) {
-                return Err(Error::setting(
-                    "camera_size",
-                    format!("{c} must be a positive size"),
-                ));
+                return Err(Error::setting("camera_size", format!("{c} must be a positive size")));
             }
         }
-        for (key, v) in [
-            ("camera_position", s.camera_position),
-            ("camera_target", s.camera_target),
-        ] {
+        for (key, v) in [("camera_position", s.camera_position), ("camera_target", s.camera_target)] {
             if let Some(v) = v {
                 if v.iter().any(|x| !x.is_finite()) {
                     return Err(Error::setting(key, "must be three finite numbers"));
@@ -510,48 +471,29 @@ impl Settings {
         }
         if let Some(u) = s.camera_up {
             if u.iter().any(|x| !x.is_finite()) || u.iter().all(|x| *x == 0.0) {
-                return Err(Error::setting(
-                    "camera_up",
-                    "must be a finite, non-zero vector",
-                ));
+                return Err(Error::setting("camera_up", "must be a finite, non-zero vector"));
             }
         }
         if let (Some(p), Some(t)) = (s.camera_position, s.camera_target) {
             if p == t {
-                return Err(Error::setting(
-                    "camera_target",
-                    "coincides with camera_position: no view direction",
-                ));
+                return Err(Error::setting("camera_target", "coincides with camera_position: no view direction"));
             }
         }
         if s.background.iter().any(|c| !c.is_finite() || *c < 0.0) {
-            return Err(Error::setting(
-                "background",
-                "must be three finite, non-negative numbers",
-            ));
+            return Err(Error::setting("background", "must be three finite, non-negative numbers"));
         }
         if !(s.exposure.is_finite() && s.exposure >= 0.0) {
-            return Err(Error::setting(
-                "exposure",
-                "must be a finite, non-negative number",
-            ));
+            return Err(Error::setting("exposure", "must be a finite, non-negative number"));
         }
         let nonneg = |key: &'static str, v: f64| -> Result<()> {
             if v.is_finite() && v >= 0.0 {
                 Ok(())
             } else {
-                Err(Error::setting(
-                    key,
-                    format!("{v} must be a finite number >= 0"),
-                ))
+                Err(Error::setting(key, format!("{v} must be a finite number >= 0")))
             }
         };
         let unit = |key: &'static str, v: f64| -> Result<()> {
-            if (0.0..=1.0).contains(&v) {
-                Ok(())
-            } else {
-                Err(Error::setting(key, format!("{v} must be in [0, 1]")))
-            }
+            if (0.0..=1.0).contains(&v) { Ok(()) } else { Err(Error::setting(key, format!("{v} must be in [0, 1]"))) }
         };
         nonneg("discontinuity", s.discontinuity)?;
         nonneg("neighborhood", s.neighborhood)?;
@@ -562,10 +504,7 @@ impl Settings {
         unit("gradients", s.gradients)?;
         unit("chiaroscuro", s.chiaroscuro)?;
         if !(s.facet_fov.is_finite() && (0.0..180.0).contains(&s.facet_fov)) {
-            return Err(Error::setting(
-                "facet_fov",
-                format!("{} must be in [0, 180) degrees", s.facet_fov),
-            ));
+            return Err(Error::setting("facet_fov", format!("{} must be in [0, 180) degrees", s.facet_fov)));
         }
         if s.facet_count == 0 {
             return Err(Error::setting("facet_count", "must be at least 1"));
@@ -580,38 +519,25 @@ impl Settings {
             return Err(Error::setting("occlusion", "must be a positive number"));
         }
         if s.segments.is_empty() || s.segments.contains(&0) {
-            return Err(Error::setting(
-                "segments",
-                "needs one or more levels, each of at least 1 segment",
-            ));
+            return Err(Error::setting("segments", "needs one or more levels, each of at least 1 segment"));
         }
         if s.thresholds.len() != s.segments.len() {
             return Err(Error::setting(
                 "thresholds",
-                format!(
-                    "{} thresholds given for {} segment levels",
-                    s.thresholds.len(),
-                    s.segments.len()
-                ),
+                format!("{} thresholds given for {} segment levels", s.thresholds.len(), s.segments.len()),
             ));
         }
         for t in &s.thresholds {
             unit("thresholds", *t)?;
         }
         if s.colors == 1 {
-            return Err(Error::setting(
-                "colors",
-                "quantising to 1 colour leaves no image; use 0 (off) or >= 2",
-            ));
+            return Err(Error::setting("colors", "quantising to 1 colour leaves no image; use 0 (off) or >= 2"));
         }
         if s.colors > 4096 {
             return Err(Error::setting("colors", "at most 4096"));
         }
         if s.faceting == Faceting::Constant && s.facet_map.is_none() && s.facets.is_none() {
-            return Err(Error::setting(
-                "facet_map",
-                "constant faceting needs a facet map image (--facet-map)",
-            ));
+            return Err(Error::setting("facet_map", "constant faceting needs a facet map image (--facet-map)"));
         }
         Ok(())
     }

@@ -54,14 +54,8 @@ impl LightRig {
             .map(|l| {
                 let c = l.color * l.intensity;
                 match l.kind {
-                    LightKind::Directional => RigLight::Directional {
-                        to_light: -l.direction,
-                        radiance: c,
-                    },
-                    LightKind::Point => RigLight::Point {
-                        position: l.position,
-                        intensity: c,
-                    },
+                    LightKind::Directional => RigLight::Directional { to_light: -l.direction, radiance: c },
+                    LightKind::Point => RigLight::Point { position: l.position, intensity: c },
                     LightKind::Spot { inner, outer } => RigLight::Spot {
                         position: l.position,
                         direction: l.direction,
@@ -73,11 +67,7 @@ impl LightRig {
             })
             .collect();
         if lights.is_empty() {
-            let (f, u, r) = (
-                view.forward.as_vec3(),
-                view.up.as_vec3(),
-                view.right.as_vec3(),
-            );
+            let (f, u, r) = (view.forward.as_vec3(), view.up.as_vec3(), view.right.as_vec3());
             let dir = |v: Vec3| v.try_normalize().unwrap_or(Vec3::Y);
             lights = vec![
                 RigLight::Directional {
@@ -88,10 +78,7 @@ impl LightRig {
                     to_light: dir(-0.5 * f + 0.1 * u + 0.85 * r),
                     radiance: Vec3::new(0.30, 0.32, 0.36),
                 },
-                RigLight::Directional {
-                    to_light: dir(0.75 * f + 0.55 * u + 0.2 * r),
-                    radiance: Vec3::splat(0.25),
-                },
+                RigLight::Directional { to_light: dir(0.75 * f + 0.55 * u + 0.2 * r), radiance: Vec3::splat(0.25) },
             ];
         }
         // Normalise by the total irradiance at the scene's centre (render-space origin),
@@ -100,35 +87,19 @@ impl LightRig {
             .iter()
             .map(|l| match l {
                 RigLight::Directional { radiance, .. } => luminance(*radiance),
-                RigLight::Point {
-                    position,
-                    intensity,
+                RigLight::Point { position, intensity } | RigLight::Spot { position, intensity, .. } => {
+                    luminance(*intensity) / position.length_squared().max(0.01)
                 }
-                | RigLight::Spot {
-                    position,
-                    intensity,
-                    ..
-                } => luminance(*intensity) / position.length_squared().max(0.01),
             })
             .sum();
-        let scale = if total > 0.0 && total.is_finite() {
-            1.05 / total * exposure
-        } else {
-            0.0
-        };
+        let scale = if total > 0.0 && total.is_finite() { 1.05 / total * exposure } else { 0.0 };
         for l in &mut lights {
             match l {
                 RigLight::Directional { radiance, .. } => *radiance *= scale,
-                RigLight::Point { intensity, .. } | RigLight::Spot { intensity, .. } => {
-                    *intensity *= scale
-                }
+                RigLight::Point { intensity, .. } | RigLight::Spot { intensity, .. } => *intensity *= scale,
             }
         }
-        LightRig {
-            lights,
-            ambient: AMBIENT * exposure.min(1.0),
-            shadows,
-        }
+        LightRig { lights, ambient: AMBIENT * exposure.min(1.0), shadows }
     }
 }
 
@@ -159,9 +130,7 @@ pub fn surface(world: &World, hit: &Hit, origin: Vec3, dir: Vec3) -> SurfacePoin
         geometric = -geometric;
     }
     let [n0, n1, n2] = world.normals[i];
-    let mut normal = (n0 * w.x + n1 * w.y + n2 * w.z)
-        .try_normalize()
-        .unwrap_or(geometric);
+    let mut normal = (n0 * w.x + n1 * w.y + n2 * w.z).try_normalize().unwrap_or(geometric);
     if normal.dot(geometric) < 0.0 {
         normal = -normal;
     }
@@ -172,10 +141,7 @@ pub fn surface(world: &World, hit: &Hit, origin: Vec3, dir: Vec3) -> SurfacePoin
         let [a, b, c] = world.uvs[i];
         let uv = a * w.x + b * w.y + c * w.z;
         let m = tex.uv_transform;
-        let uv = Vec2::new(
-            m[0] * uv.x + m[1] * uv.y + m[2],
-            m[3] * uv.x + m[4] * uv.y + m[5],
-        );
+        let uv = Vec2::new(m[0] * uv.x + m[1] * uv.y + m[2], m[3] * uv.x + m[4] * uv.y + m[5]);
         if let Some(t) = world.textures.get(tex.texture) {
             albedo *= t.sample(uv);
         }
@@ -184,14 +150,7 @@ pub fn surface(world: &World, hit: &Hit, origin: Vec3, dir: Vec3) -> SurfacePoin
         let [a, b, c] = world.colors[i];
         albedo *= a * w.x + b * w.y + c * w.z;
     }
-    SurfacePoint {
-        position,
-        geometric,
-        normal,
-        albedo,
-        roughness: material.roughness,
-        unlit: material.unlit,
-    }
+    SurfacePoint { position, geometric, normal, albedo, roughness: material.roughness, unlit: material.unlit }
 }
 
 /// Radiance towards the viewer (linear RGB).
@@ -208,21 +167,12 @@ pub fn shade(accel: &Accel, rig: &LightRig, s: &SurfacePoint, view_dir: Vec3) ->
     for l in &rig.lights {
         let (to_light, dist, radiance) = match *l {
             RigLight::Directional { to_light, radiance } => (to_light, f32::INFINITY, radiance),
-            RigLight::Point {
-                position,
-                intensity,
-            } => {
+            RigLight::Point { position, intensity } => {
                 let d = position - s.position;
                 let len2 = d.length_squared().max(1e-8);
                 (d / len2.sqrt(), len2.sqrt(), intensity / len2)
             }
-            RigLight::Spot {
-                position,
-                direction,
-                cos_inner,
-                cos_outer,
-                intensity,
-            } => {
+            RigLight::Spot { position, direction, cos_inner, cos_outer, intensity } => {
                 let d = position - s.position;
                 let len2 = d.length_squared().max(1e-8);
                 let l = d / len2.sqrt();

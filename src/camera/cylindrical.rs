@@ -26,12 +26,7 @@ impl Camera for Cylindrical {
         let (st, ct) = (p.x * self.angle_x).sin_cos();
         let v = f.right * st - f.forward * ct;
         let on_axis = self.centre + f.up * (p.y * self.height);
-        finish_ray(
-            on_axis + v * self.distance,
-            -v,
-            self.distance,
-            self.clip_radius,
-        )
+        finish_ray(on_axis + v * self.distance, -v, self.distance, self.clip_radius)
     }
 
     fn converges(&self) -> bool {

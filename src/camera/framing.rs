@@ -54,13 +54,7 @@ impl Framed {
 fn sample_points(world: &World) -> Vec<DVec3> {
     let n = world.positions.len() * 3;
     let step = n.div_ceil(FIT_SAMPLES).max(1);
-    world
-        .positions
-        .iter()
-        .flatten()
-        .step_by(step)
-        .map(|p| p.as_dvec3())
-        .collect()
+    world.positions.iter().flatten().step_by(step).map(|p| p.as_dvec3()).collect()
 }
 
 /// Angles (horizontal, vertical) from the view axis at which a camera with focal centre `c`
@@ -82,14 +76,7 @@ fn view_angles(kind: CameraKind, f: &CameraFrame, c: DVec3, p: DVec3) -> (f64, f
 /// Distance k behind `axis` (along the view) for the focal centre: the smallest k at which
 /// every sampled vertex is in front of C and within `FIT_FILL` of the half-angles (each
 /// capped at 80 deg, so C stays outside the scene even at 360 deg).
-fn fit_depth(
-    points: &[DVec3],
-    kind: CameraKind,
-    f: &CameraFrame,
-    axis: DVec3,
-    half: (f64, f64),
-    radius: f64,
-) -> f64 {
+fn fit_depth(points: &[DVec3], kind: CameraKind, f: &CameraFrame, axis: DVec3, half: (f64, f64), radius: f64) -> f64 {
     let cap = 80f64.to_radians();
     let lim = if kind == CameraKind::Planar {
         // The planar camera maps tan(angle) linearly to the image: fill in tangent space.
@@ -101,10 +88,7 @@ fn fit_depth(
     if lim.0 <= 0.0 || (kind != CameraKind::Cylindrical && lim.1 <= 0.0) {
         return 1e6 * radius;
     }
-    let depth_max = points
-        .iter()
-        .map(|p| (*p - axis).dot(f.forward))
-        .fold(f64::NEG_INFINITY, f64::max);
+    let depth_max = points.iter().map(|p| (*p - axis).dot(f.forward)).fold(f64::NEG_INFINITY, f64::max);
     let k_min = depth_max.max(-radius) + 0.02 * radius;
     let fits = |k: f64| {
         let c = axis + f.forward * k;
@@ -140,12 +124,8 @@ pub fn frame_camera(settings: &Settings, world: &World) -> Result<Framed> {
     let scene_cam = world.camera.as_ref();
 
     // 1. The view frame: explicit settings, else the scene's camera, else looking down -Z.
-    let target = settings
-        .camera_target
-        .map(|t| sim.point_f64(DVec3::from(t)));
-    let position = settings
-        .camera_position
-        .map(|p| sim.point_f64(DVec3::from(p)));
+    let target = settings.camera_target.map(|t| sim.point_f64(DVec3::from(t)));
+    let position = settings.camera_position.map(|p| sim.point_f64(DVec3::from(p)));
     let (forward, up) = match (position, target) {
         (Some(p), Some(t)) => (t - p, None),
         (Some(p), None) => (-p, None),
@@ -154,27 +134,12 @@ pub fn frame_camera(settings: &Settings, world: &World) -> Result<Framed> {
             None => (DVec3::NEG_Z, None),
         },
     };
-    let up = settings
-        .camera_up
-        .map(DVec3::from)
-        .or(up)
-        .unwrap_or(DVec3::Y);
-    let forward = if forward.length_squared() > 0.0 {
-        forward
-    } else {
-        DVec3::NEG_Z
-    };
-    let (mut frame, fixed) = CameraFrame::new(DVec3::ZERO, forward, up).ok_or_else(|| {
-        Error::setting(
-            "camera_up",
-            "cannot build a camera frame from these vectors",
-        )
-    })?;
+    let up = settings.camera_up.map(DVec3::from).or(up).unwrap_or(DVec3::Y);
+    let forward = if forward.length_squared() > 0.0 { forward } else { DVec3::NEG_Z };
+    let (mut frame, fixed) = CameraFrame::new(DVec3::ZERO, forward, up)
+        .ok_or_else(|| Error::setting("camera_up", "cannot build a camera frame from these vectors"))?;
     if fixed {
-        warnings.push(
-            "camera up vector is parallel to the view direction; replaced by a perpendicular axis"
-                .into(),
-        );
+        warnings.push("camera up vector is parallel to the view direction; replaced by a perpendicular axis".into());
     }
     let fwd = frame.forward;
     // 2. The camera position if one is given (settings, target, or the scene's camera).
@@ -191,11 +156,8 @@ pub fn frame_camera(settings: &Settings, world: &World) -> Result<Framed> {
 
     let points = sample_points(world);
     let extent = |v: DVec3| {
-        let (lo, hi) = points
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
-                (lo.min(p.dot(v)), hi.max(p.dot(v)))
-            });
+        let (lo, hi) =
+            points.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| (lo.min(p.dot(v)), hi.max(p.dot(v))));
         if lo.is_finite() { (lo, hi) } else { (0.0, 0.0) }
     };
     let (ext_r, ext_u, ext_f) = (extent(frame.right), extent(frame.up), extent(frame.forward));
@@ -223,26 +185,17 @@ pub fn frame_camera(settings: &Settings, world: &World) -> Result<Framed> {
     }
     let alpha = angle_deg.to_radians();
     // The scene's own focus applies only to its own camera.
-    let scene_focus = if position.is_none() && target.is_none() {
-        scene_cam.and_then(|c| c.focus_distance)
-    } else {
-        None
-    };
-    let focus = settings
-        .focus_distance
-        .map(|f| sim.length(f))
-        .or(scene_focus);
+    let scene_focus =
+        if position.is_none() && target.is_none() { scene_cam.and_then(|c| c.focus_distance) } else { None };
+    let focus = settings.focus_distance.map(|f| sim.length(f)).or(scene_focus);
     let size_setting = settings.camera_size.map(|s| sim.length(s));
 
     let camera: Box<dyn Camera>;
     let focal_centre;
     match kind {
         CameraKind::Spherical | CameraKind::Cylindrical | CameraKind::Auto => {
-            let half = if kind == CameraKind::Spherical {
-                (alpha / 2.0, alpha / aspect / 2.0)
-            } else {
-                (alpha / 2.0, 0.0)
-            };
+            let half =
+                if kind == CameraKind::Spherical { (alpha / 2.0, alpha / aspect / 2.0) } else { (alpha / 2.0, 0.0) };
             let framed_c = || match settings.framing {
                 Framing::Centre => axis,
                 Framing::Fit => axis + fwd * fit_depth(&points, kind, &frame, axis, half, radius),
@@ -265,14 +218,7 @@ pub fn frame_camera(settings: &Settings, world: &World) -> Result<Framed> {
                 let height = size_setting.unwrap_or((size.y * 1.08).max(1e-6));
                 // The band is centred on the scene's vertical middle.
                 let centre = c + frame.up * (0.5 * (ext_u.0 + ext_u.1) - c.dot(frame.up));
-                camera = Box::new(Cylindrical {
-                    frame,
-                    centre,
-                    distance,
-                    angle_x: alpha,
-                    height,
-                    clip_radius: clip,
-                });
+                camera = Box::new(Cylindrical { frame, centre, distance, angle_x: alpha, height, clip_radius: clip });
                 focal_centre = Some(centre);
             } else {
                 camera = Box::new(Spherical {
@@ -297,25 +243,18 @@ pub fn frame_camera(settings: &Settings, world: &World) -> Result<Framed> {
             } else if alpha < 1e-5 {
                 // The orthographic limit (the fit below would put f_p a million radii away):
                 // f_p at infinity, the plane frames the scene.
-                let s = size_setting.unwrap_or(
-                    (ext_u.1 - ext_u.0).max((ext_r.1 - ext_r.0) / aspect) / PINHOLE_FILL,
-                );
+                let s = size_setting.unwrap_or((ext_u.1 - ext_u.0).max((ext_r.1 - ext_r.0) / aspect) / PINHOLE_FILL);
                 (axis - fwd * 3.0 * radius, s.max(1e-9))
             } else {
                 let fp = match settings.framing {
                     Framing::Centre => axis,
-                    Framing::Fit => {
-                        axis + fwd * fit_depth(&points, kind, &frame, axis, half, radius)
-                    }
+                    Framing::Fit => axis + fwd * fit_depth(&points, kind, &frame, axis, half, radius),
                 };
                 match size_setting {
                     Some(s) => (fp - fwd * (s / (2.0 * tan)), s),
                     None => {
                         // The plane just in front of the scene; f_p at C.
-                        let near = points
-                            .iter()
-                            .map(|p| (*p - axis).dot(fwd))
-                            .fold(f64::INFINITY, f64::min);
+                        let near = points.iter().map(|p| (*p - axis).dot(fwd)).fold(f64::INFINITY, f64::min);
                         let near = if near.is_finite() { near } else { -radius };
                         let cp = axis + fwd * (near - 0.5 * radius);
                         let l = (fp - cp).dot(fwd).max(1e-9);
@@ -330,11 +269,7 @@ pub fn frame_camera(settings: &Settings, world: &World) -> Result<Framed> {
         }
         CameraKind::Perspective => {
             let tan_half = (alpha / 2.0).tan();
-            let half_min = if aspect >= 1.0 {
-                tan_half
-            } else {
-                tan_half * aspect
-            };
+            let half_min = if aspect >= 1.0 { tan_half } else { tan_half * aspect };
             let p = given_position.unwrap_or_else(|| {
                 // The bounding sphere's outline fills PINHOLE_FILL of the smaller image side.
                 let rho = (PINHOLE_FILL * half_min).atan();
@@ -342,44 +277,21 @@ pub fn frame_camera(settings: &Settings, world: &World) -> Result<Framed> {
             });
             frame.position = p;
             let f = focus.unwrap_or_else(|| (DVec3::ZERO - p).dot(fwd).max(1e-6));
-            camera = Box::new(Perspective {
-                frame,
-                tan_half_fov: tan_half,
-                aspect,
-                focus: f,
-                clip_radius: clip,
-            });
+            camera = Box::new(Perspective { frame, tan_half_fov: tan_half, aspect, focus: f, clip_radius: clip });
             focal_centre = None;
         }
         CameraKind::Orthographic => {
             let gltf_height = scene_cam.and_then(|c| match c.projection {
-                Projection::Orthographic { ymag } if settings.camera_position.is_none() => {
-                    Some(2.0 * ymag)
-                }
+                Projection::Orthographic { ymag } if settings.camera_position.is_none() => Some(2.0 * ymag),
                 _ => None,
             });
-            let height = size_setting
-                .or(gltf_height)
-                .unwrap_or_else(|| 2.0 * radius / PINHOLE_FILL / aspect.min(1.0));
+            let height = size_setting.or(gltf_height).unwrap_or_else(|| 2.0 * radius / PINHOLE_FILL / aspect.min(1.0));
             let p = given_position.unwrap_or(-fwd * 3.0 * radius);
             frame.position = p;
             let f = focus.unwrap_or_else(|| (DVec3::ZERO - p).dot(fwd).max(1e-6));
-            camera = Box::new(Orthographic {
-                frame,
-                height,
-                aspect,
-                focus: f,
-                clip_radius: clip,
-            });
+            camera = Box::new(Orthographic { frame, height, aspect, focus: f, clip_radius: clip });
             focal_centre = None;
         }
     }
-    Ok(Framed {
-        camera,
-        kind,
-        angle_deg,
-        focal_centre,
-        frame,
-        warnings,
-    })
+    Ok(Framed { camera, kind, angle_deg, focal_centre, frame, warnings })
 }

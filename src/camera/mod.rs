@@ -78,15 +78,7 @@ impl CameraFrame {
         }
         let u = u?;
         let right = f.cross(u);
-        Some((
-            CameraFrame {
-                position,
-                forward: f,
-                up: u,
-                right,
-            },
-            fixed,
-        ))
+        Some((CameraFrame { position, forward: f, up: u, right }, fixed))
     }
 }
 
@@ -111,16 +103,8 @@ pub(crate) fn finish_ray(origin: DVec3, dir: DVec3, focus: f64, clip_radius: f64
             focus -= t;
         }
     }
-    let focus = if focus.is_finite() {
-        focus.clamp(-f32::MAX as f64, f32::MAX as f64) as f32
-    } else {
-        f32::INFINITY
-    };
-    CameraRay {
-        origin: origin.as_vec3(),
-        dir: dir.as_vec3(),
-        focus,
-    }
+    let focus = if focus.is_finite() { focus.clamp(-f32::MAX as f64, f32::MAX as f64) as f32 } else { f32::INFINITY };
+    CameraRay { origin: origin.as_vec3(), dir: dir.as_vec3(), focus }
 }
 
 #[cfg(test)]

@@ -18,8 +18,7 @@ pub struct Orthographic {
 impl Camera for Orthographic {
     fn ray(&self, p: DVec2) -> CameraRay {
         let f = &self.frame;
-        let origin =
-            f.position + f.up * (p.y * self.height) + f.right * (p.x * self.height * self.aspect);
+        let origin = f.position + f.up * (p.y * self.height) + f.right * (p.x * self.height * self.aspect);
         finish_ray(origin, f.forward, self.focus, self.clip_radius)
     }
 

@@ -21,19 +21,12 @@ pub struct Planar {
 impl Planar {
     /// From the convergence angle alpha (radians, in [0, pi)).
     pub fn new(frame: CameraFrame, size: f64, aspect: f64, alpha: f64, clip_radius: f64) -> Self {
-        Planar {
-            frame,
-            size,
-            aspect,
-            inv_focal_length: 2.0 * (alpha / 2.0).tan() / size,
-            clip_radius,
-        }
+        Planar { frame, size, aspect, inv_focal_length: 2.0 * (alpha / 2.0).tan() / size, clip_radius }
     }
 
     /// The focal point f_p, or None when it is at infinity.
     pub fn focal_point(&self) -> Option<DVec3> {
-        (self.inv_focal_length > 0.0)
-            .then(|| self.frame.position + self.frame.forward / self.inv_focal_length)
+        (self.inv_focal_length > 0.0).then(|| self.frame.position + self.frame.forward / self.inv_focal_length)
     }
 }
 
@@ -47,11 +40,7 @@ impl Camera for Planar {
         let offset = f.up * (p.y * self.size) + f.right * (p.x * self.size * self.aspect);
         let origin = f.position + offset;
         let towards = f.forward - offset * self.inv_focal_length;
-        let focus = if self.inv_focal_length > 0.0 {
-            towards.length() / self.inv_focal_length
-        } else {
-            f64::INFINITY
-        };
+        let focus = if self.inv_focal_length > 0.0 { towards.length() / self.inv_focal_length } else { f64::INFINITY };
         finish_ray(origin, towards, focus, self.clip_radius)
     }
 

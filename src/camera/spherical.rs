@@ -36,12 +36,7 @@ impl Spherical {
 impl Camera for Spherical {
     fn ray(&self, p: DVec2) -> CameraRay {
         let v = self.outward(p);
-        finish_ray(
-            self.centre + v * self.distance,
-            -v,
-            self.distance,
-            self.clip_radius,
-        )
+        finish_ray(self.centre + v * self.distance, -v, self.distance, self.clip_radius)
     }
 
     fn converges(&self) -> bool {

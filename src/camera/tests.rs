@@ -7,9 +7,7 @@ use proptest::prelude::*;
 use super::*;
 
 fn frame() -> CameraFrame {
-    CameraFrame::new(DVec3::new(0.0, 0.0, 5.0), DVec3::NEG_Z, DVec3::Y)
-        .unwrap()
-        .0
+    CameraFrame::new(DVec3::new(0.0, 0.0, 5.0), DVec3::NEG_Z, DVec3::Y).unwrap().0
 }
 
 /// Distance from point `c` to the line of `r`.
@@ -23,14 +21,7 @@ fn angle(a: Vec3, b: Vec3) -> f64 {
 
 fn spherical(alpha_deg: f64, aspect: f64) -> Spherical {
     let a = alpha_deg.to_radians();
-    Spherical {
-        frame: frame(),
-        centre: DVec3::ZERO,
-        distance: 3.0,
-        angle_x: a,
-        angle_y: a / aspect,
-        clip_radius: 10.0,
-    }
+    Spherical { frame: frame(), centre: DVec3::ZERO, distance: 3.0, angle_x: a, angle_y: a / aspect, clip_radius: 10.0 }
 }
 
 const GRID: [f64; 5] = [-0.5, -0.25, 0.0, 0.25, 0.5];
@@ -54,11 +45,7 @@ fn spherical_spans_the_convergence_angle() {
         let cam = spherical(alpha, 1.0);
         let l = cam.ray(DVec2::new(-0.5, 0.0)).dir;
         let r = cam.ray(DVec2::new(0.5, 0.0)).dir;
-        assert!(
-            (angle(l, r) - alpha).abs() < 1e-3,
-            "horizontal {alpha}: {}",
-            angle(l, r)
-        );
+        assert!((angle(l, r) - alpha).abs() < 1e-3, "horizontal {alpha}: {}", angle(l, r));
         let b = cam.ray(DVec2::new(0.0, -0.5)).dir;
         let t = cam.ray(DVec2::new(0.0, 0.5)).dir;
         assert!((angle(b, t) - alpha).abs() < 1e-3, "vertical {alpha}");
@@ -128,15 +115,8 @@ fn planar_rays_converge_on_the_focal_point_of_eq_4_1() {
             assert!(line_distance(&r, fp.as_vec3()) < 1e-5);
             // origin = c_p + u y s + h x s r.
             let o = Vec3::new((x * s * 1.5) as f32, (y * s) as f32, 5.0);
-            assert!(
-                (r.origin - o).length() < 1e-5,
-                "origin {:?} vs {o:?}",
-                r.origin
-            );
-            assert!(
-                r.dir.z < 0.0,
-                "rays point into the scene (the thesis's sign is a typo)"
-            );
+            assert!((r.origin - o).length() < 1e-5, "origin {:?} vs {o:?}", r.origin);
+            assert!(r.dir.z < 0.0, "rays point into the scene (the thesis's sign is a typo)");
         }
     }
     // Vertical convergence angle is alpha.
@@ -152,18 +132,10 @@ fn planar_tends_to_orthographic_without_overflow() {
         for x in GRID {
             let r = cam.ray(DVec2::new(x, 0.4));
             assert!(r.origin.is_finite() && r.dir.is_finite());
-            assert!(
-                r.dir.dot(Vec3::NEG_Z) > 0.999_999,
-                "alpha {alpha}: {:?}",
-                r.dir
-            );
+            assert!(r.dir.dot(Vec3::NEG_Z) > 0.999_999, "alpha {alpha}: {:?}", r.dir);
         }
     }
-    assert!(
-        Planar::new(frame(), 2.0, 1.0, 0.0, 1.0)
-            .focal_point()
-            .is_none()
-    );
+    assert!(Planar::new(frame(), 2.0, 1.0, 0.0, 1.0).focal_point().is_none());
 }
 
 #[test]
@@ -186,13 +158,7 @@ fn perspective_rays_leave_the_eye_and_span_the_field_of_view() {
 
 #[test]
 fn orthographic_rays_are_parallel() {
-    let cam = Orthographic {
-        frame: frame(),
-        height: 2.0,
-        aspect: 2.0,
-        focus: 5.0,
-        clip_radius: 100.0,
-    };
+    let cam = Orthographic { frame: frame(), height: 2.0, aspect: 2.0, focus: 5.0, clip_radius: 100.0 };
     let a = cam.ray(DVec2::new(-0.5, -0.5));
     let b = cam.ray(DVec2::new(0.5, 0.5));
     assert_eq!(a.dir, b.dir);
@@ -206,8 +172,7 @@ fn degenerate_frames_are_fixed_or_refused() {
     assert!(f.up.dot(f.forward).abs() < 1e-12 && (f.up.length() - 1.0).abs() < 1e-12);
     assert!((f.right.length() - 1.0).abs() < 1e-12);
     assert!(CameraFrame::new(DVec3::ZERO, DVec3::ZERO, DVec3::Y).is_none());
-    let (_, fixed) =
-        CameraFrame::new(DVec3::ZERO, DVec3::NEG_Z, DVec3::new(0.0, 1.0, 0.3)).unwrap();
+    let (_, fixed) = CameraFrame::new(DVec3::ZERO, DVec3::NEG_Z, DVec3::new(0.0, 1.0, 0.3)).unwrap();
     assert!(!fixed);
 }
 
@@ -240,13 +205,7 @@ fn any_camera(kind: u8, alpha_frac: f64, aspect: f64) -> Box<dyn Camera> {
             height: 2.0,
             clip_radius: 1.0,
         }),
-        2 => Box::new(Planar::new(
-            f,
-            2.0,
-            aspect,
-            alpha_frac * 179.999f64.to_radians(),
-            1.0,
-        )),
+        2 => Box::new(Planar::new(f, 2.0, aspect, alpha_frac * 179.999f64.to_radians(), 1.0)),
         3 => Box::new(Perspective {
             frame: f,
             tan_half_fov: (alpha_frac.max(1e-6) * 179.9f64.to_radians() / 2.0).tan(),
@@ -254,13 +213,7 @@ fn any_camera(kind: u8, alpha_frac: f64, aspect: f64) -> Box<dyn Camera> {
             focus: 5.0,
             clip_radius: 1.0,
         }),
-        _ => Box::new(Orthographic {
-            frame: f,
-            height: 2.0,
-            aspect,
-            focus: 5.0,
-            clip_radius: 1.0,
-        }),
+        _ => Box::new(Orthographic { frame: f, height: 2.0, aspect, focus: 5.0, clip_radius: 1.0 }),
     }
 }
 

@@ -54,10 +54,7 @@ impl FacetLayout {
             facet_count: 1,
             base: None,
             sites: Vec::new(),
-            polygons: vec![FacetPolygon {
-                facet: 0,
-                points: vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]],
-            }],
+            polygons: vec![FacetPolygon { facet: 0, points: vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]] }],
         }
     }
 }

@@ -41,11 +41,7 @@ fn component(bytes: &[u8], t: DataType, normalized: bool) -> f32 {
         }
         DataType::I16 => {
             let v = i16::from_le_bytes([bytes[0], bytes[1]]) as f32;
-            if normalized {
-                (v / 32767.0).max(-1.0)
-            } else {
-                v
-            }
+            if normalized { (v / 32767.0).max(-1.0) } else { v }
         }
         DataType::U32 => u32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]) as f32,
     }
@@ -63,13 +59,8 @@ fn integer(bytes: &[u8], t: DataType) -> Option<u32> {
 /// The bytes of a buffer view, checked against its buffer.
 fn view_bytes<'b>(view: &gltf::buffer::View, buffers: &'b Buffers) -> Result<&'b [u8], String> {
     let b = view.buffer().index();
-    let data = buffers
-        .get(b)
-        .ok_or_else(|| format!("bufferView {} refers to missing buffer {b}", view.index()))?;
-    let end = view
-        .offset()
-        .checked_add(view.length())
-        .ok_or("bufferView range overflows")?;
+    let data = buffers.get(b).ok_or_else(|| format!("bufferView {} refers to missing buffer {b}", view.index()))?;
+    let end = view.offset().checked_add(view.length()).ok_or("bufferView range overflows")?;
     if end > data.len() {
         return Err(format!(
             "bufferView {} (bytes {}..{end}) runs past the end of buffer {b} ({} bytes)",
@@ -94,9 +85,7 @@ fn for_each_element(
     let bytes = view_bytes(view, buffers)?;
     let stride = view.stride().unwrap_or(elem);
     if stride < elem {
-        return Err(format!(
-            "{what}: byteStride {stride} is smaller than its {elem}-byte elements"
-        ));
+        return Err(format!("{what}: byteStride {stride} is smaller than its {elem}-byte elements"));
     }
     if count == 0 {
         return Ok(());
@@ -128,35 +117,24 @@ pub(super) fn read_floats<const N: usize>(
     what: &str,
 ) -> Result<Vec<[f32; N]>, String> {
     if multiplicity(acc.dimensions()) != N {
-        return Err(format!(
-            "{what}: expected {N} components, found {:?}",
-            acc.dimensions()
-        ));
+        return Err(format!("{what}: expected {N} components, found {:?}", acc.dimensions()));
     }
     let count = acc.count();
     if count > MAX_COUNT {
-        return Err(format!(
-            "{what}: {count} elements exceed the limit of {MAX_COUNT}"
-        ));
+        return Err(format!("{what}: {count} elements exceed the limit of {MAX_COUNT}"));
     }
     let t = acc.data_type();
     let cs = component_size(t);
     let normalized = acc.normalized();
     let mut out = vec![[0.0f32; N]; count];
-    let decode = |bytes: &[u8]| -> [f32; N] {
-        std::array::from_fn(|k| component(&bytes[k * cs..], t, normalized))
-    };
+    let decode = |bytes: &[u8]| -> [f32; N] { std::array::from_fn(|k| component(&bytes[k * cs..], t, normalized)) };
     if let Some(view) = acc.view() {
-        for_each_element(what, &view, acc.offset(), count, cs * N, buffers, |i, b| {
-            out[i] = decode(b)
-        })?;
+        for_each_element(what, &view, acc.offset(), count, cs * N, buffers, |i, b| out[i] = decode(b))?;
     }
     if let Some(sparse) = acc.sparse() {
         let n = sparse.count();
         if n > count {
-            return Err(format!(
-                "{what}: sparse substitution of {n} elements in an accessor of {count}"
-            ));
+            return Err(format!("{what}: sparse substitution of {n} elements in an accessor of {count}"));
         }
         let it = sparse.indices().index_type();
         let it = match it {
@@ -187,9 +165,7 @@ pub(super) fn read_floats<const N: usize>(
             |i, b| values[i] = decode(b),
         )?;
         for (idx, v) in indices.into_iter().zip(values) {
-            let slot = out
-                .get_mut(idx)
-                .ok_or_else(|| format!("{what}: sparse index {idx} >= count {count}"))?;
+            let slot = out.get_mut(idx).ok_or_else(|| format!("{what}: sparse index {idx} >= count {count}"))?;
             *slot = v;
         }
     }
@@ -204,10 +180,7 @@ pub(super) fn read_indices(
     what: &str,
 ) -> Result<Vec<u32>, String> {
     if acc.dimensions() != Dimensions::Scalar
-        || !matches!(
-            acc.data_type(),
-            DataType::U8 | DataType::U16 | DataType::U32
-        )
+        || !matches!(acc.data_type(), DataType::U8 | DataType::U16 | DataType::U32)
     {
         return Err(format!(
             "{what}: indices must be unsigned 8/16/32-bit scalars, found {:?} {:?}",
@@ -215,39 +188,24 @@ pub(super) fn read_indices(
             acc.dimensions()
         ));
     }
-    let values = read_floats::<1>(acc, buffers, what)
-        .map(|v| v.into_iter().map(|[x]| x as u32).collect::<Vec<_>>())?;
+    let values = read_floats::<1>(acc, buffers, what).map(|v| v.into_iter().map(|[x]| x as u32).collect::<Vec<_>>())?;
     // f32 holds every u8/u16 exactly; re-read u32 exactly (f32 would round above 2^24).
     let values = if acc.data_type() == DataType::U32 {
         let mut exact = vec![0u32; acc.count()];
         if let Some(view) = acc.view() {
-            for_each_element(
-                what,
-                &view,
-                acc.offset(),
-                acc.count(),
-                4,
-                buffers,
-                |i, b| exact[i] = u32::from_le_bytes([b[0], b[1], b[2], b[3]]),
-            )?;
+            for_each_element(what, &view, acc.offset(), acc.count(), 4, buffers, |i, b| {
+                exact[i] = u32::from_le_bytes([b[0], b[1], b[2], b[3]])
+            })?;
         }
         if acc.sparse().is_some() {
-            return Err(format!(
-                "{what}: sparse u32 index accessors are not supported"
-            ));
+            return Err(format!("{what}: sparse u32 index accessors are not supported"));
         }
         exact
     } else {
         values
     };
-    if let Some((i, &bad)) = values
-        .iter()
-        .enumerate()
-        .find(|&(_, &v)| v as usize >= vertex_count)
-    {
-        return Err(format!(
-            "{what}: index {bad} at position {i} is out of range ({vertex_count} vertices)"
-        ));
+    if let Some((i, &bad)) = values.iter().enumerate().find(|&(_, &v)| v as usize >= vertex_count) {
+        return Err(format!("{what}: index {bad} at position {i} is out of range ({vertex_count} vertices)"));
     }
     Ok(values)
 }

@@ -9,12 +9,7 @@ use glam::{DMat4, DQuat, DVec3, Vec2, Vec3, Vec4};
 use super::{Material, Mesh, Object, Projection, Scene, SceneCamera, compute_normals};
 
 fn material(name: &str, r: f32, g: f32, b: f32, roughness: f32) -> Material {
-    Material {
-        name: name.into(),
-        base_color: Vec4::new(r, g, b, 1.0),
-        roughness,
-        ..Material::default()
-    }
+    Material { name: name.into(), base_color: Vec4::new(r, g, b, 1.0), roughness, ..Material::default() }
 }
 
 /// A surface of revolution about +Y from a (radius, height) profile, `segments` around.
@@ -48,15 +43,7 @@ pub fn lathe(name: &str, profile: &[Vec2], segments: u32, material: usize) -> Me
         }
     }
     let normals = compute_normals(&positions, &triangles);
-    Mesh {
-        name: name.into(),
-        positions,
-        normals,
-        uvs: None,
-        colors: None,
-        triangles,
-        material: Some(material),
-    }
+    Mesh { name: name.into(), positions, normals, uvs: None, colors: None, triangles, material: Some(material) }
 }
 
 /// A UV sphere of the given radii (an ellipsoid), centred at the origin.
@@ -85,37 +72,21 @@ pub fn cuboid(name: &str, size: Vec3, material: usize) -> Mesh {
         for sign in [-1.0f32, 1.0] {
             let n = Vec3::from_array(std::array::from_fn(|k| if k == axis { sign } else { 0.0 }));
             let (u, v) = (
-                Vec3::from_array(std::array::from_fn(|k| {
-                    if k == (axis + 1) % 3 { 1.0 } else { 0.0 }
-                })),
-                Vec3::from_array(std::array::from_fn(|k| {
-                    if k == (axis + 2) % 3 { 1.0 } else { 0.0 }
-                })),
+                Vec3::from_array(std::array::from_fn(|k| if k == (axis + 1) % 3 { 1.0 } else { 0.0 })),
+                Vec3::from_array(std::array::from_fn(|k| if k == (axis + 2) % 3 { 1.0 } else { 0.0 })),
             );
             let base = positions.len() as u32;
             for (a, b) in [(-1.0f32, -1.0f32), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
                 positions.push((n + u * a + v * b) * h);
                 normals.push(n);
             }
-            let quad = if sign > 0.0 {
-                [[0, 1, 2], [0, 2, 3]]
-            } else {
-                [[0, 2, 1], [0, 3, 2]]
-            };
+            let quad = if sign > 0.0 { [[0, 1, 2], [0, 2, 3]] } else { [[0, 2, 1], [0, 3, 2]] };
             for t in quad {
                 triangles.push(t.map(|i| base + i));
             }
         }
     }
-    Mesh {
-        name: name.into(),
-        positions,
-        normals,
-        uvs: None,
-        colors: None,
-        triangles,
-        material: Some(material),
-    }
+    Mesh { name: name.into(), positions, normals, uvs: None, colors: None, triangles, material: Some(material) }
 }
 
 /// A prism: a star-shaped outline in the XY plane extruded along Z by `depth`.
@@ -151,15 +122,7 @@ pub fn extrude(name: &str, outline: &[Vec2], depth: f32, material: usize) -> Mes
     let mut normals = compute_normals(&positions[..side0 as usize], &triangles[..2 * n as usize]);
     let side_normals = compute_normals(&positions, &triangles);
     normals.extend_from_slice(&side_normals[side0 as usize..]);
-    Mesh {
-        name: name.into(),
-        positions,
-        normals,
-        uvs: None,
-        colors: None,
-        triangles,
-        material: Some(material),
-    }
+    Mesh { name: name.into(), positions, normals, uvs: None, colors: None, triangles, material: Some(material) }
 }
 
 /// A guitar body outline: two lobes joined at a waist, star-shaped from its centroid.
@@ -175,19 +138,12 @@ fn guitar_outline() -> Vec<Vec2> {
 }
 
 fn place(mesh: usize, name: &str, t: DVec3, rot: DQuat) -> Object {
-    Object {
-        name: name.into(),
-        mesh,
-        transform: DMat4::from_rotation_translation(rot, t),
-    }
+    Object { name: name.into(), mesh, transform: DMat4::from_rotation_translation(rot, t) }
 }
 
 /// The still life. Units are metres, +Y up, the table top at y = 0.
 pub fn still_life() -> Scene {
-    let mut s = Scene {
-        source: "<default scene>".into(),
-        ..Scene::default()
-    };
+    let mut s = Scene { source: "<default scene>".into(), ..Scene::default() };
     let mats = [
         material("table", 0.30, 0.17, 0.08, 0.7),
         material("ochre glaze", 0.72, 0.50, 0.20, 0.35),
@@ -211,12 +167,7 @@ pub fn still_life() -> Scene {
         s.objects.push(place(i, &name, t, rot));
     };
     let id = DQuat::IDENTITY;
-    add(
-        cuboid("table", Vec3::new(2.6, 0.08, 1.5), 0),
-        DVec3::new(0.0, -0.04, 0.0),
-        id,
-        &mut s,
-    );
+    add(cuboid("table", Vec3::new(2.6, 0.08, 1.5), 0), DVec3::new(0.0, -0.04, 0.0), id, &mut s);
     let jug = [
         v(0.0, 0.0),
         v(0.15, 0.0),
@@ -228,12 +179,7 @@ pub fn still_life() -> Scene {
         v(0.085, 0.62),
         v(0.12, 0.7),
     ];
-    add(
-        lathe("jug", &jug, 40, 1),
-        DVec3::new(-0.6, 0.0, -0.2),
-        id,
-        &mut s,
-    );
+    add(lathe("jug", &jug, 40, 1), DVec3::new(-0.6, 0.0, -0.2), id, &mut s);
     let bottle = [
         v(0.0, 0.0),
         v(0.11, 0.0),
@@ -245,12 +191,7 @@ pub fn still_life() -> Scene {
         v(0.045, 0.9),
         v(0.0, 0.9),
     ];
-    add(
-        lathe("bottle", &bottle, 36, 2),
-        DVec3::new(-0.05, 0.0, -0.42),
-        id,
-        &mut s,
-    );
+    add(lathe("bottle", &bottle, 36, 2), DVec3::new(-0.05, 0.0, -0.42), id, &mut s);
     let bowl = [
         v(0.0, 0.0),
         v(0.12, 0.0),
@@ -262,24 +203,9 @@ pub fn still_life() -> Scene {
         v(0.19, 0.06),
         v(0.0, 0.04),
     ];
-    add(
-        lathe("bowl", &bowl, 48, 3),
-        DVec3::new(0.45, 0.0, 0.18),
-        id,
-        &mut s,
-    );
-    add(
-        ellipsoid("orange", Vec3::splat(0.09), 16, 24, 4),
-        DVec3::new(0.37, 0.13, 0.15),
-        id,
-        &mut s,
-    );
-    add(
-        ellipsoid("apple", Vec3::new(0.085, 0.075, 0.085), 16, 24, 5),
-        DVec3::new(0.53, 0.12, 0.24),
-        id,
-        &mut s,
-    );
+    add(lathe("bowl", &bowl, 48, 3), DVec3::new(0.45, 0.0, 0.18), id, &mut s);
+    add(ellipsoid("orange", Vec3::splat(0.09), 16, 24, 4), DVec3::new(0.37, 0.13, 0.15), id, &mut s);
+    add(ellipsoid("apple", Vec3::new(0.085, 0.075, 0.085), 16, 24, 5), DVec3::new(0.53, 0.12, 0.24), id, &mut s);
     add(
         ellipsoid("lemon", Vec3::new(0.1, 0.065, 0.065), 16, 24, 6),
         DVec3::new(0.5, 0.16, 0.06),
@@ -299,12 +225,7 @@ pub fn still_life() -> Scene {
         v(0.068, 0.25),
         v(0.0, 0.16),
     ];
-    add(
-        lathe("glass", &glass, 32, 7),
-        DVec3::new(-0.2, 0.0, 0.35),
-        id,
-        &mut s,
-    );
+    add(lathe("glass", &glass, 32, 7), DVec3::new(-0.2, 0.0, 0.35), id, &mut s);
     add(
         cuboid("book", Vec3::new(0.42, 0.07, 0.3), 8),
         DVec3::new(-0.7, 0.035, 0.35),
@@ -314,22 +235,12 @@ pub fn still_life() -> Scene {
     // The guitar leans back against the bottle's side, body on the table.
     let tilt = DQuat::from_rotation_y(-0.45) * DQuat::from_rotation_x(-0.35);
     let body_centre = DVec3::new(0.55, 0.43, -0.35);
-    add(
-        extrude("guitar body", &guitar_outline(), 0.09, 9),
-        body_centre,
-        tilt,
-        &mut s,
-    );
+    add(extrude("guitar body", &guitar_outline(), 0.09, 9), body_centre, tilt, &mut s);
     let hole = ellipsoid("sound hole", Vec3::new(0.075, 0.075, 0.004), 4, 24, 10);
     let hole_offset = tilt * DVec3::new(0.0, 0.1, 0.047);
     add(hole, body_centre + hole_offset, tilt, &mut s);
     let neck_offset = tilt * DVec3::new(0.0, 0.72, 0.02);
-    add(
-        cuboid("neck", Vec3::new(0.07, 0.62, 0.05), 11),
-        body_centre + neck_offset,
-        tilt,
-        &mut s,
-    );
+    add(cuboid("neck", Vec3::new(0.07, 0.62, 0.05), 11), body_centre + neck_offset, tilt, &mut s);
     // The focal centre sits just behind the guitar, so the spherical camera wraps the
     // objects: the bottle and jug are seen from both flanks at once.
     let eye = DVec3::new(0.0, 1.25, 2.4);
@@ -337,9 +248,7 @@ pub fn still_life() -> Scene {
         position: eye,
         forward: (DVec3::new(0.0, 0.3, 0.0) - eye).normalize(),
         up: DVec3::Y,
-        projection: Projection::Perspective {
-            yfov: 40f64.to_radians(),
-        },
+        projection: Projection::Perspective { yfov: 40f64.to_radians() },
         focus_distance: Some(3.6),
     });
     if let Some(c) = s.camera.as_mut() {
@@ -360,11 +269,7 @@ mod tests {
             assert!(m.positions.iter().all(|p| p.is_finite()), "{}", m.name);
             assert_eq!(m.normals.len(), m.positions.len());
             for t in &m.triangles {
-                assert!(
-                    t.iter().all(|&i| (i as usize) < m.positions.len()),
-                    "{}",
-                    m.name
-                );
+                assert!(t.iter().all(|&i| (i as usize) < m.positions.len()), "{}", m.name);
             }
         }
     }

@@ -13,8 +13,8 @@ use gltf::mesh::Mode;
 
 use super::accessor::{read_floats, read_indices};
 use super::{
-    Filter, Light, LightKind, Material, Mesh, Object, Projection, Scene, SceneCamera, Texture,
-    TextureRef, Wrap, compute_normals,
+    Filter, Light, LightKind, Material, Mesh, Object, Projection, Scene, SceneCamera, Texture, TextureRef, Wrap,
+    compute_normals,
 };
 use crate::error::{Error, Result};
 
@@ -35,22 +35,12 @@ const SUPPORTED_REQUIRED: &[&str] = &[
 const MAX_FILE: u64 = 2 << 30;
 
 pub(super) fn load(path: &Path) -> Result<Scene> {
-    let meta =
-        std::fs::metadata(path).map_err(|e| Error::scene(path, format!("cannot read: {e}")))?;
+    let meta = std::fs::metadata(path).map_err(|e| Error::scene(path, format!("cannot read: {e}")))?;
     if meta.is_dir() {
-        return Err(Error::scene(
-            path,
-            "is a directory, not a .gltf or .glb file",
-        ));
+        return Err(Error::scene(path, "is a directory, not a .gltf or .glb file"));
     }
     if meta.len() > MAX_FILE {
-        return Err(Error::scene(
-            path,
-            format!(
-                "{} bytes is larger than the {MAX_FILE}-byte limit",
-                meta.len()
-            ),
-        ));
+        return Err(Error::scene(path, format!("{} bytes is larger than the {MAX_FILE}-byte limit", meta.len())));
     }
     let bytes = std::fs::read(path).map_err(|e| Error::scene(path, format!("cannot read: {e}")))?;
     let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
@@ -70,19 +60,13 @@ fn load_bytes(bytes: &[u8], path: &Path, base: Option<&Path>) -> Result<Scene> {
     std::panic::set_hook(hook);
     match result {
         Ok(r) => r,
-        Err(_) => Err(Error::scene(
-            path,
-            "malformed glTF (the parser failed on this file)",
-        )),
+        Err(_) => Err(Error::scene(path, "malformed glTF (the parser failed on this file)")),
     }
 }
 
 /// Refuses files that require an extension we cannot render faithfully.
 fn check_required_extensions(path: &Path, required: &[String]) -> Result<()> {
-    let unsupported = |message: String| Error::Unsupported {
-        path: path.to_path_buf(),
-        message,
-    };
+    let unsupported = |message: String| Error::Unsupported { path: path.to_path_buf(), message };
     for ext in required {
         match ext.as_str() {
             "KHR_draco_mesh_compression" => {
@@ -91,7 +75,9 @@ fn check_required_extensions(path: &Path, required: &[String]) -> Result<()> {
                 ));
             }
             "EXT_meshopt_compression" => {
-                return Err(unsupported("meshopt-compressed buffers (EXT_meshopt_compression); re-export without compression".into()));
+                return Err(unsupported(
+                    "meshopt-compressed buffers (EXT_meshopt_compression); re-export without compression".into(),
+                ));
             }
             e if !SUPPORTED_REQUIRED.contains(&e) => {
                 return Err(unsupported(format!("the file requires the extension {e}")));
@@ -175,24 +161,14 @@ impl<'a> Loader<'a> {
             return Err(Error::scene(path, "the file is empty"));
         }
         if bytes.starts_with(&[0xEF, 0xBB, 0xBF]) {
-            return Err(Error::scene(
-                path,
-                "the JSON starts with a UTF-8 byte-order mark, which glTF forbids",
-            ));
+            return Err(Error::scene(path, "the JSON starts with a UTF-8 byte-order mark, which glTF forbids"));
         }
         let is_glb = bytes.starts_with(b"glTF");
-        if !is_glb
-            && bytes.len() >= 4
-            && bytes[..4].iter().any(|b| *b == 0)
-            && !bytes.starts_with(b"{")
-        {
-            return Err(Error::scene(
-                path,
-                "not a glTF file: neither a GLB header ('glTF' magic) nor JSON",
-            ));
+        if !is_glb && bytes.len() >= 4 && bytes[..4].iter().any(|b| *b == 0) && !bytes.starts_with(b"{") {
+            return Err(Error::scene(path, "not a glTF file: neither a GLB header ('glTF' magic) nor JSON"));
         }
-        let gltf = gltf::Gltf::from_slice_without_validation(bytes)
-            .map_err(|e| Error::scene(path, describe_gltf_error(e)))?;
+        let gltf =
+            gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| Error::scene(path, describe_gltf_error(e)))?;
         let gltf::Gltf { document, blob } = gltf;
         let mut root = document.into_json();
         let required = root.extensions_required.clone();
@@ -200,20 +176,15 @@ impl<'a> Loader<'a> {
         check_references(path, &root)?;
         // The gltf crate's validation refuses required extensions it does not parse itself;
         // we have vetted them above (KHR_mesh_quantization is read by our accessor code).
-        root.extensions_required
-            .retain(|e| gltf::json::extensions::ENABLED_EXTENSIONS.contains(&e.as_str()));
-        let document = gltf::Document::from_json(root)
-            .map_err(|e| Error::scene(path, describe_gltf_error(e)))?;
+        root.extensions_required.retain(|e| gltf::json::extensions::ENABLED_EXTENSIONS.contains(&e.as_str()));
+        let document = gltf::Document::from_json(root).map_err(|e| Error::scene(path, describe_gltf_error(e)))?;
         let mut loader = Loader {
             path,
             base,
             doc: &document,
             required,
             buffers: Vec::new(),
-            scene: Scene {
-                source: path.to_path_buf(),
-                ..Scene::default()
-            },
+            scene: Scene { source: path.to_path_buf(), ..Scene::default() },
             mesh_cache: HashMap::new(),
             material_cache: HashMap::new(),
             texture_cache: HashMap::new(),
@@ -233,9 +204,7 @@ impl<'a> Loader<'a> {
         let version = self.doc.as_json().asset.version.clone();
         let major = version.split('.').next().unwrap_or("");
         if major != "2" {
-            return Err(self.err(format!(
-                "asset.version is \"{version}\": only glTF 2.x is supported"
-            )));
+            return Err(self.err(format!("asset.version is \"{version}\": only glTF 2.x is supported")));
         }
         if self.doc.animations().len() > 0 {
             self.warn(format!(
@@ -252,9 +221,7 @@ impl<'a> Loader<'a> {
             let i = buffer.index();
             let data = match buffer.source() {
                 gltf::buffer::Source::Bin => blob.take().ok_or_else(|| {
-                    self.err(format!(
-                        "buffer {i} refers to the GLB's binary chunk, but the file has none"
-                    ))
+                    self.err(format!("buffer {i} refers to the GLB's binary chunk, but the file has none"))
                 })?,
                 gltf::buffer::Source::Uri(uri) => self.read_uri(uri, &format!("buffer {i}"))?,
             };
@@ -273,32 +240,26 @@ impl<'a> Loader<'a> {
     /// Reads a `data:` URI or a file relative to the glTF file.
     fn read_uri(&self, uri: &str, what: &str) -> Result<Vec<u8>> {
         if let Some(rest) = uri.strip_prefix("data:") {
-            let (header, payload) = rest
-                .split_once(',')
-                .ok_or_else(|| self.err(format!("{what}: malformed data: URI (no comma)")))?;
+            let (header, payload) =
+                rest.split_once(',').ok_or_else(|| self.err(format!("{what}: malformed data: URI (no comma)")))?;
             if !header.ends_with(";base64") || header.contains(";;") {
-                return Err(self.err(format!(
-                    "{what}: data: URI is not base64 (\"data:{header},...\")"
-                )));
+                return Err(self.err(format!("{what}: data: URI is not base64 (\"data:{header},...\")")));
             }
             return base64::engine::general_purpose::STANDARD
                 .decode(payload.trim())
                 .map_err(|e| self.err(format!("{what}: data: URI holds invalid base64 ({e})")));
         }
         if uri.is_empty() || uri.contains("://") || uri.starts_with(':') {
-            return Err(self.err(format!(
-                "{what}: unsupported URI \"{uri}\" (only relative file paths and data: URIs)"
-            )));
+            return Err(
+                self.err(format!("{what}: unsupported URI \"{uri}\" (only relative file paths and data: URIs)"))
+            );
         }
         let Some(base) = self.base else {
-            return Err(self.err(format!(
-                "{what}: external file \"{uri}\" cannot be read from an in-memory document"
-            )));
+            return Err(self.err(format!("{what}: external file \"{uri}\" cannot be read from an in-memory document")));
         };
         let rel = percent_decode(uri);
         let file: PathBuf = base.join(&rel);
-        std::fs::read(&file)
-            .map_err(|e| self.err(format!("{what}: cannot read \"{}\": {e}", file.display())))
+        std::fs::read(&file).map_err(|e| self.err(format!("{what}: cannot read \"{}\": {e}", file.display())))
     }
 
     fn load_scene(&mut self) -> Result<()> {
@@ -342,9 +303,9 @@ impl<'a> Loader<'a> {
     fn compute_world(&mut self, node: gltf::Node<'a>, parent: DMat4, depth: usize) -> Result<()> {
         let i = node.index();
         if depth > self.world.len() || self.world[i].is_some() {
-            return Err(self.err(format!(
-                "node {i} appears twice in the hierarchy (a node loop or a node with two parents)"
-            )));
+            return Err(
+                self.err(format!("node {i} appears twice in the hierarchy (a node loop or a node with two parents)"))
+            );
         }
         let local = self.local_transform(&node)?;
         let world = parent * local;
@@ -361,35 +322,21 @@ impl<'a> Loader<'a> {
             gltf::scene::Transform::Matrix { matrix } => {
                 let m = DMat4::from_cols_array_2d(&matrix.map(|c| c.map(|x| x as f64)));
                 let last_row = m.row(3);
-                if (last_row - DVec4::new(0.0, 0.0, 0.0, 1.0))
-                    .abs()
-                    .max_element()
-                    > 1e-6
-                {
+                if (last_row - DVec4::new(0.0, 0.0, 0.0, 1.0)).abs().max_element() > 1e-6 {
                     return Err(self.err(format!(
                         "node {i}: its matrix is not an affine transform (last row {last_row:?}); glTF needs a TRS matrix"
                     )));
                 }
                 m
             }
-            gltf::scene::Transform::Decomposed {
-                translation,
-                rotation,
-                scale,
-            } => {
+            gltf::scene::Transform::Decomposed { translation, rotation, scale } => {
                 let t = DVec3::from(translation.map(|x| x as f64));
                 let q = glam::DQuat::from_array(rotation.map(|x| x as f64));
                 let s = DVec3::from(scale.map(|x| x as f64));
                 if !(t.is_finite() && q.is_finite() && s.is_finite()) {
-                    return Err(self.err(format!(
-                        "node {i}: translation, rotation or scale is not finite"
-                    )));
+                    return Err(self.err(format!("node {i}: translation, rotation or scale is not finite")));
                 }
-                let q = if q.length_squared() > 0.0 {
-                    q.normalize()
-                } else {
-                    glam::DQuat::IDENTITY
-                };
+                let q = if q.length_squared() > 0.0 { q.normalize() } else { glam::DQuat::IDENTITY };
                 DMat4::from_scale_rotation_translation(s, q, t)
             }
         };
@@ -407,10 +354,7 @@ impl<'a> Loader<'a> {
             gltf::camera::Projection::Perspective(p) => {
                 let yfov = p.yfov() as f64;
                 if !(yfov > 0.0 && yfov < std::f64::consts::PI) {
-                    return Err(self.err(format!(
-                        "camera {}: yfov {yfov} rad is not in (0, pi)",
-                        camera.index()
-                    )));
+                    return Err(self.err(format!("camera {}: yfov {yfov} rad is not in (0, pi)", camera.index())));
                 }
                 if let Some(zfar) = p.zfar() {
                     if zfar <= p.znear() {
@@ -425,47 +369,25 @@ impl<'a> Loader<'a> {
             }
             gltf::camera::Projection::Orthographic(o) => {
                 if o.zfar() <= o.znear() {
-                    return Err(self.err(format!(
-                        "camera {}: zfar is not greater than znear",
-                        camera.index()
-                    )));
+                    return Err(self.err(format!("camera {}: zfar is not greater than znear", camera.index())));
                 }
-                Projection::Orthographic {
-                    ymag: (o.ymag() as f64).abs(),
-                }
+                Projection::Orthographic { ymag: (o.ymag() as f64).abs() }
             }
         };
         let f = forward.try_normalize();
         let u = f.and_then(|f| (up - f * up.dot(f)).try_normalize());
         match (f, u) {
-            (Some(forward), Some(up)) => Ok(SceneCamera {
-                position,
-                forward,
-                up,
-                projection,
-                focus_distance: None,
-            }),
-            _ => Err(self.err(format!(
-                "node {}: camera transform is degenerate (zero scale)",
-                node.index()
-            ))),
+            (Some(forward), Some(up)) => Ok(SceneCamera { position, forward, up, projection, focus_distance: None }),
+            _ => Err(self.err(format!("node {}: camera transform is degenerate (zero scale)", node.index()))),
         }
     }
 
-    fn light(
-        &self,
-        node: &gltf::Node,
-        light: gltf::khr_lights_punctual::Light,
-        world: DMat4,
-    ) -> Result<Light> {
+    fn light(&self, node: &gltf::Node, light: gltf::khr_lights_punctual::Light, world: DMat4) -> Result<Light> {
         use gltf::khr_lights_punctual::Kind;
         let kind = match light.kind() {
             Kind::Directional => LightKind::Directional,
             Kind::Point => LightKind::Point,
-            Kind::Spot {
-                inner_cone_angle,
-                outer_cone_angle,
-            } => {
+            Kind::Spot { inner_cone_angle, outer_cone_angle } => {
                 if !(inner_cone_angle >= 0.0
                     && inner_cone_angle < outer_cone_angle
                     && outer_cone_angle <= std::f32::consts::FRAC_PI_2)
@@ -475,58 +397,28 @@ impl<'a> Loader<'a> {
                         light.index()
                     )));
                 }
-                LightKind::Spot {
-                    inner: inner_cone_angle,
-                    outer: outer_cone_angle,
-                }
+                LightKind::Spot { inner: inner_cone_angle, outer: outer_cone_angle }
             }
         };
         let color = Vec3::from(light.color());
         let intensity = light.intensity();
-        if !(color.is_finite()
-            && intensity.is_finite()
-            && intensity >= 0.0
-            && color.min_element() >= 0.0)
-        {
-            return Err(self.err(format!(
-                "light {}: colour or intensity is negative or not finite",
-                light.index()
-            )));
+        if !(color.is_finite() && intensity.is_finite() && intensity >= 0.0 && color.min_element() >= 0.0) {
+            return Err(self.err(format!("light {}: colour or intensity is negative or not finite", light.index())));
         }
         let direction = world
             .transform_vector3(DVec3::NEG_Z)
             .try_normalize()
-            .ok_or_else(|| {
-                self.err(format!(
-                    "node {}: light transform is degenerate",
-                    node.index()
-                ))
-            })?;
-        Ok(Light {
-            kind,
-            color,
-            intensity,
-            position: world.transform_point3(DVec3::ZERO),
-            direction,
-        })
+            .ok_or_else(|| self.err(format!("node {}: light transform is degenerate", node.index())))?;
+        Ok(Light { kind, color, intensity, position: world.transform_point3(DVec3::ZERO), direction })
     }
 
-    fn instance(
-        &mut self,
-        node: &gltf::Node<'a>,
-        mesh: gltf::Mesh<'a>,
-        world: DMat4,
-    ) -> Result<()> {
+    fn instance(&mut self, node: &gltf::Node<'a>, mesh: gltf::Mesh<'a>, world: DMat4) -> Result<()> {
         let skin_matrices = match node.skin() {
             Some(skin) => Some(self.skin_matrices(&skin, world)?),
             None => None,
         };
         // Morph weights: the node's, else the mesh's defaults.
-        let weights: Vec<f32> = node
-            .weights()
-            .or(mesh.weights())
-            .map(<[f32]>::to_vec)
-            .unwrap_or_default();
+        let weights: Vec<f32> = node.weights().or(mesh.weights()).map(<[f32]>::to_vec).unwrap_or_default();
         for prim in mesh.primitives() {
             let key = (mesh.index(), prim.index());
             let deformed = skin_matrices.is_some() || weights.iter().any(|w| *w != 0.0);
@@ -542,21 +434,10 @@ impl<'a> Loader<'a> {
             let Some(mesh_index) = mesh_index else {
                 continue;
             };
-            let name = node
-                .name()
-                .map(str::to_string)
-                .unwrap_or_else(|| format!("node {}", node.index()));
+            let name = node.name().map(str::to_string).unwrap_or_else(|| format!("node {}", node.index()));
             // Skinned vertices are already in scene space (glTF ignores the node's transform).
-            let transform = if skin_matrices.is_some() {
-                DMat4::IDENTITY
-            } else {
-                world
-            };
-            self.scene.objects.push(Object {
-                name,
-                mesh: mesh_index,
-                transform,
-            });
+            let transform = if skin_matrices.is_some() { DMat4::IDENTITY } else { world };
+            self.scene.objects.push(Object { name, mesh: mesh_index, transform });
         }
         Ok(())
     }
@@ -565,12 +446,10 @@ impl<'a> Loader<'a> {
     fn skin_matrices(&self, skin: &gltf::Skin, _node_world: DMat4) -> Result<Vec<DMat4>> {
         let joints: Vec<_> = skin.joints().collect();
         let ibms: Vec<[f32; 16]> = match skin.inverse_bind_matrices() {
-            Some(acc) => read_floats::<16>(
-                &acc,
-                &self.buffers,
-                &format!("accessor {} (inverseBindMatrices)", acc.index()),
-            )
-            .map_err(|m| self.err(m))?,
+            Some(acc) => {
+                read_floats::<16>(&acc, &self.buffers, &format!("accessor {} (inverseBindMatrices)", acc.index()))
+                    .map_err(|m| self.err(m))?
+            }
             None => vec![glam::Mat4::IDENTITY.to_cols_array(); joints.len()],
         };
         if ibms.len() < joints.len() {
@@ -586,18 +465,11 @@ impl<'a> Loader<'a> {
             .zip(ibms)
             .map(|(j, ibm)| {
                 let jw = self.world[j.index()].ok_or_else(|| {
-                    self.err(format!(
-                        "skin {}: joint node {} is not in the rendered scene",
-                        skin.index(),
-                        j.index()
-                    ))
+                    self.err(format!("skin {}: joint node {} is not in the rendered scene", skin.index(), j.index()))
                 })?;
                 let ibm = DMat4::from_cols_array(&ibm.map(|x| x as f64));
                 if !ibm.is_finite() {
-                    return Err(self.err(format!(
-                        "skin {}: inverse bind matrix is not finite",
-                        skin.index()
-                    )));
+                    return Err(self.err(format!("skin {}: inverse bind matrix is not finite", skin.index())));
                 }
                 Ok(jw * ibm)
             })
@@ -612,32 +484,19 @@ impl<'a> Loader<'a> {
         skin: Option<&[DMat4]>,
         weights: &[f32],
     ) -> Result<Option<usize>> {
-        let mesh_name = mesh
-            .name()
-            .map(str::to_string)
-            .unwrap_or_else(|| format!("mesh {}", mesh.index()));
+        let mesh_name = mesh.name().map(str::to_string).unwrap_or_else(|| format!("mesh {}", mesh.index()));
         let name = if mesh.primitives().len() > 1 {
             format!("{mesh_name}/primitive {}", prim.index())
         } else {
             mesh_name.clone()
         };
         let mode = prim.mode();
-        if matches!(
-            mode,
-            Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip
-        ) {
-            self.warn(format!(
-                "{name}: {mode:?} primitives are not rendered (only triangles)"
-            ));
+        if matches!(mode, Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip) {
+            self.warn(format!("{name}: {mode:?} primitives are not rendered (only triangles)"));
             return Ok(None);
         }
-        let draco_used = self
-            .doc
-            .extensions_used()
-            .any(|e| e == "KHR_draco_mesh_compression");
-        let pos_view = prim
-            .get(&gltf::Semantic::Positions)
-            .map(|a| a.view().is_some() || a.sparse().is_some());
+        let draco_used = self.doc.extensions_used().any(|e| e == "KHR_draco_mesh_compression");
+        let pos_view = prim.get(&gltf::Semantic::Positions).map(|a| a.view().is_some() || a.sparse().is_some());
         if draco_used && pos_view == Some(false) {
             return Err(Error::Unsupported {
                 path: self.path.to_path_buf(),
@@ -646,12 +505,9 @@ impl<'a> Loader<'a> {
                 ),
             });
         }
-        let pos_acc = prim.get(&gltf::Semantic::Positions).ok_or_else(|| {
-            self.err(format!(
-                "{name}: primitive {} has no POSITION attribute",
-                prim.index()
-            ))
-        })?;
+        let pos_acc = prim
+            .get(&gltf::Semantic::Positions)
+            .ok_or_else(|| self.err(format!("{name}: primitive {} has no POSITION attribute", prim.index())))?;
         let what = format!("accessor {} (POSITION of {name})", pos_acc.index());
         if pos_acc.data_type() != gltf::accessor::DataType::F32
             && !self.required.iter().any(|e| e == "KHR_mesh_quantization")
@@ -664,10 +520,7 @@ impl<'a> Loader<'a> {
         let raw = read_floats::<3>(&pos_acc, &self.buffers, &what).map_err(|m| self.err(m))?;
         let mut positions: Vec<Vec3> = raw.iter().map(|p| Vec3::from(*p)).collect();
         if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
-            return Err(self.err(format!(
-                "{what}: vertex {i} is {:?}: NaN or infinite coordinates",
-                positions[i]
-            )));
+            return Err(self.err(format!("{what}: vertex {i} is {:?}: NaN or infinite coordinates", positions[i])));
         }
         self.check_bounds(&pos_acc, &positions, &what)?;
 
@@ -676,11 +529,7 @@ impl<'a> Loader<'a> {
                 let what = format!("accessor {} (NORMAL of {name})", acc.index());
                 let n = read_floats::<3>(&acc, &self.buffers, &what).map_err(|m| self.err(m))?;
                 if n.len() != positions.len() {
-                    return Err(self.err(format!(
-                        "{what}: {} normals for {} positions",
-                        n.len(),
-                        positions.len()
-                    )));
+                    return Err(self.err(format!("{what}: {} normals for {} positions", n.len(), positions.len())));
                 }
                 Some(n.into_iter().map(Vec3::from).collect())
             }
@@ -694,27 +543,17 @@ impl<'a> Loader<'a> {
                 continue;
             }
             if let Some(acc) = target.positions() {
-                let what = format!(
-                    "accessor {} (morph target {t} POSITION of {name})",
-                    acc.index()
-                );
+                let what = format!("accessor {} (morph target {t} POSITION of {name})", acc.index());
                 let d = read_floats::<3>(&acc, &self.buffers, &what).map_err(|m| self.err(m))?;
                 if d.len() != positions.len() {
-                    return Err(self.err(format!(
-                        "{what}: {} deltas for {} positions",
-                        d.len(),
-                        positions.len()
-                    )));
+                    return Err(self.err(format!("{what}: {} deltas for {} positions", d.len(), positions.len())));
                 }
                 for (p, d) in positions.iter_mut().zip(d) {
                     *p += w * Vec3::from(d);
                 }
             }
             if let (Some(acc), Some(n)) = (target.normals(), normals.as_mut()) {
-                let what = format!(
-                    "accessor {} (morph target {t} NORMAL of {name})",
-                    acc.index()
-                );
+                let what = format!("accessor {} (morph target {t} NORMAL of {name})", acc.index());
                 let d = read_floats::<3>(&acc, &self.buffers, &what).map_err(|m| self.err(m))?;
                 for (n, d) in n.iter_mut().zip(d) {
                     *n += w * Vec3::from(d);
@@ -728,28 +567,23 @@ impl<'a> Loader<'a> {
         }
 
         if let Some(joint_matrices) = skin {
-            self.apply_skin(
-                prim,
-                &name,
-                joint_matrices,
-                &mut positions,
-                normals.as_mut(),
-            )?;
+            self.apply_skin(prim, &name, joint_matrices, &mut positions, normals.as_mut())?;
         }
 
         let count = positions.len();
         let indices: Vec<u32> = match prim.indices() {
             Some(acc) => {
                 let what = format!("accessor {} (indices of {name})", acc.index());
-                let idx =
-                    read_indices(&acc, &self.buffers, count, &what).map_err(|m| self.err(m))?;
+                let idx = read_indices(&acc, &self.buffers, count, &what).map_err(|m| self.err(m))?;
                 let restart = match acc.data_type() {
                     gltf::accessor::DataType::U8 => 0xFF,
                     gltf::accessor::DataType::U16 => 0xFFFF,
                     _ => u32::MAX,
                 };
                 if let Some(i) = idx.iter().position(|&v| v == restart) {
-                    return Err(self.err(format!("{what}: index {i} is the primitive-restart value {restart}, which glTF forbids")));
+                    return Err(self.err(format!(
+                        "{what}: index {i} is the primitive-restart value {restart}, which glTF forbids"
+                    )));
                 }
                 idx
             }
@@ -765,22 +599,14 @@ impl<'a> Loader<'a> {
                 let fallback = compute_normals(&positions, &triangles);
                 n.into_iter()
                     .zip(fallback)
-                    .map(|(n, f)| {
-                        if n.is_finite() {
-                            n.try_normalize().unwrap_or(f)
-                        } else {
-                            f
-                        }
-                    })
+                    .map(|(n, f)| if n.is_finite() { n.try_normalize().unwrap_or(f) } else { f })
                     .collect()
             }
             None => compute_normals(&positions, &triangles),
         };
 
         let material = self.material(prim.material())?;
-        let uv_set = self.scene.materials[material]
-            .base_color_texture
-            .map(|t| t.uv_set);
+        let uv_set = self.scene.materials[material].base_color_texture.map(|t| t.uv_set);
         let uvs = match uv_set.and_then(|set| prim.get(&gltf::Semantic::TexCoords(set))) {
             Some(acc) => {
                 let what = format!("accessor {} (TEXCOORD of {name})", acc.index());
@@ -796,13 +622,11 @@ impl<'a> Loader<'a> {
             Some(acc) => {
                 let what = format!("accessor {} (COLOR_0 of {name})", acc.index());
                 let c: Vec<Vec4> = match acc.dimensions() {
-                    gltf::accessor::Dimensions::Vec3 => {
-                        read_floats::<3>(&acc, &self.buffers, &what)
-                            .map_err(|m| self.err(m))?
-                            .into_iter()
-                            .map(|c| Vec3::from(c).extend(1.0))
-                            .collect()
-                    }
+                    gltf::accessor::Dimensions::Vec3 => read_floats::<3>(&acc, &self.buffers, &what)
+                        .map_err(|m| self.err(m))?
+                        .into_iter()
+                        .map(|c| Vec3::from(c).extend(1.0))
+                        .collect(),
                     _ => read_floats::<4>(&acc, &self.buffers, &what)
                         .map_err(|m| self.err(m))?
                         .into_iter()
@@ -810,65 +634,42 @@ impl<'a> Loader<'a> {
                         .collect(),
                 };
                 if c.len() != count {
-                    return Err(
-                        self.err(format!("{what}: {} colours for {count} positions", c.len()))
-                    );
+                    return Err(self.err(format!("{what}: {} colours for {count} positions", c.len())));
                 }
                 Some(
                     c.into_iter()
-                        .map(|c| {
-                            if c.is_finite() {
-                                c.clamp(Vec4::ZERO, Vec4::ONE)
-                            } else {
-                                Vec4::ONE
-                            }
-                        })
+                        .map(|c| if c.is_finite() { c.clamp(Vec4::ZERO, Vec4::ONE) } else { Vec4::ONE })
                         .collect(),
                 )
             }
             None => None,
         };
-        self.scene.meshes.push(Mesh {
-            name,
-            positions,
-            normals,
-            uvs,
-            colors,
-            triangles,
-            material: Some(material),
-        });
+        self.scene.meshes.push(Mesh { name, positions, normals, uvs, colors, triangles, material: Some(material) });
         Ok(Some(self.scene.meshes.len() - 1))
     }
 
     /// Declared POSITION bounds must hold the data (the validator's ACCESSOR_MIN/MAX checks).
     fn check_bounds(&self, acc: &gltf::Accessor, positions: &[Vec3], what: &str) -> Result<()> {
         let as_vec = |v: Option<gltf::json::Value>| -> Option<Vec3> {
-            let arr = v?
-                .as_array()?
-                .iter()
-                .map(|x| x.as_f64())
-                .collect::<Option<Vec<f64>>>()?;
+            let arr = v?.as_array()?.iter().map(|x| x.as_f64()).collect::<Option<Vec<f64>>>()?;
             (arr.len() == 3).then(|| Vec3::new(arr[0] as f32, arr[1] as f32, arr[2] as f32))
         };
         let (min, max) = (as_vec(acc.min()), as_vec(acc.max()));
-        let Some((lo, hi)) = positions.iter().fold(None, |acc: Option<(Vec3, Vec3)>, p| {
-            Some(acc.map_or((*p, *p), |(lo, hi)| (lo.min(*p), hi.max(*p))))
-        }) else {
+        let Some((lo, hi)) = positions
+            .iter()
+            .fold(None, |acc: Option<(Vec3, Vec3)>, p| Some(acc.map_or((*p, *p), |(lo, hi)| (lo.min(*p), hi.max(*p)))))
+        else {
             return Ok(());
         };
         let tol = |v: Vec3| v.abs() * 1e-5 + Vec3::splat(1e-6);
         if let Some(min) = min {
             if (lo + tol(lo)).cmplt(min).any() {
-                return Err(self.err(format!(
-                    "{what}: data reach {lo:?}, below the declared min {min:?}"
-                )));
+                return Err(self.err(format!("{what}: data reach {lo:?}, below the declared min {min:?}")));
             }
         }
         if let Some(max) = max {
             if (hi - tol(hi)).cmpgt(max).any() {
-                return Err(self.err(format!(
-                    "{what}: data reach {hi:?}, above the declared max {max:?}"
-                )));
+                return Err(self.err(format!("{what}: data reach {hi:?}, above the declared max {max:?}")));
             }
         }
         Ok(())
@@ -882,30 +683,17 @@ impl<'a> Loader<'a> {
         positions: &mut [Vec3],
         normals: Option<&mut Vec<Vec3>>,
     ) -> Result<()> {
-        let (Some(jacc), Some(wacc)) = (
-            prim.get(&gltf::Semantic::Joints(0)),
-            prim.get(&gltf::Semantic::Weights(0)),
-        ) else {
-            return Err(self.err(format!(
-                "{name}: skinned node but the primitive has no JOINTS_0/WEIGHTS_0"
-            )));
+        let (Some(jacc), Some(wacc)) = (prim.get(&gltf::Semantic::Joints(0)), prim.get(&gltf::Semantic::Weights(0)))
+        else {
+            return Err(self.err(format!("{name}: skinned node but the primitive has no JOINTS_0/WEIGHTS_0")));
         };
-        let joints = read_floats::<4>(
-            &jacc,
-            &self.buffers,
-            &format!("accessor {} (JOINTS_0 of {name})", jacc.index()),
-        )
-        .map_err(|m| self.err(m))?;
-        let weights = read_floats::<4>(
-            &wacc,
-            &self.buffers,
-            &format!("accessor {} (WEIGHTS_0 of {name})", wacc.index()),
-        )
-        .map_err(|m| self.err(m))?;
+        let joints = read_floats::<4>(&jacc, &self.buffers, &format!("accessor {} (JOINTS_0 of {name})", jacc.index()))
+            .map_err(|m| self.err(m))?;
+        let weights =
+            read_floats::<4>(&wacc, &self.buffers, &format!("accessor {} (WEIGHTS_0 of {name})", wacc.index()))
+                .map_err(|m| self.err(m))?;
         if joints.len() != positions.len() || weights.len() != positions.len() {
-            return Err(self.err(format!(
-                "{name}: JOINTS_0/WEIGHTS_0 counts differ from POSITION"
-            )));
+            return Err(self.err(format!("{name}: JOINTS_0/WEIGHTS_0 counts differ from POSITION")));
         }
         let mut normals = normals;
         for i in 0..positions.len() {
@@ -918,20 +706,13 @@ impl<'a> Loader<'a> {
                 }
                 let j = joints[i][k] as usize;
                 let jm = joint_matrices.get(j).ok_or_else(|| {
-                    self.err(format!(
-                        "{name}: vertex {i} uses joint {j} of a {}-joint skin",
-                        joint_matrices.len()
-                    ))
+                    self.err(format!("{name}: vertex {i} uses joint {j} of a {}-joint skin", joint_matrices.len()))
                 })?;
                 m += *jm * w;
                 total += w;
             }
             // Weights that do not sum to 1 (seen in CesiumMan) are renormalised.
-            let m = if total > 0.0 {
-                m * (1.0 / total)
-            } else {
-                DMat4::IDENTITY
-            };
+            let m = if total > 0.0 { m * (1.0 / total) } else { DMat4::IDENTITY };
             positions[i] = m.transform_point3(positions[i].as_dvec3()).as_vec3();
             if let Some(n) = normals.as_deref_mut() {
                 let nm = m.inverse().transpose();
@@ -948,10 +729,7 @@ impl<'a> Loader<'a> {
         let mut mat = Material::default();
         if let Some(i) = m.index() {
             let pbr = m.pbr_metallic_roughness();
-            mat.name = m
-                .name()
-                .map(str::to_string)
-                .unwrap_or_else(|| format!("material {i}"));
+            mat.name = m.name().map(str::to_string).unwrap_or_else(|| format!("material {i}"));
             mat.base_color = Vec4::from(pbr.base_color_factor());
             if !mat.base_color.is_finite() {
                 return Err(self.err(format!("material {i}: baseColorFactor is not finite")));
@@ -974,11 +752,7 @@ impl<'a> Loader<'a> {
                         uv_set = set;
                     }
                 }
-                mat.base_color_texture = texture.map(|texture| TextureRef {
-                    texture,
-                    uv_set,
-                    uv_transform,
-                });
+                mat.base_color_texture = texture.map(|texture| TextureRef { texture, uv_set, uv_transform });
             }
         }
         self.scene.materials.push(mat);
@@ -997,26 +771,15 @@ impl<'a> Loader<'a> {
         let bytes: Vec<u8> = match image.source() {
             gltf::image::Source::View { view, .. } => {
                 let b = view.buffer().index();
-                let data = self
-                    .buffers
-                    .get(b)
-                    .ok_or_else(|| self.err(format!("{what}: missing buffer {b}")))?;
-                let end = view
-                    .offset()
-                    .checked_add(view.length())
-                    .filter(|e| *e <= data.len())
-                    .ok_or_else(|| {
-                        self.err(format!(
-                            "{what}: bufferView {} runs past the end of buffer {b}",
-                            view.index()
-                        ))
-                    })?;
+                let data = self.buffers.get(b).ok_or_else(|| self.err(format!("{what}: missing buffer {b}")))?;
+                let end = view.offset().checked_add(view.length()).filter(|e| *e <= data.len()).ok_or_else(|| {
+                    self.err(format!("{what}: bufferView {} runs past the end of buffer {b}", view.index()))
+                })?;
                 data[view.offset()..end].to_vec()
             }
             gltf::image::Source::Uri { uri, .. } => self.read_uri(uri, &what)?,
         };
-        let decoded = image::load_from_memory(&bytes)
-            .map_err(|e| self.err(format!("{what}: cannot decode: {e}")))?;
+        let decoded = image::load_from_memory(&bytes).map_err(|e| self.err(format!("{what}: cannot decode: {e}")))?;
         let rgba = decoded.to_rgba8();
         let sampler = t.sampler();
         let wrap = |w: gltf::texture::WrappingMode| match w {
@@ -1052,17 +815,9 @@ pub(crate) fn triangulate(mode: Mode, idx: &[u32]) -> Vec<[u32; 3]> {
     match mode {
         Mode::Triangles => idx.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
         Mode::TriangleStrip => (0..idx.len().saturating_sub(2))
-            .map(|i| {
-                if i % 2 == 0 {
-                    [idx[i], idx[i + 1], idx[i + 2]]
-                } else {
-                    [idx[i + 1], idx[i], idx[i + 2]]
-                }
-            })
+            .map(|i| if i % 2 == 0 { [idx[i], idx[i + 1], idx[i + 2]] } else { [idx[i + 1], idx[i], idx[i + 2]] })
             .collect(),
-        Mode::TriangleFan => (1..idx.len().saturating_sub(1))
-            .map(|i| [idx[0], idx[i], idx[i + 1]])
-            .collect(),
+        Mode::TriangleFan => (1..idx.len().saturating_sub(1)).map(|i| [idx[0], idx[i], idx[i + 1]]).collect(),
         _ => Vec::new(),
     }
 }
@@ -1092,14 +847,8 @@ mod tests {
 
     #[test]
     fn strips_and_fans() {
-        assert_eq!(
-            triangulate(Mode::TriangleStrip, &[0, 1, 2, 3]),
-            vec![[0, 1, 2], [2, 1, 3]]
-        );
-        assert_eq!(
-            triangulate(Mode::TriangleFan, &[0, 1, 2, 3]),
-            vec![[0, 1, 2], [0, 2, 3]]
-        );
+        assert_eq!(triangulate(Mode::TriangleStrip, &[0, 1, 2, 3]), vec![[0, 1, 2], [2, 1, 3]]);
+        assert_eq!(triangulate(Mode::TriangleFan, &[0, 1, 2, 3]), vec![[0, 1, 2], [0, 2, 3]]);
         assert_eq!(triangulate(Mode::Triangles, &[0, 1, 2, 3]), vec![[0, 1, 2]]);
         assert!(triangulate(Mode::TriangleStrip, &[0, 1]).is_empty());
     }

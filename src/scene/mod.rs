@@ -154,10 +154,7 @@ impl Scene {
     }
 
     pub fn triangle_count(&self) -> usize {
-        self.objects
-            .iter()
-            .map(|o| self.meshes[o.mesh].triangles.len())
-            .sum()
+        self.objects.iter().map(|o| self.meshes[o.mesh].triangles.len()).sum()
     }
 }
 
@@ -173,7 +170,5 @@ pub fn compute_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> 
             }
         }
     }
-    n.into_iter()
-        .map(|v| v.try_normalize().unwrap_or(Vec3::Y))
-        .collect()
+    n.into_iter().map(|v| v.try_normalize().unwrap_or(Vec3::Y)).collect()
 }

@@ -28,53 +28,24 @@ pub struct Texture {
 
 /// sRGB transfer function, decoding (IEC 61966-2-1).
 pub fn srgb_to_linear(c: f32) -> f32 {
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
+    if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
 }
 
 /// sRGB transfer function, encoding.
 pub fn linear_to_srgb(c: f32) -> f32 {
     let c = c.clamp(0.0, 1.0);
-    if c <= 0.003_130_8 {
-        c * 12.92
-    } else {
-        1.055 * c.powf(1.0 / 2.4) - 0.055
-    }
+    if c <= 0.003_130_8 { c * 12.92 } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 }
 }
 
 impl Texture {
     /// From 8-bit sRGB RGBA rows (colour channels decoded to linear, alpha kept linear).
-    pub fn from_srgba8(
-        width: u32,
-        height: u32,
-        rgba: &[u8],
-        wrap_s: Wrap,
-        wrap_t: Wrap,
-        filter: Filter,
-    ) -> Self {
+    pub fn from_srgba8(width: u32, height: u32, rgba: &[u8], wrap_s: Wrap, wrap_t: Wrap, filter: Filter) -> Self {
         let lut: Vec<f32> = (0..256).map(|i| srgb_to_linear(i as f32 / 255.0)).collect();
         let pixels = rgba
             .chunks_exact(4)
-            .map(|p| {
-                Vec4::new(
-                    lut[p[0] as usize],
-                    lut[p[1] as usize],
-                    lut[p[2] as usize],
-                    p[3] as f32 / 255.0,
-                )
-            })
+            .map(|p| Vec4::new(lut[p[0] as usize], lut[p[1] as usize], lut[p[2] as usize], p[3] as f32 / 255.0))
             .collect();
-        Texture {
-            width,
-            height,
-            pixels,
-            wrap_s,
-            wrap_t,
-            filter,
-        }
+        Texture { width, height, pixels, wrap_s, wrap_t, filter }
     }
 
     fn texel(&self, x: i64, y: i64) -> Vec4 {
@@ -122,9 +93,7 @@ mod tests {
 
     fn checker() -> Texture {
         // 2x2: black, white / white, black
-        let px = [
-            0, 0, 0, 255, 255, 255, 255, 255, 255, 255, 255, 255, 0, 0, 0, 255,
-        ];
+        let px = [0, 0, 0, 255, 255, 255, 255, 255, 255, 255, 255, 255, 0, 0, 0, 255];
         Texture::from_srgba8(2, 2, &px, Wrap::Repeat, Wrap::Repeat, Filter::Nearest)
     }
 
@@ -158,11 +127,7 @@ mod tests {
     #[test]
     fn non_finite_uv_does_not_panic() {
         let t = checker();
-        for uv in [
-            Vec2::NAN,
-            Vec2::new(f32::INFINITY, 0.0),
-            Vec2::new(1e30, -1e30),
-        ] {
+        for uv in [Vec2::NAN, Vec2::new(f32::INFINITY, 0.0), Vec2::new(1e30, -1e30)] {
             assert!(t.sample(uv).is_finite());
         }
     }

@@ -103,18 +103,11 @@ impl World {
             }
         }
         let r = r2.sqrt();
-        let scale = if r > 0.0 && r.is_finite() && (1.0 / r).is_finite() {
-            1.0 / r
-        } else {
-            1.0
-        };
+        let scale = if r > 0.0 && r.is_finite() && (1.0 / r).is_finite() { 1.0 / r } else { 1.0 };
         let to_render = Similarity { centre, scale };
 
         let n_tris = scene.triangle_count();
-        let any_colors = scene
-            .objects
-            .iter()
-            .any(|o| scene.meshes[o.mesh].colors.is_some());
+        let any_colors = scene.objects.iter().any(|o| scene.meshes[o.mesh].colors.is_some());
         let mut w = World {
             to_render,
             positions: Vec::with_capacity(n_tris),
@@ -139,11 +132,8 @@ impl World {
         for (oi, o) in scene.objects.iter().enumerate() {
             let mesh = &scene.meshes[o.mesh];
             let normal_matrix = glam::DMat3::from_mat4(o.transform).inverse().transpose();
-            let placed: Vec<Vec3> = mesh
-                .positions
-                .iter()
-                .map(|p| to_render.point(o.transform.transform_point3(p.as_dvec3())))
-                .collect();
+            let placed: Vec<Vec3> =
+                mesh.positions.iter().map(|p| to_render.point(o.transform.transform_point3(p.as_dvec3()))).collect();
             let normals: Vec<Vec3> = mesh
                 .normals
                 .iter()
@@ -209,9 +199,7 @@ impl World {
             forward: c.forward,
             up: c.up,
             projection: match c.projection {
-                Projection::Orthographic { ymag } => {
-                    Projection::Orthographic { ymag: ymag * scale }
-                }
+                Projection::Orthographic { ymag } => Projection::Orthographic { ymag: ymag * scale },
                 p => p,
             },
             focus_distance: c.focus_distance.map(|f| f * scale),
