@@ -14,6 +14,11 @@ ENGINE_ID = "CUBIST"
 # The last run, for diagnostics (the panel's status line and the tests): the renderer's
 # process id and exit code, the temporary workspace, the settings sent, the warnings.
 last_run: dict = {}
+# One entry per rendered frame (frame, settings sent, layout, error), the newest last.
+history: list = []
+HISTORY_LIMIT = 1000
+# Tests simulate Blender's cancel (Esc, which test_break() reports) with a callable here.
+cancel_hook = None
 
 
 def addon_preferences(context=None):
@@ -50,9 +55,9 @@ def current_layout_path(scene) -> Path:
     props = scene.cubist
     r = scene.render
     w, h = mapping.render_size(r.resolution_x, r.resolution_y, r.resolution_percentage)
-    facts = mapping.SceneFacts(width=w, height=h, frame=scene.frame_start)
+    facts = mapping.SceneFacts(width=w, height=h, frame=props.layout_frame)
     settings = mapping.settings_from_panel(_panel(props), facts)
-    return runner.layout_path(layout_folder(props), scene.name, {**settings, "seed": props.seed})
+    return runner.layout_path(layout_folder(props), scene.name, {**settings, "seed": props.seed}, props.layout_frame)
 
 
 class CubistRenderEngine(bpy.types.RenderEngine):
@@ -74,6 +79,7 @@ class CubistRenderEngine(bpy.types.RenderEngine):
     def render(self, depsgraph):
         scene = depsgraph.scene
         last_run.clear()
+        last_run["frame"] = scene.frame_current
         try:
             self._render(depsgraph, scene)
         except runner.Cancelled:
@@ -85,17 +91,23 @@ class CubistRenderEngine(bpy.types.RenderEngine):
             traceback.print_exc()
             last_run["error"] = f"{type(e).__name__}: {e}"
             self.report({"ERROR"}, f"Cubist: internal error: {type(e).__name__}: {e}")
+        finally:
+            entry = {k: last_run.get(k) for k in ("frame", "settings", "layout", "error", "cancelled", "warnings")}
+            history.append(entry)
+            del history[:-HISTORY_LIMIT]
 
     # -----------------------------------------------------------------------------------------
 
     def _cancelled(self) -> bool:
-        return bool(self.test_break())
+        return bool(self.test_break()) or (cancel_hook is not None and bool(cancel_hook()))
 
     def _run(self, binary: Path, glb: Path, out: Path, settings: dict, cfg: Path, frame: int, span) -> list:
         runner.write_settings(cfg, settings)
+        last_run["settings_json"] = cfg.read_text(encoding="utf-8")
         tracker = runner.ProgressTracker(*span)
 
         def progress(stage, fraction):
+            last_run["progress_lines"] = last_run.get("progress_lines", 0) + 1
             f = tracker.update(stage, fraction)
             self.update_progress(f)
             self.update_stats("Cubist", f"Frame {frame} | {stage} {int(round(fraction * 100))}%")
@@ -146,7 +158,8 @@ class CubistRenderEngine(bpy.types.RenderEngine):
             layout = None
             if props.static_facets and runner.uses_layout(settings):
                 # The panel's seed, not the animated one: one layout for every frame.
-                layout = runner.layout_path(folder, scene.name, {**settings, "seed": panel["seed"]})
+                layout = runner.layout_path(folder, scene.name, {**settings, "seed": panel["seed"]},
+                                            props.layout_frame)
             cache = folder / "saliency"
             if runner.binary_supports(binary, "saliency_cache"):
                 settings["saliency_cache"] = str(cache)
@@ -158,7 +171,7 @@ class CubistRenderEngine(bpy.types.RenderEngine):
                 except OSError as e:
                     raise runner.CubistError(f"cannot create the layout folder {folder}: {e.strerror}") from None
 
-            plan = runner.plan_layout(settings, layout, frame, scene.frame_start)
+            plan = runner.plan_layout(settings, layout, frame, props.layout_frame)
             span = (0.0, 1.0)
             if plan.prepass_frame is not None:
                 # This chunk does not start on the layout frame: compute the layout there first,
@@ -238,13 +251,23 @@ def _read_pass(path: Path, w: int, h: int, channels: int, integer: bool):
     return np.ascontiguousarray(px, dtype=np.float32)
 
 
+# EEVEE's panels that edit what the renderer reads: camera focus, materials' base colour,
+# the world's background colour.
+INCLUDE_PANELS = {"DATA_PT_camera_dof", "EEVEE_MATERIAL_PT_context_material", "EEVEE_MATERIAL_PT_surface",
+                  "EEVEE_WORLD_PT_surface", "DATA_PT_EEVEE_light"}
+EXCLUDE_PANELS = {"RENDER_PT_simplify", "DATA_PT_lightprobe", "DATA_PT_lightprobe_display",
+                  "DATA_PT_lightprobe_visibility", "DATA_PT_lightprobe_parallax", "DATA_PT_context_lightprobe",
+                  "EEVEE_MATERIAL_PT_viewport_settings"}
+
+
 def get_panels():
-    """Blender's own panels that apply to any engine (output, format, camera, lights...)."""
-    exclude = {"VIEWLAYER_PT_filter", "VIEWLAYER_PT_layer_passes", "RENDER_PT_freestyle",
-               "RENDER_PT_simplify", "RENDER_PT_color_management_display_settings"}
+    """Blender's own panels that apply to any engine (output, format, camera, lights...)
+    (the pattern of Blender's custom render engine template)."""
     for panel in bpy.types.Panel.__subclasses__():
         compat = getattr(panel, "COMPAT_ENGINES", None)
-        if compat is not None and "BLENDER_RENDER" in compat and panel.__name__ not in exclude:
+        if compat is None or panel.__name__ in EXCLUDE_PANELS:
+            continue
+        if "BLENDER_RENDER" in compat or panel.__name__ in INCLUDE_PANELS:
             yield panel
 
 

@@ -50,7 +50,9 @@ def world_background(scene):
     world = scene.world
     if world is None:
         return None
-    tree = world.node_tree if getattr(world, "use_nodes", True) else None
+    # Blender 5 always renders the world's nodes (`use_nodes` is deprecated); 4.x only when on.
+    uses_nodes = bpy.app.version >= (5, 0, 0) or world.use_nodes
+    tree = world.node_tree if uses_nodes else None
     if tree is not None:
         out = next((n for n in tree.nodes if n.type == "OUTPUT_WORLD" and n.is_active_output), None)
         if out is None:

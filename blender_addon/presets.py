@@ -31,6 +31,7 @@ DEFAULTS = {
     "thresholds": "0, 0.05, 0.08",
     "static_facets": True,
     "layout_folder": "",
+    "layout_frame": 1,
     "imprecision": "SALIENCY",
     "discontinuity": 0.0,
     "neighborhood": 0.0,
@@ -74,7 +75,7 @@ BUILTIN = {
 
 # Settings that a preset does not touch: where files go, what passes are written, the
 # Blender-camera mapping choices (they are about the scene, not the look).
-NOT_IN_PRESETS = {"layout_folder", "static_facets", "use_world_background", "use_camera_focus",
+NOT_IN_PRESETS = {"layout_folder", "layout_frame", "static_facets", "use_world_background", "use_camera_focus",
                   "use_camera_lens", "facet_map", "palette_image"} | {k for k in DEFAULTS if k.startswith("pass_")}
 
 

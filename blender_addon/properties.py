@@ -107,10 +107,12 @@ class CubistSettings(bpy.types.PropertyGroup):
     thresholds: StringProperty(name="Thresholds", description="Segment: mean-saliency threshold per level, 0-1, "
                                "one per level (paper: 0, 0.05, 0.08)", default=D["thresholds"])
     static_facets: BoolProperty(
-        name="Static Facets", description="Compute the facet layout once, on the first frame of the scene's "
-        "frame range, save it in the layout folder and reuse it for every frame: camera and objects move, "
+        name="Static Facets", description="Compute the facet layout once, on the Layout Frame, save it in the layout folder and reuse it for every frame: camera and objects move, "
         "facets stay (thesis Ch. 6). Frame chunks rendered by separate processes or farm machines then "
         "match one run. Off: a new layout for every render", default=D["static_facets"])
+    layout_frame: IntProperty(
+        name="Layout Frame", description="The frame whose view computes the static facet layout. Every frame, "
+        "and every farm chunk whatever its frame range, reuses this frame's layout", default=D["layout_frame"])
     layout_folder: StringProperty(
         name="Layout Folder", description="Where the facet layout and the saliency cache are kept. Empty: a "
         "'cubist' folder beside the .blend (share it with the render farm)", subtype="DIR_PATH",

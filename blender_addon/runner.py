@@ -222,19 +222,21 @@ def pass_path(output: Path, name: str) -> Path:
 # Facet layouts across frames (static facets, SPEC "Animation")
 
 
-def layout_key(settings: Mapping[str, object]) -> str:
-    """A short hash of the settings that decide a layout, and of the image's aspect ratio
-    (the layout is resolution-independent, so a 50% preview and the final share it)."""
+def layout_key(settings: Mapping[str, object], layout_frame: int = 1) -> str:
+    """A short hash of the settings that decide a layout, of the frame it is computed on,
+    and of the image's aspect ratio (the layout is resolution-independent, so a 50% preview
+    and the final share it)."""
     w, h = settings.get("width", 800), settings.get("height", 600)
     data = {k: settings.get(k) for k in LAYOUT_KEYS}
+    data["layout_frame"] = int(layout_frame)
     data["aspect"] = round(float(w) / float(h), 4)
     text = json.dumps(data, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:10]
 
 
-def layout_path(folder: Path, scene_name: str, settings: Mapping[str, object]) -> Path:
+def layout_path(folder: Path, scene_name: str, settings: Mapping[str, object], layout_frame: int = 1) -> Path:
     safe = "".join(c if c.isalnum() or c in "-_" else "_" for c in scene_name) or "scene"
-    return folder / f"{safe}.{layout_key(settings)}.facets.json"
+    return folder / f"{safe}.{layout_key(settings, layout_frame)}.facets.json"
 
 
 def uses_layout(settings: Mapping[str, object]) -> bool:

@@ -64,7 +64,7 @@ class CUBIST_MT_presets(bpy.types.Menu):
 
 class CUBIST_OT_recompute_layout(bpy.types.Operator):
     """Delete the saved facet layout of the current settings: the next render computes it again
-    on the first frame of the frame range"""
+    on the Layout Frame"""
 
     bl_idname = "cubist.recompute_layout"
     bl_label = "Recompute Facet Layout"
@@ -164,10 +164,11 @@ class CUBIST_PT_facets(CubistPanel, bpy.types.Panel):
         col.prop(c, "static_facets")
         sub = layout.column()
         sub.active = c.static_facets
+        sub.prop(c, "layout_frame")
         sub.prop(c, "layout_folder")
         try:
             path = engine.current_layout_path(context.scene)
-            state = "saved" if path.is_file() else f"computed on frame {context.scene.frame_start} at next render"
+            state = "saved" if path.is_file() else f"computed on frame {c.layout_frame} at next render"
             sub.label(text=f"{path.name}: {state}", icon="FILE")
         except runner.CubistError as e:
             sub.label(text=str(e), icon="ERROR")

@@ -1,5 +1,6 @@
-"""Shared fixtures: the release binary (built when missing or stale), headless Blender (bpy)
-with a throw-away user folder, and the add-on enabled from this checkout."""
+"""Fixtures and helpers of the add-on tests (imported by them, not a conftest.py, so other
+suites in tests/python keep their own): the release binary (built when missing or stale),
+headless Blender (bpy) with a throw-away user folder, the add-on enabled from this checkout."""
 
 import os
 import subprocess
