@@ -109,6 +109,9 @@ class CubistRenderEngine(bpy.types.RenderEngine):
         def progress(stage, fraction):
             last_run["progress_lines"] = last_run.get("progress_lines", 0) + 1
             f = tracker.update(stage, fraction)
+            values = last_run.setdefault("progress", [])
+            if len(values) < 10000:
+                values.append(f)
             self.update_progress(f)
             self.update_stats("Cubist", f"Frame {frame} | {stage} {int(round(fraction * 100))}%")
 
@@ -207,6 +210,9 @@ class CubistRenderEngine(bpy.types.RenderEngine):
         """Loads the picture and passes into the render result, only once all are read, so a
         failure never shows half a result."""
         w, h = facts.width, facts.height
+        # Render Region: the whole frame is rendered (facets and framing depend on it) and the
+        # region is handed back, as Blender expects (its pixel rounding: truncation).
+        x0, y0, rw, rh = region(scene.render, w, h)
         passes = {}
         for toggle, name, bname, channels, _chan, _kind in mapping.PASSES:
             if name not in settings.get("passes", []):
@@ -215,11 +221,13 @@ class CubistRenderEngine(bpy.types.RenderEngine):
             if not path.is_file():
                 warnings.append(f"the renderer wrote no {name} pass")
                 continue
-            passes[bname] = _read_pass(path, w, h, channels, integer=(name == "facet-ids"))
-        result = self.begin_result(0, 0, w, h, layer=view_layer.name)
+            px = _read_pass(path, w, h, channels, integer=(name == "facet-ids"))
+            px = px.reshape(h, w, channels)[y0:y0 + rh, x0:x0 + rw].reshape(rw * rh, channels)
+            passes[bname] = px.copy()
+        result = self.begin_result(0, 0, rw, rh, layer=view_layer.name)
         try:
             layer = result.layers[0]
-            layer.load_from_file(str(out))
+            layer.load_from_file(str(out), x=x0, y=y0)
             for bname, rect in passes.items():
                 p = layer.passes.find_by_name(bname, "") if hasattr(layer.passes, "find_by_name") else None
                 p = p or layer.passes.get(bname)
@@ -229,6 +237,18 @@ class CubistRenderEngine(bpy.types.RenderEngine):
             self.end_result(result, cancel=True)
             raise
         self.end_result(result)
+
+
+def region(render, w: int, h: int) -> tuple:
+    """(x, y, width, height) of the Render Region in pixels, y from the bottom; the whole
+    frame without one. Blender's own rounding (truncation) and its 'too small' rule."""
+    if not render.use_border:
+        return 0, 0, w, h
+    x0, x1 = int(render.border_min_x * w), int(render.border_max_x * w)
+    y0, y1 = int(render.border_min_y * h), int(render.border_max_y * h)
+    if x1 - x0 < 2 or y1 - y0 < 2:
+        return 0, 0, w, h
+    return x0, y0, x1 - x0, y1 - y0
 
 
 def _read_pass(path: Path, w: int, h: int, channels: int, integer: bool):

@@ -438,7 +438,7 @@ class Workspace:
     """A temporary directory for one render's files (scene, settings, image, passes),
     removed on exit whatever happened: success, error or cancel."""
 
-    def __init__(self, prefix: str = "cubist-"):
+    def __init__(self, prefix: str = "cubist-render-"):
         self.prefix = prefix
         self.path: Optional[Path] = None
 

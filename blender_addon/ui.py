@@ -256,6 +256,8 @@ class CUBIST_PT_output(CubistPanel, bpy.types.Panel):
         row.prop(c, "background")
         layout.prop(c, "shadows")
         layout.prop(c, "exposure")
+        # The scene is exported from the render thread: a locked interface keeps edits out of it.
+        layout.prop(context.scene.render, "use_lock_interface")
 
 
 classes = (

@@ -46,7 +46,7 @@ def srgb(c):
 
 
 def cubist_temp_dirs():
-    return set(Path(tempfile.gettempdir()).glob("cubist-*")) - set(Path(tempfile.gettempdir()).glob("cubist-blender-*"))
+    return set(Path(tempfile.gettempdir()).glob("cubist-render-*"))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -65,6 +65,63 @@ def test_addon_enables_with_engine_panels_and_properties(bpy):
     assert "CUBIST" in bpy.types.DATA_PT_camera_dof.COMPAT_ENGINES
 
 
+class FakeLayout:
+    """Stands in for a panel's UILayout (no UI in background mode): records every property
+    drawn and checks it exists, so a typo in ui.py fails here rather than in a user's panel."""
+
+    def __init__(self, drawn):
+        self.drawn = drawn
+        self.use_property_split = False
+        self.active = True
+
+    def prop(self, data, name, **kw):
+        assert hasattr(data, name), f"{type(data).__name__} has no property {name!r}"
+        self.drawn.append(name)
+
+    def operator(self, idname, **kw):
+        module, op = idname.split(".")
+        assert hasattr(getattr(bpy_ops(), module), op), idname
+        return type("Props", (), {})()
+
+    def label(self, **kw):
+        self.drawn.append("label:" + kw.get("text", ""))
+
+    def menu(self, *a, **kw):
+        pass
+
+    def separator(self, **kw):
+        pass
+
+    def column(self, **kw):
+        return self
+
+    def row(self, **kw):
+        return self
+
+
+def bpy_ops():
+    import bpy
+
+    return bpy.ops
+
+
+def test_every_panel_draws_existing_properties(bpy, engine):
+    ui = sys.modules["blender_addon.ui"]
+    scene = new_scene(bpy)
+    drawn = []
+    panels = [c for c in ui.classes if issubclass(c, bpy.types.Panel)]
+    for camera in ("AUTO", "PLANAR", "PERSPECTIVE", "ORTHOGRAPHIC"):
+        for faceting in ("NONE", "CONSTANT", "VORONOI", "PATCH", "SEGMENT"):
+            scene.cubist.camera, scene.cubist.faceting = camera, faceting
+            scene.cubist.facet_projection = "LINEAR"
+            for panel in panels:
+                fake = type("P", (), {"layout": FakeLayout(drawn)})()
+                panel.draw(fake, bpy.context)
+    # Every panel property is reachable from the panels.
+    props = set(sys.modules["blender_addon.presets"].DEFAULTS)
+    assert props - set(drawn) == set(), "not shown in any panel"
+
+
 def test_f12_renders_the_cli_picture(bpy, engine, tmp_path):
     scene = new_scene(bpy)
     set_world_colour(scene, (0.3, 0.35, 0.4))
@@ -72,6 +129,8 @@ def test_f12_renders_the_cli_picture(bpy, engine, tmp_path):
     assert out.is_file(), engine.last_run
     img = read_png(bpy, out)
     assert img.shape == (48, 64, 4)
+    progress = engine.last_run["progress"]
+    assert progress == sorted(progress) and progress[-1] == 1.0, progress
 
     # Not a blank render: a good share of pixels differ from the background.
     bg = srgb([0.3, 0.35, 0.4])
@@ -118,6 +177,18 @@ def test_settings_json_follows_the_panel_and_the_scene(bpy, engine, tmp_path):
     # Untouched values stay.
     for k in ("faceting", "seed", "camera", "border_width"):
         assert before[k] == after[k]
+
+
+def test_render_region_is_the_same_part_of_the_frame(bpy, tmp_path):
+    scene = new_scene(bpy)
+    full = read_png(bpy, render_still(bpy, scene, tmp_path / "full.png"))
+    r = scene.render
+    r.use_border, r.use_crop_to_border = True, True
+    r.border_min_x, r.border_max_x, r.border_min_y, r.border_max_y = 0.25, 0.75, 0.5, 1.0
+    crop = read_png(bpy, render_still(bpy, scene, tmp_path / "crop.png"))
+    # Rows bottom-up: y from 24 to 48 is the top half.
+    assert crop.shape == (24, 32, 4)
+    assert np.array_equal(crop, full[24:48, 16:48])
 
 
 def test_builtin_preset_operator_sets_the_panel(bpy):
@@ -395,6 +466,14 @@ def test_extension_zip_installs_and_renders_with_its_bundled_binary(cubist_binar
     assert r.returncode == 0, r.stderr
     zip_path = Path(r.stdout.strip().splitlines()[-1])
     assert zip_path.name.startswith("cubist-") and zip_path.suffix == ".zip"
+    # Blender's own strict manifest validation (what `blender --command extension validate` runs).
+    import importlib.util
+
+    bpy_dir = Path(importlib.util.find_spec("bpy").origin).parent
+    validator = next(bpy_dir.glob("*/scripts/addons_core/bl_pkg/cli/blender_ext.py"))
+    for source in (ROOT / "blender_addon", zip_path):
+        v = subprocess.run([sys.executable, str(validator), "validate", str(source)], capture_output=True, text=True)
+        assert v.returncode == 0 and "Success" in v.stdout, f"{source}: {v.stdout}{v.stderr}"
     script = tmp_path / "install.py"
     script.write_text(EXTENSION_SCRIPT)
     env = dict(os.environ, PATH="/usr/bin:/bin")  # no cubist on PATH: the bundled one must be used
