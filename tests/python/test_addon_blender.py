@@ -199,6 +199,23 @@ def test_builtin_preset_operator_sets_the_panel(bpy):
     assert scene.cubist.faceting == "NONE" and scene.cubist.discontinuity == 0.0
 
 
+def test_user_presets_save_and_load(bpy):
+    scene = new_scene(bpy)
+    scene.cubist.faceting, scene.cubist.discontinuity, scene.cubist.ambiguity = "PATCH", 77.0, 123.0
+    scene.cubist.pass_depth = True
+    assert bpy.ops.cubist.preset_add(name="My Look") == {"FINISHED"}
+    path = Path(bpy.utils.preset_find("My Look", "cubist", display_name=True))
+    try:
+        assert "cubist.discontinuity = 77.0" in path.read_text()
+        bpy.ops.cubist.apply_preset(name="Default")
+        assert scene.cubist.faceting == "NONE"
+        bpy.ops.script.execute_preset(filepath=str(path), menu_idname="CUBIST_MT_presets")
+        assert (scene.cubist.faceting, scene.cubist.discontinuity, scene.cubist.ambiguity) == ("PATCH", 77.0, 123.0)
+        assert scene.cubist.pass_depth  # presets are looks: passes are not part of them
+    finally:
+        path.unlink()
+
+
 def test_missing_binary_is_an_error_and_writes_nothing(bpy, engine, tmp_path):
     scene = new_scene(bpy)
     prefs = bpy.context.preferences.addons["blender_addon"].preferences
