@@ -37,9 +37,11 @@ def layout_folder(props) -> Path:
         return Path(bpy.path.abspath(props.layout_folder))
     if bpy.data.filepath:
         return Path(bpy.path.abspath("//cubist"))
+    import os
     import tempfile
 
-    return Path(tempfile.gettempdir()) / "cubist-unsaved"
+    # Per Blender session: another unsaved scene must not pick up this one's layout.
+    return Path(tempfile.gettempdir()) / f"cubist-unsaved-{os.getpid()}"
 
 
 def _panel(props) -> dict:
@@ -124,7 +126,9 @@ class CubistRenderEngine(bpy.types.RenderEngine):
                                 on_start=started)
         except runner.RendererError as e:
             # The scene file is ours, in a temporary folder: name it as the user knows it.
-            raise runner.RendererError(str(e).replace(str(glb), "the exported scene"), e.returncode) from None
+            message = (str(e).replace(f"settings {cfg}", "the settings").replace(str(cfg), "the settings")
+                       .replace(str(glb), "the exported scene"))
+            raise runner.RendererError(message, e.returncode) from None
         finally:
             proc = last_run.get("process")
             if proc is not None:
@@ -164,7 +168,7 @@ class CubistRenderEngine(bpy.types.RenderEngine):
                 layout = runner.layout_path(folder, scene.name, {**settings, "seed": panel["seed"]},
                                             props.layout_frame)
             cache = folder / "saliency"
-            if runner.binary_supports(binary, "saliency_cache"):
+            if runner.needs_saliency(settings) and runner.binary_supports(binary, "saliency_cache"):
                 settings["saliency_cache"] = str(cache)
             if layout is not None or "saliency_cache" in settings:
                 try:

@@ -243,6 +243,15 @@ def uses_layout(settings: Mapping[str, object]) -> bool:
     return settings.get("faceting", "none") != "none"
 
 
+def needs_saliency(settings: Mapping[str, object]) -> bool:
+    """Whether the renderer computes mesh saliency for these settings (mirrors
+    `Settings::needs_saliency` in src/settings.rs): only then is a saliency cache useful."""
+    faceting = settings.get("faceting", "none")
+    reaims = (settings.get("imprecision", "saliency") == "saliency" and faceting != "none"
+              and float(settings.get("discontinuity", 0.0)) > 0.0)
+    return reaims or faceting == "segment" or "saliency" in settings.get("passes", [])
+
+
 @dataclass
 class LayoutPlan:
     """What a frame's render does with the shared layout file: `settings` renders the frame

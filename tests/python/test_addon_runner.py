@@ -401,6 +401,16 @@ def test_binary_capability_detection(cubist_binary):
 # Facet layouts across frames
 
 
+def test_saliency_is_needed_exactly_when_the_renderer_computes_it():
+    base = {"faceting": "none", "imprecision": "saliency", "discontinuity": 0.0, "passes": []}
+    assert not runner.needs_saliency(base)
+    assert not runner.needs_saliency(dict(base, discontinuity=100.0))  # no facets to re-aim
+    assert runner.needs_saliency(dict(base, faceting="voronoi", discontinuity=100.0))
+    assert not runner.needs_saliency(dict(base, faceting="voronoi", discontinuity=100.0, imprecision="random"))
+    assert runner.needs_saliency(dict(base, faceting="segment"))
+    assert runner.needs_saliency(dict(base, passes=["saliency"]))
+
+
 def test_layout_plan(tmp_path):
     s = {"faceting": "voronoi", "width": 64, "height": 48, "passes": ["saliency"]}
     layout = tmp_path / "l.json"
