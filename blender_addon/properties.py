@@ -10,7 +10,7 @@ from .presets import DEFAULTS
 D = DEFAULTS
 
 
-def _tag_redraw(self, context):
+def _update_passes(self, context):
     # Pass toggles change the passes Blender offers to the compositor.
     if context is not None and context.view_layer is not None:
         context.view_layer.update_render_passes()
@@ -176,19 +176,19 @@ class CubistSettings(bpy.types.PropertyGroup):
 
     # ---- Passes
     pass_saliency: BoolProperty(name="Saliency", description="Per-pixel mesh saliency, 0-1 (pass 'Saliency')",
-                                default=False, update=_tag_redraw)
+                                default=False, update=_update_passes)
     pass_facet_ids: BoolProperty(name="Facet Index", description="Facet id of each pixel, an integer (pass "
-                                 "'Facet Index', for ID masks in the compositor)", default=False, update=_tag_redraw)
+                                 "'Facet Index', for ID masks in the compositor)", default=False, update=_update_passes)
     pass_facets: BoolProperty(name="Facets", description="Facets as colours with facet and saliency centres "
-                              "marked (pass 'Facets')", default=False, update=_tag_redraw)
+                              "marked (pass 'Facets')", default=False, update=_update_passes)
     pass_segments: BoolProperty(name="Segments", description="Segment faceting's final layout as colours (pass "
-                                "'Segments')", default=False, update=_tag_redraw)
+                                "'Segments')", default=False, update=_update_passes)
     pass_objects: BoolProperty(name="Objects", description="Object ids as colours (pass 'Object Colors')",
-                               default=False, update=_tag_redraw)
+                               default=False, update=_update_passes)
     pass_normals: BoolProperty(name="Normals", description="Shading normals as colours (pass 'Cubist Normal')",
-                               default=False, update=_tag_redraw)
+                               default=False, update=_update_passes)
     pass_depth: BoolProperty(name="Depth", description="Hit distance, near = white (pass 'Cubist Depth')",
-                             default=False, update=_tag_redraw)
+                             default=False, update=_update_passes)
 
 
 PANEL_KEYS = tuple(DEFAULTS)

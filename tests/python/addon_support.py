@@ -72,6 +72,8 @@ def new_scene(bpy, width=64, height=48, engine="CUBIST"):
     scene.collection.objects.link(sun)
     world = bpy.data.worlds.new("World")
     world.color = (0.3, 0.35, 0.4)
+    if bpy.app.version < (5, 0, 0):
+        world.use_nodes = True  # always on (and deprecated) from Blender 5
     scene.world = world
     r = scene.render
     r.engine = engine

@@ -391,6 +391,13 @@ def test_workspace_is_removed_on_error(tmp_path):
     assert not ws.exists()
 
 
+def test_newer_settings_are_sent_only_to_binaries_that_know_them(tmp_path):
+    old = make_exe(tmp_path / "old" / "cubist", "print('  --facet-count <N>')\n")
+    new = make_exe(tmp_path / "new" / "cubist", "print('  --facet-count <N>\\n  --saliency-cache <DIR>')\n")
+    assert not runner.binary_supports(old, "saliency_cache")
+    assert runner.binary_supports(new, "saliency_cache")
+
+
 def test_binary_capability_detection(cubist_binary):
     assert runner.binary_supports(cubist_binary, "facet_count")
     assert runner.binary_supports(cubist_binary, "save_facets")
