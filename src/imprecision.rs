@@ -407,11 +407,11 @@ pub fn aim_facets(ctx: &AimContext, map: &FacetMap, saliency: Option<&[f32]>, se
         .map(|f| {
             let mut aim = FacetAim { fc: fc[f], sc_raw: sc_raw[f], sc: sc[f], target: None, reaim: None, linear: None };
             let (Some(c), Some(s)) = (fc[f], sc[f]) else { return aim };
-            if s != c {
-                if let Some((r, p)) = ctx.reaim(c, s) {
-                    aim.reaim = Some(r);
-                    aim.target = p;
-                }
+            if s != c
+                && let Some((r, p)) = ctx.reaim(c, s)
+            {
+                aim.reaim = Some(r);
+                aim.target = p;
             }
             if linear {
                 let own = &pixels[offsets[f] as usize..offsets[f + 1] as usize];
@@ -546,7 +546,7 @@ mod tests {
             for x in 0..w {
                 let want = feats
                     .iter()
-                    .map(|&(fx, fy)| ((x as f64 - fx as f64).powi(2) + (y as f64 - fy as f64).powi(2)))
+                    .map(|&(fx, fy)| (x as f64 - fx as f64).powi(2) + (y as f64 - fy as f64).powi(2))
                     .fold(f64::INFINITY, f64::min);
                 assert_eq!(f[y * w + x], want, "({x}, {y})");
             }

@@ -19,14 +19,15 @@ fn still_life() -> Prepared {
 }
 
 fn base_settings() -> Settings {
-    let mut s = Settings::default();
-    s.width = 160;
-    s.height = 120;
-    s.spp = 1;
-    s.seed = 3;
-    s.faceting = Faceting::Voronoi;
-    s.facet_count = 60;
-    s
+    Settings {
+        width: 160,
+        height: 120,
+        spp: 1,
+        seed: 3,
+        faceting: Faceting::Voronoi,
+        facet_count: 60,
+        ..Settings::default()
+    }
 }
 
 /// The hit point of a sample, render space.

@@ -16,7 +16,7 @@ use super::{FacetLayout, FacetPolygon, MAX_FACETS, fill_polygon, rand01};
 use crate::error::{Error, Result};
 use crate::render::splitmix64;
 
-const STREAM: u64 = 0x7061_7463_68;
+const STREAM: u64 = 0x0070_6174_6368; // "patch"
 
 /// Canvas size for an aspect ratio: w h ~ 10^6, w / h = aspect.
 pub fn canvas(aspect: f64) -> (u32, u32) {

@@ -7,7 +7,7 @@ use rayon::prelude::*;
 
 use super::{FacetLayout, rand01};
 
-const STREAM: u64 = 0x766f_726f_6e6f_69;
+const STREAM: u64 = 0x0076_6f72_6f6e_6f69; // "voronoi"
 
 /// The thesis's grid: cells of side sqrt(w h / m), `round(w / side)` columns and
 /// `round(m / columns)` rows (at least one each). Depends on the aspect ratio only.
