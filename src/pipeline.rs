@@ -112,6 +112,7 @@ pub fn render_with(
     // Faceting (SPEC "Faceting"): computed, or loaded so every frame of an animation shares it.
     let faceted = settings.faceted();
     let (layout, map) = if faceted {
+        progress.begin("faceting", 1);
         timings.time("faceting", || -> Result<(FacetLayout, FacetMap)> {
             let layout = facets::layout_for(settings, &frame)?;
             let map = layout.rasterize(width, height);
@@ -143,6 +144,7 @@ pub fn render_with(
         if settings.imprecision == Imprecision::Saliency && settings.discontinuity > 0.0 && frame.saliency.is_none() {
             warnings.push("no saliency map was computed: facets are not re-aimed (imprecision saliency)".into());
         }
+        progress.begin("imprecision", 1);
         aims = timings.time("imprecision", || imprecision::aim_facets(&ctx, &map, frame.saliency.as_deref(), settings));
         let moved: Vec<u32> =
             (0..map.ids.len() as u32).filter(|&i| aims[map.ids[i as usize] as usize].moved()).collect();
