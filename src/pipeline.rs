@@ -213,7 +213,7 @@ fn facet_ids_pass(map: &FacetMap) -> Gray16 {
     ImageBuffer::from_fn(map.width, map.height, |x, y| Luma([map.ids[(y * map.width + x) as usize] as u16]))
 }
 
-/// The facets as colours (brighter where more salient), their borders dark, each facet centre
+/// The saliency map in grey tinted by facet colours (plain colours without saliency), facet borders dark, each facet centre
 /// a yellow dot and saliency centre a red dot, with a red line from the facet centre to the
 /// point the facet is aimed at (the thesis's Fig. 4.6 left).
 pub fn facets_pass(map: &FacetMap, aims: &[FacetAim], saliency: Option<&[f32]>, scale: f64) -> RgbaImage {
@@ -223,17 +223,17 @@ pub fn facets_pass(map: &FacetMap, aims: &[FacetAim], saliency: Option<&[f32]>, 
         let id = map.ids[i];
         let c = splitmix64(id as u64 ^ 0x5eed);
         let base = [(c >> 8) as u8 as f32, (c >> 24) as u8 as f32, (c >> 40) as u8 as f32];
-        let light = match saliency {
-            Some(s) => 0.45 + 0.55 * s.get(i).copied().unwrap_or(0.0).clamp(0.0, 1.0),
-            None => 1.0,
+        // Saliency as grey (Fig. 4.6 left), tinted by the facet's colour.
+        let tint = |c: f32| 60.0 + 0.7 * c;
+        let rgb = match saliency {
+            Some(s) => {
+                let grey = 25.0 + 230.0 * s.get(i).copied().unwrap_or(0.0).clamp(0.0, 1.0);
+                base.map(|c| 0.4 * tint(c) + 0.6 * grey)
+            }
+            None => base.map(tint),
         };
-        let shade = if map.is_border(i) { 0.35 } else { light };
-        px.0 = [
-            ((60.0 + 0.7 * base[0]) * shade) as u8,
-            ((60.0 + 0.7 * base[1]) * shade) as u8,
-            ((60.0 + 0.7 * base[2]) * shade) as u8,
-            255,
-        ];
+        let shade = if map.is_border(i) { 0.35 } else { 1.0 };
+        px.0 = [(rgb[0] * shade) as u8, (rgb[1] * shade) as u8, (rgb[2] * shade) as u8, 255];
     }
     let r = (4.0 * scale).round().max(2.0);
     for a in aims {
