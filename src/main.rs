@@ -8,7 +8,7 @@ use anyhow::Context;
 use clap::Parser;
 use cubist::cli::{Cli, Command, FacesArgs, ProgressMode, RenderArgs};
 use cubist::eval::visible_faces;
-use cubist::output::{pass_path, write_png};
+use cubist::output::{pass_path, write_png, write_png16};
 use cubist::progress::Progress;
 use cubist::settings::CameraKind;
 use cubist::{Error, Prepared};
@@ -73,6 +73,9 @@ fn run_render(args: RenderArgs) -> anyhow::Result<()> {
     write_png(&args.output, &rendered.image)?;
     for (pass, img) in &rendered.passes {
         write_png(&pass_path(&args.output, pass.as_str()), img)?;
+    }
+    for (pass, img) in &rendered.passes16 {
+        write_png16(&pass_path(&args.output, pass.as_str()), img)?;
     }
     progress.begin("done", 1);
     progress.finish();

@@ -388,9 +388,15 @@ impl Settings {
 
     /// Whether any stage needs the scene's mesh saliency.
     pub fn needs_saliency(&self) -> bool {
-        let imprecision_uses =
-            self.imprecision == Imprecision::Saliency && self.faceting != Faceting::None && self.discontinuity > 0.0;
-        imprecision_uses || self.faceting == Faceting::Segment || self.passes.contains(&Pass::Saliency)
+        let imprecision_uses = self.imprecision == Imprecision::Saliency && self.faceted() && self.discontinuity > 0.0;
+        // A loaded layout replaces the segmentation; the facets pass shows saliency centres.
+        let segment_uses = self.faceting == Faceting::Segment && self.facets.is_none();
+        imprecision_uses || segment_uses || self.passes.contains(&Pass::Saliency) || self.passes.contains(&Pass::Facets)
+    }
+
+    /// Whether the image is split into facets: a faceting method, or a layout loaded with `facets`.
+    pub fn faceted(&self) -> bool {
+        self.faceting != Faceting::None || self.facets.is_some()
     }
 
     /// Checks every value's range; the error names the key.
@@ -506,14 +512,14 @@ impl Settings {
         if !(s.facet_fov.is_finite() && (0.0..180.0).contains(&s.facet_fov)) {
             return Err(Error::setting("facet_fov", format!("{} must be in [0, 180) degrees", s.facet_fov)));
         }
-        if s.facet_count == 0 {
-            return Err(Error::setting("facet_count", "must be at least 1"));
+        if s.facet_count == 0 || s.facet_count > crate::facets::MAX_FACETS {
+            return Err(Error::setting("facet_count", format!("must be in 1..={}", crate::facets::MAX_FACETS)));
         }
         if s.grid_cells == 0 {
             return Err(Error::setting("grid_cells", "must be at least 1"));
         }
-        if s.patch_count == 0 {
-            return Err(Error::setting("patch_count", "must be at least 1"));
+        if s.patch_count == 0 || s.patch_count > crate::facets::MAX_FACETS {
+            return Err(Error::setting("patch_count", format!("must be in 1..={}", crate::facets::MAX_FACETS)));
         }
         if !(s.occlusion.is_finite() && s.occlusion > 0.0) {
             return Err(Error::setting("occlusion", "must be a positive number"));
