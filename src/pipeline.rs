@@ -13,6 +13,7 @@ use crate::camera::frame_camera;
 use crate::error::Result;
 use crate::frame::Frame;
 use crate::output::encode;
+use crate::paint::{Lighting, Painter};
 use crate::progress::Progress;
 use crate::render::{Tracer, splitmix64};
 use crate::scene::{Scene, World};
@@ -80,10 +81,19 @@ pub fn render(prep: &Prepared, settings: &Settings, progress: &Progress) -> Resu
     let background = Vec3::from(settings.background);
     let tracer = Tracer { world: &prep.world, accel: &prep.accel, rig: Some(&rig), background, seed: settings.seed };
 
+    // Built before tracing so a bad palette image fails fast; reusable across frames.
+    let painter = timings.time("paint setup", || Painter::new(settings))?;
+
     let mut frame = Frame::new(settings.width, settings.height, settings.spp);
     progress.begin("pre-render", frame.pixel_count() as u64);
     timings.time("pre-render", || tracer.render(&mut frame, &|_, p| framed.camera.ray(p), None, progress));
     progress.finish();
+
+    if !painter.is_empty() {
+        // Facets: None until the facets stage lands; then the rasterised FacetMap.
+        let lighting = Lighting { world: &prep.world, rig: &rig };
+        timings.time("paint", || painter.apply(&mut frame, None, Some(&lighting)))?;
+    }
 
     let image = timings.time("encode", || encode(&frame, settings.background, settings.transparent));
     let mut passes = Vec::new();

@@ -1,0 +1,313 @@
+//! Painterly effects (SPEC "Painterly effects", thesis 4.4): a fixed chain of post effects on
+//! the rendered colour, reading the facet ids and hit buffers, each its own module behind the
+//! `Effect` trait and left out of the chain when its setting is off.
+//!
+//! Order (fixed): chiaroscuro (relights the shading, so it must see the unmodified render) ->
+//! silhouettes -> facet borders -> gradient overlays (the geometric darkenings and
+//! lightenings) -> colour transfer / palette (maps the final luminance onto the painter's
+//! colours, so borders and gradients come out in palette colours too) -> quantisation (last,
+//! so the image really has at most K colours).
+//!
+//! Background and alpha. An opaque image's background is part of the canvas: every effect
+//! paints it (borders cross it, the palette colours it). A transparent image has no background
+//! to paint: colour effects touch only what was rendered (coverage > 0), and the darkening
+//! effects (borders, silhouettes) become black with alpha, so compositing the PNG over the
+//! background colour gives the opaque image wherever only darkening happened. The frame's
+//! colour stays in the form `output::encode` expects: colour = foreground premultiplied +
+//! (1 - alpha) x background.
+
+pub mod borders;
+pub mod chiaroscuro;
+pub mod distance;
+pub mod gradients;
+pub mod palette;
+pub mod quantise;
+pub mod silhouettes;
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use crate::error::{Error, Result};
+use crate::facets::FacetMap;
+use crate::frame::{Frame, PixelHit};
+use crate::render::splitmix64;
+use crate::scene::World;
+use crate::settings::Settings;
+use crate::shading::LightRig;
+
+/// One pixel of the canvas the effects paint on.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Px {
+    /// Opaque canvas: the composited colour (linear RGB). Transparent canvas: the straight
+    /// (not premultiplied) colour of the painted layer, meaningful where `alpha > 0`.
+    pub rgb: Vec3,
+    /// Opaque: the coverage (kept as it is). Transparent: the painted layer's alpha.
+    pub alpha: f32,
+    /// Fraction of the pixel's samples that hit geometry, as rendered (never changed).
+    pub coverage: f32,
+}
+
+/// The image the effects work on: one `Px` per pixel, row 0 at the top.
+#[derive(Clone, Debug)]
+pub struct Canvas {
+    pub width: u32,
+    pub height: u32,
+    pub px: Vec<Px>,
+    /// The render's background colour (linear RGB).
+    pub background: Vec3,
+    /// Whether the output has a transparent background (see the module doc).
+    pub transparent: bool,
+}
+
+impl Canvas {
+    /// The canvas of a rendered frame.
+    pub fn from_frame(frame: &Frame, background: [f32; 3], transparent: bool) -> Canvas {
+        let bg = Vec3::from(background);
+        let px = frame
+            .color
+            .par_iter()
+            .map(|c| {
+                let a = c.w;
+                let rgb = if !transparent {
+                    c.truncate()
+                } else if a > 0.0 {
+                    (c.truncate() - bg * (1.0 - a)) / a
+                } else {
+                    Vec3::ZERO
+                };
+                Px { rgb, alpha: a, coverage: a }
+            })
+            .collect();
+        Canvas { width: frame.width, height: frame.height, px, background: bg, transparent }
+    }
+
+    /// Writes the canvas back as the frame's colour, in the form `output::encode` reads.
+    pub fn write_to(&self, frame: &mut Frame) {
+        let (bg, transparent) = (self.background, self.transparent);
+        frame.color.par_iter_mut().zip(&self.px).for_each(|(c, p)| {
+            *c = if transparent {
+                (p.rgb * p.alpha + bg * (1.0 - p.alpha)).extend(p.alpha)
+            } else {
+                p.rgb.extend(p.coverage)
+            };
+        });
+    }
+
+    pub fn pixel_count(&self) -> usize {
+        self.px.len()
+    }
+
+    /// Whether colour effects may repaint this pixel (everything on an opaque canvas).
+    pub fn is_painted(&self, p: &Px) -> bool {
+        !self.transparent || p.alpha > 0.0
+    }
+}
+
+impl Px {
+    /// Multiplies the whole pixel (foreground and background) by `f` in [0, 1]. On a
+    /// transparent canvas, as black laid over the pixel with alpha 1 - f.
+    pub fn darken(&mut self, f: f32, transparent: bool) {
+        if !transparent {
+            self.rgb *= f;
+            return;
+        }
+        let a = self.alpha;
+        let a2 = 1.0 - f * (1.0 - a);
+        if a2 > 0.0 {
+            self.rgb *= f * a / a2;
+            self.alpha = a2;
+        }
+    }
+
+    /// Multiplies only the background part (1 - coverage) of the pixel by `f` in [0, 1].
+    /// Opaque: that part is still the plain background colour `bg` (silhouettes run before
+    /// any effect that repaints the background). Transparent: black with alpha under the
+    /// unchanged foreground.
+    pub fn darken_background(&mut self, f: f32, bg: Vec3, transparent: bool) {
+        if !transparent {
+            self.rgb -= bg * ((1.0 - self.coverage) * (1.0 - f));
+            self.rgb = self.rgb.max(Vec3::ZERO);
+            return;
+        }
+        let a = self.alpha;
+        let a2 = a + (1.0 - a) * (1.0 - f);
+        if a2 > 0.0 {
+            self.rgb *= a / a2;
+            self.alpha = a2;
+        }
+    }
+}
+
+/// The scene's lights as the render used them (chiaroscuro relights with them).
+pub struct Lighting<'a> {
+    pub world: &'a World,
+    pub rig: &'a LightRig,
+}
+
+/// What the effects read besides the canvas.
+pub struct PaintContext<'a> {
+    /// The representative hit of every pixel (normals for chiaroscuro).
+    pub hits: &'a [PixelHit],
+    /// Facet id of every pixel; None = one facet (faceting none).
+    pub facets: Option<&'a FacetMap>,
+    pub lighting: Option<&'a Lighting<'a>>,
+}
+
+impl PaintContext<'_> {
+    /// The facet id of pixel `i` (0 without a facet map).
+    pub fn facet(&self, i: usize) -> u32 {
+        self.facets.map_or(0, |f| f.ids[i])
+    }
+
+    /// Number of facets (1 without a facet map), at least one more than any id.
+    pub fn facet_count(&self) -> usize {
+        self.facets
+            .map_or(1, |f| (f.facet_count as usize).max(f.ids.iter().copied().max().map_or(0, |m| m as usize + 1)))
+    }
+}
+
+/// One painterly effect. `apply` must be deterministic (no thread-dependent order) and must
+/// keep the canvas's alpha conventions (see the module doc).
+pub trait Effect: Send + Sync {
+    fn name(&self) -> &'static str;
+    fn apply(&self, canvas: &mut Canvas, ctx: &PaintContext) -> Result<()>;
+}
+
+/// A seed for one effect's random choices: the render's seed mixed with the effect's salt.
+pub fn effect_seed(seed: u64, salt: u64) -> u64 {
+    splitmix64(seed ^ splitmix64(salt))
+}
+
+/// The enabled effects of a render, in chain order. Built once per settings (it loads the
+/// palette painting), reusable for every frame of an animation.
+pub struct Painter {
+    effects: Vec<Box<dyn Effect>>,
+    background: [f32; 3],
+    transparent: bool,
+}
+
+impl Painter {
+    /// The chain the settings ask for; effects that are off are left out.
+    pub fn new(settings: &Settings) -> Result<Painter> {
+        let scale = settings.pixel_scale();
+        let mut effects: Vec<Box<dyn Effect>> = Vec::new();
+        if settings.chiaroscuro > 0.0 {
+            effects.push(Box::new(chiaroscuro::Chiaroscuro::new(settings.chiaroscuro as f32, settings.seed)));
+        }
+        if settings.silhouette_width > 0.0 && settings.silhouette_strength > 0.0 {
+            effects.push(Box::new(silhouettes::Silhouettes {
+                width: (settings.silhouette_width * scale) as f32,
+                strength: settings.silhouette_strength as f32,
+            }));
+        }
+        if settings.border_width > 0.0 && settings.border_strength > 0.0 {
+            effects.push(Box::new(borders::Borders {
+                width: (settings.border_width * scale) as f32,
+                strength: settings.border_strength as f32,
+            }));
+        }
+        if settings.gradients > 0.0 {
+            effects.push(Box::new(gradients::Gradients { fraction: settings.gradients, seed: settings.seed }));
+        }
+        if let Some(path) = &settings.palette_image {
+            effects.push(Box::new(palette::ColourTransfer::from_image(path)?));
+        } else if let Some(ramp) = palette::ramp(settings.palette) {
+            effects.push(Box::new(palette::ColourTransfer::from_ramp(ramp)));
+        }
+        if settings.colors > 0 {
+            effects.push(Box::new(quantise::Quantise { colors: settings.colors }));
+        }
+        Ok(Painter { effects, background: settings.background, transparent: settings.transparent })
+    }
+
+    /// A chain of the given effects (tests, benchmarks).
+    pub fn from_effects(effects: Vec<Box<dyn Effect>>, background: [f32; 3], transparent: bool) -> Painter {
+        Painter { effects, background, transparent }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.effects.is_empty()
+    }
+
+    /// Names of the enabled effects, in chain order.
+    pub fn names(&self) -> Vec<&'static str> {
+        self.effects.iter().map(|e| e.name()).collect()
+    }
+
+    /// Runs the chain on `frame`'s colour. With no effect enabled the frame is not touched
+    /// (bit-identical). `facets` must match the frame's size.
+    pub fn apply(&self, frame: &mut Frame, facets: Option<&FacetMap>, lighting: Option<&Lighting>) -> Result<()> {
+        if self.effects.is_empty() {
+            return Ok(());
+        }
+        if let Some(f) =
+            facets.filter(|f| f.width != frame.width || f.height != frame.height || f.ids.len() != frame.pixel_count())
+        {
+            return Err(Error::setting(
+                "facets",
+                format!("the facet map is {}x{} but the image is {}x{}", f.width, f.height, frame.width, frame.height),
+            ));
+        }
+        let mut canvas = Canvas::from_frame(frame, self.background, self.transparent);
+        let ctx = PaintContext { hits: &frame.hits, facets, lighting };
+        for e in &self.effects {
+            e.apply(&mut canvas, &ctx)?;
+        }
+        canvas.write_to(frame);
+        Ok(())
+    }
+}
+
+/// Builds the chain from `settings` and runs it on `frame` (see `Painter`).
+pub fn apply_chain(
+    frame: &mut Frame,
+    facets: Option<&FacetMap>,
+    settings: &Settings,
+    lighting: Option<&Lighting>,
+) -> Result<()> {
+    Painter::new(settings)?.apply(frame, facets, lighting)
+}
+
+/// Luminance of linear RGB (Rec. 709), as `shading::luminance`.
+pub fn luminance(c: Vec3) -> f32 {
+    crate::shading::luminance(c)
+}
+
+#[cfg(test)]
+mod tests;
+
+/// Number of luminance levels the rank-based effects sort into: far finer than the 8-bit
+/// output, and a counting sort over them is linear time.
+pub const KEY_LEVELS: usize = 1 << 16;
+
+/// The painted pixels' luminances as sortable keys: `key[i]` = sqrt(L / L_max) in 16 bits
+/// (square root: more levels in the shadows, roughly perceptual), `None` for pixels the
+/// effects do not paint, plus the histogram of keys. Monotone: L_a < L_b implies
+/// key_a <= key_b, so mapping by key preserves luminance order; equal keys are ties and get
+/// the same treatment (deterministic, and flat areas stay flat).
+pub struct LuminanceKeys {
+    pub keys: Vec<Option<u16>>,
+    pub histogram: Vec<u32>,
+    /// Number of painted pixels.
+    pub total: u64,
+}
+
+impl LuminanceKeys {
+    pub fn new(canvas: &Canvas) -> LuminanceKeys {
+        let lum: Vec<Option<f32>> =
+            canvas.px.par_iter().map(|p| canvas.is_painted(p).then(|| luminance(p.rgb).max(0.0))).collect();
+        let max = lum.par_iter().filter_map(|l| *l).reduce(|| 0.0f32, f32::max);
+        let scale = if max > 0.0 && max.is_finite() { 1.0 / max } else { 0.0 };
+        let keys: Vec<Option<u16>> = lum
+            .par_iter()
+            .map(|l| l.map(|l| (((l * scale).min(1.0).sqrt()) * (KEY_LEVELS - 1) as f32 + 0.5) as u16))
+            .collect();
+        let mut histogram = vec![0u32; KEY_LEVELS];
+        let mut total = 0u64;
+        for k in keys.iter().flatten() {
+            histogram[*k as usize] += 1;
+            total += 1;
+        }
+        LuminanceKeys { keys, histogram, total }
+    }
+}

@@ -1,0 +1,130 @@
+//! Quantisation to K colours (thesis 4.4: "Picasso and Braque commonly used a limited number
+//! of colours; fine details were composed through a difference in luminance rather than hue").
+//! Luminance-preserving: the pixels are clustered by luminance alone (1-D k-means: Lloyd's
+//! iterations from quantile seeds, on the luminance-key histogram), and each cluster
+//! is painted with its pixels' mean colour, whose luminance is their mean luminance.
+
+use glam::{DVec3, Vec3};
+use rayon::prelude::*;
+
+use super::{Canvas, Effect, LuminanceKeys, PaintContext};
+use crate::error::Result;
+
+/// Lloyd iterations at most (1-D k-means converges in a few dozen).
+const MAX_ITERATIONS: usize = 100;
+
+/// Reduces the painted pixels to at most `colors` colours.
+pub struct Quantise {
+    pub colors: u32,
+}
+
+/// Partitions the keys (with `histogram` counts) into at most `k` luminance intervals that
+/// locally minimise the squared key error: returns the cluster of every key.
+pub fn cluster_keys(histogram: &[u32], k: usize) -> Vec<u32> {
+    let total: u64 = histogram.iter().map(|&c| c as u64).sum();
+    let mut centres: Vec<f64> = Vec::with_capacity(k);
+    if total > 0 {
+        // Quantile seeds; equal seeds (a key holding many pixels) merge.
+        let mut before = 0u64;
+        let mut j = 0usize;
+        for (key, &c) in histogram.iter().enumerate() {
+            before += c as u64;
+            while j < k && ((j as f64 + 0.5) / k as f64) * (total as f64) < before as f64 {
+                if centres.last() != Some(&(key as f64)) {
+                    centres.push(key as f64);
+                }
+                j += 1;
+            }
+        }
+    }
+    if centres.is_empty() {
+        return vec![0; histogram.len()];
+    }
+    // Prefix sums of counts and of key x count make each iteration O(k).
+    let mut cum_n = vec![0f64; histogram.len() + 1];
+    let mut cum_s = vec![0f64; histogram.len() + 1];
+    for (key, &c) in histogram.iter().enumerate() {
+        cum_n[key + 1] = cum_n[key] + c as f64;
+        cum_s[key + 1] = cum_s[key] + c as f64 * key as f64;
+    }
+    let bounds = |centres: &[f64]| -> Vec<usize> {
+        // Interval j holds keys in [b[j], b[j+1]): nearest centre, ties to the lower one.
+        let mut b = Vec::with_capacity(centres.len() + 1);
+        b.push(0);
+        for w in centres.windows(2) {
+            b.push((((w[0] + w[1]) * 0.5).floor() as usize + 1).min(histogram.len()));
+        }
+        b.push(histogram.len());
+        b
+    };
+    for _ in 0..MAX_ITERATIONS {
+        let b = bounds(&centres);
+        let mut next = Vec::with_capacity(centres.len());
+        for j in 0..centres.len() {
+            let n = cum_n[b[j + 1]] - cum_n[b[j]];
+            if n > 0.0 {
+                next.push((cum_s[b[j + 1]] - cum_s[b[j]]) / n);
+            }
+        }
+        next.dedup();
+        if next == centres {
+            break;
+        }
+        centres = next;
+    }
+    let b = bounds(&centres);
+    let mut cluster = vec![0u32; histogram.len()];
+    for j in 0..centres.len() {
+        cluster[b[j]..b[j + 1]].fill(j as u32);
+    }
+    cluster
+}
+
+impl Effect for Quantise {
+    fn name(&self) -> &'static str {
+        "quantise"
+    }
+
+    fn apply(&self, canvas: &mut Canvas, _ctx: &PaintContext) -> Result<()> {
+        let keys = LuminanceKeys::new(canvas);
+        if keys.total == 0 {
+            return Ok(());
+        }
+        let cluster = cluster_keys(&keys.histogram, self.colors as usize);
+        let k = cluster.iter().copied().max().unwrap_or(0) as usize + 1;
+        // Mean colour per cluster; fixed chunks summed in order, so any thread count gives
+        // the same bits.
+        const CHUNK: usize = 1 << 14;
+        let partial: Vec<Vec<(DVec3, u64)>> = canvas
+            .px
+            .par_chunks(CHUNK)
+            .zip(keys.keys.par_chunks(CHUNK))
+            .map(|(px, ks)| {
+                let mut acc = vec![(DVec3::ZERO, 0u64); k];
+                for (p, key) in px.iter().zip(ks) {
+                    if let Some(key) = key {
+                        let a = &mut acc[cluster[*key as usize] as usize];
+                        a.0 += p.rgb.as_dvec3();
+                        a.1 += 1;
+                    }
+                }
+                acc
+            })
+            .collect();
+        let mut sums = vec![(DVec3::ZERO, 0u64); k];
+        for part in &partial {
+            for (s, p) in sums.iter_mut().zip(part) {
+                s.0 += p.0;
+                s.1 += p.1;
+            }
+        }
+        let colours: Vec<Vec3> =
+            sums.iter().map(|(s, n)| if *n > 0 { (*s / *n as f64).as_vec3() } else { Vec3::ZERO }).collect();
+        canvas.px.par_iter_mut().zip(&keys.keys).for_each(|(p, key)| {
+            if let Some(key) = key {
+                p.rgb = colours[cluster[*key as usize] as usize];
+            }
+        });
+        Ok(())
+    }
+}
