@@ -53,8 +53,12 @@ impl Effect for Borders {
     fn apply(&self, canvas: &mut Canvas, ctx: &PaintContext) -> Result<()> {
         // One facet has no border.
         let Some(facets) = ctx.facets else { return Ok(()) };
-        let pd =
-            distance_to_features(canvas.width, canvas.height, border_pixels(facets.width, facets.height, &facets.ids));
+        let pd = distance_to_features(
+            canvas.width,
+            canvas.height,
+            self.width,
+            border_pixels(facets.width, facets.height, &facets.ids),
+        );
         let (md, s, transparent) = (self.width, self.strength, canvas.transparent);
         canvas.px.par_iter_mut().zip(&pd).for_each(|(p, &d)| {
             if d < md {

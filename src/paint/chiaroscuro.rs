@@ -85,30 +85,49 @@ impl Effect for Chiaroscuro {
             return Err(Error::setting("chiaroscuro", "relighting needs the scene's lights; none were given"));
         };
         let (world, rig) = (lighting.world, lighting.rig);
-        let lights: Vec<(Quat, f32)> = (0..ctx.facet_count() as u32).map(|f| self.facet_light(f)).collect();
+        // Per facet: the rotation, the gain and the rotated directions of directional lights
+        // (the other lights' directions depend on the pixel).
+        let facets: Vec<(Quat, f32, Vec<Vec3>)> = (0..ctx.facet_count() as u32)
+            .map(|f| {
+                let (q, gain) = self.facet_light(f);
+                let dirs = rig
+                    .lights
+                    .iter()
+                    .map(|l| match l {
+                        RigLight::Directional { to_light, .. } => q * *to_light,
+                        _ => Vec3::ZERO,
+                    })
+                    .collect();
+                (q, gain, dirs)
+            })
+            .collect();
+        let unlit: Vec<bool> = world.objects.iter().map(|o| world.materials[o.material].unlit).collect();
         let (bg, transparent) = (canvas.background, canvas.transparent);
         let ambient = Vec3::splat(rig.ambient);
         canvas.px.par_iter_mut().enumerate().for_each(|(i, p)| {
             let hit = &ctx.hits[i];
-            if !hit.is_hit() || p.coverage <= 0.0 {
+            if !hit.is_hit() || p.coverage <= 0.0 || unlit[hit.object as usize] {
                 return;
             }
-            let tri = hit.tri as usize;
-            let object = &world.objects[world.triangle_object[tri] as usize];
-            if world.materials[object.material].unlit {
-                return;
-            }
-            let [p0, p1, p2] = world.positions[tri];
-            let position = p0 * (1.0 - hit.u - hit.v) + p1 * hit.u + p2 * hit.v;
-            let (rotation, gain) = lights[ctx.facet(i) as usize];
+            let (rotation, gain, dirs) = &facets[ctx.facet(i) as usize];
             let n = hit.normal;
             let (mut before, mut after) = (ambient, Vec3::ZERO);
-            for l in &rig.lights {
-                let (to_light, radiance) = incident(l, position);
-                before += radiance * n.dot(to_light).max(0.0);
-                after += radiance * n.dot(rotation * to_light).max(0.0);
+            for (l, rotated) in rig.lights.iter().zip(dirs) {
+                match l {
+                    RigLight::Directional { to_light, radiance } => {
+                        before += *radiance * n.dot(*to_light).max(0.0);
+                        after += *radiance * n.dot(*rotated).max(0.0);
+                    }
+                    _ => {
+                        let [p0, p1, p2] = world.positions[hit.tri as usize];
+                        let position = p0 * (1.0 - hit.u - hit.v) + p1 * hit.u + p2 * hit.v;
+                        let (to_light, radiance) = incident(l, position);
+                        before += radiance * n.dot(to_light).max(0.0);
+                        after += radiance * n.dot(*rotation * to_light).max(0.0);
+                    }
+                }
             }
-            let after = ambient + after * gain;
+            let after = ambient + after * *gain;
             let ratio =
                 Vec3::select(before.cmpgt(Vec3::splat(1e-6)), after / before, Vec3::ONE).min(Vec3::splat(MAX_RATIO));
             if transparent {

@@ -8,9 +8,16 @@
 use rayon::prelude::*;
 
 /// Euclidean distance (between pixel centres) from every pixel to the nearest pixel where
-/// `is_feature(index)` holds; `f32::INFINITY` everywhere when there is no feature pixel.
-/// Exact: separable lower envelope of parabolas, O(width x height).
-pub fn distance_to_features(width: u32, height: u32, is_feature: impl Fn(usize) -> bool + Sync) -> Vec<f32> {
+/// `is_feature(index)` holds. Exact below `limit`; pixels at `limit` or farther get some value
+/// >= `limit` (`f32::INFINITY` when no feature is that close). Pass `f32::INFINITY` for the
+/// full transform. Separable lower envelope of parabolas, O(width x height); the limit
+/// only skips work (a feature closer than it is also closer than it along its column).
+pub fn distance_to_features(
+    width: u32,
+    height: u32,
+    limit: f32,
+    is_feature: impl Fn(usize) -> bool + Sync,
+) -> Vec<f32> {
     let (w, h) = (width as usize, height as usize);
     // Pass 1: per column, the distance to the nearest feature in that column (two sweeps,
     // row by row so the inner loop runs along memory).
@@ -36,12 +43,17 @@ pub fn distance_to_features(width: u32, height: u32, is_feature: impl Fn(usize) 
             *v = v.min(n + 1.0);
         }
     }
-    // Pass 2: per row, the lower envelope of the parabolas (x - q)^2 + g(q)^2.
+    // Pass 2: per row, the lower envelope of the parabolas (x - q)^2 + g(q)^2, leaving out
+    // columns whose nearest feature is `limit` or farther.
     g.par_chunks_mut(w).for_each_init(
         || (Vec::with_capacity(w), Vec::with_capacity(w + 1), Vec::with_capacity(w)),
         |(v, z, f): &mut (Vec<usize>, Vec<f64>, Vec<f64>), row| {
+            if row.iter().all(|&d| d >= limit) {
+                row.fill(f32::INFINITY);
+                return;
+            }
             f.clear();
-            f.extend(row.iter().map(|&d| if d.is_finite() { (d as f64) * (d as f64) } else { f64::INFINITY }));
+            f.extend(row.iter().map(|&d| if d < limit { (d as f64) * (d as f64) } else { f64::INFINITY }));
             envelope(f, v, z, row);
         },
     );
@@ -120,7 +132,7 @@ mod tests {
     #[test]
     fn single_point_gives_euclidean_distances() {
         let (w, h) = (7usize, 5usize);
-        let d = distance_to_features(w as u32, h as u32, |i| i == 2 * w + 3);
+        let d = distance_to_features(w as u32, h as u32, f32::INFINITY, |i| i == 2 * w + 3);
         assert_eq!(d[2 * w + 3], 0.0);
         assert_eq!(d[2 * w + 6], 3.0);
         assert!((d[0] - (9.0f32 + 4.0).sqrt()).abs() < 1e-6);
@@ -128,18 +140,24 @@ mod tests {
 
     #[test]
     fn no_features_is_infinite() {
-        let d = distance_to_features(4, 3, |_| false);
+        let d = distance_to_features(4, 3, f32::INFINITY, |_| false);
         assert!(d.iter().all(|v| v.is_infinite()));
     }
 
     proptest! {
         #[test]
-        fn matches_brute_force(w in 1usize..24, h in 1usize..24, bits in proptest::collection::vec(0u8..16, 576)) {
+        fn matches_brute_force(w in 1usize..24, h in 1usize..24, bits in proptest::collection::vec(0u8..16, 576), limit in 0.5f32..30.0) {
             let feat: Vec<bool> = (0..w * h).map(|i| bits[i] == 0).collect();
-            let d = distance_to_features(w as u32, h as u32, |i| feat[i]);
             let b = brute(w, h, &feat);
+            let d = distance_to_features(w as u32, h as u32, f32::INFINITY, |i| feat[i]);
+            let near = distance_to_features(w as u32, h as u32, limit, |i| feat[i]);
             for i in 0..w * h {
                 prop_assert!(d[i] == b[i] || (d[i] - b[i]).abs() < 1e-4, "pixel {} got {} want {}", i, d[i], b[i]);
+                if b[i] < limit {
+                    prop_assert!((near[i] - b[i]).abs() < 1e-4, "limited: pixel {} got {} want {}", i, near[i], b[i]);
+                } else {
+                    prop_assert!(near[i] >= limit - 1e-4, "limited: pixel {} got {} beyond {}", i, near[i], limit);
+                }
             }
         }
     }

@@ -280,33 +280,42 @@ mod tests;
 /// output, and a counting sort over them is linear time.
 pub const KEY_LEVELS: usize = 1 << 16;
 
-/// The painted pixels' luminances as sortable keys: `key[i]` = sqrt(L / L_max) in 16 bits
-/// (square root: more levels in the shadows, roughly perceptual), `None` for pixels the
+/// The painted pixels' luminances as sortable keys: `keys[i]` = sqrt(L / L_max) in 16 bits
+/// (square root: more levels in the shadows, roughly perceptual), `UNPAINTED` for pixels the
 /// effects do not paint, plus the histogram of keys. Monotone: L_a < L_b implies
 /// key_a <= key_b, so mapping by key preserves luminance order; equal keys are ties and get
 /// the same treatment (deterministic, and flat areas stay flat).
 pub struct LuminanceKeys {
-    pub keys: Vec<Option<u16>>,
+    pub keys: Vec<u32>,
     pub histogram: Vec<u32>,
     /// Number of painted pixels.
     pub total: u64,
 }
 
+/// The key of a pixel colour effects leave alone.
+pub const UNPAINTED: u32 = u32::MAX;
+
 impl LuminanceKeys {
     pub fn new(canvas: &Canvas) -> LuminanceKeys {
-        let lum: Vec<Option<f32>> =
-            canvas.px.par_iter().map(|p| canvas.is_painted(p).then(|| luminance(p.rgb).max(0.0))).collect();
-        let max = lum.par_iter().filter_map(|l| *l).reduce(|| 0.0f32, f32::max);
+        let lum = |p: &Px| if canvas.is_painted(p) { luminance(p.rgb).max(0.0) } else { -1.0 };
+        let max = canvas.px.par_iter().map(lum).reduce(|| 0.0f32, f32::max);
         let scale = if max > 0.0 && max.is_finite() { 1.0 / max } else { 0.0 };
-        let keys: Vec<Option<u16>> = lum
+        let top = (KEY_LEVELS - 1) as f32;
+        let keys: Vec<u32> = canvas
+            .px
             .par_iter()
-            .map(|l| l.map(|l| (((l * scale).min(1.0).sqrt()) * (KEY_LEVELS - 1) as f32 + 0.5) as u16))
+            .map(|p| {
+                let l = lum(p);
+                if l < 0.0 { UNPAINTED } else { ((l * scale).min(1.0).sqrt() * top + 0.5) as u32 }
+            })
             .collect();
         let mut histogram = vec![0u32; KEY_LEVELS];
         let mut total = 0u64;
-        for k in keys.iter().flatten() {
-            histogram[*k as usize] += 1;
-            total += 1;
+        for &k in &keys {
+            if k != UNPAINTED {
+                histogram[k as usize] += 1;
+                total += 1;
+            }
         }
         LuminanceKeys { keys, histogram, total }
     }

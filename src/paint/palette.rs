@@ -8,7 +8,7 @@ use std::path::Path;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::{Canvas, Effect, LuminanceKeys, PaintContext, luminance};
+use super::{Canvas, Effect, LuminanceKeys, PaintContext, UNPAINTED, luminance};
 use crate::error::{Error, Result};
 use crate::scene::texture::srgb_to_linear;
 use crate::settings::Palette;
@@ -154,11 +154,9 @@ impl ColourTransfer {
         ColourTransfer::from_colours(&colours).map_err(|_| Error::input(path, "the palette image has no opaque pixel"))
     }
 
-    /// A reference given as its pixels' linear colours (any number, any order). Sorted by
-    /// luminance (ties by position: deterministic) and cut into `LEVELS` quantile bins (fewer
-    /// for tiny references); each level is the bin's medoid, the reference pixel nearest the
-    /// bin's mean colour. So every colour the transfer paints is a colour of the reference, and
-    /// neighbouring luminances do not flicker between unrelated hues of the painting.
+    /// A reference given as its pixels' linear colours (any number, any order), sorted by
+    /// luminance (ties by position: deterministic) and reduced to `LEVELS` quantile levels by
+    /// `choose_levels`: every colour the transfer paints is a colour of the reference.
     pub fn from_colours(colours: &[Vec3]) -> Result<ColourTransfer> {
         if colours.is_empty() {
             return Err(Error::setting("palette_image", "the reference has no pixel"));
@@ -176,26 +174,8 @@ impl ColourTransfer {
             })
             .collect();
         order.par_sort_unstable();
-        let m = order.len();
-        let bins = m.min(LEVELS);
-        let levels = (0..bins)
-            .into_par_iter()
-            .map(|b| {
-                let slice = &order[b * m / bins..(b + 1) * m / bins];
-                let colour = |k: &u64| colours[(*k & 0xffff_ffff) as usize];
-                let mean = slice.iter().map(|k| colour(k).as_dvec3()).sum::<glam::DVec3>() / slice.len() as f64;
-                let mean = mean.as_vec3();
-                let mut best = (f32::INFINITY, Vec3::ZERO);
-                for k in slice {
-                    let c = colour(k);
-                    let d = (c - mean).length_squared();
-                    if d < best.0 {
-                        best = (d, c);
-                    }
-                }
-                best.1
-            })
-            .collect();
+        let sorted: Vec<Vec3> = order.iter().map(|k| colours[(*k & 0xffff_ffff) as usize]).collect();
+        let levels = choose_levels(&sorted, LEVELS);
         Ok(ColourTransfer { levels, contrast_limit: CONTRAST_LIMIT })
     }
 
@@ -232,12 +212,89 @@ impl Effect for ColourTransfer {
         }
         let levels = &self.levels;
         canvas.px.par_iter_mut().zip(&keys.keys).for_each(|(p, k)| {
-            if let Some(k) = k {
+            if *k != UNPAINTED {
                 p.rgb = levels[table[*k as usize] as usize];
             }
         });
         Ok(())
     }
+}
+
+/// Candidate reference pixels per level, spread over the bins within `SPAN` x the number of
+/// levels on either side.
+const CANDIDATES: usize = 24;
+const SPAN: f64 = 1.0 / 128.0;
+/// Levels on either side whose mean colour a level aims at, as a fraction of the levels.
+const WINDOW: f64 = 1.0 / 32.0;
+/// Weight of hue continuity between neighbouring levels against closeness to the local mean.
+const CONTINUITY: f32 = 24.0;
+
+/// Reduces reference colours sorted by luminance to at most `count` levels, one per quantile
+/// bin, each a pixel of the reference. A painting's pixels of one luminance often hold several
+/// hues (ochre and blue-grey of equal value); picking each bin's pixel independently flips
+/// between them from level to level, which paints stripes across smooth shading. So the
+/// levels are chosen together: among `CANDIDATES` pixels spread over the bins within `SPAN`
+/// of each bin, the path that minimises the distance to the local mean colour (bins within
+/// `WINDOW`) plus `CONTINUITY` x the distance to the previous level (Viterbi; distances in a
+/// square-root, roughly perceptual, space), never stepping down in luminance. Keeping
+/// candidate j at every level is always allowed (the windows slide forward), so a path exists.
+pub fn choose_levels(sorted: &[Vec3], count: usize) -> Vec<Vec3> {
+    let m = sorted.len();
+    let bins = m.min(count);
+    let p = |c: Vec3| c.max(Vec3::ZERO).powf(0.5);
+    let mut prefix = Vec::with_capacity(m + 1);
+    prefix.push(glam::DVec3::ZERO);
+    for c in sorted {
+        let last = *prefix.last().unwrap();
+        prefix.push(last + p(*c).as_dvec3());
+    }
+    let range = |b: usize| (b * m / bins, (b + 1) * m / bins);
+    let (span, window) = ((SPAN * bins as f64) as usize, (WINDOW * bins as f64) as usize);
+    let n = m.min(CANDIDATES);
+    let candidates: Vec<Vec<Vec3>> = (0..bins)
+        .map(|b| {
+            let (lo, _) = range(b.saturating_sub(span));
+            let (_, hi) = range((b + span).min(bins - 1));
+            (0..n).map(|j| sorted[lo + (2 * j + 1) * (hi - lo) / (2 * n)]).collect()
+        })
+        .collect();
+    let targets: Vec<Vec3> = (0..bins)
+        .map(|b| {
+            let (lo, _) = range(b.saturating_sub(window));
+            let (_, hi) = range((b + window).min(bins - 1));
+            ((prefix[hi] - prefix[lo]) / (hi - lo) as f64).as_vec3()
+        })
+        .collect();
+    // Viterbi: cost[j] of the best path ending at candidate j of the current bin.
+    let mut back: Vec<Vec<u8>> = Vec::with_capacity(bins);
+    let mut cost: Vec<f32> = candidates[0].iter().map(|c| (p(*c) - targets[0]).length_squared()).collect();
+    back.push(vec![0; cost.len()]);
+    for b in 1..bins {
+        let (prev, cur) = (&candidates[b - 1], &candidates[b]);
+        let mut next = Vec::with_capacity(cur.len());
+        let mut from = Vec::with_capacity(cur.len());
+        for c in cur {
+            let data = (p(*c) - targets[b]).length_squared();
+            let (best, k) = prev
+                .iter()
+                .zip(&cost)
+                .enumerate()
+                .filter(|(_, (q, _))| luminance(**q) <= luminance(*c))
+                .map(|(k, (q, cq))| (cq + CONTINUITY * (p(*c) - p(*q)).length_squared(), k))
+                .fold((f32::INFINITY, 0), |a, x| if x.0 < a.0 { x } else { a });
+            next.push(best + data);
+            from.push(k as u8);
+        }
+        cost = next;
+        back.push(from);
+    }
+    let mut j = cost.iter().enumerate().fold((f32::INFINITY, 0), |a, (k, c)| if *c < a.0 { (*c, k) } else { a }).1;
+    let mut levels = vec![Vec3::ZERO; bins];
+    for b in (0..bins).rev() {
+        levels[b] = candidates[b][j];
+        j = back[b][j] as usize;
+    }
+    levels
 }
 
 /// The histogram clipped at `limit` x the uniform height, the excess spread evenly over every

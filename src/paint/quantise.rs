@@ -7,7 +7,7 @@
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
-use super::{Canvas, Effect, LuminanceKeys, PaintContext};
+use super::{Canvas, Effect, LuminanceKeys, PaintContext, UNPAINTED};
 use crate::error::Result;
 
 /// Lloyd iterations at most (1-D k-means converges in a few dozen).
@@ -102,7 +102,7 @@ impl Effect for Quantise {
             .map(|(px, ks)| {
                 let mut acc = vec![(DVec3::ZERO, 0u64); k];
                 for (p, key) in px.iter().zip(ks) {
-                    if let Some(key) = key {
+                    if *key != UNPAINTED {
                         let a = &mut acc[cluster[*key as usize] as usize];
                         a.0 += p.rgb.as_dvec3();
                         a.1 += 1;
@@ -121,7 +121,7 @@ impl Effect for Quantise {
         let colours: Vec<Vec3> =
             sums.iter().map(|(s, n)| if *n > 0 { (*s / *n as f64).as_vec3() } else { Vec3::ZERO }).collect();
         canvas.px.par_iter_mut().zip(&keys.keys).for_each(|(p, key)| {
-            if let Some(key) = key {
+            if *key != UNPAINTED {
                 p.rgb = colours[cluster[*key as usize] as usize];
             }
         });

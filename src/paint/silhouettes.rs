@@ -25,7 +25,7 @@ impl Effect for Silhouettes {
         // The foreground: pixels any sample of which hit geometry. A partly covered pixel's
         // background part touches the foreground (p_d = 0).
         let px = &canvas.px;
-        let dist = distance_to_features(canvas.width, canvas.height, |i| px[i].coverage > 0.0);
+        let dist = distance_to_features(canvas.width, canvas.height, self.width, |i| px[i].coverage > 0.0);
         let (md, s, bg, transparent) = (self.width, self.strength, canvas.background, canvas.transparent);
         canvas.px.par_iter_mut().zip(&dist).for_each(|(p, &d)| {
             // Partly covered pixels are foreground pixels too: d = 0 for their background part.

@@ -463,7 +463,8 @@ fn all_off() -> Settings {
 fn each_effect_off_leaves_the_image_bit_identical() {
     let facets = voronoi(64, 48, 8, 1);
     let frame0 = render_like(64, 48);
-    let toggles: Vec<(&str, fn(&mut Settings, bool))> = vec![
+    type Toggle = (&'static str, fn(&mut Settings, bool));
+    let toggles: Vec<Toggle> = vec![
         ("borders", |s, on| s.border_width = if on { 10.0 } else { 0.0 }),
         ("borders", |s, on| s.border_strength = if on { 1.0 } else { 0.0 }),
         ("silhouettes", |s, on| s.silhouette_width = if on { 200.0 } else { 0.0 }),
@@ -585,4 +586,20 @@ fn a_bad_palette_image_fails_before_tracing() {
     s.palette_image = Some("/nonexistent/painting.jpg".into());
     let e = crate::pipeline::render(&prep, &s, &crate::progress::Progress::silent()).err().unwrap();
     assert!(matches!(e, Error::Input { .. }), "{e}");
+}
+
+#[test]
+fn colour_transfer_levels_keep_hues_in_runs() {
+    // The test painting's blue-grey and light ochre planes share a luminance range, each in
+    // discrete 8-bit steps: picked bin by bin the levels flip hue every few bins (stripes on
+    // every smooth gradient). Chosen together they switch hue only a few times.
+    let painting = painting_like(400, 300);
+    let t = ColourTransfer::from_colours(&reference_colours(&painting)).unwrap();
+    let blue: Vec<bool> = t.levels().iter().map(|c| c.z > c.x).collect();
+    let switches = blue.windows(2).filter(|w| w[0] != w[1]).count();
+    assert!(blue.iter().any(|b| *b), "the blue-grey plane is used");
+    assert!(switches <= 4, "{switches} hue switches");
+    for pair in t.levels().windows(2) {
+        assert!(luminance(pair[0]) <= luminance(pair[1]));
+    }
 }
