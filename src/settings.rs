@@ -585,8 +585,8 @@ impl Preset {
                 s.discontinuity = 150.0;
                 s.border_width = 16.0;
                 s.border_strength = 1.0;
-                s.silhouette_width = 30.0;
-                s.silhouette_strength = 0.6;
+                s.silhouette_width = 20.0;
+                s.silhouette_strength = 0.5;
                 s.palette = Palette::Olive;
                 s.gradients = 0.5;
                 s.colors = 8;
@@ -599,8 +599,8 @@ impl Preset {
                 s.discontinuity = 100.0;
                 s.border_width = 8.0;
                 s.border_strength = 0.7;
-                s.silhouette_width = 60.0;
-                s.silhouette_strength = 0.7;
+                s.silhouette_width = 40.0;
+                s.silhouette_strength = 0.5;
                 s.palette = Palette::BluePeriod;
                 s.gradients = 0.2;
                 s.colors = 0;
@@ -613,8 +613,8 @@ impl Preset {
                 s.discontinuity = 200.0;
                 s.border_width = 12.0;
                 s.border_strength = 0.9;
-                s.silhouette_width = 40.0;
-                s.silhouette_strength = 0.5;
+                s.silhouette_width = 25.0;
+                s.silhouette_strength = 0.4;
                 s.palette = Palette::Grey;
                 s.gradients = 0.35;
                 s.colors = 6;

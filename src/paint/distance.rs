@@ -9,7 +9,7 @@ use rayon::prelude::*;
 
 /// Euclidean distance (between pixel centres) from every pixel to the nearest pixel where
 /// `is_feature(index)` holds. Exact below `limit`; pixels at `limit` or farther get some value
-/// >= `limit` (`f32::INFINITY` when no feature is that close). Pass `f32::INFINITY` for the
+/// not below it (`f32::INFINITY` when no feature is that close). Pass `f32::INFINITY` for the
 /// full transform. Separable lower envelope of parabolas, O(width x height); the limit
 /// only skips work (a feature closer than it is also closer than it along its column).
 pub fn distance_to_features(

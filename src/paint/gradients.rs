@@ -114,14 +114,9 @@ impl Effect for Gradients {
 
     fn apply(&self, canvas: &mut Canvas, ctx: &PaintContext) -> Result<()> {
         let w = canvas.width;
-        let single;
-        let ids: &[u32] = match ctx.facets {
-            Some(f) => &f.ids,
-            None => {
-                single = vec![0u32; canvas.pixel_count()];
-                &single
-            }
-        };
+        // Without facets there is no facet corner to shade (as there is no facet border).
+        let Some(facets) = ctx.facets else { return Ok(()) };
+        let ids = &facets.ids[..];
         let overlays = self.overlays(w, ids, ctx.facet_count());
         if overlays.iter().all(Option::is_none) {
             return Ok(());

@@ -3,6 +3,11 @@
 //! Luminance-preserving: the pixels are clustered by luminance alone (1-D k-means: Lloyd's
 //! iterations from quantile seeds, on the luminance-key histogram), and each cluster
 //! is painted with its pixels' mean colour, whose luminance is their mean luminance.
+//!
+//! Each luminance level weighs the square root of its pixel count in the clustering: with
+//! plain counts a large flat area (the background, a facet of one tone) draws several
+//! clusters to itself and the shaded forms are left with one or two tones; with equal weights
+//! a few stray pixels get their own colour. The square root sits between the two.
 
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
@@ -18,18 +23,19 @@ pub struct Quantise {
     pub colors: u32,
 }
 
-/// Partitions the keys (with `histogram` counts) into at most `k` luminance intervals that
-/// locally minimise the squared key error: returns the cluster of every key.
-pub fn cluster_keys(histogram: &[u32], k: usize) -> Vec<u32> {
-    let total: u64 = histogram.iter().map(|&c| c as u64).sum();
+/// Partitions the keys (with `weights`) into at most `k` luminance intervals that locally
+/// minimise the weighted squared key error: returns the cluster of every key.
+pub fn cluster_keys(weights: &[f64], k: usize) -> Vec<u32> {
+    let histogram = weights;
+    let total: f64 = histogram.iter().sum();
     let mut centres: Vec<f64> = Vec::with_capacity(k);
-    if total > 0 {
-        // Quantile seeds; equal seeds (a key holding many pixels) merge.
-        let mut before = 0u64;
+    if total > 0.0 {
+        // Quantile seeds; equal seeds (a key holding much weight) merge.
+        let mut before = 0.0f64;
         let mut j = 0usize;
         for (key, &c) in histogram.iter().enumerate() {
-            before += c as u64;
-            while j < k && ((j as f64 + 0.5) / k as f64) * (total as f64) < before as f64 {
+            before += c;
+            while j < k && ((j as f64 + 0.5) / k as f64) * total < before {
                 if centres.last() != Some(&(key as f64)) {
                     centres.push(key as f64);
                 }
@@ -40,7 +46,7 @@ pub fn cluster_keys(histogram: &[u32], k: usize) -> Vec<u32> {
     if centres.is_empty() {
         return vec![0; histogram.len()];
     }
-    // Prefix sums of counts and of key x count make each iteration O(k).
+    // Prefix sums of weights and of key x weight make each iteration O(k).
     let mut cum_n = vec![0f64; histogram.len() + 1];
     let mut cum_s = vec![0f64; histogram.len() + 1];
     for (key, &c) in histogram.iter().enumerate() {
@@ -90,7 +96,8 @@ impl Effect for Quantise {
         if keys.total == 0 {
             return Ok(());
         }
-        let cluster = cluster_keys(&keys.histogram, self.colors as usize);
+        let weights: Vec<f64> = keys.histogram.iter().map(|&c| (c as f64).sqrt()).collect();
+        let cluster = cluster_keys(&weights, self.colors as usize);
         let k = cluster.iter().copied().max().unwrap_or(0) as usize + 1;
         // Mean colour per cluster; fixed chunks summed in order, so any thread count gives
         // the same bits.
