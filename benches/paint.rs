@@ -182,7 +182,7 @@ impl cubist::paint::Effect for Nothing {
     fn name(&self) -> &'static str {
         "none"
     }
-    fn apply(&self, _: &mut cubist::paint::Canvas, _: &cubist::paint::PaintContext) -> cubist::Result<()> {
+    fn apply(&self, _: &mut cubist::paint::Canvas<'_>, _: &cubist::paint::PaintContext) -> cubist::Result<()> {
         Ok(())
     }
 }

@@ -4,7 +4,7 @@
 use rayon::prelude::*;
 
 use super::distance::distance_to_features;
-use super::{Canvas, Effect, PaintContext};
+use super::{Canvas, Effect, PaintContext, darken};
 use crate::error::Result;
 
 /// Eq 4.8: colour factor (md + 3 sqrt(p_d md)) / (4 md) for p_d in [0, md], 1 beyond:
@@ -50,7 +50,7 @@ impl Effect for Borders {
         "borders"
     }
 
-    fn apply(&self, canvas: &mut Canvas, ctx: &PaintContext) -> Result<()> {
+    fn apply(&self, canvas: &mut Canvas<'_>, ctx: &PaintContext) -> Result<()> {
         // One facet has no border.
         let Some(facets) = ctx.facets else { return Ok(()) };
         let pd = distance_to_features(
@@ -62,7 +62,7 @@ impl Effect for Borders {
         let (md, s, transparent) = (self.width, self.strength, canvas.transparent);
         canvas.px.par_iter_mut().zip(&pd).for_each(|(p, &d)| {
             if d < md {
-                p.darken(darkening(d, md, s), transparent);
+                darken(p, darkening(d, md, s), transparent);
             }
         });
         Ok(())

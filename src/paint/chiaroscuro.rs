@@ -80,7 +80,7 @@ impl Effect for Chiaroscuro {
         "chiaroscuro"
     }
 
-    fn apply(&self, canvas: &mut Canvas, ctx: &PaintContext) -> Result<()> {
+    fn apply(&self, canvas: &mut Canvas<'_>, ctx: &PaintContext) -> Result<()> {
         let Some(lighting) = ctx.lighting else {
             return Err(Error::setting("chiaroscuro", "relighting needs the scene's lights; none were given"));
         };
@@ -104,9 +104,11 @@ impl Effect for Chiaroscuro {
         let unlit: Vec<bool> = world.objects.iter().map(|o| world.materials[o.material].unlit).collect();
         let (bg, transparent) = (canvas.background, canvas.transparent);
         let ambient = Vec3::splat(rig.ambient);
-        canvas.px.par_iter_mut().enumerate().for_each(|(i, p)| {
+        let (coverage, px) = canvas.coverage_and_pixels();
+        px.par_iter_mut().enumerate().for_each(|(i, p)| {
             let hit = &ctx.hits[i];
-            if !hit.is_hit() || p.coverage <= 0.0 || unlit[hit.object as usize] {
+            let c = coverage.of(i, p);
+            if !hit.is_hit() || c <= 0.0 || unlit[hit.object as usize] {
                 return;
             }
             let (rotation, gain, dirs) = &facets[ctx.facet(i) as usize];
@@ -131,10 +133,10 @@ impl Effect for Chiaroscuro {
             let ratio =
                 Vec3::select(before.cmpgt(Vec3::splat(1e-6)), after / before, Vec3::ONE).min(Vec3::splat(MAX_RATIO));
             if transparent {
-                p.rgb *= ratio;
+                *p = (p.truncate() * ratio).extend(p.w);
             } else {
-                let back = bg * (1.0 - p.coverage);
-                p.rgb = ((p.rgb - back).max(Vec3::ZERO) * ratio) + back;
+                let back = bg * (1.0 - c);
+                *p = (((p.truncate() - back).max(Vec3::ZERO) * ratio) + back).extend(p.w);
             }
         });
         Ok(())

@@ -112,7 +112,7 @@ impl Effect for Gradients {
         "gradients"
     }
 
-    fn apply(&self, canvas: &mut Canvas, ctx: &PaintContext) -> Result<()> {
+    fn apply(&self, canvas: &mut Canvas<'_>, ctx: &PaintContext) -> Result<()> {
         let w = canvas.width;
         // Without facets there is no facet corner to shade (as there is no facet border).
         let Some(facets) = ctx.facets else { return Ok(()) };
@@ -121,14 +121,15 @@ impl Effect for Gradients {
         if overlays.iter().all(Option::is_none) {
             return Ok(());
         }
-        let transparent = canvas.transparent;
-        canvas.px.par_chunks_mut(w as usize).enumerate().for_each(|(y, row)| {
+        let (coverage, px) = canvas.coverage_and_pixels();
+        px.par_chunks_mut(w as usize).enumerate().for_each(|(y, row)| {
             for (x, p) in row.iter_mut().enumerate() {
-                if transparent && p.alpha <= 0.0 {
+                let i = y * w as usize + x;
+                if !coverage.is_painted(i) {
                     continue;
                 }
-                if let Some(o) = &overlays[ids[y * w as usize + x] as usize] {
-                    p.rgb = o.apply(p.rgb, Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+                if let Some(o) = &overlays[ids[i] as usize] {
+                    *p = o.apply(p.truncate(), Vec2::new(x as f32 + 0.5, y as f32 + 0.5)).extend(p.w);
                 }
             }
         });

@@ -24,7 +24,7 @@ pub mod palette;
 pub mod quantise;
 pub mod silhouettes;
 
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
@@ -35,106 +35,104 @@ use crate::scene::World;
 use crate::settings::Settings;
 use crate::shading::LightRig;
 
-/// One pixel of the canvas the effects paint on.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Px {
-    /// Opaque canvas: the composited colour (linear RGB). Transparent canvas: the straight
-    /// (not premultiplied) colour of the painted layer, meaningful where `alpha > 0`.
-    pub rgb: Vec3,
-    /// Opaque: the coverage (kept as it is). Transparent: the painted layer's alpha.
-    pub alpha: f32,
-    /// Fraction of the pixel's samples that hit geometry, as rendered (never changed).
-    pub coverage: f32,
-}
-
-/// The image the effects work on: one `Px` per pixel, row 0 at the top.
-#[derive(Clone, Debug)]
-pub struct Canvas {
+/// The image the effects work on, in place on the frame's colour buffer (row 0 at the top).
+/// Each pixel's `xyz` is, on an opaque canvas, the composited colour (linear RGB) and, on a
+/// transparent one, the straight (not premultiplied) colour of the painted layer, meaningful
+/// where `w > 0`. Its `w` is the coverage on an opaque canvas (never changed) and the painted
+/// layer's alpha on a transparent one (darkening effects raise it).
+pub struct Canvas<'a> {
     pub width: u32,
     pub height: u32,
-    pub px: Vec<Px>,
+    pub px: &'a mut [Vec4],
+    /// Transparent canvases: each pixel's rendered coverage (the layer alpha changes).
+    /// Opaque canvases keep it in `px[i].w`.
+    coverage: Option<Vec<f32>>,
     /// The render's background colour (linear RGB).
     pub background: Vec3,
     /// Whether the output has a transparent background (see the module doc).
     pub transparent: bool,
 }
 
-impl Canvas {
-    /// The canvas of a rendered frame.
-    pub fn from_frame(frame: &Frame, background: [f32; 3], transparent: bool) -> Canvas {
+impl<'a> Canvas<'a> {
+    /// Paints on `color` (a frame's colour buffer, as `render` writes it): an opaque canvas
+    /// uses it as it is; a transparent one un-blends the background first.
+    pub fn new(width: u32, height: u32, color: &'a mut [Vec4], background: [f32; 3], transparent: bool) -> Canvas<'a> {
         let bg = Vec3::from(background);
-        let px = frame
-            .color
-            .par_iter()
-            .map(|c| {
+        let coverage = transparent.then(|| {
+            let cov = color.par_iter().map(|c| c.w).collect();
+            color.par_iter_mut().for_each(|c| {
                 let a = c.w;
-                let rgb = if !transparent {
-                    c.truncate()
-                } else if a > 0.0 {
-                    (c.truncate() - bg * (1.0 - a)) / a
-                } else {
-                    Vec3::ZERO
-                };
-                Px { rgb, alpha: a, coverage: a }
-            })
-            .collect();
-        Canvas { width: frame.width, height: frame.height, px, background: bg, transparent }
+                let rgb = if a > 0.0 { (c.truncate() - bg * (1.0 - a)) / a } else { Vec3::ZERO };
+                *c = rgb.extend(a);
+            });
+            cov
+        });
+        Canvas { width, height, px: color, coverage, background: bg, transparent }
     }
 
-    /// Writes the canvas back as the frame's colour, in the form `output::encode` reads.
-    pub fn write_to(&self, frame: &mut Frame) {
-        let (bg, transparent) = (self.background, self.transparent);
-        frame.color.par_iter_mut().zip(&self.px).for_each(|(c, p)| {
-            *c = if transparent {
-                (p.rgb * p.alpha + bg * (1.0 - p.alpha)).extend(p.alpha)
-            } else {
-                p.rgb.extend(p.coverage)
-            };
-        });
+    /// Puts the colour back in the form `output::encode` reads: premultiplied + (1 - alpha)
+    /// x background on a transparent canvas (an opaque one already is).
+    pub fn finish(self) {
+        if self.transparent {
+            let bg = self.background;
+            self.px.par_iter_mut().for_each(|c| *c = (c.truncate() * c.w + bg * (1.0 - c.w)).extend(c.w));
+        }
     }
 
     pub fn pixel_count(&self) -> usize {
         self.px.len()
     }
 
-    /// Whether colour effects may repaint this pixel (everything on an opaque canvas).
-    pub fn is_painted(&self, p: &Px) -> bool {
-        !self.transparent || p.alpha > 0.0
+    /// The rendered coverage of every pixel, and the pixels (split borrows for parallel loops).
+    pub fn coverage_and_pixels(&mut self) -> (Coverage<'_>, &mut [Vec4]) {
+        (Coverage(self.coverage.as_deref()), &mut *self.px)
     }
 }
 
-impl Px {
-    /// Multiplies the whole pixel (foreground and background) by `f` in [0, 1]. On a
-    /// transparent canvas, as black laid over the pixel with alpha 1 - f.
-    pub fn darken(&mut self, f: f32, transparent: bool) {
-        if !transparent {
-            self.rgb *= f;
-            return;
-        }
-        let a = self.alpha;
-        let a2 = 1.0 - f * (1.0 - a);
-        if a2 > 0.0 {
-            self.rgb *= f * a / a2;
-            self.alpha = a2;
-        }
+/// Reads a pixel's rendered coverage (see `Canvas::coverage_and_pixels`).
+#[derive(Clone, Copy)]
+pub struct Coverage<'a>(Option<&'a [f32]>);
+
+impl Coverage<'_> {
+    pub fn of(&self, i: usize, p: &Vec4) -> f32 {
+        self.0.map_or(p.w, |c| c[i])
     }
 
-    /// Multiplies only the background part (1 - coverage) of the pixel by `f` in [0, 1].
-    /// Opaque: that part is still the plain background colour `bg` (silhouettes run before
-    /// any effect that repaints the background). Transparent: black with alpha under the
-    /// unchanged foreground.
-    pub fn darken_background(&mut self, f: f32, bg: Vec3, transparent: bool) {
-        if !transparent {
-            self.rgb -= bg * ((1.0 - self.coverage) * (1.0 - f));
-            self.rgb = self.rgb.max(Vec3::ZERO);
-            return;
-        }
-        let a = self.alpha;
-        let a2 = a + (1.0 - a) * (1.0 - f);
-        if a2 > 0.0 {
-            self.rgb *= a / a2;
-            self.alpha = a2;
-        }
+    /// Whether colour effects may repaint pixel `i`: everything on an opaque canvas, what was
+    /// rendered (coverage > 0) on a transparent one, so a silhouette's black stays black.
+    pub fn is_painted(&self, i: usize) -> bool {
+        self.0.is_none_or(|c| c[i] > 0.0)
+    }
+}
+
+/// Multiplies the whole pixel (foreground and background) by `f` in [0, 1]. On a transparent
+/// canvas, as black laid over the pixel with alpha 1 - f.
+pub fn darken(p: &mut Vec4, f: f32, transparent: bool) {
+    if !transparent {
+        *p = (p.truncate() * f).extend(p.w);
+        return;
+    }
+    let a = p.w;
+    let a2 = 1.0 - f * (1.0 - a);
+    if a2 > 0.0 {
+        *p = (p.truncate() * (f * a / a2)).extend(a2);
+    }
+}
+
+/// Multiplies only the background part (1 - `coverage`) of the pixel by `f` in [0, 1].
+/// Opaque: that part is still the plain background colour `bg` (silhouettes run before any
+/// effect that repaints the background). Transparent: black with alpha under the unchanged
+/// foreground.
+pub fn darken_background(p: &mut Vec4, coverage: f32, f: f32, bg: Vec3, transparent: bool) {
+    if !transparent {
+        let rgb = (p.truncate() - bg * ((1.0 - coverage) * (1.0 - f))).max(Vec3::ZERO);
+        *p = rgb.extend(p.w);
+        return;
+    }
+    let a = p.w;
+    let a2 = a + (1.0 - a) * (1.0 - f);
+    if a2 > 0.0 {
+        *p = (p.truncate() * (a / a2)).extend(a2);
     }
 }
 
@@ -170,7 +168,7 @@ impl PaintContext<'_> {
 /// keep the canvas's alpha conventions (see the module doc).
 pub trait Effect: Send + Sync {
     fn name(&self) -> &'static str;
-    fn apply(&self, canvas: &mut Canvas, ctx: &PaintContext) -> Result<()>;
+    fn apply(&self, canvas: &mut Canvas<'_>, ctx: &PaintContext) -> Result<()>;
 }
 
 /// A seed for one effect's random choices: the render's seed mixed with the effect's salt.
@@ -248,13 +246,18 @@ impl Painter {
                 format!("the facet map is {}x{} but the image is {}x{}", f.width, f.height, frame.width, frame.height),
             ));
         }
-        let mut canvas = Canvas::from_frame(frame, self.background, self.transparent);
+        let (w, h) = (frame.width, frame.height);
+        let mut canvas = Canvas::new(w, h, &mut frame.color, self.background, self.transparent);
         let ctx = PaintContext { hits: &frame.hits, facets, lighting };
+        let mut result = Ok(());
         for e in &self.effects {
-            e.apply(&mut canvas, &ctx)?;
+            result = e.apply(&mut canvas, &ctx);
+            if result.is_err() {
+                break;
+            }
         }
-        canvas.write_to(frame);
-        Ok(())
+        canvas.finish();
+        result
     }
 }
 
@@ -297,15 +300,17 @@ pub const UNPAINTED: u32 = u32::MAX;
 
 impl LuminanceKeys {
     pub fn new(canvas: &Canvas) -> LuminanceKeys {
-        let lum = |p: &Px| if canvas.is_painted(p) { luminance(p.rgb).max(0.0) } else { -1.0 };
-        let max = canvas.px.par_iter().map(lum).reduce(|| 0.0f32, f32::max);
+        let coverage = Coverage(canvas.coverage.as_deref());
+        let lum = |(i, p): (usize, &Vec4)| if coverage.is_painted(i) { luminance(p.truncate()).max(0.0) } else { -1.0 };
+        let max = canvas.px.par_iter().enumerate().map(lum).reduce(|| 0.0f32, f32::max);
         let scale = if max > 0.0 && max.is_finite() { 1.0 / max } else { 0.0 };
         let top = (KEY_LEVELS - 1) as f32;
         let keys: Vec<u32> = canvas
             .px
             .par_iter()
-            .map(|p| {
-                let l = lum(p);
+            .enumerate()
+            .map(|ip| {
+                let l = lum(ip);
                 if l < 0.0 { UNPAINTED } else { ((l * scale).min(1.0).sqrt() * top + 0.5) as u32 }
             })
             .collect();

@@ -193,7 +193,7 @@ impl Effect for ColourTransfer {
     /// Pixel of rank k among N takes the level at quantile (k + 1/2) / N, ranks counted in
     /// the contrast-limited histogram; pixels tied on luminance share their group's middle
     /// rank.
-    fn apply(&self, canvas: &mut Canvas, _ctx: &PaintContext) -> Result<()> {
+    fn apply(&self, canvas: &mut Canvas<'_>, _ctx: &PaintContext) -> Result<()> {
         let keys = LuminanceKeys::new(canvas);
         if keys.total == 0 {
             return Ok(());
@@ -213,7 +213,7 @@ impl Effect for ColourTransfer {
         let levels = &self.levels;
         canvas.px.par_iter_mut().zip(&keys.keys).for_each(|(p, k)| {
             if *k != UNPAINTED {
-                p.rgb = levels[table[*k as usize] as usize];
+                *p = levels[table[*k as usize] as usize].extend(p.w);
             }
         });
         Ok(())

@@ -50,8 +50,8 @@ pub fn cluster_keys(weights: &[f64], k: usize) -> Vec<u32> {
     let mut cum_n = vec![0f64; histogram.len() + 1];
     let mut cum_s = vec![0f64; histogram.len() + 1];
     for (key, &c) in histogram.iter().enumerate() {
-        cum_n[key + 1] = cum_n[key] + c as f64;
-        cum_s[key + 1] = cum_s[key] + c as f64 * key as f64;
+        cum_n[key + 1] = cum_n[key] + c;
+        cum_s[key + 1] = cum_s[key] + c * key as f64;
     }
     let bounds = |centres: &[f64]| -> Vec<usize> {
         // Interval j holds keys in [b[j], b[j+1]): nearest centre, ties to the lower one.
@@ -91,7 +91,7 @@ impl Effect for Quantise {
         "quantise"
     }
 
-    fn apply(&self, canvas: &mut Canvas, _ctx: &PaintContext) -> Result<()> {
+    fn apply(&self, canvas: &mut Canvas<'_>, _ctx: &PaintContext) -> Result<()> {
         let keys = LuminanceKeys::new(canvas);
         if keys.total == 0 {
             return Ok(());
@@ -111,7 +111,7 @@ impl Effect for Quantise {
                 for (p, key) in px.iter().zip(ks) {
                     if *key != UNPAINTED {
                         let a = &mut acc[cluster[*key as usize] as usize];
-                        a.0 += p.rgb.as_dvec3();
+                        a.0 += p.truncate().as_dvec3();
                         a.1 += 1;
                     }
                 }
@@ -129,7 +129,7 @@ impl Effect for Quantise {
             sums.iter().map(|(s, n)| if *n > 0 { (*s / *n as f64).as_vec3() } else { Vec3::ZERO }).collect();
         canvas.px.par_iter_mut().zip(&keys.keys).for_each(|(p, key)| {
             if *key != UNPAINTED {
-                p.rgb = colours[cluster[*key as usize] as usize];
+                *p = colours[cluster[*key as usize] as usize].extend(p.w);
             }
         });
         Ok(())

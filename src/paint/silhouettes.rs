@@ -5,7 +5,7 @@ use rayon::prelude::*;
 
 use super::borders::darkening;
 use super::distance::distance_to_features;
-use super::{Canvas, Effect, PaintContext};
+use super::{Canvas, Effect, PaintContext, darken_background};
 use crate::error::Result;
 
 /// Darkens the background near the foreground.
@@ -21,16 +21,18 @@ impl Effect for Silhouettes {
         "silhouettes"
     }
 
-    fn apply(&self, canvas: &mut Canvas, _ctx: &PaintContext) -> Result<()> {
+    fn apply(&self, canvas: &mut Canvas<'_>, _ctx: &PaintContext) -> Result<()> {
         // The foreground: pixels any sample of which hit geometry. A partly covered pixel's
         // background part touches the foreground (p_d = 0).
-        let px = &canvas.px;
-        let dist = distance_to_features(canvas.width, canvas.height, self.width, |i| px[i].coverage > 0.0);
+        let (w, h) = (canvas.width, canvas.height);
         let (md, s, bg, transparent) = (self.width, self.strength, canvas.background, canvas.transparent);
-        canvas.px.par_iter_mut().zip(&dist).for_each(|(p, &d)| {
+        let (coverage, px) = canvas.coverage_and_pixels();
+        let dist = distance_to_features(w, h, self.width, |i| coverage.of(i, &px[i]) > 0.0);
+        px.par_iter_mut().zip(&dist).enumerate().for_each(|(i, (p, &d))| {
             // Partly covered pixels are foreground pixels too: d = 0 for their background part.
-            if p.coverage < 1.0 && d < md {
-                p.darken_background(darkening(d, md, s), bg, transparent);
+            let c = coverage.of(i, p);
+            if c < 1.0 && d < md {
+                darken_background(p, c, darkening(d, md, s), bg, transparent);
             }
         });
         Ok(())

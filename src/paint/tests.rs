@@ -657,3 +657,45 @@ fn the_pipeline_paints_the_analytic_preset() {
     // The ochre ramp: every painted pixel is warm (red >= green >= blue).
     assert!(b.image.pixels().all(|p| p.0[0] >= p.0[1] && p.0[1] >= p.0[2]));
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+    /// Any size (down to 1x1), any facet split, opaque or transparent: finite colours, alpha in
+    /// [0, 1], and a transparent image's background never gains colour, only black.
+    #[test]
+    fn the_chain_is_stable_on_any_image(
+        w in 1u32..24,
+        h in 1u32..24,
+        sites in 1u32..12,
+        seed in any::<u64>(),
+        transparent in any::<bool>(),
+        colors in prop_oneof![Just(0u32), 2u32..12],
+    ) {
+        let frame0 = render_like(w, h);
+        let facets = voronoi(w, h, sites, seed);
+        let mut s = all_off();
+        s.width = w;
+        s.height = h;
+        s.seed = seed;
+        s.transparent = transparent;
+        s.border_width = 300.0;
+        s.silhouette_width = 300.0;
+        s.gradients = 0.7;
+        s.palette = Palette::Grey;
+        s.colors = colors;
+        let mut f = frame0.clone();
+        apply_chain(&mut f, Some(&facets), &s, None).unwrap();
+        for (a, b) in f.color.iter().zip(&frame0.color) {
+            prop_assert!(a.is_finite() && (0.0..=1.0).contains(&a.w));
+            prop_assert!(a.w >= b.w - 1e-6, "alpha never drops");
+        }
+        let img = crate::output::encode(&f, s.background, transparent);
+        if transparent {
+            for (p, b) in img.pixels().zip(&frame0.color) {
+                if b.w == 0.0 {
+                    prop_assert!(p.0[..3].iter().all(|&v| v == 0), "background halo must be black: {:?}", p.0);
+                }
+            }
+        }
+    }
+}
