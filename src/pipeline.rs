@@ -90,7 +90,9 @@ pub fn render(prep: &Prepared, settings: &Settings, progress: &Progress) -> Resu
     progress.finish();
 
     if !painter.is_empty() {
-        // Facets: None until the facets stage lands; then the rasterised FacetMap.
+        // Facets: None until the facets stage lands; then `faceted.then_some(&map)` (no facet
+        // map for an unfaceted image: it has no facet borders or corners).
+        progress.begin("paint", 1);
         let lighting = Lighting { world: &prep.world, rig: &rig };
         timings.time("paint", || painter.apply(&mut frame, None, Some(&lighting)))?;
     }
