@@ -129,7 +129,7 @@ fn main() {
     println!("|---|---|---|---|---|---|---|---|---|");
     let mut synthetic_used = false;
     for faceting in [Faceting::None, Faceting::Constant, Faceting::Voronoi, Faceting::Patch] {
-        let mut s = Settings::default();
+        let mut s = Settings::preset(cubist::settings::Preset::Plain);
         (s.width, s.height, s.spp) = (size, size, 4);
         s.faceting = faceting;
         s.facet_map = Some(map_path.clone());
@@ -172,7 +172,7 @@ fn main() {
             let row: Vec<String> = [0.0, 50.0, 100.0, 200.0, 400.0]
                 .iter()
                 .map(|&d| {
-                    let mut s = Settings::default();
+                    let mut s = Settings::preset(cubist::settings::Preset::Plain);
                     (s.width, s.height, s.spp) = (fig, fig, 4);
                     s.faceting = Faceting::Voronoi;
                     s.imprecision = imprecision;
@@ -192,7 +192,7 @@ fn main() {
         let row: Vec<String> = [Imprecision::Saliency, Imprecision::Random, Imprecision::None]
             .iter()
             .map(|&imprecision| {
-                let mut s = Settings::default();
+                let mut s = Settings::preset(cubist::settings::Preset::Plain);
                 (s.width, s.height, s.spp) = (fig, fig, 4);
                 s.faceting = Faceting::Voronoi;
                 s.imprecision = imprecision;

@@ -15,6 +15,7 @@ use crate::facets::{self, FacetLayout, FacetMap};
 use crate::frame::Frame;
 use crate::imprecision::{self, AimContext, FacetAim};
 use crate::output::encode;
+use crate::paint::{Lighting, Painter};
 use crate::progress::Progress;
 use crate::render::{Tracer, splitmix64};
 use crate::scene::{Scene, World};
@@ -103,6 +104,9 @@ pub fn render_with(
     let tracer = Tracer { world: &prep.world, accel: &prep.accel, rig: Some(&rig), background, seed: settings.seed };
     let (width, height) = (settings.width, settings.height);
 
+    // Built before tracing so a bad palette image fails fast; reusable across frames.
+    let painter = timings.time("paint setup", || Painter::new(settings))?;
+
     let mut frame = Frame::new(width, height, settings.spp);
     progress.begin("pre-render", frame.pixel_count() as u64);
     timings.time("pre-render", || tracer.render(&mut frame, &|_, p| framed.camera.ray(p), None, progress));
@@ -156,6 +160,13 @@ pub fn render_with(
             timings.time("re-trace", || tracer.render(&mut frame, &rays, Some(&moved), progress));
             progress.finish();
         }
+    }
+
+    if !painter.is_empty() {
+        // An unfaceted image has no facet borders or corners: no facet map for the painter.
+        progress.begin("paint", 1);
+        let lighting = Lighting { world: &prep.world, rig: &rig };
+        timings.time("paint", || painter.apply(&mut frame, faceted.then_some(&map), Some(&lighting)))?;
     }
 
     let image = timings.time("encode", || encode(&frame, settings.background, settings.transparent));

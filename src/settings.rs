@@ -101,12 +101,16 @@ kebab_enum!(
 );
 
 kebab_enum!(
-    /// Built-in palettes: luminance-ordered colour ramps written for this project.
+    /// Built-in palettes: luminance-ordered colour ramps written for this project (`paint::palette`).
     Palette {
         None = "none",
+        /// Picasso and Braque, 1910: umber, ochre, lead white.
         Ochre = "ochre",
+        /// Grisaille, 1911: warm blacks, brownish and cool greys.
         Grey = "grey",
+        /// Picasso's blue period: Prussian blue to pale blue-grey.
         BluePeriod = "blue-period",
+        /// Braque, 1908-09: olive and earth greens to pale ochre.
         Olive = "olive",
     }
 );
@@ -114,8 +118,17 @@ kebab_enum!(
 kebab_enum!(
     /// Bundles of settings; explicit flags and JSON keys override them.
     Preset {
-        /// The paper's recommended look (the default of `cubist render`).
+        /// The paper's recommended look (the default of `cubist render`): 140 deg, Segment
+        /// facets, discontinuity 200, bold borders, ochre palette, some gradients.
         Analytic = "analytic",
+        /// Braque's earthy 1909-10 canvases: olive palette, 8 colours, heavy borders, many
+        /// gradients, light manipulated facet by facet.
+        Braque = "braque",
+        /// Picasso's blue period: blue palette, softer borders, strong silhouettes, gentler
+        /// discontinuity.
+        BluePeriod = "blue-period",
+        /// Grisaille of 1911: grey palette quantised to 6 tones, relit facets.
+        Grisaille = "grisaille",
         /// The bare cubist camera: no facets, no painterly effects.
         Plain = "plain",
     }
@@ -557,10 +570,61 @@ impl Preset {
             Preset::Plain => {}
             Preset::Analytic => {
                 // The thesis's recommendations (Chapter 5): ambiguity 120-150, discontinuity
-                // 50-200 at 1000 px, Segment faceting. Painterly values are issue-6 territory.
+                // 50-200 at 1000 px, Segment faceting, bold facet borders, a painter's palette.
+                s.camera = CameraKind::Auto;
                 s.ambiguity = None; // 140 for cubist cameras
-                s.faceting = Faceting::None;
-                s.discontinuity = 0.0;
+                s.faceting = Faceting::Segment;
+                s.discontinuity = 200.0;
+                s.border_width = 12.0;
+                s.border_strength = 0.85;
+                s.silhouette_width = 40.0;
+                s.silhouette_strength = 0.5;
+                s.palette = Palette::Ochre;
+                s.gradients = 0.3;
+                s.colors = 0;
+                s.chiaroscuro = 0.0;
+            }
+            Preset::Braque => {
+                s.camera = CameraKind::Auto;
+                s.ambiguity = Some(150.0);
+                s.faceting = Faceting::Segment;
+                s.discontinuity = 150.0;
+                s.border_width = 16.0;
+                s.border_strength = 1.0;
+                s.silhouette_width = 20.0;
+                s.silhouette_strength = 0.5;
+                s.palette = Palette::Olive;
+                s.gradients = 0.5;
+                s.colors = 8;
+                s.chiaroscuro = 0.5;
+            }
+            Preset::BluePeriod => {
+                s.camera = CameraKind::Auto;
+                s.ambiguity = Some(120.0);
+                s.faceting = Faceting::Segment;
+                s.discontinuity = 100.0;
+                s.border_width = 8.0;
+                s.border_strength = 0.7;
+                s.silhouette_width = 40.0;
+                s.silhouette_strength = 0.5;
+                s.palette = Palette::BluePeriod;
+                s.gradients = 0.2;
+                s.colors = 0;
+                s.chiaroscuro = 0.25;
+            }
+            Preset::Grisaille => {
+                s.camera = CameraKind::Auto;
+                s.ambiguity = None;
+                s.faceting = Faceting::Segment;
+                s.discontinuity = 200.0;
+                s.border_width = 12.0;
+                s.border_strength = 0.9;
+                s.silhouette_width = 25.0;
+                s.silhouette_strength = 0.4;
+                s.palette = Palette::Grey;
+                s.gradients = 0.35;
+                s.colors = 6;
+                s.chiaroscuro = 0.3;
             }
         }
     }

@@ -26,7 +26,7 @@ fn base_settings() -> Settings {
         seed: 3,
         faceting: Faceting::Voronoi,
         facet_count: 60,
-        ..Settings::default()
+        ..Settings::preset(cubist::settings::Preset::Plain)
     }
 }
 
