@@ -26,6 +26,8 @@ pub struct Prepared {
     pub accel: Accel,
     /// Time spent flattening and building the BVH.
     pub build_time: Duration,
+    /// Per-mesh saliency computed so far (by content), reused across views and frames.
+    pub saliency: crate::saliency::Memo,
 }
 
 impl Prepared {
@@ -33,7 +35,7 @@ impl Prepared {
         let t = Instant::now();
         let world = World::new(&scene);
         let accel = Accel::new(&world);
-        Prepared { scene, world, accel, build_time: t.elapsed() }
+        Prepared { scene, world, accel, build_time: t.elapsed(), saliency: Default::default() }
     }
 
     /// Loads `path`, or the built-in still life when None.
@@ -85,6 +87,16 @@ pub fn render(prep: &Prepared, settings: &Settings, progress: &Progress) -> Resu
     timings.time("pre-render", || tracer.render(&mut frame, &|_, p| framed.camera.ray(p), None, progress));
     progress.finish();
 
+    if settings.needs_saliency() {
+        progress.begin("saliency", 1);
+        let sal = timings.time("saliency", || {
+            crate::saliency::for_frame_with(prep, &frame, settings.saliency_cache.as_deref(), settings.saliency_method)
+                .map(|sal| crate::saliency::saliency_map(&prep.world, &sal, &frame))
+        })?;
+        frame.saliency = Some(sal);
+        progress.finish();
+    }
+
     let image = timings.time("encode", || encode(&frame, settings.background, settings.transparent));
     let mut passes = Vec::new();
     for &pass in &settings.passes {
@@ -95,7 +107,7 @@ pub fn render(prep: &Prepared, settings: &Settings, progress: &Progress) -> Resu
     Ok(Rendered { frame, image, passes, timings, warnings, camera: framed.describe(&prep.world) })
 }
 
-/// Passes read straight off the hit buffers.
+/// Passes read straight off the hit buffers (and the saliency map, when computed).
 fn geometry_pass(frame: &Frame, pass: Pass) -> Option<RgbaImage> {
     let mut img = RgbaImage::new(frame.width, frame.height);
     match pass {
@@ -135,6 +147,10 @@ fn geometry_pass(frame: &Frame, pass: Pass) -> Option<RgbaImage> {
                 };
                 px.0 = [g as u8, g as u8, g as u8, 255];
             }
+        }
+        Pass::Saliency => {
+            let map = frame.saliency.as_ref()?;
+            return Some(crate::saliency::saliency_image(map, frame.width, frame.height));
         }
         _ => return None,
     }
