@@ -17,8 +17,9 @@ use super::neighbourhood::{Grid, dist2};
 /// Cluster cell side = sigma / BETA.
 pub const BETA: f64 = 4.0;
 
-/// Below this mean number of vertices per cluster a sigma is computed exactly.
-const MIN_PER_CLUSTER: f64 = 3.0;
+/// Below this mean number of vertices per cluster, clustering gains little: that sigma is
+/// computed exactly.
+const MIN_PER_CLUSTER: f64 = 1.5;
 
 /// One grid cell's pooled vertices.
 struct Cluster {
@@ -76,29 +77,53 @@ fn clustered_one(points: &[DVec3], h: &[f64], sigma: f64, grid: &Grid) -> Vec<f6
     let cut2 = 4.0 * sigma * sigma;
     let inv = 1.0 / (2.0 * sigma * sigma);
     let inv_s2 = 1.0 / (sigma * sigma);
-    // A cluster's centroid lies within its cell, so cells farther than 2 sigma apart (box to
-    // box) cannot have centroids within 2 sigma.
+    // Source clusters are found through a coarse grid over the centroids (cells of sigma,
+    // queried a block at a time), not by scanning the fine grid's (4 BETA + 1)^3 offsets.
+    let centroids: Vec<DVec3> = clusters.iter().map(|c| c.centroid).collect();
+    let coarse = Grid::new(&centroids, sigma);
+    // Per cluster: the sums at its centroid and their gradients (times sigma^2).
+    let per_block: Vec<Vec<(f64, f64, DVec3, DVec3)>> = (0..coarse.cell_count())
+        .into_par_iter()
+        .map_init(Vec::new, |near: &mut Vec<u32>, b| {
+            near.clear();
+            coarse.candidates(b, 2.0 * sigma, near);
+            coarse
+                .cell_points(b)
+                .iter()
+                .map(|&t| {
+                    let mt = centroids[t as usize];
+                    let (mut num, mut den) = (0.0f64, 0.0f64);
+                    let (mut gnum, mut gden) = (DVec3::ZERO, DVec3::ZERO);
+                    for &s in near.iter() {
+                        let cs = &clusters[s as usize];
+                        let d2 = dist2(cs.centroid, mt);
+                        if d2 >= cut2 {
+                            continue;
+                        }
+                        let w = (-d2 * inv).exp();
+                        let off = cs.centroid - mt;
+                        num += w * cs.h_sum;
+                        den += w * cs.count;
+                        gnum += off * (w * cs.h_sum);
+                        gden += off * (w * cs.count);
+                    }
+                    (num, den, gnum * inv_s2, gden * inv_s2)
+                })
+                .collect()
+        })
+        .collect();
+    let mut sums = vec![(0.0, 0.0, DVec3::ZERO, DVec3::ZERO); clusters.len()];
+    for (b, vals) in per_block.into_iter().enumerate() {
+        for (r, &t) in coarse.cell_points(b).iter().enumerate() {
+            sums[t as usize] = vals[r];
+        }
+    }
+    // First-order step from the cluster's centroid to each of its vertices.
     let per_cell: Vec<Vec<f64>> = (0..grid.cell_count())
         .into_par_iter()
-        .map_init(Vec::new, |near: &mut Vec<u32>, t| {
-            near.clear();
-            grid.candidate_cells(t, 2.0 * sigma, near);
+        .map(|t| {
+            let (num, den, gnum, gden) = sums[t];
             let mt = clusters[t].centroid;
-            let (mut num, mut den) = (0.0f64, 0.0f64);
-            let (mut gnum, mut gden) = (DVec3::ZERO, DVec3::ZERO);
-            for &s in near.iter() {
-                let cs = &clusters[s as usize];
-                let d2 = dist2(cs.centroid, mt);
-                if d2 >= cut2 {
-                    continue;
-                }
-                let w = (-d2 * inv).exp();
-                let off = (cs.centroid - mt) * inv_s2;
-                num += w * cs.h_sum;
-                den += w * cs.count;
-                gnum += off * (w * cs.h_sum);
-                gden += off * (w * cs.count);
-            }
             grid.cell_points(t)
                 .iter()
                 .map(|&v| {

@@ -6,6 +6,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::neighbourhood::{Grid, dist2};
+use super::surface::Adjacency;
 
 /// Scale multipliers of the five levels' fine Gaussians: sigma_i = {2, 3, 4, 5, 6} eps.
 pub const LEVEL_SCALES: [f64; 5] = [2.0, 3.0, 4.0, 5.0, 6.0];
@@ -128,23 +129,40 @@ impl Buffers {
 /// sigma_i" counts one peak per feature whatever the mesh's resolution, whereas one-ring maxima
 /// multiply with tessellation density (every ripple of a fine mesh is a peak) and would make
 /// the suppression depend on resolution. Zero-valued vertices (no contrast) are never peaks.
-pub fn local_maxima(points: &[DVec3], values: &[f64], radius: f64) -> Vec<bool> {
+pub fn local_maxima(points: &[DVec3], values: &[f64], radius: f64, adjacency: Option<&Adjacency>) -> Vec<bool> {
     let n = points.len();
     if n == 0 {
         return Vec::new();
     }
-    let grid = Grid::new(points, radius);
     let r2 = radius * radius;
+    // Cheap necessary condition first: no one-ring neighbour within the radius is as large.
+    // Most vertices fail it, so the radius scan below runs for a few candidates only.
+    let candidate: Vec<bool> = (0..n)
+        .into_par_iter()
+        .map(|v| {
+            values[v] > 0.0
+                && adjacency.is_none_or(|adj| {
+                    adj.of(v)
+                        .iter()
+                        .all(|&u| values[u as usize] < values[v] || dist2(points[u as usize], points[v]) >= r2)
+                })
+        })
+        .collect();
+    let grid = Grid::new(points, radius);
     let per_cell: Vec<Vec<bool>> = (0..grid.cell_count())
         .into_par_iter()
         .map_init(Vec::new, |cand: &mut Vec<u32>, c| {
+            let targets = grid.cell_points(c);
+            if !targets.iter().any(|&t| candidate[t as usize]) {
+                return vec![false; targets.len()];
+            }
             cand.clear();
             grid.candidates(c, radius, cand);
-            grid.cell_points(c)
+            targets
                 .iter()
                 .map(|&t| {
                     let (p, v) = (points[t as usize], values[t as usize]);
-                    v > 0.0
+                    candidate[t as usize]
                         && cand.iter().all(|&j| j == t || values[j as usize] < v || dist2(points[j as usize], p) >= r2)
                 })
                 .collect()
@@ -169,7 +187,7 @@ pub fn local_maxima(points: &[DVec3], values: &[f64], radius: f64) -> Vec<bool> 
 /// distinctive). If suppression removes every level (each has several equal top peaks, as on
 /// a perfectly symmetric solid) the unsuppressed sum is used, so the result still shows the
 /// geometry. A mesh with no variation gets 0 everywhere.
-pub fn combine(points: &[DVec3], h: &[f64], means: &[f64], eps: f64) -> Vec<f64> {
+pub fn combine(points: &[DVec3], adjacency: &Adjacency, h: &[f64], means: &[f64], eps: f64) -> Vec<f64> {
     let n = points.len();
     let ns = SIGMA_SCALES.len();
     if n == 0 {
@@ -193,7 +211,7 @@ pub fn combine(points: &[DVec3], h: &[f64], means: &[f64], eps: f64) -> Vec<f64>
             *x /= max;
         }
         let argmax = s.iter().position(|&x| x == 1.0);
-        let peaks = local_maxima(points, &s, LEVEL_SCALES[li] * eps);
+        let peaks = local_maxima(points, &s, LEVEL_SCALES[li] * eps, Some(adjacency));
         let (mut sum, mut count) = (0.0f64, 0usize);
         for v in 0..n {
             if peaks[v] && Some(v) != argmax {
@@ -262,9 +280,14 @@ mod tests {
     fn local_maxima_are_strict_and_scaled() {
         let pts: Vec<DVec3> = (0..7).map(|i| DVec3::new(i as f64, 0.0, 0.0)).collect();
         let v = vec![0.0, 0.5, 0.2, 0.9, 0.9, 0.1, 0.3];
-        assert_eq!(local_maxima(&pts, &v, 1.5), vec![false, true, false, false, false, false, true]);
-        // A wider radius keeps only the strongest; the tie 0.9/0.9 is no peak at all.
-        assert_eq!(local_maxima(&pts, &v, 3.5), vec![false; 7]);
-        assert_eq!(local_maxima(&pts, &v, 0.5), vec![false, true, true, true, true, true, true]);
+        // With or without the one-ring shortcut (a path 0-1-...-6), the same answer.
+        let edges: Vec<(u32, u32, u32)> = (0..6).map(|i| (i, i + 1, 1)).collect();
+        let adj = Adjacency::new(7, &edges);
+        for a in [None, Some(&adj)] {
+            assert_eq!(local_maxima(&pts, &v, 1.5, a), vec![false, true, false, false, false, false, true]);
+            // A wider radius keeps only the strongest; the tie 0.9/0.9 is no peak at all.
+            assert_eq!(local_maxima(&pts, &v, 3.5, a), vec![false; 7]);
+            assert_eq!(local_maxima(&pts, &v, 0.5, a), vec![false, true, true, true, true, true, true]);
+        }
     }
 }

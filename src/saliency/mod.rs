@@ -78,6 +78,8 @@ pub struct Analysed {
     pub h: Vec<f64>,
     /// SPEC's eps with its coarse-mesh rule.
     pub eps: f64,
+    /// One-ring neighbours (a shortcut for the local-maximum test).
+    pub adjacency: surface::Adjacency,
 }
 
 /// Welds, estimates curvature and picks eps.
@@ -86,7 +88,8 @@ pub fn analyse(positions: &[Vec3], triangles: &[[u32; 3]]) -> Analysed {
     let edges = surface.edges();
     let c = curvature::mean_curvature(&surface, &edges);
     let eps = levels::epsilon(surface.diagonal(), surface.mean_edge_length(&edges));
-    Analysed { surface, h: c.h, eps }
+    let adjacency = surface::Adjacency::new(surface.len(), &edges);
+    Analysed { surface, h: c.h, eps, adjacency }
 }
 
 impl Analysed {
@@ -123,7 +126,7 @@ impl Analysed {
         } else {
             approx::clustered_means(pts, &self.h, &sigmas, approx::BETA)
         };
-        levels::combine(pts, &self.h, &means, self.eps)
+        levels::combine(pts, &self.adjacency, &self.h, &means, self.eps)
     }
 
     /// Maps canonical values back to the mesh's vertex order (0 for vertices on no triangle).

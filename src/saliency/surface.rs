@@ -139,6 +139,43 @@ impl Surface {
     }
 }
 
+/// Each vertex's neighbours through an edge, in compressed rows (ascending ids).
+#[derive(Clone, Debug, Default)]
+pub struct Adjacency {
+    start: Vec<u32>,
+    list: Vec<u32>,
+}
+
+impl Adjacency {
+    pub fn new(vertices: usize, edges: &[(u32, u32, u32)]) -> Adjacency {
+        let mut count = vec![0u32; vertices + 1];
+        for &(a, b, _) in edges {
+            count[a as usize + 1] += 1;
+            count[b as usize + 1] += 1;
+        }
+        for i in 0..vertices {
+            count[i + 1] += count[i];
+        }
+        let mut fill = count.clone();
+        let mut list = vec![0u32; edges.len() * 2];
+        for &(a, b, _) in edges {
+            list[fill[a as usize] as usize] = b;
+            fill[a as usize] += 1;
+            list[fill[b as usize] as usize] = a;
+            fill[b as usize] += 1;
+        }
+        for v in 0..vertices {
+            list[count[v] as usize..count[v + 1] as usize].sort_unstable();
+        }
+        Adjacency { start: count, list }
+    }
+
+    /// The neighbours of `v`.
+    pub fn of(&self, v: usize) -> &[u32] {
+        &self.list[self.start[v] as usize..self.start[v + 1] as usize]
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -165,6 +202,10 @@ mod tests {
         assert_eq!(s.vertex_of[6], NOT_ON_SURFACE);
         let e = s.edges();
         assert_eq!(e.len(), 5);
+        let adj = Adjacency::new(s.len(), &e);
+        let (a, c) = (s.vertex_of[0] as usize, s.vertex_of[2]);
+        assert_eq!(adj.of(a).len(), 3);
+        assert!(adj.of(a).contains(&c));
         assert_eq!(e.iter().filter(|x| x.2 == 2).count(), 1);
     }
 
