@@ -114,7 +114,7 @@ kebab_enum!(
 kebab_enum!(
     /// How mesh saliency's Gaussian means are evaluated (SPEC "Mesh saliency").
     SaliencyMethod {
-        /// Exact while the neighbour sums stay affordable (~1.5e9 pairs), clustered above.
+        /// Exact while the neighbour sums stay affordable (~5e8 pairs, a few seconds), clustered above.
         Auto = "auto",
         /// The definition's exact sums, whatever the mesh's size.
         Exact = "exact",

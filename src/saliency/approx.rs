@@ -74,19 +74,25 @@ fn clustered_one(points: &[DVec3], h: &[f64], sigma: f64, grid: &Grid) -> Vec<f6
             Cluster { count: ids.len() as f64, h_sum: hs, centroid: ps / ids.len() as f64 }
         })
         .collect();
-    let cut2 = 4.0 * sigma * sigma;
+    let cut = 2.0 * sigma;
     let inv = 1.0 / (2.0 * sigma * sigma);
     let inv_s2 = 1.0 / (sigma * sigma);
+    // The 2-sigma cut-off splits clusters whose vertices straddle it: a cluster at distance d
+    // counts for the fraction of its cell on the near side, (2 sigma - d) / c + 1/2 clamped to
+    // [0, 1] (its vertices spread about c/2 either side of the centroid), not all or nothing.
+    let c = grid.cell_size();
+    let reach = cut + 0.5 * c;
+    let reach2 = reach * reach;
     // Source clusters are found through a coarse grid over the centroids (cells of sigma,
     // queried a block at a time), not by scanning the fine grid's (4 BETA + 1)^3 offsets.
     let centroids: Vec<DVec3> = clusters.iter().map(|c| c.centroid).collect();
     let coarse = Grid::new(&centroids, sigma);
-    // Per cluster: the sums at its centroid and their gradients (times sigma^2).
+    // Per cluster: the sums at its centroid and their gradients.
     let per_block: Vec<Vec<(f64, f64, DVec3, DVec3)>> = (0..coarse.cell_count())
         .into_par_iter()
         .map_init(Vec::new, |near: &mut Vec<u32>, b| {
             near.clear();
-            coarse.candidates(b, 2.0 * sigma, near);
+            coarse.candidates(b, reach, near);
             coarse
                 .cell_points(b)
                 .iter()
@@ -97,17 +103,26 @@ fn clustered_one(points: &[DVec3], h: &[f64], sigma: f64, grid: &Grid) -> Vec<f6
                     for &s in near.iter() {
                         let cs = &clusters[s as usize];
                         let d2 = dist2(cs.centroid, mt);
-                        if d2 >= cut2 {
+                        if d2 >= reach2 {
                             continue;
                         }
-                        let w = (-d2 * inv).exp();
+                        let g = (-d2 * inv).exp();
+                        let d = d2.sqrt();
+                        let ramp = (cut - d) / c + 0.5;
+                        let (f, df) = if ramp >= 1.0 { (1.0, 0.0) } else { (ramp, 1.0 / c) };
+                        if f <= 0.0 {
+                            continue;
+                        }
+                        let w = g * f;
+                        // d/dx of f(|m_s - x|) g(|m_s - x|) at x = m_t, along (m_s - m_t).
                         let off = cs.centroid - mt;
+                        let grad = off * (w * inv_s2 + if d > 0.0 { g * df / d } else { 0.0 });
                         num += w * cs.h_sum;
                         den += w * cs.count;
-                        gnum += off * (w * cs.h_sum);
-                        gden += off * (w * cs.count);
+                        gnum += grad * cs.h_sum;
+                        gden += grad * cs.count;
                     }
-                    (num, den, gnum * inv_s2, gden * inv_s2)
+                    (num, den, gnum, gden)
                 })
                 .collect()
         })
