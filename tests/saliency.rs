@@ -625,3 +625,66 @@ fn only_meshes_in_view_are_computed() {
     assert!(r.mesh.per_mesh[1].is_none());
     let _: Option<&Arc<Vec<f32>>> = r.mesh.per_mesh[0].as_ref();
 }
+
+#[test]
+fn same_bits_on_any_thread_count() {
+    let m = bumpy_sphere(4);
+    let on = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let exact = pool.install(|| mesh_saliency(&m));
+        let clustered = pool.install(|| mesh_saliency_with(&m, SaliencyMethod::Clustered));
+        (exact, clustered)
+    };
+    let one = on(1);
+    assert_eq!(on(2), one);
+    assert_eq!(on(5), one);
+}
+
+#[test]
+fn results_are_reused_in_process_and_across_processes() {
+    let m = bumpy_sphere(2);
+    let scene = Scene {
+        meshes: vec![m.clone()],
+        objects: vec![Object { name: "o".into(), mesh: 0, transform: DMat4::IDENTITY }],
+        ..Default::default()
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let settings = cubist::Settings {
+        width: 32,
+        height: 24,
+        spp: 1,
+        saliency_cache: Some(dir.path().join("cache")),
+        ..Default::default()
+    };
+    let silent = cubist::progress::Progress::silent();
+    // In process: the second frame gets the very same allocation.
+    let prep = cubist::Prepared::new(scene.clone());
+    let a = cubist::saliency::render_map(&prep, &settings, &silent).unwrap().mesh.per_mesh[0].clone().unwrap();
+    let b = cubist::saliency::render_map(&prep, &settings, &silent).unwrap().mesh.per_mesh[0].clone().unwrap();
+    assert!(Arc::ptr_eq(&a, &b));
+    // Across processes: a fresh load reads the disk entry. Prove it by planting other values.
+    let key = cubist::saliency::content_key(&m, SaliencyMethod::Auto);
+    let entry = cubist::saliency::cache::entry_path(&dir.path().join("cache"), key);
+    assert!(entry.exists());
+    let planted = vec![0.5f32; m.positions.len()];
+    cubist::saliency::cache::store(&dir.path().join("cache"), key, &planted).unwrap();
+    let fresh = cubist::Prepared::new(scene.clone());
+    let c = cubist::saliency::render_map(&fresh, &settings, &silent).unwrap();
+    assert_eq!(*c.mesh.per_mesh[0].clone().unwrap(), planted);
+    // A damaged entry is recomputed and rewritten.
+    std::fs::write(&entry, b"garbage").unwrap();
+    let again = cubist::Prepared::new(scene);
+    let d = cubist::saliency::render_map(&again, &settings, &silent).unwrap();
+    assert_eq!(d.mesh.per_mesh[0].clone().unwrap(), a);
+    assert_eq!(cubist::saliency::cache::load(&dir.path().join("cache"), key, m.positions.len()).as_ref(), Some(&*a));
+}
+
+#[test]
+fn a_cache_path_that_is_a_file_is_a_usage_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("f");
+    std::fs::write(&file, b"x").unwrap();
+    let out = cubist().args(["saliency", "--json", "--saliency-cache"]).arg(&file).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("saliency_cache"));
+}
