@@ -6,6 +6,14 @@
 //! normalisation, suppression) -> `map` (per-pixel interpolation). `approx` offers a clustered
 //! evaluation of the Gaussian means for meshes too large for the exact sums; `cache` keeps
 //! results on disk across processes (the Blender add-on runs once per animation frame).
+//!
+//! Choices the SPEC leaves open, each documented where it is made: H = (K . n) / 2 from the
+//! cotangent Laplacian with mixed areas, rim and zero-area vertices filled from their
+//! neighbours (`curvature`); neighbourhoods strictly within 2 sigma, centre vertex included;
+//! levels normalised by their maximum; a local maximum is > 0 and strictly above every other
+//! vertex within the level's sigma; mbar = 0 without other maxima; centre-surround differences
+//! below 3% of the mean |H| count as no variation, so spheres get 0 (`levels`). Vertices on no
+//! triangle get 0. The tests' brute-force oracle (tests/saliency.rs) is the reference.
 
 pub mod approx;
 pub mod cache;
