@@ -688,3 +688,24 @@ fn a_cache_path_that_is_a_file_is_a_usage_error() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("saliency_cache"));
 }
+
+#[test]
+fn exact_matches_brute_force_when_eps_follows_the_diagonal() {
+    // A rippled 41x41 grid plus a far-away triangle: the bounding box's diagonal (not the
+    // coarse-mesh rule) sets eps, so the Gaussians span only a few rings.
+    let mut m = height_grid(40, |x, y| 0.1 * (5.0 * x).sin() * (3.0 * y).cos() + 0.05 * (x * y * 9.0).sin());
+    let base = m.positions.len() as u32;
+    m.positions.extend([Vec3::new(30.0, 0.0, 0.0), Vec3::new(30.1, 0.0, 0.0), Vec3::new(30.0, 0.1, 0.0)]);
+    m.triangles.push([base, base + 1, base + 2]);
+    let a = analyse(&m.positions, &m.triangles);
+    let mean_edge = {
+        let e = a.surface.edges();
+        a.surface.mean_edge_length(&e)
+    };
+    assert!(0.003 * a.surface.diagonal() > mean_edge / 2.0, "eps must come from the diagonal");
+    let fast = a.saliency(SaliencyMethod::Exact);
+    let slow = oracle(&a);
+    let worst = fast.iter().zip(&slow).map(|(f, s)| (f - s).abs()).fold(0.0, f64::max);
+    assert!(worst <= 1e-5, "max difference {worst}");
+    assert!(fast.iter().cloned().fold(0.0, f64::max) == 1.0);
+}
