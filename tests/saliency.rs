@@ -450,7 +450,7 @@ fn node_transforms_do_not_change_vertex_saliency() {
             ..Default::default()
         };
         let prep = cubist::Prepared::new(scene);
-        let settings = cubist::Settings { width: 48, height: 36, spp: 1, ..Default::default() };
+        let settings = cubist::Settings { width: 48, height: 36, spp: 1, ..plain_settings() };
         let r = cubist::saliency::render_map(&prep, &settings, &cubist::progress::Progress::silent()).unwrap();
         results.push(r.mesh.per_mesh[0].clone().expect("the mesh is in view"));
     }
@@ -517,6 +517,11 @@ fn real_models_are_finite_and_spread() {
 
 // ---------------------------------------------------------------- pipeline and CLI
 
+/// The bare cubist camera (no facets, no painterly effects): what these tests render through.
+fn plain_settings() -> cubist::Settings {
+    cubist::Settings::preset(cubist::settings::Preset::Plain)
+}
+
 fn cubist() -> std::process::Command {
     std::process::Command::new(env!("CARGO_BIN_EXE_cubist"))
 }
@@ -574,7 +579,8 @@ fn render_pass_saliency_is_written_and_skipped_when_unneeded() {
     let st = cubist()
         .args(["render", "-o"])
         .arg(&out)
-        .args(["--width", "64", "--height", "48", "--spp", "1", "--pass", "saliency", "--progress", "none"])
+        .args(["--preset", "plain", "--width", "64", "--height", "48", "--spp", "1", "--pass", "saliency"])
+        .args(["--progress", "none"])
         .status()
         .unwrap();
     assert!(st.success());
@@ -584,7 +590,7 @@ fn render_pass_saliency_is_written_and_skipped_when_unneeded() {
     // Library: the stage runs only when something needs it, and the pass equals `saliency`.
     let prep = cubist::Prepared::load(None).unwrap();
     let progress = cubist::progress::Progress::silent();
-    let plain = cubist::Settings { width: 64, height: 48, spp: 1, ..Default::default() };
+    let plain = cubist::Settings { width: 64, height: 48, spp: 1, ..plain_settings() };
     let r = cubist::render(&prep, &plain, &progress).unwrap();
     assert!(r.frame.saliency.is_none());
     assert!(!r.timings.0.iter().any(|(s, _)| *s == "saliency"));
@@ -618,7 +624,7 @@ fn only_meshes_in_view_are_computed() {
         ambiguity: Some(30.0),
         camera_position: Some([0.0, 0.0, 6.0]),
         camera_target: Some([0.0, 0.0, 0.0]),
-        ..Default::default()
+        ..plain_settings()
     };
     let r = cubist::saliency::render_map(&prep, &settings, &cubist::progress::Progress::silent()).unwrap();
     assert!(r.mesh.per_mesh[0].is_some());
@@ -654,7 +660,7 @@ fn results_are_reused_in_process_and_across_processes() {
         height: 24,
         spp: 1,
         saliency_cache: Some(dir.path().join("cache")),
-        ..Default::default()
+        ..plain_settings()
     };
     let silent = cubist::progress::Progress::silent();
     // In process: the second frame gets the very same allocation.
