@@ -10,7 +10,9 @@ use serde::Serialize;
 use serde_json::{Map, Value};
 
 use crate::error::Result;
-use crate::settings::{CameraKind, FacetProjection, Faceting, Framing, Imprecision, Palette, Pass, Preset, Settings};
+use crate::settings::{
+    CameraKind, FacetProjection, Faceting, Framing, Imprecision, Palette, Pass, Preset, SaliencyMethod, Settings,
+};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -30,6 +32,8 @@ pub enum Command {
     Render(RenderArgs),
     /// Count the faces visible through one or more cameras (the thesis's Table 4.1 measure).
     Faces(FacesArgs),
+    /// Write the saliency map seen through the camera (grey PNG) and/or print per-vertex mesh saliency as JSON.
+    Saliency(SaliencyArgs),
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -52,6 +56,29 @@ pub struct RenderArgs {
     #[arg(short, long, default_value = "cubist.png")]
     pub output: PathBuf,
     /// JSON file of settings (the keys of the options below, in snake_case); flags override it.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Print the camera used and each stage's time.
+    #[arg(short, long)]
+    pub verbose: bool,
+    #[arg(long, value_enum, default_value = "auto")]
+    pub progress: ProgressMode,
+    #[command(flatten)]
+    pub settings: SettingsArgs,
+}
+
+#[derive(Args, Debug)]
+pub struct SaliencyArgs {
+    /// Scene (.gltf or .glb). Without one, the built-in still life.
+    pub scene: Option<PathBuf>,
+    /// Saliency map image (.png, grey, white = most salient) [default: saliency.png, none with --json]
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// Print every mesh's per-vertex saliency, in the glTF's vertex order, as JSON on stdout:
+    /// {"meshes": [{"name": ..., "vertex_saliency": [...]}, ...]}
+    #[arg(long)]
+    pub json: bool,
+    /// JSON settings file, as for `render`.
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
     /// Print the camera used and each stage's time.
@@ -280,6 +307,15 @@ pub struct SettingsArgs {
     #[arg(long, help_heading = "Painterly effects")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub chiaroscuro: Option<f64>,
+
+    /// How mesh saliency's Gaussian means are evaluated [default: auto]
+    #[arg(long, value_enum, help_heading = "Saliency")]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub saliency_method: Option<SaliencyMethod>,
+    /// Directory keeping per-mesh saliency across runs, keyed by mesh content (created if missing)
+    #[arg(long, value_name = "DIR", help_heading = "Saliency")]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub saliency_cache: Option<PathBuf>,
 
     /// Extra image written beside the output as <stem>.<pass>.png; repeat for several
     #[arg(long = "pass", value_enum, help_heading = "Outputs")]

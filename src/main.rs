@@ -6,7 +6,7 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::Parser;
-use cubist::cli::{Cli, Command, FacesArgs, ProgressMode, RenderArgs};
+use cubist::cli::{Cli, Command, FacesArgs, ProgressMode, RenderArgs, SaliencyArgs};
 use cubist::eval::visible_faces;
 use cubist::output::{pass_path, write_png, write_png16};
 use cubist::progress::Progress;
@@ -24,6 +24,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Render(args) => run_render(args),
         Command::Faces(args) => run_faces(args),
+        Command::Saliency(args) => run_saliency(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -93,6 +94,54 @@ fn run_render(args: RenderArgs) -> anyhow::Result<()> {
         eprintln!("{:>14}: {:>9.1} ms", "load+bvh", prep.build_time.as_secs_f64() * 1e3);
         for (stage, t) in &rendered.timings.0 {
             eprintln!("{stage:>14}: {:>9.1} ms", t.as_secs_f64() * 1e3);
+        }
+    }
+    Ok(())
+}
+
+fn run_saliency(args: SaliencyArgs) -> anyhow::Result<()> {
+    let settings = args.settings.resolve(args.config.as_deref())?;
+    let output = match (&args.output, args.json) {
+        (Some(o), _) => Some(o.clone()),
+        (None, true) => None,
+        (None, false) => Some(std::path::PathBuf::from("saliency.png")),
+    };
+    if let Some(o) = &output {
+        cubist::output::check_png_path(o)?;
+    }
+    let progress = progress_for(args.progress);
+    progress.begin("loading", 1);
+    let prep = Prepared::load(args.scene.as_deref())?;
+    let mut stages = Vec::new();
+    if let Some(o) = &output {
+        let r = cubist::saliency::render_map(&prep, &settings, &progress)?;
+        write_png(o, &r.image)?;
+        for w in &r.warnings {
+            eprintln!("warning: {w}");
+        }
+        if args.verbose {
+            eprintln!("camera: {}", r.camera);
+        }
+        stages.extend(r.timings.0);
+    }
+    if args.json {
+        let t = std::time::Instant::now();
+        let json = cubist::saliency::vertex_json(&prep, settings.saliency_cache.as_deref(), settings.saliency_method)?;
+        stages.push(("vertex saliency", t.elapsed()));
+        println!("{}", serde_json::to_string(&json)?);
+    }
+    progress.begin("done", 1);
+    progress.finish();
+    if args.verbose {
+        eprintln!(
+            "scene: {} ({} triangles, {} meshes)",
+            prep.scene.source.display(),
+            prep.world.triangle_count(),
+            prep.scene.meshes.len()
+        );
+        eprintln!("{:>16}: {:>9.1} ms", "load+bvh", prep.build_time.as_secs_f64() * 1e3);
+        for (stage, t) in &stages {
+            eprintln!("{stage:>16}: {:>9.1} ms", t.as_secs_f64() * 1e3);
         }
     }
     Ok(())

@@ -29,6 +29,8 @@ pub struct Prepared {
     pub accel: Accel,
     /// Time spent flattening and building the BVH.
     pub build_time: Duration,
+    /// Per-mesh saliency computed so far (by content), reused across views and frames.
+    pub saliency: crate::saliency::Memo,
 }
 
 impl Prepared {
@@ -36,7 +38,7 @@ impl Prepared {
         let t = Instant::now();
         let world = World::new(&scene);
         let accel = Accel::new(&world);
-        Prepared { scene, world, accel, build_time: t.elapsed() }
+        Prepared { scene, world, accel, build_time: t.elapsed(), saliency: Default::default() }
     }
 
     /// Loads `path`, or the built-in still life when None.
@@ -111,6 +113,18 @@ pub fn render_with(
     progress.begin("pre-render", frame.pixel_count() as u64);
     timings.time("pre-render", || tracer.render(&mut frame, &|_, p| framed.camera.ray(p), None, progress));
     progress.finish();
+
+    // Mesh saliency (SPEC "Mesh saliency") of the meshes the pre-render hit, and the saliency
+    // map from the same samples (no second trace); only when a later stage reads it.
+    if settings.needs_saliency() {
+        progress.begin("saliency", 1);
+        let sal = timings.time("saliency", || {
+            crate::saliency::for_frame_with(prep, &frame, settings.saliency_cache.as_deref(), settings.saliency_method)
+                .map(|sal| crate::saliency::saliency_map(&prep.world, &sal, &frame))
+        })?;
+        frame.saliency = Some(sal);
+        progress.finish();
+    }
     after_saliency(prep, &mut frame);
 
     // Faceting (SPEC "Faceting"): computed, or loaded so every frame of an animation shares it.
@@ -284,7 +298,7 @@ fn draw_line(img: &mut RgbaImage, a: DVec2, b: DVec2, colour: [u8; 4]) {
     }
 }
 
-/// Passes read straight off the hit buffers.
+/// Passes read straight off the hit buffers (and the saliency map, when computed).
 fn geometry_pass(frame: &Frame, pass: Pass) -> Option<RgbaImage> {
     let mut img = RgbaImage::new(frame.width, frame.height);
     match pass {
@@ -324,6 +338,10 @@ fn geometry_pass(frame: &Frame, pass: Pass) -> Option<RgbaImage> {
                 };
                 px.0 = [g as u8, g as u8, g as u8, 255];
             }
+        }
+        Pass::Saliency => {
+            let map = frame.saliency.as_ref()?;
+            return Some(crate::saliency::saliency_image(map, frame.width, frame.height));
         }
         _ => return None,
     }

@@ -116,6 +116,18 @@ kebab_enum!(
 );
 
 kebab_enum!(
+    /// How mesh saliency's Gaussian means are evaluated (SPEC "Mesh saliency").
+    SaliencyMethod {
+        /// Exact while the neighbour sums stay affordable (~5e8 pairs, a few seconds), clustered above.
+        Auto = "auto",
+        /// The definition's exact sums, whatever the mesh's size.
+        Exact = "exact",
+        /// Clustered sources and targets (cells of sigma / 4): fast on huge meshes, approximate.
+        Clustered = "clustered",
+    }
+);
+
+kebab_enum!(
     /// Bundles of settings; explicit flags and JSON keys override them.
     Preset {
         /// The paper's recommended look (the default of `cubist render`): 140 deg, Segment
@@ -250,6 +262,12 @@ pub struct Settings {
     /// Per-facet variation of light direction and intensity, in [0, 1]; 0 = off.
     pub chiaroscuro: f64,
 
+    // ---- saliency (SPEC "Mesh saliency")
+    pub saliency_method: SaliencyMethod,
+    /// Directory keeping per-mesh saliency across runs, keyed by mesh content (animation
+    /// frames rendered by separate processes compute each mesh once). None: no disk cache.
+    pub saliency_cache: Option<PathBuf>,
+
     // ---- outputs
     /// Extra passes written beside the output as `<stem>.<pass>.png`.
     pub passes: Vec<Pass>,
@@ -308,6 +326,8 @@ impl Settings {
             colors: 0,
             gradients: 0.0,
             chiaroscuro: 0.0,
+            saliency_method: SaliencyMethod::Auto,
+            saliency_cache: None,
             passes: Vec::new(),
         }
     }
@@ -554,6 +574,11 @@ impl Settings {
         }
         if s.colors > 4096 {
             return Err(Error::setting("colors", "at most 4096"));
+        }
+        if let Some(dir) = &s.saliency_cache {
+            if dir.exists() && !dir.is_dir() {
+                return Err(Error::setting("saliency_cache", format!("{} is not a directory", dir.display())));
+            }
         }
         if s.faceting == Faceting::Constant && s.facet_map.is_none() && s.facets.is_none() {
             return Err(Error::setting("facet_map", "constant faceting needs a facet map image (--facet-map)"));

@@ -1,0 +1,229 @@
+//! A mesh welded by exact position into a canonical surface: the vertex set and triangle list
+//! saliency is defined on, independent of split normals/UV seams and of vertex/triangle order.
+//!
+//! Why canonical: vertices are sorted by position and triangles by their (rotated) vertex ids,
+//! so every later sum runs in the same order for any permutation of the input, and results
+//! are bit-identical under reordering (a tested property), not merely close.
+
+use glam::{DVec3, Vec3};
+
+/// Marks an input vertex that is on no triangle (or has a non-finite position).
+pub const NOT_ON_SURFACE: u32 = u32::MAX;
+
+/// The welded surface of one mesh, in the mesh's own coordinates (f64).
+#[derive(Clone, Debug)]
+pub struct Surface {
+    /// Distinct positions of vertices used by a triangle, sorted lexicographically.
+    pub positions: Vec<DVec3>,
+    /// Triangles over `positions`, winding kept, smallest id first, sorted; triangles that
+    /// collapse under welding (a repeated vertex) are dropped.
+    pub triangles: Vec<[u32; 3]>,
+    /// For each input vertex, its index in `positions`, or `NOT_ON_SURFACE`.
+    pub vertex_of: Vec<u32>,
+}
+
+/// -0.0 and 0.0 are the same position.
+fn key(p: Vec3) -> [f32; 3] {
+    [p.x + 0.0, p.y + 0.0, p.z + 0.0]
+}
+
+fn cmp_pos(a: &[f32; 3], b: &[f32; 3]) -> std::cmp::Ordering {
+    a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])).then(a[2].total_cmp(&b[2]))
+}
+
+impl Surface {
+    /// Welds `positions` by exact value over the vertices `triangles` use. Triangles with an
+    /// out-of-range index or a non-finite corner are ignored.
+    pub fn new(positions: &[Vec3], triangles: &[[u32; 3]]) -> Surface {
+        let n = positions.len();
+        let usable = |t: &[u32; 3]| t.iter().all(|&i| (i as usize) < n && positions[i as usize].is_finite());
+        let mut used = vec![false; n];
+        for t in triangles.iter().filter(|t| usable(t)) {
+            for &i in t {
+                used[i as usize] = true;
+            }
+        }
+        let mut order: Vec<u32> = (0..n as u32).filter(|&i| used[i as usize]).collect();
+        order.sort_unstable_by(|&a, &b| cmp_pos(&key(positions[a as usize]), &key(positions[b as usize])));
+        let mut vertex_of = vec![NOT_ON_SURFACE; n];
+        let mut welded: Vec<DVec3> = Vec::new();
+        let mut last: Option<[f32; 3]> = None;
+        for &i in &order {
+            let k = key(positions[i as usize]);
+            if last != Some(k) {
+                welded.push(DVec3::new(k[0] as f64, k[1] as f64, k[2] as f64));
+                last = Some(k);
+            }
+            vertex_of[i as usize] = (welded.len() - 1) as u32;
+        }
+        let mut tris: Vec<[u32; 3]> = triangles
+            .iter()
+            .filter(|t| usable(t))
+            .map(|t| t.map(|i| vertex_of[i as usize]))
+            .filter(|[a, b, c]| a != b && b != c && a != c)
+            .map(|[a, b, c]| {
+                if a < b && a < c {
+                    [a, b, c]
+                } else if b < c {
+                    [b, c, a]
+                } else {
+                    [c, a, b]
+                }
+            })
+            .collect();
+        tris.sort_unstable();
+        Surface { positions: welded, triangles: tris, vertex_of }
+    }
+
+    pub fn len(&self) -> usize {
+        self.positions.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.positions.is_empty()
+    }
+
+    /// Axis-aligned bounds of the surface's vertices.
+    pub fn bounds(&self) -> (DVec3, DVec3) {
+        self.positions.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)))
+    }
+
+    /// Length of the bounding box's diagonal (0 for an empty surface).
+    pub fn diagonal(&self) -> f64 {
+        if self.is_empty() {
+            return 0.0;
+        }
+        let (lo, hi) = self.bounds();
+        (hi - lo).length()
+    }
+
+    /// Each undirected edge once, as (smaller id, larger id, number of triangles using it), sorted.
+    pub fn edges(&self) -> Vec<(u32, u32, u32)> {
+        let mut e: Vec<(u32, u32)> = Vec::with_capacity(self.triangles.len() * 3);
+        for t in &self.triangles {
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                e.push((a.min(b), a.max(b)));
+            }
+        }
+        e.sort_unstable();
+        let mut out: Vec<(u32, u32, u32)> = Vec::with_capacity(e.len() / 2 + 1);
+        for (a, b) in e {
+            match out.last_mut() {
+                Some(l) if l.0 == a && l.1 == b => l.2 += 1,
+                _ => out.push((a, b, 1)),
+            }
+        }
+        out
+    }
+
+    /// Mean length of the distinct edges (0 without edges).
+    pub fn mean_edge_length(&self, edges: &[(u32, u32, u32)]) -> f64 {
+        if edges.is_empty() {
+            return 0.0;
+        }
+        let sum: f64 =
+            edges.iter().map(|&(a, b, _)| (self.positions[a as usize] - self.positions[b as usize]).length()).sum();
+        sum / edges.len() as f64
+    }
+
+    /// Total triangle area.
+    pub fn area(&self) -> f64 {
+        self.triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| self.positions[i as usize]);
+                0.5 * (b - a).cross(c - a).length()
+            })
+            .sum()
+    }
+}
+
+/// Each vertex's neighbours through an edge, in compressed rows (ascending ids).
+#[derive(Clone, Debug, Default)]
+pub struct Adjacency {
+    start: Vec<u32>,
+    list: Vec<u32>,
+}
+
+impl Adjacency {
+    pub fn new(vertices: usize, edges: &[(u32, u32, u32)]) -> Adjacency {
+        let mut count = vec![0u32; vertices + 1];
+        for &(a, b, _) in edges {
+            count[a as usize + 1] += 1;
+            count[b as usize + 1] += 1;
+        }
+        for i in 0..vertices {
+            count[i + 1] += count[i];
+        }
+        let mut fill = count.clone();
+        let mut list = vec![0u32; edges.len() * 2];
+        for &(a, b, _) in edges {
+            list[fill[a as usize] as usize] = b;
+            fill[a as usize] += 1;
+            list[fill[b as usize] as usize] = a;
+            fill[b as usize] += 1;
+        }
+        for v in 0..vertices {
+            list[count[v] as usize..count[v + 1] as usize].sort_unstable();
+        }
+        Adjacency { start: count, list }
+    }
+
+    /// The neighbours of `v`.
+    pub fn of(&self, v: usize) -> &[u32] {
+        &self.list[self.start[v] as usize..self.start[v + 1] as usize]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn welds_split_vertices_and_drops_collapsed_triangles() {
+        // Two triangles of a quad with the shared edge duplicated (a UV seam), plus a triangle
+        // that collapses once welded and an unused vertex.
+        let p = vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(-0.0, 0.0, 0.0), // same as 0
+            Vec3::new(1.0, 1.0, 0.0),  // same as 2
+            Vec3::new(0.0, 1.0, 0.0),
+            Vec3::new(5.0, 5.0, 5.0), // unused
+        ];
+        let t = vec![[0, 1, 2], [3, 4, 5], [0, 3, 1]];
+        let s = Surface::new(&p, &t);
+        assert_eq!(s.len(), 4);
+        assert_eq!(s.triangles.len(), 2);
+        assert_eq!(s.vertex_of[0], s.vertex_of[3]);
+        assert_eq!(s.vertex_of[2], s.vertex_of[4]);
+        assert_eq!(s.vertex_of[6], NOT_ON_SURFACE);
+        let e = s.edges();
+        assert_eq!(e.len(), 5);
+        let adj = Adjacency::new(s.len(), &e);
+        let (a, c) = (s.vertex_of[0] as usize, s.vertex_of[2]);
+        assert_eq!(adj.of(a).len(), 3);
+        assert!(adj.of(a).contains(&c));
+        assert_eq!(e.iter().filter(|x| x.2 == 2).count(), 1);
+    }
+
+    #[test]
+    fn winding_is_kept_when_rotating() {
+        let p = vec![Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 1.0, 0.0)];
+        let s = Surface::new(&p, &[[0, 1, 2]]);
+        // Canonical ids: (0,0,0)=0, (1,1,0)=1, (2,0,0)=2; input order 2,0,1 rotates to 0,1,2.
+        assert_eq!(s.triangles, vec![[0, 1, 2]]);
+        let s2 = Surface::new(&p, &[[0, 2, 1]]);
+        assert_eq!(s2.triangles, vec![[0, 2, 1]]);
+    }
+
+    #[test]
+    fn bad_indices_and_non_finite_corners_are_ignored() {
+        let p = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(f32::NAN, 0.0, 0.0)];
+        let s = Surface::new(&p, &[[0, 1, 2], [0, 1, 9], [0, 1, 3]]);
+        assert_eq!(s.triangles.len(), 1);
+        assert_eq!(s.vertex_of[3], NOT_ON_SURFACE);
+    }
+}
