@@ -11,6 +11,8 @@
 
 use serde::{Deserialize, Serialize};
 
+pub mod segment;
+
 /// A label raster, each value a facet id.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct LabelImage {
