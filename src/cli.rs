@@ -112,7 +112,7 @@ pub struct FacetsArgs {
 /// Every setting as an optional flag. Keys (after serde) are those of `Settings`.
 #[derive(Args, Serialize, Debug, Default)]
 pub struct SettingsArgs {
-    /// Bundle of defaults the other options override [default: analytic]
+    /// Bundle of defaults the other options override (docs/presets.md lists their values) [default: analytic]
     #[arg(long, value_enum, help_heading = "Settings")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub preset: Option<Preset>,
@@ -205,7 +205,7 @@ pub struct SettingsArgs {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub exposure: Option<f32>,
 
-    /// Faceting method [default: none until the facets stage lands]
+    /// Faceting method; segment follows the picture's forms (needs saliency) [default: none]
     #[arg(long, value_enum, help_heading = "Facets")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub faceting: Option<Faceting>,
@@ -274,7 +274,7 @@ pub struct SettingsArgs {
     #[arg(long, value_enum, help_heading = "Spatial imprecision")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub imprecision: Option<Imprecision>,
-    /// Largest facet-centre to saliency-centre shift, pixels at 1000 px; the paper recommends 50-200 [default: 0]
+    /// Largest facet-centre to saliency-centre shift, pixels at 1000 px; the paper recommends 50-200 [analytic: 200]
     #[arg(long, help_heading = "Spatial imprecision", allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub discontinuity: Option<f64>,
@@ -291,39 +291,39 @@ pub struct SettingsArgs {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub facet_fov: Option<f64>,
 
-    /// Facet border darkening distance md (eq 4.8), pixels at 1000 px; 0 = off [default: 0]
+    /// Facet border darkening distance md (eq 4.8), pixels at 1000 px; 0 = off [analytic: 12]
     #[arg(long, help_heading = "Painterly effects")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub border_width: Option<f64>,
-    /// Facet border darkening strength, 0..1 [default: 1]
+    /// Facet border darkening strength, 0..1; 1 = eq 4.8 as printed [analytic: 0.85]
     #[arg(long, help_heading = "Painterly effects")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub border_strength: Option<f64>,
-    /// Silhouette darkening distance, pixels at 1000 px; 0 = off [default: 0]
+    /// Background darkening distance around the objects, pixels at 1000 px; 0 = off [analytic: 40]
     #[arg(long, help_heading = "Painterly effects")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub silhouette_width: Option<f64>,
-    /// Silhouette darkening strength, 0..1 [default: 1]
+    /// Silhouette darkening strength, 0..1 [analytic: 0.5]
     #[arg(long, help_heading = "Painterly effects")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub silhouette_strength: Option<f64>,
-    /// Built-in palette mapped onto the luminance [default: none]
+    /// Built-in palette mapped onto the luminance ranks [analytic: ochre]
     #[arg(long, value_enum, help_heading = "Painterly effects")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub palette: Option<Palette>,
-    /// A painting (PNG/JPEG) whose colours are mapped onto the luminance; overrides --palette
+    /// A painting (PNG/JPEG, any size) whose colours are mapped onto the luminance ranks; overrides --palette
     #[arg(long, value_name = "IMAGE", help_heading = "Painterly effects")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub palette_image: Option<PathBuf>,
-    /// Quantise to K colours; 0 = off [default: 0]
+    /// Quantise to K colours by luminance; 0 = off [analytic: 0]
     #[arg(long, value_name = "K", help_heading = "Painterly effects")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub colors: Option<u32>,
-    /// Fraction of facets with a gradient overlay on a corner, 0..1 [default: 0]
+    /// Fraction of facets with a gradient overlay on a corner, 0..1 [analytic: 0.3]
     #[arg(long, value_name = "FRACTION", help_heading = "Painterly effects")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub gradients: Option<f64>,
-    /// Per-facet variation of light direction and intensity, 0..1 [default: 0]
+    /// Per-facet variation of light direction and intensity, 0..1; 0 = off [analytic: 0]
     #[arg(long, help_heading = "Painterly effects")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub chiaroscuro: Option<f64>,

@@ -3,7 +3,8 @@
 //!
 //! The pipeline (SPEC Fig. 4.1) is one module per stage: `scene` (glTF loading) ->
 //! `accel` (BVH) -> `camera` (cubist cameras) -> `render` (the trace, into `frame` buffers)
-//! -> `shading`; `eval` counts visible faces; `pipeline` runs the stages the settings need.
+//! -> `shading`; `facets` (layouts) -> `imprecision` (per-facet re-aim) -> `paint` (painterly
+//! effects); `eval` counts visible faces; `pipeline` runs the stages the settings need.
 
 pub mod accel;
 pub mod camera;
@@ -12,7 +13,9 @@ pub mod error;
 pub mod eval;
 pub mod facets;
 pub mod frame;
+pub mod imprecision;
 pub mod output;
+pub mod paint;
 pub mod pipeline;
 pub mod progress;
 pub mod render;

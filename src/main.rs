@@ -8,7 +8,7 @@ use anyhow::Context;
 use clap::Parser;
 use cubist::cli::{Cli, Command, FacesArgs, FacetsArgs, ProgressMode, RenderArgs};
 use cubist::eval::visible_faces;
-use cubist::output::{pass_path, write_png};
+use cubist::output::{pass_path, write_png, write_png16};
 use cubist::progress::Progress;
 use cubist::settings::CameraKind;
 use cubist::{Error, Prepared};
@@ -75,6 +75,9 @@ fn run_render(args: RenderArgs) -> anyhow::Result<()> {
     for (pass, img) in &rendered.passes {
         write_png(&pass_path(&args.output, pass.as_str()), img)?;
     }
+    for (pass, img) in &rendered.passes16 {
+        write_png16(&pass_path(&args.output, pass.as_str()), img)?;
+    }
     progress.begin("done", 1);
     progress.finish();
     for w in &rendered.warnings {
@@ -109,7 +112,8 @@ fn run_facets(args: FacetsArgs) -> anyhow::Result<()> {
         write_png(&pass_path(&args.output, name), img)?;
     }
     if let Some(path) = &settings.save_facets {
-        cubist::facets::segment::save_json(path, &out.layout)?;
+        let map = out.layout.rasterize(settings.width, settings.height);
+        cubist::facets::io::save(path, &out.layout, &map)?;
     }
     progress.begin("done", 1);
     progress.finish();

@@ -101,12 +101,16 @@ kebab_enum!(
 );
 
 kebab_enum!(
-    /// Built-in palettes: luminance-ordered colour ramps written for this project.
+    /// Built-in palettes: luminance-ordered colour ramps written for this project (`paint::palette`).
     Palette {
         None = "none",
+        /// Picasso and Braque, 1910: umber, ochre, lead white.
         Ochre = "ochre",
+        /// Grisaille, 1911: warm blacks, brownish and cool greys.
         Grey = "grey",
+        /// Picasso's blue period: Prussian blue to pale blue-grey.
         BluePeriod = "blue-period",
+        /// Braque, 1908-09: olive and earth greens to pale ochre.
         Olive = "olive",
     }
 );
@@ -114,8 +118,17 @@ kebab_enum!(
 kebab_enum!(
     /// Bundles of settings; explicit flags and JSON keys override them.
     Preset {
-        /// The paper's recommended look (the default of `cubist render`).
+        /// The paper's recommended look (the default of `cubist render`): 140 deg, Segment
+        /// facets, discontinuity 200, bold borders, ochre palette, some gradients.
         Analytic = "analytic",
+        /// Braque's earthy 1909-10 canvases: olive palette, 8 colours, heavy borders, many
+        /// gradients, light manipulated facet by facet.
+        Braque = "braque",
+        /// Picasso's blue period: blue palette, softer borders, strong silhouettes, gentler
+        /// discontinuity.
+        BluePeriod = "blue-period",
+        /// Grisaille of 1911: grey palette quantised to 6 tones, relit facets.
+        Grisaille = "grisaille",
         /// The bare cubist camera: no facets, no painterly effects.
         Plain = "plain",
     }
@@ -407,9 +420,15 @@ impl Settings {
 
     /// Whether any stage needs the scene's mesh saliency.
     pub fn needs_saliency(&self) -> bool {
-        let imprecision_uses =
-            self.imprecision == Imprecision::Saliency && self.faceting != Faceting::None && self.discontinuity > 0.0;
-        imprecision_uses || self.faceting == Faceting::Segment || self.passes.contains(&Pass::Saliency)
+        let imprecision_uses = self.imprecision == Imprecision::Saliency && self.faceted() && self.discontinuity > 0.0;
+        // A loaded layout replaces the segmentation; the facets pass shows saliency centres.
+        let segment_uses = self.faceting == Faceting::Segment && self.facets.is_none();
+        imprecision_uses || segment_uses || self.passes.contains(&Pass::Saliency) || self.passes.contains(&Pass::Facets)
+    }
+
+    /// Whether the image is split into facets: a faceting method, or a layout loaded with `facets`.
+    pub fn faceted(&self) -> bool {
+        self.faceting != Faceting::None || self.facets.is_some()
     }
 
     /// Checks every value's range; the error names the key.
@@ -525,14 +544,14 @@ impl Settings {
         if !(s.facet_fov.is_finite() && (0.0..180.0).contains(&s.facet_fov)) {
             return Err(Error::setting("facet_fov", format!("{} must be in [0, 180) degrees", s.facet_fov)));
         }
-        if s.facet_count == 0 {
-            return Err(Error::setting("facet_count", "must be at least 1"));
+        if s.facet_count == 0 || s.facet_count > crate::facets::MAX_FACETS {
+            return Err(Error::setting("facet_count", format!("must be in 1..={}", crate::facets::MAX_FACETS)));
         }
         if s.grid_cells == 0 {
             return Err(Error::setting("grid_cells", "must be at least 1"));
         }
-        if s.patch_count == 0 {
-            return Err(Error::setting("patch_count", "must be at least 1"));
+        if s.patch_count == 0 || s.patch_count > crate::facets::MAX_FACETS {
+            return Err(Error::setting("patch_count", format!("must be in 1..={}", crate::facets::MAX_FACETS)));
         }
         if !(s.occlusion.is_finite() && s.occlusion > 0.0) {
             return Err(Error::setting("occlusion", "must be a positive number"));
@@ -578,10 +597,61 @@ impl Preset {
             Preset::Plain => {}
             Preset::Analytic => {
                 // The thesis's recommendations (Chapter 5): ambiguity 120-150, discontinuity
-                // 50-200 at 1000 px, Segment faceting. Painterly values are issue-6 territory.
+                // 50-200 at 1000 px, Segment faceting, bold facet borders, a painter's palette.
+                s.camera = CameraKind::Auto;
                 s.ambiguity = None; // 140 for cubist cameras
-                s.faceting = Faceting::None;
-                s.discontinuity = 0.0;
+                s.faceting = Faceting::Segment;
+                s.discontinuity = 200.0;
+                s.border_width = 12.0;
+                s.border_strength = 0.85;
+                s.silhouette_width = 40.0;
+                s.silhouette_strength = 0.5;
+                s.palette = Palette::Ochre;
+                s.gradients = 0.3;
+                s.colors = 0;
+                s.chiaroscuro = 0.0;
+            }
+            Preset::Braque => {
+                s.camera = CameraKind::Auto;
+                s.ambiguity = Some(150.0);
+                s.faceting = Faceting::Segment;
+                s.discontinuity = 150.0;
+                s.border_width = 16.0;
+                s.border_strength = 1.0;
+                s.silhouette_width = 20.0;
+                s.silhouette_strength = 0.5;
+                s.palette = Palette::Olive;
+                s.gradients = 0.5;
+                s.colors = 8;
+                s.chiaroscuro = 0.5;
+            }
+            Preset::BluePeriod => {
+                s.camera = CameraKind::Auto;
+                s.ambiguity = Some(120.0);
+                s.faceting = Faceting::Segment;
+                s.discontinuity = 100.0;
+                s.border_width = 8.0;
+                s.border_strength = 0.7;
+                s.silhouette_width = 40.0;
+                s.silhouette_strength = 0.5;
+                s.palette = Palette::BluePeriod;
+                s.gradients = 0.2;
+                s.colors = 0;
+                s.chiaroscuro = 0.25;
+            }
+            Preset::Grisaille => {
+                s.camera = CameraKind::Auto;
+                s.ambiguity = None;
+                s.faceting = Faceting::Segment;
+                s.discontinuity = 200.0;
+                s.border_width = 12.0;
+                s.border_strength = 0.9;
+                s.silhouette_width = 25.0;
+                s.silhouette_strength = 0.4;
+                s.palette = Palette::Grey;
+                s.gradients = 0.35;
+                s.colors = 6;
+                s.chiaroscuro = 0.3;
             }
         }
     }

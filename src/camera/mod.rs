@@ -29,12 +29,25 @@ pub struct CameraRay {
     /// Unit length.
     pub dir: Vec3,
     pub focus: f32,
+    /// How far `origin` was moved forward from the camera surface (see `finish_ray`): re-aiming
+    /// a facet pivots its rays on the camera surface, so it needs the original origin back.
+    pub skipped: f32,
 }
 
 impl CameraRay {
     /// The ray's focal point (meaningful when `focus` is finite).
     pub fn focal_point(&self) -> Vec3 {
         self.origin + self.dir * self.focus
+    }
+
+    /// Where the ray starts on the camera surface (before clipping to the scene's sphere).
+    pub fn surface_origin(&self) -> glam::DVec3 {
+        self.origin.as_dvec3() - self.dir.as_dvec3() * self.skipped as f64
+    }
+
+    /// Signed distance from the camera surface to the focal point (infinite for parallel rays).
+    pub fn surface_focus(&self) -> f64 {
+        self.focus as f64 + self.skipped as f64
     }
 }
 
@@ -88,7 +101,7 @@ impl CameraFrame {
 /// ambiguity -> 0 has its focal point at infinity) keep full f32 precision.
 pub(crate) fn finish_ray(origin: DVec3, dir: DVec3, focus: f64, clip_radius: f64) -> CameraRay {
     let dir = dir.try_normalize().unwrap_or(DVec3::Z);
-    let (mut origin, mut focus) = (origin, focus);
+    let (mut origin, mut focus, mut skipped) = (origin, focus, 0.0);
     let r = clip_radius;
     // The render space's scene sphere is centred at the origin.
     let b = origin.dot(dir);
@@ -101,10 +114,11 @@ pub(crate) fn finish_ray(origin: DVec3, dir: DVec3, focus: f64, clip_radius: f64
         if t > 0.0 && t.is_finite() {
             origin += dir * t;
             focus -= t;
+            skipped = t;
         }
     }
     let focus = if focus.is_finite() { focus.clamp(-f32::MAX as f64, f32::MAX as f64) as f32 } else { f32::INFINITY };
-    CameraRay { origin: origin.as_vec3(), dir: dir.as_vec3(), focus }
+    CameraRay { origin: origin.as_vec3(), dir: dir.as_vec3(), focus, skipped: skipped as f32 }
 }
 
 #[cfg(test)]

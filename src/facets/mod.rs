@@ -8,10 +8,28 @@
 //! 2. `sites`: Voronoi sites; a pixel belongs to the nearest site (in pixel distance);
 //! 3. `polygons`: convex or not, drawn in order, later ones occluding earlier ones (Patch's
 //!    quadrilaterals, Segment's fitted quads in ascending saliency).
+//!
+//! Pixels no layer covers (a thin sliver between quads rasterised at another size than the one
+//! they were generated at) take the facet of the nearest covered pixel.
 
+pub mod constant;
+pub mod io;
+pub mod patch;
+pub mod segment;
+pub mod voronoi;
+
+use std::collections::VecDeque;
+
+use glam::DVec2;
 use serde::{Deserialize, Serialize};
 
-pub mod segment;
+use crate::error::{Error, Result};
+use crate::frame::Frame;
+use crate::render::{splitmix64, unit_f64};
+use crate::settings::{Faceting, Settings};
+
+/// Largest number of facets in a layout: ids fit the 16-bit `facet-ids` pass and PNG layouts.
+pub const MAX_FACETS: u32 = 65536;
 
 /// A label raster, each value a facet id.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -49,6 +67,9 @@ pub struct FacetMap {
     pub facet_count: u32,
 }
 
+/// Marks a pixel no layer has covered yet during rasterisation.
+const UNSET: u32 = u32::MAX;
+
 impl FacetLayout {
     /// One facet covering the whole image (faceting `none`).
     pub fn single() -> FacetLayout {
@@ -57,6 +78,344 @@ impl FacetLayout {
             base: None,
             sites: Vec::new(),
             polygons: vec![FacetPolygon { facet: 0, points: vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]] }],
+        }
+    }
+
+    /// Checks the invariants every consumer relies on; the message says what is wrong.
+    pub fn validate(&self) -> std::result::Result<(), String> {
+        if self.facet_count == 0 || self.facet_count > MAX_FACETS {
+            return Err(format!("facet count {} is outside 1..={MAX_FACETS}", self.facet_count));
+        }
+        if let Some(b) = &self.base {
+            if b.width == 0 || b.height == 0 || b.labels.len() as u64 != b.width as u64 * b.height as u64 {
+                return Err(format!("base label image {}x{} holds {} labels", b.width, b.height, b.labels.len()));
+            }
+            if let Some(l) = b.labels.iter().find(|&&l| l >= self.facet_count) {
+                return Err(format!("base label {l} is not below the facet count {}", self.facet_count));
+            }
+        }
+        if self.sites.len() > self.facet_count as usize {
+            return Err(format!("{} Voronoi sites for {} facets", self.sites.len(), self.facet_count));
+        }
+        if self.sites.iter().flatten().any(|v| !v.is_finite()) {
+            return Err("a Voronoi site is not finite".into());
+        }
+        for (k, p) in self.polygons.iter().enumerate() {
+            if p.facet >= self.facet_count {
+                return Err(format!("polygon {k} has facet {} >= facet count {}", p.facet, self.facet_count));
+            }
+            if p.points.len() < 3 {
+                return Err(format!("polygon {k} has {} points (at least 3 needed)", p.points.len()));
+            }
+            if p.points.iter().flatten().any(|v| !v.is_finite()) {
+                return Err(format!("polygon {k} has a non-finite point"));
+            }
+        }
+        Ok(())
+    }
+
+    /// The polygon of `facet` (its shape), when it has one; the last drawn if several.
+    pub fn polygon(&self, facet: u32) -> Option<&FacetPolygon> {
+        self.polygons.iter().rev().find(|p| p.facet == facet)
+    }
+
+    /// Draw order of every facet: facets of `base` and `sites` first (rank 0), then each
+    /// polygon's facet by its position in `polygons` (later = drawn over earlier).
+    pub fn draw_order(&self) -> Vec<u32> {
+        let mut rank = vec![0u32; self.facet_count as usize];
+        for (k, p) in self.polygons.iter().enumerate() {
+            if let Some(r) = rank.get_mut(p.facet as usize) {
+                *r = k as u32 + 1;
+            }
+        }
+        rank
+    }
+
+    /// The facet id of every pixel of a `width` x `height` image. Layers are sampled at
+    /// pixel centres, so a layout rasterises the same way on any machine.
+    pub fn rasterize(&self, width: u32, height: u32) -> FacetMap {
+        let (w, h) = (width as usize, height as usize);
+        let mut ids = vec![UNSET; w * h];
+        if let Some(base) = &self.base {
+            let (bw, bh) = (base.width as usize, base.height as usize);
+            let col: Vec<usize> = (0..w).map(|x| nearest_source(x, w, bw)).collect();
+            for y in 0..h {
+                let sy = nearest_source(y, h, bh);
+                let src = &base.labels[sy * bw..(sy + 1) * bw];
+                for (x, id) in ids[y * w..(y + 1) * w].iter_mut().enumerate() {
+                    *id = src[col[x]];
+                }
+            }
+        }
+        if !self.sites.is_empty() {
+            voronoi::nearest_sites(&self.sites, width, height, &mut ids);
+        }
+        for p in &self.polygons {
+            let pts: Vec<DVec2> = p.points.iter().map(|q| DVec2::new(q[0] * w as f64, q[1] * h as f64)).collect();
+            fill_polygon(&pts, width, height, |i| ids[i] = p.facet);
+        }
+        fill_uncovered(&mut ids, width, height);
+        FacetMap { width, height, ids, facet_count: self.facet_count }
+    }
+}
+
+/// Nearest-neighbour source index of destination pixel `x` (of `n`) in a source of `m`.
+fn nearest_source(x: usize, n: usize, m: usize) -> usize {
+    ((((x as f64 + 0.5) * m as f64) / n as f64) as usize).min(m - 1)
+}
+
+/// Calls `set(pixel index)` for every pixel whose centre lies inside the polygon `pts`
+/// (pixel coordinates, y down), even-odd rule, so convex and concave shapes both work.
+pub fn fill_polygon(pts: &[DVec2], width: u32, height: u32, mut set: impl FnMut(usize)) {
+    if pts.len() < 3 {
+        return;
+    }
+    let (lo, hi) = pts.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| (lo.min(p.y), hi.max(p.y)));
+    let y0 = ((lo - 0.5).ceil().max(0.0)) as i64;
+    let y1 = ((hi - 0.5).floor().min(height as f64 - 1.0)) as i64;
+    let mut xs = Vec::with_capacity(8);
+    for y in y0..=y1 {
+        let yc = y as f64 + 0.5;
+        xs.clear();
+        for k in 0..pts.len() {
+            let (a, b) = (pts[k], pts[(k + 1) % pts.len()]);
+            // Half-open rule: a vertex on the scan line is counted once.
+            if (a.y <= yc) != (b.y <= yc) {
+                xs.push(a.x + (yc - a.y) * (b.x - a.x) / (b.y - a.y));
+            }
+        }
+        xs.sort_by(f64::total_cmp);
+        for pair in xs.chunks_exact(2) {
+            // Pixels whose centre x + 0.5 lies in [pair[0], pair[1]).
+            let x0 = ((pair[0] - 0.5).ceil().max(0.0)) as i64;
+            let x1 = ((pair[1] - 0.5).ceil().min(width as f64)) as i64;
+            for x in x0..x1 {
+                set(y as usize * width as usize + x as usize);
+            }
+        }
+    }
+}
+
+/// Gives every `UNSET` pixel the facet of the nearest set pixel (breadth-first, 4-connected,
+/// in a fixed order, so the result is deterministic). All unset: facet 0.
+fn fill_uncovered(ids: &mut [u32], width: u32, height: u32) {
+    if !ids.contains(&UNSET) {
+        return;
+    }
+    let (w, h) = (width as usize, height as usize);
+    let mut queue: VecDeque<usize> = (0..ids.len()).filter(|&i| ids[i] != UNSET).collect();
+    if queue.is_empty() {
+        ids.fill(0);
+        return;
+    }
+    while let Some(i) = queue.pop_front() {
+        let (x, y) = (i % w, i / w);
+        let id = ids[i];
+        let mut visit = |j: usize| {
+            if ids[j] == UNSET {
+                ids[j] = id;
+                queue.push_back(j);
+            }
+        };
+        if x > 0 {
+            visit(i - 1);
+        }
+        if x + 1 < w {
+            visit(i + 1);
+        }
+        if y > 0 {
+            visit(i - w);
+        }
+        if y + 1 < h {
+            visit(i + w);
+        }
+    }
+}
+
+impl FacetMap {
+    /// Pixel indices of every facet, facet-major and ascending within a facet (a counting
+    /// sort: `offsets[f]..offsets[f + 1]` indexes `pixels`).
+    pub fn pixels_by_facet(&self) -> (Vec<u32>, Vec<u32>) {
+        let n = self.facet_count as usize;
+        let mut offsets = vec![0u32; n + 1];
+        for &id in &self.ids {
+            offsets[id as usize + 1] += 1;
+        }
+        for f in 0..n {
+            offsets[f + 1] += offsets[f];
+        }
+        let mut next = offsets.clone();
+        let mut pixels = vec![0u32; self.ids.len()];
+        for (i, &id) in self.ids.iter().enumerate() {
+            pixels[next[id as usize] as usize] = i as u32;
+            next[id as usize] += 1;
+        }
+        (offsets, pixels)
+    }
+
+    /// Number of facets that own at least one pixel.
+    pub fn used_facets(&self) -> usize {
+        let mut seen = vec![false; self.facet_count as usize];
+        self.ids.iter().for_each(|&id| seen[id as usize] = true);
+        seen.iter().filter(|&&s| s).count()
+    }
+
+    /// Whether pixel `i` touches a pixel of another facet (4-neighbourhood).
+    pub fn is_border(&self, i: usize) -> bool {
+        let (w, h) = (self.width as usize, self.height as usize);
+        let (x, y, id) = (i % w, i / w, self.ids[i]);
+        (x > 0 && self.ids[i - 1] != id)
+            || (x + 1 < w && self.ids[i + 1] != id)
+            || (y > 0 && self.ids[i - w] != id)
+            || (y + 1 < h && self.ids[i + w] != id)
+    }
+}
+
+/// A seeded uniform number in [0, 1) for (seed, stream, index): stateless, so results never
+/// depend on evaluation order or thread count.
+pub(crate) fn rand01(seed: u64, stream: u64, index: u64) -> f64 {
+    unit_f64(splitmix64(splitmix64(seed ^ stream.wrapping_mul(0xA24B_AED4_963E_E407)) ^ splitmix64(index)))
+}
+
+/// The layout the settings ask for: loaded from `settings.facets`, or computed by the
+/// faceting method (`frame` is the pre-render, for methods that follow the picture).
+pub fn layout_for(settings: &Settings, frame: &Frame) -> Result<FacetLayout> {
+    if let Some(path) = &settings.facets {
+        return io::load(path);
+    }
+    let layout = match settings.faceting {
+        Faceting::None => FacetLayout::single(),
+        Faceting::Constant => {
+            let path = settings.facet_map.as_deref().ok_or_else(|| {
+                Error::setting("facet_map", "constant faceting needs a facet map image (--facet-map)")
+            })?;
+            constant::layout(path)?
+        }
+        Faceting::Voronoi => voronoi::layout(
+            settings.facet_count,
+            settings.grid_cells,
+            settings.width as f64 / settings.height as f64,
+            settings.seed,
+        ),
+        Faceting::Patch => patch::layout(
+            settings.patch_count,
+            settings.occlusion,
+            settings.width as f64 / settings.height as f64,
+            settings.seed,
+        )?,
+        Faceting::Segment => segment::layout(frame, settings)?.0,
+    };
+    debug_assert!(layout.validate().is_ok());
+    Ok(layout)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn square(facet: u32, x0: f64, y0: f64, x1: f64, y1: f64) -> FacetPolygon {
+        FacetPolygon { facet, points: vec![[x0, y0], [x1, y0], [x1, y1], [x0, y1]] }
+    }
+
+    #[test]
+    fn single_covers_everything_at_any_size() {
+        for (w, h) in [(1, 1), (7, 3), (64, 48)] {
+            let m = FacetLayout::single().rasterize(w, h);
+            assert!(m.ids.iter().all(|&i| i == 0));
+            assert_eq!(m.used_facets(), 1);
+        }
+    }
+
+    #[test]
+    fn polygons_fill_pixel_centres_and_later_ones_occlude() {
+        let layout = FacetLayout {
+            facet_count: 3,
+            base: Some(LabelImage { width: 1, height: 1, labels: vec![0] }),
+            sites: vec![],
+            polygons: vec![square(1, 0.0, 0.0, 0.5, 0.5), square(2, 0.25, 0.25, 0.75, 0.75)],
+        };
+        let m = layout.rasterize(8, 8);
+        let at = |x: usize, y: usize| m.ids[y * 8 + x];
+        assert_eq!(at(0, 0), 1);
+        assert_eq!(at(1, 1), 1);
+        assert_eq!(at(2, 2), 2, "the later polygon is drawn over the earlier one");
+        assert_eq!(at(5, 5), 2);
+        assert_eq!(at(6, 6), 0);
+        assert_eq!(at(7, 0), 0);
+        assert_eq!(m.ids.iter().filter(|&&i| i == 2).count(), 16);
+        assert_eq!(layout.draw_order(), vec![0, 1, 2]);
+        assert_eq!(layout.polygon(2).unwrap().facet, 2);
+        assert!(layout.polygon(0).is_none());
+    }
+
+    #[test]
+    fn concave_polygons_use_even_odd() {
+        // An L shape: its bounding box's top-right quarter stays outside.
+        let l = FacetPolygon {
+            facet: 1,
+            points: vec![[0.0, 0.0], [0.5, 0.0], [0.5, 0.5], [1.0, 0.5], [1.0, 1.0], [0.0, 1.0]],
+        };
+        let layout = FacetLayout { facet_count: 2, base: None, sites: vec![[0.9, 0.1]], polygons: vec![l] };
+        let m = layout.rasterize(10, 10);
+        assert_eq!(m.ids.iter().filter(|&&i| i == 1).count(), 75);
+        assert_eq!(m.ids[9], 0);
+        assert_eq!(m.ids[5 * 10 + 9], 1);
+    }
+
+    #[test]
+    fn base_scales_nearest_neighbour() {
+        let base = LabelImage { width: 2, height: 2, labels: vec![0, 1, 2, 3] };
+        let layout = FacetLayout { facet_count: 4, base: Some(base), sites: vec![], polygons: vec![] };
+        let m = layout.rasterize(4, 6);
+        assert_eq!(&m.ids[0..4], &[0, 0, 1, 1]);
+        assert_eq!(&m.ids[2 * 4..3 * 4], &[0, 0, 1, 1]);
+        assert_eq!(&m.ids[3 * 4..4 * 4], &[2, 2, 3, 3]);
+        let m1 = layout.rasterize(1, 1);
+        assert_eq!(m1.ids, vec![3]);
+    }
+
+    #[test]
+    fn uncovered_pixels_take_the_nearest_facet() {
+        let layout = FacetLayout {
+            facet_count: 2,
+            base: None,
+            sites: vec![],
+            polygons: vec![square(0, 0.0, 0.0, 0.3, 1.0), square(1, 0.7, 0.0, 1.0, 1.0)],
+        };
+        let m = layout.rasterize(10, 4);
+        for y in 0..4 {
+            let row: Vec<u32> = m.ids[y * 10..(y + 1) * 10].to_vec();
+            assert_eq!(row, vec![0, 0, 0, 0, 0, 1, 1, 1, 1, 1], "row {y}");
+        }
+    }
+
+    #[test]
+    fn validation_names_the_problem() {
+        let mut l = FacetLayout::single();
+        assert!(l.validate().is_ok());
+        l.polygons[0].facet = 3;
+        assert!(l.validate().unwrap_err().contains("polygon 0"));
+        let l = FacetLayout { facet_count: 0, ..Default::default() };
+        assert!(l.validate().is_err());
+        let l = FacetLayout {
+            facet_count: 2,
+            base: Some(LabelImage { width: 2, height: 2, labels: vec![0, 1, 5, 0] }),
+            ..Default::default()
+        };
+        assert!(l.validate().unwrap_err().contains("label 5"));
+    }
+
+    #[test]
+    fn pixels_by_facet_is_a_partition() {
+        let layout = voronoi::layout(20, 4, 1.5, 3);
+        let m = layout.rasterize(30, 20);
+        let (off, px) = m.pixels_by_facet();
+        assert_eq!(off.len(), 21);
+        assert_eq!(*off.last().unwrap() as usize, 600);
+        for f in 0..20 {
+            let s = &px[off[f] as usize..off[f + 1] as usize];
+            assert!(s.windows(2).all(|w| w[0] < w[1]));
+            assert!(s.iter().all(|&i| m.ids[i as usize] == f as u32));
         }
     }
 }

@@ -5,8 +5,7 @@
 use image::{Rgba, RgbaImage};
 
 use super::SegmentLevels;
-use super::raster::rasterise;
-use crate::facets::FacetLayout;
+use crate::facets::{FacetLayout, FacetMap};
 use crate::render::splitmix64;
 
 /// A distinct, light colour per id.
@@ -80,13 +79,17 @@ pub fn level_image(levels: &SegmentLevels, i: usize) -> RgbaImage {
 /// The final layout rasterised at `width` x `height`: facets in their colours with dark borders
 /// (Fig. 4.5 f).
 pub fn layout_image(layout: &FacetLayout, width: u32, height: u32) -> RgbaImage {
-    let ids = rasterise(layout, width, height);
-    let mut img = RgbaImage::new(width, height);
-    for (px, &id) in img.pixels_mut().zip(&ids) {
+    map_image(&layout.rasterize(width, height))
+}
+
+/// A rasterised layout as facet colours with dark borders (the `segments` pass of a render).
+pub fn map_image(map: &FacetMap) -> RgbaImage {
+    let mut img = RgbaImage::new(map.width, map.height);
+    for (px, &id) in img.pixels_mut().zip(&map.ids) {
         let c = id_colour(id, 0);
         px.0 = [c[0], c[1], c[2], 255];
     }
-    draw_edges(&mut img, &ids);
+    draw_edges(&mut img, &map.ids);
     img
 }
 

@@ -13,11 +13,9 @@ pub mod debug;
 pub mod graph;
 pub mod ncut;
 pub mod quality;
-pub mod raster;
 pub mod select;
 pub mod superpixels;
 
-use std::path::Path;
 use std::time::{Duration, Instant};
 
 use image::RgbaImage;
@@ -269,15 +267,3 @@ pub fn inspect(prep: &Prepared, settings: &Settings, progress: &Progress) -> Res
 
 #[cfg(test)]
 mod tests;
-
-/// Saves a layout as JSON (the `FacetLayout` fields), atomically.
-pub fn save_json(path: &Path, layout: &FacetLayout) -> Result<()> {
-    if !path.extension().is_some_and(|e| e.eq_ignore_ascii_case("json")) {
-        return Err(Error::setting(
-            "save_facets",
-            format!("{}: `cubist facets` saves layouts as .json", path.display()),
-        ));
-    }
-    let text = serde_json::to_string(layout).map_err(|e| Error::output(path, e))?;
-    crate::output::write_text(path, &text)
-}

@@ -7,10 +7,10 @@ use proptest::prelude::*;
 use super::graph::{Region, RegionGraph};
 use super::ncut::{self, Solver};
 use super::quality::boundary_f_measure;
-use super::raster::rasterise;
 use super::select::{self, LevelInput};
 use super::superpixels::{FEATURES, Features};
 use super::*;
+use crate::facets::io;
 use crate::frame::{Frame, PixelHit};
 use crate::render::{splitmix64, unit_f64};
 
@@ -222,7 +222,7 @@ fn more_segments_than_superpixels() {
     assert!(level.count < 40);
     assert_eq!(level.shortfall, Some(Shortfall::TooFewRegions));
     assert!(levels.warnings[0].contains("superpixels"));
-    assert!(rasterise(&layout, 120, 90).iter().all(|&id| id < layout.facet_count));
+    assert_eq!(layout.validate(), Ok(()));
 }
 
 #[test]
@@ -233,7 +233,7 @@ fn tiny_images() {
         for l in &levels.levels {
             assert!(l.count >= 1 && l.count <= w * h);
         }
-        assert!(rasterise(&layout, w, h).iter().all(|&id| id < layout.facet_count));
+        assert_eq!(layout.validate(), Ok(()));
     }
 }
 
@@ -252,8 +252,7 @@ fn bad_inputs_are_errors() {
 fn layout_covers_every_pixel_and_draws_by_saliency() {
     let frame = noisy_frame(200, 150);
     let (layout, levels) = layout(&frame, &settings(&[5, 30, 120], &[0.0, 0.05, 0.08])).unwrap();
-    let ids = rasterise(&layout, 200, 150);
-    assert!(ids.iter().all(|&id| id < layout.facet_count));
+    assert_eq!(layout.validate(), Ok(()));
     // Base = level-1 segments.
     assert_eq!(layout.base.as_ref().unwrap(), &levels.levels[0].labels);
     // Polygons in ascending mean saliency, one per selected segment, ids as documented.
@@ -303,7 +302,7 @@ fn selection_thresholds_and_order() {
     assert_eq!(order, vec![0, 2, 1, 3]); // 0.15, 0.45, 0.55, 0.65
     // Column quads are exact rectangles: x in [4, 6) / 8.
     assert_eq!(sel.layout.polygons[1].points, vec![[0.5, 0.0], [0.75, 0.0], [0.75, 1.0], [0.5, 1.0]]);
-    let ids = rasterise(&sel.layout, w, h);
+    let ids = sel.layout.rasterize(w, h).ids;
     // Facet 1 (0.55, the right half) is drawn over facet 2 (0.45), facet 3 over both.
     let expect: Vec<u32> = (0..32).map(|p| [0, 0, 0, 0, 1, 1, 3, 3][p % 8]).collect();
     assert_eq!(ids, expect);
@@ -333,15 +332,19 @@ fn quad_goes_through_the_extreme_pixels() {
 fn layout_saves_and_reloads() {
     let frame = noisy_frame(160, 120);
     let (layout, _) = layout(&frame, &settings(&[5, 30, 120], &[0.0, 0.05, 0.08])).unwrap();
+    assert!(layout.validate().is_ok());
     let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("layout.json");
-    save_json(&path, &layout).unwrap();
-    let back: FacetLayout = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    let map = layout.rasterize(160, 120);
+    // JSON: the layout itself, exactly (resolution independent).
+    let json = dir.path().join("layout.json");
+    io::save(&json, &layout, &map).unwrap();
+    let back = io::load(&json).unwrap();
     assert_eq!(back, layout);
-    // Resolution independence: the reloaded layout rasterises at another size.
-    let big = rasterise(&back, 320, 240);
-    assert!(big.iter().all(|&id| id < layout.facet_count));
-    assert!(save_json(&dir.path().join("layout.txt"), &layout).is_err());
+    assert_eq!(back.rasterize(320, 240), layout.rasterize(320, 240));
+    // PNG: the facet ids at the render's size.
+    let png = dir.path().join("layout.png");
+    io::save(&png, &layout, &map).unwrap();
+    assert_eq!(io::load(&png).unwrap().rasterize(160, 120).ids, map.ids);
 }
 
 fn region(area: u32, inner: u32, object: u32) -> Region {
@@ -494,7 +497,7 @@ fn real_still_life() {
     assert_eq!(levels.levels.iter().map(|l| l.count).collect::<Vec<_>>(), vec![5, 30, 120]);
     // Level 1 (threshold 0) is always selected.
     assert!(levels.levels[0].selected.iter().all(|s| *s));
-    assert!(rasterise(&layout, 640, 480).iter().all(|&id| id < layout.facet_count));
+    assert_eq!(layout.validate(), Ok(()));
 }
 
 proptest! {

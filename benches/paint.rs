@@ -1,0 +1,204 @@
+//! Cost of each painterly effect and of the whole chain on a 1000x1000 render of the built-in
+//! still life with 150 Voronoi-like facets (issue 6 target: whole chain < 100 ms on 2 cores).
+//!
+//! `cargo bench --bench paint` prints the table; `-- --save DIR` also writes each effect's
+//! picture there (for looking at them). Each row is the median of several runs of the chain
+//! with only that effect on (so it includes the canvas conversion the chain does once).
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use cubist::facets::FacetMap;
+use cubist::frame::Frame;
+use cubist::output::{encode, write_png};
+use cubist::paint::{Lighting, Painter};
+use cubist::pipeline::{Prepared, render};
+use cubist::progress::Progress;
+use cubist::render::{splitmix64, unit_f64};
+use cubist::scene::Scene;
+use cubist::settings::{Palette, Preset, Settings};
+use cubist::shading::LightRig;
+
+const SIDE: u32 = 1000;
+const RUNS: usize = 9;
+
+/// Nearest of `n` seeded sites on a jittered grid (the facets stage's Voronoi stand-in).
+fn voronoi(w: u32, h: u32, cols: u32, rows: u32, seed: u64) -> FacetMap {
+    let (cw, ch) = (w as f64 / cols as f64, h as f64 / rows as f64);
+    let site = |c: u32, r: u32| {
+        let k = splitmix64(seed ^ ((r * cols + c) as u64));
+        ((c as f64 + unit_f64(k)) * cw, (r as f64 + unit_f64(splitmix64(k))) * ch)
+    };
+    let ids = (0..w * h)
+        .map(|i| {
+            let (x, y) = ((i % w) as f64 + 0.5, (i / w) as f64 + 0.5);
+            let (cx, cy) = ((x / cw) as i64, (y / ch) as i64);
+            let mut best = (f64::INFINITY, 0u32);
+            for r in (cy - 2).max(0)..=(cy + 2).min(rows as i64 - 1) {
+                for c in (cx - 2).max(0)..=(cx + 2).min(cols as i64 - 1) {
+                    let (sx, sy) = site(c as u32, r as u32);
+                    let d = (sx - x).powi(2) + (sy - y).powi(2);
+                    if d < best.0 {
+                        best = (d, r as u32 * cols + c as u32);
+                    }
+                }
+            }
+            best.1
+        })
+        .collect();
+    FacetMap { width: w, height: h, ids, facet_count: cols * rows }
+}
+
+fn painting_like(w: u32, h: u32) -> image::RgbImage {
+    image::RgbImage::from_fn(w, h, |x, y| {
+        let plane = ((x / 37) * 7 + (y / 53) * 3) % 5;
+        let base: [f32; 3] = match plane {
+            0 => [120.0, 90.0, 54.0],
+            1 => [60.0, 44.0, 28.0],
+            2 => [168.0, 132.0, 79.0],
+            3 => [110.0, 125.0, 140.0],
+            _ => [225.0, 210.0, 175.0],
+        };
+        let n = unit_f64(splitmix64(((y as u64) << 32) | x as u64)) as f32 * 40.0 - 20.0;
+        image::Rgb(base.map(|c| (c + n).clamp(0.0, 255.0) as u8))
+    })
+}
+
+fn median_ms(times: &mut [f64]) -> f64 {
+    times.sort_by(f64::total_cmp);
+    times[times.len() / 2]
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let save = args.iter().position(|a| a == "--save").and_then(|i| args.get(i + 1)).map(PathBuf::from);
+
+    let prep = Prepared::new(Scene::default_scene());
+    let mut base = Settings::preset(Preset::Plain);
+    base.width = SIDE;
+    base.height = SIDE;
+    base.spp = 1;
+    let rendered = render(&prep, &base, &Progress::silent()).expect("render");
+    let frame: Frame = rendered.frame;
+    let framed = cubist::camera::frame_camera(&base, &prep.world).expect("camera");
+    let rig = LightRig::new(&prep.world, &framed.frame, base.shadows, base.exposure);
+    let lighting = Lighting { world: &prep.world, rig: &rig };
+    let facets = voronoi(SIDE, SIDE, 15, 10, 1);
+
+    let dir = tempfile_dir();
+    let painting = dir.join("painting.png");
+    painting_like(1000, 750).save(&painting).expect("write the test painting");
+
+    let analytic = Settings::preset(Preset::Analytic);
+    let only = |f: &dyn Fn(&mut Settings)| {
+        let mut s = base.clone();
+        f(&mut s);
+        s
+    };
+    let rows: Vec<(&str, Settings)> = vec![
+        ("canvas only", base.clone()),
+        ("chiaroscuro", only(&|s| s.chiaroscuro = 0.5)),
+        (
+            "silhouettes",
+            only(&|s| {
+                s.silhouette_width = analytic.silhouette_width;
+                s.silhouette_strength = analytic.silhouette_strength
+            }),
+        ),
+        (
+            "borders",
+            only(&|s| {
+                s.border_width = analytic.border_width;
+                s.border_strength = analytic.border_strength
+            }),
+        ),
+        ("gradients", only(&|s| s.gradients = 0.3)),
+        ("palette (ochre)", only(&|s| s.palette = Palette::Ochre)),
+        ("palette (image)", only(&|s| s.palette_image = Some(painting.clone()))),
+        ("quantise (8)", only(&|s| s.colors = 8)),
+        (
+            "whole chain",
+            only(&|s| {
+                Preset::Braque.apply(s);
+                s.width = SIDE;
+                s.height = SIDE;
+                s.spp = 1;
+                s.chiaroscuro = 0.5;
+                s.gradients = 0.3;
+            }),
+        ),
+    ];
+
+    let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+    println!(
+        "painterly effects at {SIDE}x{SIDE}, 150 facets, {} rayon threads, {RUNS} runs; load average {} \
+         (wall times grow with other processes' load; CPU time summed over threads does much less)",
+        rayon::current_num_threads(),
+        load.split_whitespace().next().unwrap_or("?")
+    );
+    println!("| effect | setup ms | wall ms (median) | wall ms (min) | CPU ms (mean, all threads) |");
+    println!("|---|---:|---:|---:|---:|");
+    for (name, s) in &rows {
+        let t = Instant::now();
+        let painter = if s.preset == Preset::Plain && Painter::new(s).expect("painter").is_empty() {
+            // The chain's fixed cost: turning the frame into a canvas and back.
+            Painter::from_effects(vec![Box::new(Nothing)], s.background, s.transparent)
+        } else {
+            Painter::new(s).expect("painter")
+        };
+        let setup = t.elapsed().as_secs_f64() * 1e3;
+        let mut times = Vec::with_capacity(RUNS);
+        let mut out = frame.clone();
+        let cpu0 = cpu_ms();
+        for _ in 0..RUNS {
+            // The effects change only the colour: restore it, keep the other buffers.
+            out.color.copy_from_slice(&frame.color);
+            let t = Instant::now();
+            painter.apply(&mut out, Some(&facets), Some(&lighting)).expect("paint");
+            times.push(t.elapsed().as_secs_f64() * 1e3);
+        }
+        let cpu = (cpu_ms() - cpu0) / RUNS as f64;
+        let min = times.iter().copied().fold(f64::INFINITY, f64::min);
+        println!(
+            "| {name} ({}) | {setup:.1} | {:.1} | {min:.1} | {cpu:.0} |",
+            painter.names().join(" + "),
+            median_ms(&mut times)
+        );
+        if let Some(dir) = &save {
+            let file = name.replace([' ', '(', ')'], "_").replace("__", "_");
+            write_png(&dir.join(format!("{}.png", file.trim_matches('_'))), &encode(&out, s.background, s.transparent))
+                .expect("save");
+        }
+    }
+    if let Some(dir) = &save {
+        write_png(&dir.join("unpainted.png"), &encode(&frame, base.background, false)).expect("save");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// An effect that does nothing, to time the chain's own cost.
+struct Nothing;
+impl cubist::paint::Effect for Nothing {
+    fn name(&self) -> &'static str {
+        "none"
+    }
+    fn apply(&self, _: &mut cubist::paint::Canvas<'_>, _: &cubist::paint::PaintContext) -> cubist::Result<()> {
+        Ok(())
+    }
+}
+
+/// User + system CPU time of this process so far, ms (10 ms resolution: averaged over runs).
+fn cpu_ms() -> f64 {
+    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    // Fields after the command name (which may hold spaces) start after the last ')'.
+    let rest = stat.rsplit_once(')').map_or("", |r| r.1);
+    let f: Vec<f64> = rest.split_whitespace().filter_map(|x| x.parse().ok()).collect();
+    // utime and stime are fields 14 and 15 of stat; here 11 and 12 after the state letter.
+    if f.len() > 12 { (f[10] + f[11]) * 10.0 } else { f64::NAN }
+}
+
+fn tempfile_dir() -> PathBuf {
+    let d = std::env::temp_dir().join(format!("cubist-paint-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&d).expect("temp dir");
+    d
+}

@@ -1,0 +1,307 @@
+"""The Cubist render engine: F12 and Render Animation export the scene, run the `cubist`
+binary (runner.py), stream its progress, and hand its picture and passes back to Blender."""
+
+import traceback
+from pathlib import Path
+
+import bpy
+
+from . import export, mapping, runner
+from .properties import panel_values
+
+ENGINE_ID = "CUBIST"
+
+# The last run, for diagnostics (the panel's status line and the tests): the renderer's
+# process id and exit code, the temporary workspace, the settings sent, the warnings.
+last_run: dict = {}
+# One entry per rendered frame (frame, settings sent, layout, error), the newest last.
+history: list = []
+HISTORY_LIMIT = 1000
+# Tests simulate Blender's cancel (Esc, which test_break() reports) with a callable here.
+cancel_hook = None
+
+
+def addon_preferences(context=None):
+    context = context or bpy.context
+    for name in (__package__, __package__.rsplit(".", 1)[-1]):
+        addon = context.preferences.addons.get(name)
+        if addon is not None:
+            return addon.preferences
+    return None
+
+
+def layout_folder(props) -> Path:
+    """The layout and saliency cache folder: the panel's, else `cubist/` beside the .blend,
+    else (unsaved file) a folder in the system's temporary directory."""
+    if props.layout_folder:
+        return Path(bpy.path.abspath(props.layout_folder))
+    if bpy.data.filepath:
+        return Path(bpy.path.abspath("//cubist"))
+    import os
+    import tempfile
+
+    # Per Blender session: another unsaved scene must not pick up this one's layout.
+    return Path(tempfile.gettempdir()) / f"cubist-unsaved-{os.getpid()}"
+
+
+def _panel(props) -> dict:
+    panel = panel_values(props)
+    for key in ("facet_map", "palette_image"):
+        if panel[key]:
+            panel[key] = bpy.path.abspath(panel[key])
+    return panel
+
+
+def current_layout_path(scene) -> Path:
+    """The layout file the scene's current settings use (for the panel and the recompute button)."""
+    props = scene.cubist
+    r = scene.render
+    w, h = mapping.render_size(r.resolution_x, r.resolution_y, r.resolution_percentage)
+    facts = mapping.SceneFacts(width=w, height=h, frame=props.layout_frame)
+    settings = mapping.settings_from_panel(_panel(props), facts)
+    return runner.layout_path(layout_folder(props), scene.name, {**settings, "seed": props.seed}, props.layout_frame)
+
+
+class CubistRenderEngine(bpy.types.RenderEngine):
+    bl_idname = ENGINE_ID
+    bl_label = "Cubist"
+    bl_use_preview = False
+    bl_use_postprocess = True
+    bl_use_eevee_viewport = True
+
+    def update_render_passes(self, scene=None, renderlayer=None):
+        self.register_pass(scene, renderlayer, "Combined", 4, "RGBA", "COLOR")
+        props = getattr(scene, "cubist", None)
+        if props is None:
+            return
+        for toggle, _name, bname, channels, chan_id, kind in mapping.PASSES:
+            if getattr(props, toggle):
+                self.register_pass(scene, renderlayer, bname, channels, chan_id, kind)
+
+    def render(self, depsgraph):
+        scene = depsgraph.scene
+        last_run.clear()
+        last_run["frame"] = scene.frame_current
+        try:
+            self._render(depsgraph, scene)
+        except runner.Cancelled:
+            last_run["cancelled"] = True
+        except runner.CubistError as e:
+            last_run["error"] = str(e)
+            self.report({"ERROR"}, f"Cubist: {e}")
+        except Exception as e:  # a bug of ours: still a clear message, never a crash
+            traceback.print_exc()
+            last_run["error"] = f"{type(e).__name__}: {e}"
+            self.report({"ERROR"}, f"Cubist: internal error: {type(e).__name__}: {e}")
+        finally:
+            entry = {k: last_run.get(k) for k in ("frame", "settings", "layout", "error", "cancelled", "warnings")}
+            history.append(entry)
+            del history[:-HISTORY_LIMIT]
+
+    # -----------------------------------------------------------------------------------------
+
+    def _cancelled(self) -> bool:
+        return bool(self.test_break()) or (cancel_hook is not None and bool(cancel_hook()))
+
+    def _run(self, binary: Path, glb: Path, out: Path, settings: dict, cfg: Path, frame: int, span) -> list:
+        runner.write_settings(cfg, settings)
+        last_run["settings_json"] = cfg.read_text(encoding="utf-8")
+        tracker = runner.ProgressTracker(*span)
+
+        def progress(stage, fraction):
+            last_run["progress_lines"] = last_run.get("progress_lines", 0) + 1
+            f = tracker.update(stage, fraction)
+            values = last_run.setdefault("progress", [])
+            if len(values) < 10000:
+                values.append(f)
+            self.update_progress(f)
+            self.update_stats("Cubist", f"Frame {frame} | {stage} {int(round(fraction * 100))}%")
+
+        def started(proc):
+            last_run["pid"] = proc.pid
+            last_run["process"] = proc
+
+        try:
+            result = runner.run(runner.build_argv(binary, glb, out, cfg), progress, self._cancelled,
+                                on_start=started)
+        except runner.RendererError as e:
+            # The scene file is ours, in a temporary folder: name it as the user knows it.
+            message = (str(e).replace(f"settings {cfg}", "the settings").replace(str(cfg), "the settings")
+                       .replace(str(glb), "the exported scene"))
+            raise runner.RendererError(message, e.returncode) from None
+        finally:
+            proc = last_run.get("process")
+            if proc is not None:
+                last_run["returncode"] = proc.poll()
+        if not out.is_file():
+            raise runner.CubistError("the renderer finished without writing an image")
+        return result.warnings
+
+    def _render(self, depsgraph, scene):
+        props = scene.cubist
+        frame = scene.frame_current
+        prefs = addon_preferences()
+        pref_path = bpy.path.abspath(prefs.binary_path) if prefs is not None and prefs.binary_path else ""
+        binary = runner.find_binary(pref_path)
+        if scene.camera is None:
+            raise runner.CubistError("the scene has no active camera")
+        if not export.has_geometry(depsgraph):
+            raise runner.CubistError(f"scene '{scene.name}' has nothing to render: add a mesh")
+        panel = _panel(props)
+        folder = layout_folder(props)
+        view_layer = depsgraph.view_layer
+        warnings: list = []
+
+        self.update_stats("Cubist", f"Frame {frame} | exporting")
+        with runner.Workspace() as tmp:
+            last_run["workspace"] = tmp
+            glb = export.export_glb(scene, view_layer, frame, tmp / "scene.glb")
+            facts = export.scene_facts(scene, frame)
+            settings = mapping.settings_from_panel(panel, facts)
+            warnings += facts.warnings
+            if self._cancelled():
+                raise runner.Cancelled()
+
+            layout = None
+            if props.static_facets and runner.uses_layout(settings):
+                # The panel's seed, not the animated one: one layout for every frame.
+                layout = runner.layout_path(folder, scene.name, {**settings, "seed": panel["seed"]},
+                                            props.layout_frame)
+            cache = folder / "saliency"
+            if runner.needs_saliency(settings) and runner.binary_supports(binary, "saliency_cache"):
+                settings["saliency_cache"] = str(cache)
+            if layout is not None or "saliency_cache" in settings:
+                try:
+                    folder.mkdir(parents=True, exist_ok=True)
+                    if "saliency_cache" in settings:
+                        cache.mkdir(exist_ok=True)
+                except OSError as e:
+                    raise runner.CubistError(f"cannot create the layout folder {folder}: {e.strerror}") from None
+
+            plan = runner.plan_layout(settings, layout, frame, props.layout_frame)
+            span = (0.0, 1.0)
+            if plan.prepass_frame is not None:
+                # This chunk does not start on the layout frame: compute the layout there first,
+                # so every process and machine gets the same one.
+                self.update_stats("Cubist", f"Frame {frame} | facet layout from frame {plan.prepass_frame}")
+                pre_glb = export.export_glb(scene, view_layer, plan.prepass_frame, tmp / "layout.glb")
+                pre_facts = export.scene_facts(scene, plan.prepass_frame)
+                pre = mapping.settings_from_panel(panel, pre_facts)
+                if "saliency_cache" in settings:
+                    pre["saliency_cache"] = settings["saliency_cache"]
+                pre = runner.layout_prepass(pre, layout)
+                warnings += self._run(binary, pre_glb, tmp / "layout.png", pre, tmp / "layout.json",
+                                      plan.prepass_frame, (0.0, 0.5))
+                span = (0.5, 1.0)
+                # Back to the frame being rendered (its scene.glb is already written).
+                scene.frame_set(frame)
+            if "facets" in plan.settings and not Path(plan.settings["facets"]).is_file():
+                warnings.append("the renderer did not save a facet layout: facets are computed for this frame")
+                del plan.settings["facets"]
+
+            out = tmp / "render.png"
+            last_run["settings"] = dict(plan.settings)
+            warnings += self._run(binary, glb, out, plan.settings, tmp / "settings.json", frame, span)
+            if "save_facets" in plan.settings and not Path(plan.settings["save_facets"]).is_file():
+                warnings.append("the renderer did not save a facet layout: later frames compute their own")
+            last_run["layout"] = str(layout) if layout is not None else None
+            self._deliver(scene, view_layer, facts, out, plan.settings, warnings)
+        last_run["warnings"] = warnings
+        for w in dict.fromkeys(warnings):
+            self.report({"WARNING"}, f"Cubist: {w}")
+
+    def _deliver(self, scene, view_layer, facts, out: Path, settings: dict, warnings: list):
+        """Loads the picture and passes into the render result, only once all are read, so a
+        failure never shows half a result."""
+        w, h = facts.width, facts.height
+        # Render Region: the whole frame is rendered (facets and framing depend on it) and the
+        # region is handed back, as Blender expects (its pixel rounding: truncation).
+        x0, y0, rw, rh = region(scene.render, w, h)
+        passes = {}
+        for toggle, name, bname, channels, _chan, _kind in mapping.PASSES:
+            if name not in settings.get("passes", []):
+                continue
+            path = runner.pass_path(out, name)
+            if not path.is_file():
+                warnings.append(f"the renderer wrote no {name} pass")
+                continue
+            px = _read_pass(path, w, h, channels, integer=(name == "facet-ids"))
+            px = px.reshape(h, w, channels)[y0:y0 + rh, x0:x0 + rw].reshape(rw * rh, channels)
+            passes[bname] = px.copy()
+        result = self.begin_result(0, 0, rw, rh, layer=view_layer.name)
+        try:
+            layer = result.layers[0]
+            layer.load_from_file(str(out), x=x0, y=y0)
+            for bname, rect in passes.items():
+                p = layer.passes.find_by_name(bname, "") if hasattr(layer.passes, "find_by_name") else None
+                p = p or layer.passes.get(bname)
+                if p is not None:
+                    p.rect = rect
+        except Exception:
+            self.end_result(result, cancel=True)
+            raise
+        self.end_result(result)
+
+
+def region(render, w: int, h: int) -> tuple:
+    """(x, y, width, height) of the Render Region in pixels, y from the bottom; the whole
+    frame without one. Blender's own rounding (truncation) and its 'too small' rule."""
+    if not render.use_border:
+        return 0, 0, w, h
+    x0, x1 = int(render.border_min_x * w), int(render.border_max_x * w)
+    y0, y1 = int(render.border_min_y * h), int(render.border_max_y * h)
+    if x1 - x0 < 2 or y1 - y0 < 2:
+        return 0, 0, w, h
+    return x0, y0, x1 - x0, y1 - y0
+
+
+def _read_pass(path: Path, w: int, h: int, channels: int, integer: bool):
+    """A pass PNG as a (w*h, channels) float array, rows bottom-up as Blender stores them.
+    Read as Non-Color: no colour management on data. Facet ids (16-bit) become integers."""
+    import numpy as np
+
+    img = bpy.data.images.load(str(path), check_existing=False)
+    try:
+        img.colorspace_settings.name = "Non-Color"
+        if tuple(img.size) != (w, h):
+            raise runner.CubistError(f"pass {path.name} is {img.size[0]}x{img.size[1]}, expected {w}x{h}")
+        px = np.empty(w * h * 4, dtype=np.float32)
+        img.pixels.foreach_get(px)
+    finally:
+        bpy.data.images.remove(img)
+    px = px.reshape(w * h, 4)[:, :channels]
+    if integer:
+        px = np.round(px * 65535.0)
+    return np.ascontiguousarray(px, dtype=np.float32)
+
+
+# EEVEE's panels that edit what the renderer reads: camera focus, materials' base colour,
+# the world's background colour.
+INCLUDE_PANELS = {"DATA_PT_camera_dof", "EEVEE_MATERIAL_PT_context_material", "EEVEE_MATERIAL_PT_surface",
+                  "EEVEE_WORLD_PT_surface", "DATA_PT_EEVEE_light"}
+EXCLUDE_PANELS = {"RENDER_PT_simplify", "DATA_PT_lightprobe", "DATA_PT_lightprobe_display",
+                  "DATA_PT_lightprobe_visibility", "DATA_PT_lightprobe_parallax", "DATA_PT_context_lightprobe",
+                  "EEVEE_MATERIAL_PT_viewport_settings"}
+
+
+def get_panels():
+    """Blender's own panels that apply to any engine (output, format, camera, lights...)
+    (the pattern of Blender's custom render engine template)."""
+    for panel in bpy.types.Panel.__subclasses__():
+        compat = getattr(panel, "COMPAT_ENGINES", None)
+        if compat is None or panel.__name__ in EXCLUDE_PANELS:
+            continue
+        if "BLENDER_RENDER" in compat or panel.__name__ in INCLUDE_PANELS:
+            yield panel
+
+
+def register():
+    bpy.utils.register_class(CubistRenderEngine)
+    for panel in get_panels():
+        panel.COMPAT_ENGINES.add(ENGINE_ID)
+
+
+def unregister():
+    for panel in get_panels():
+        panel.COMPAT_ENGINES.discard(ENGINE_ID)
+    bpy.utils.unregister_class(CubistRenderEngine)

@@ -1,0 +1,286 @@
+"""Render-properties panels for the Cubist engine, grouped as the thesis groups its parameters
+(Camera, Facets, Spatial imprecision, Painterly, Sampling, Passes, Output), the preset menu,
+and the operators behind its buttons (apply/save presets, recompute the facet layout)."""
+
+import bpy
+from bl_operators.presets import AddPresetBase
+
+from . import engine, presets, runner
+from .presets import DEFAULTS
+
+PRESET_SUBDIR = "cubist"
+
+
+class CUBIST_OT_apply_preset(bpy.types.Operator):
+    """Set the Cubist panel to a built-in preset"""
+
+    bl_idname = "cubist.apply_preset"
+    bl_label = "Apply Cubist Preset"
+    bl_options = {"REGISTER", "UNDO"}
+
+    name: bpy.props.StringProperty(name="Preset")
+
+    @classmethod
+    def description(cls, context, properties):
+        return f"Set the Cubist settings to the '{properties.name}' preset"
+
+    def execute(self, context):
+        try:
+            values = presets.preset_values(self.name)
+        except KeyError as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        props = context.scene.cubist
+        for k, v in values.items():
+            setattr(props, k, v)
+        return {"FINISHED"}
+
+
+class CUBIST_OT_preset_add(AddPresetBase, bpy.types.Operator):
+    """Save the Cubist settings as a preset, or remove the chosen one"""
+
+    bl_idname = "cubist.preset_add"
+    bl_label = "Add Cubist Preset"
+    preset_menu = "CUBIST_MT_presets"
+    preset_defines = ["cubist = bpy.context.scene.cubist"]
+    preset_values = [f"cubist.{k}" for k in DEFAULTS if k not in presets.NOT_IN_PRESETS]
+    preset_subdir = PRESET_SUBDIR
+
+
+class CUBIST_MT_presets(bpy.types.Menu):
+    bl_label = "Cubist Presets"
+    preset_subdir = PRESET_SUBDIR
+    preset_operator = "script.execute_preset"
+
+    def draw(self, context):
+        layout = self.layout
+        for name in presets.BUILTIN:
+            layout.operator(CUBIST_OT_apply_preset.bl_idname, text=name).name = name
+        paths = bpy.utils.preset_paths(PRESET_SUBDIR)
+        if paths:
+            layout.separator()
+            self.path_menu(paths, self.preset_operator, props_default={"menu_idname": self.bl_idname})
+
+
+class CUBIST_OT_recompute_layout(bpy.types.Operator):
+    """Delete the saved facet layout of the current settings: the next render computes it again
+    on the Layout Frame"""
+
+    bl_idname = "cubist.recompute_layout"
+    bl_label = "Recompute Facet Layout"
+
+    def execute(self, context):
+        try:
+            path = engine.current_layout_path(context.scene)
+        except runner.CubistError as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        if path.is_file():
+            path.unlink()
+            self.report({"INFO"}, f"Removed {path.name}: the next render computes a new layout")
+        else:
+            self.report({"INFO"}, "No saved layout yet: the next render computes one")
+        return {"FINISHED"}
+
+
+class CubistPanel:
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "render"
+    COMPAT_ENGINES = {engine.ENGINE_ID}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES
+
+
+class CUBIST_PT_render(CubistPanel, bpy.types.Panel):
+    bl_label = "Cubist"
+
+    def draw_header_preset(self, context):
+        row = self.layout.row(align=True)
+        row.menu(CUBIST_MT_presets.__name__, text=CUBIST_MT_presets.bl_label)
+        row.operator(CUBIST_OT_preset_add.bl_idname, text="", icon="ADD")
+        row.operator(CUBIST_OT_preset_add.bl_idname, text="", icon="REMOVE").remove_active = True
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.prop(context.scene.cubist, "preset")
+        prefs = engine.addon_preferences(context)
+        try:
+            pref = bpy.path.abspath(prefs.binary_path) if prefs is not None and prefs.binary_path else ""
+            runner.find_binary(pref)
+        except runner.CubistError as e:
+            layout.label(text=str(e), icon="ERROR")
+        err = engine.last_run.get("error")
+        if err:
+            layout.label(text=f"Last render: {err}", icon="ERROR")
+
+
+class CUBIST_PT_camera(CubistPanel, bpy.types.Panel):
+    bl_label = "Camera"
+    bl_parent_id = "CUBIST_PT_render"
+
+    def draw(self, context):
+        c = context.scene.cubist
+        layout = self.layout
+        layout.use_property_split = True
+        layout.prop(c, "camera")
+        if c.camera in {"PERSPECTIVE", "ORTHOGRAPHIC"}:
+            layout.prop(c, "use_camera_lens")
+        if c.camera != "ORTHOGRAPHIC" and not (c.camera == "PERSPECTIVE" and c.use_camera_lens):
+            layout.prop(c, "ambiguity")
+        layout.prop(c, "use_camera_focus")
+        layout.prop(c, "framing")
+        if c.camera in {"PLANAR", "CYLINDRICAL", "ORTHOGRAPHIC"}:
+            layout.prop(c, "camera_size")
+
+
+class CUBIST_PT_facets(CubistPanel, bpy.types.Panel):
+    bl_label = "Facets"
+    bl_parent_id = "CUBIST_PT_render"
+
+    def draw(self, context):
+        c = context.scene.cubist
+        layout = self.layout
+        layout.use_property_split = True
+        layout.prop(c, "faceting")
+        f = c.faceting
+        if f == "CONSTANT":
+            layout.prop(c, "facet_map")
+        elif f == "VORONOI":
+            layout.prop(c, "facet_count")
+            layout.prop(c, "grid_cells")
+        elif f == "PATCH":
+            layout.prop(c, "patch_count")
+            layout.prop(c, "occlusion")
+        elif f == "SEGMENT":
+            layout.prop(c, "segments")
+            layout.prop(c, "thresholds")
+        if f == "NONE":
+            return
+        col = layout.column(heading="Animation")
+        col.prop(c, "static_facets")
+        sub = layout.column()
+        sub.active = c.static_facets
+        sub.prop(c, "layout_frame")
+        sub.prop(c, "layout_folder")
+        try:
+            path = engine.current_layout_path(context.scene)
+            state = "saved" if path.is_file() else f"computed on frame {c.layout_frame} at next render"
+            sub.label(text=f"{path.name}: {state}", icon="FILE")
+        except runner.CubistError as e:
+            sub.label(text=str(e), icon="ERROR")
+        sub.operator(CUBIST_OT_recompute_layout.bl_idname, icon="FILE_REFRESH")
+
+
+class CUBIST_PT_imprecision(CubistPanel, bpy.types.Panel):
+    bl_label = "Spatial Imprecision"
+    bl_parent_id = "CUBIST_PT_render"
+
+    def draw(self, context):
+        c = context.scene.cubist
+        layout = self.layout
+        layout.use_property_split = True
+        layout.active = c.faceting != "NONE"
+        layout.prop(c, "imprecision")
+        layout.prop(c, "discontinuity")
+        layout.prop(c, "neighborhood")
+        layout.prop(c, "facet_projection")
+        if c.facet_projection == "LINEAR":
+            layout.prop(c, "facet_fov")
+
+
+class CUBIST_PT_painterly(CubistPanel, bpy.types.Panel):
+    bl_label = "Painterly"
+    bl_parent_id = "CUBIST_PT_render"
+
+    def draw(self, context):
+        c = context.scene.cubist
+        layout = self.layout
+        layout.use_property_split = True
+        col = layout.column(align=True)
+        col.prop(c, "border_width")
+        col.prop(c, "border_strength")
+        col = layout.column(align=True)
+        col.prop(c, "silhouette_width")
+        col.prop(c, "silhouette_strength")
+        layout.prop(c, "palette")
+        layout.prop(c, "palette_image")
+        layout.prop(c, "colors")
+        layout.prop(c, "gradients")
+        layout.prop(c, "chiaroscuro")
+
+
+class CUBIST_PT_sampling(CubistPanel, bpy.types.Panel):
+    bl_label = "Sampling"
+    bl_parent_id = "CUBIST_PT_render"
+
+    def draw(self, context):
+        c = context.scene.cubist
+        layout = self.layout
+        layout.use_property_split = True
+        layout.prop(c, "spp")
+        layout.prop(c, "seed")
+        layout.prop(c, "animate_seed")
+
+
+class CUBIST_PT_passes(CubistPanel, bpy.types.Panel):
+    bl_label = "Passes"
+    bl_parent_id = "CUBIST_PT_render"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        c = context.scene.cubist
+        layout = self.layout
+        layout.use_property_split = True
+        col = layout.column(heading="Include")
+        for toggle in ("pass_saliency", "pass_facet_ids", "pass_facets", "pass_segments", "pass_objects",
+                       "pass_normals", "pass_depth"):
+            col.prop(c, toggle)
+
+
+class CUBIST_PT_output(CubistPanel, bpy.types.Panel):
+    bl_label = "Output"
+    bl_parent_id = "CUBIST_PT_render"
+
+    def draw(self, context):
+        c = context.scene.cubist
+        layout = self.layout
+        layout.use_property_split = True
+        layout.prop(context.scene.render, "film_transparent", text="Transparent")
+        layout.prop(c, "use_world_background")
+        row = layout.row()
+        row.active = not c.use_world_background or context.scene.world is None
+        row.prop(c, "background")
+        layout.prop(c, "shadows")
+        layout.prop(c, "exposure")
+        # The scene is exported from the render thread: a locked interface keeps edits out of it.
+        layout.prop(context.scene.render, "use_lock_interface")
+
+
+classes = (
+    CUBIST_OT_apply_preset,
+    CUBIST_OT_preset_add,
+    CUBIST_MT_presets,
+    CUBIST_OT_recompute_layout,
+    CUBIST_PT_render,
+    CUBIST_PT_camera,
+    CUBIST_PT_facets,
+    CUBIST_PT_imprecision,
+    CUBIST_PT_painterly,
+    CUBIST_PT_sampling,
+    CUBIST_PT_passes,
+    CUBIST_PT_output,
+)
+
+
+def register():
+    for c in classes:
+        bpy.utils.register_class(c)
+
+
+def unregister():
+    for c in reversed(classes):
+        bpy.utils.unregister_class(c)

@@ -1,0 +1,19 @@
+#!/usr/bin/env bash
+# Renders the README's preset pictures (docs/presets/<preset>.png, 480x360) from the built-in
+# still life, so they can be regenerated whenever the pipeline changes:
+#   bash scripts/render-docs.sh            # every preset
+#   bash scripts/render-docs.sh braque     # some presets
+# Each picture is `cubist render --preset <name>` with nothing else changed but the size.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+cargo build --release --locked --quiet
+presets=("$@")
+if [ ${#presets[@]} -eq 0 ]; then
+    presets=(plain analytic braque blue-period grisaille)
+fi
+mkdir -p docs/presets
+for p in "${presets[@]}"; do
+    target/release/cubist render --preset "$p" --width 480 --height 360 --spp 9 \
+        --progress none -o "docs/presets/$p.png"
+    echo "docs/presets/$p.png"
+done

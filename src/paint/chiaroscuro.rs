@@ -1,0 +1,144 @@
+//! Chiaroscuro (thesis Ch. 2: "in order to increase the effect of disharmony between different
+//! view projections, chiaroscuro - use of light and shadow - is also manipulated"): every facet
+//! is relit as if the lights had been turned and dimmed or brightened for it alone.
+//!
+//! Ratio relighting: a pixel's colour is albedo x (ambient + sum of radiance x max(0, n.l))
+//! times its shadowing; each facet gets a seeded rotation R_f and gain g_f of the light rig, and
+//! the pixel's foreground colour is multiplied, per channel, by
+//! (ambient + g_f sum radiance max(0, n.R_f l)) / (ambient + sum radiance max(0, n.l)),
+//! n being the pixel's shading normal. The albedo cancels, so textures, anti-aliasing and the
+//! shadows already rendered survive (the shadow factor is kept, not recast), and no ray is
+//! traced. Highlights scale with the diffuse term. Bounded: the rotation is at most
+//! `amount` x 70 degrees and the gain within 1 +- `amount` x 0.4; unlit materials keep their
+//! colour.
+
+use glam::{Quat, Vec3};
+use rayon::prelude::*;
+
+use super::{Canvas, Effect, PaintContext, effect_seed};
+use crate::error::{Error, Result};
+use crate::render::{splitmix64, unit_f64};
+use crate::shading::RigLight;
+
+const SALT: u64 = 0x6368_6961_726f_7363; // "chiarosc"
+/// Largest rotation of a facet's lights at amount 1, degrees.
+pub const MAX_ANGLE_DEG: f32 = 70.0;
+/// Largest relative change of a facet's light intensity at amount 1.
+pub const MAX_GAIN: f32 = 0.4;
+
+/// Per-facet relighting.
+pub struct Chiaroscuro {
+    /// In [0, 1].
+    pub amount: f32,
+    pub seed: u64,
+}
+
+impl Chiaroscuro {
+    pub fn new(amount: f32, seed: u64) -> Chiaroscuro {
+        Chiaroscuro { amount, seed }
+    }
+
+    /// The rotation and gain of facet `f`'s lights: a uniform random axis, an angle in
+    /// [1/2, 1] x amount x MAX_ANGLE_DEG, a gain in 1 +- amount x MAX_GAIN.
+    pub fn facet_light(&self, f: u32) -> (Quat, f32) {
+        let h = splitmix64(effect_seed(self.seed, SALT) ^ splitmix64(f as u64));
+        let u: [f32; 4] = std::array::from_fn(|k| unit_f64(splitmix64(h.wrapping_add(k as u64))) as f32);
+        let z = 2.0 * u[0] - 1.0;
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        let phi = std::f32::consts::TAU * u[1];
+        let axis = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+        let angle = self.amount * MAX_ANGLE_DEG.to_radians() * (0.5 + 0.5 * u[2]);
+        let gain = 1.0 + self.amount * MAX_GAIN * (2.0 * u[3] - 1.0);
+        (Quat::from_axis_angle(axis.normalize(), angle), gain)
+    }
+}
+
+/// Direction to the light and the radiance arriving at `position`, as `shading::shade` uses.
+fn incident(light: &RigLight, position: Vec3) -> (Vec3, Vec3) {
+    match *light {
+        RigLight::Directional { to_light, radiance } => (to_light, radiance),
+        RigLight::Point { position: lp, intensity } => {
+            let d = lp - position;
+            let len2 = d.length_squared().max(1e-8);
+            (d / len2.sqrt(), intensity / len2)
+        }
+        RigLight::Spot { position: lp, direction, cos_inner, cos_outer, intensity } => {
+            let d = lp - position;
+            let len2 = d.length_squared().max(1e-8);
+            let l = d / len2.sqrt();
+            let fall = (((-l).dot(direction) - cos_outer) / (cos_inner - cos_outer).max(1e-6)).clamp(0.0, 1.0);
+            (l, intensity * (fall * fall) / len2)
+        }
+    }
+}
+
+/// Largest factor a pixel may be brightened by.
+const MAX_RATIO: f32 = 4.0;
+
+impl Effect for Chiaroscuro {
+    fn name(&self) -> &'static str {
+        "chiaroscuro"
+    }
+
+    fn apply(&self, canvas: &mut Canvas<'_>, ctx: &PaintContext) -> Result<()> {
+        let Some(lighting) = ctx.lighting else {
+            return Err(Error::setting("chiaroscuro", "relighting needs the scene's lights; none were given"));
+        };
+        let (world, rig) = (lighting.world, lighting.rig);
+        // Per facet: the rotation, the gain and the rotated directions of directional lights
+        // (the other lights' directions depend on the pixel).
+        let facets: Vec<(Quat, f32, Vec<Vec3>)> = (0..ctx.facet_count() as u32)
+            .map(|f| {
+                let (q, gain) = self.facet_light(f);
+                let dirs = rig
+                    .lights
+                    .iter()
+                    .map(|l| match l {
+                        RigLight::Directional { to_light, .. } => q * *to_light,
+                        _ => Vec3::ZERO,
+                    })
+                    .collect();
+                (q, gain, dirs)
+            })
+            .collect();
+        let unlit: Vec<bool> = world.objects.iter().map(|o| world.materials[o.material].unlit).collect();
+        let (bg, transparent) = (canvas.background, canvas.transparent);
+        let ambient = Vec3::splat(rig.ambient);
+        let (coverage, px) = canvas.coverage_and_pixels();
+        px.par_iter_mut().enumerate().for_each(|(i, p)| {
+            let hit = &ctx.hits[i];
+            let c = coverage.of(i, p);
+            if !hit.is_hit() || c <= 0.0 || unlit[hit.object as usize] {
+                return;
+            }
+            let (rotation, gain, dirs) = &facets[ctx.facet(i) as usize];
+            let n = hit.normal;
+            let (mut before, mut after) = (ambient, Vec3::ZERO);
+            for (l, rotated) in rig.lights.iter().zip(dirs) {
+                match l {
+                    RigLight::Directional { to_light, radiance } => {
+                        before += *radiance * n.dot(*to_light).max(0.0);
+                        after += *radiance * n.dot(*rotated).max(0.0);
+                    }
+                    _ => {
+                        let [p0, p1, p2] = world.positions[hit.tri as usize];
+                        let position = p0 * (1.0 - hit.u - hit.v) + p1 * hit.u + p2 * hit.v;
+                        let (to_light, radiance) = incident(l, position);
+                        before += radiance * n.dot(to_light).max(0.0);
+                        after += radiance * n.dot(*rotation * to_light).max(0.0);
+                    }
+                }
+            }
+            let after = ambient + after * *gain;
+            let ratio =
+                Vec3::select(before.cmpgt(Vec3::splat(1e-6)), after / before, Vec3::ONE).min(Vec3::splat(MAX_RATIO));
+            if transparent {
+                *p = (p.truncate() * ratio).extend(p.w);
+            } else {
+                let back = bg * (1.0 - c);
+                *p = (((p.truncate() - back).max(Vec3::ZERO) * ratio) + back).extend(p.w);
+            }
+        });
+        Ok(())
+    }
+}

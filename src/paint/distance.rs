@@ -1,0 +1,164 @@
+//! Exact Euclidean distance transform in linear time (Felzenszwalb and Huttenlocher, "Distance
+//! transforms of sampled functions", 2012): the p_d of SPEC eq 4.8 for every pixel at once,
+//! instead of the thesis's per-pixel circle search.
+//!
+//! Hand-written: it is two short passes, and the crates that have one (imageproc) would pull
+//! a large dependency tree for a single-threaded f64 version; this one runs its rows on rayon.
+
+use rayon::prelude::*;
+
+/// Euclidean distance (between pixel centres) from every pixel to the nearest pixel where
+/// `is_feature(index)` holds. Exact below `limit`; pixels at `limit` or farther get some value
+/// not below it (`f32::INFINITY` when no feature is that close). Pass `f32::INFINITY` for the
+/// full transform. Separable lower envelope of parabolas, O(width x height); the limit
+/// only skips work (a feature closer than it is also closer than it along its column).
+pub fn distance_to_features(
+    width: u32,
+    height: u32,
+    limit: f32,
+    is_feature: impl Fn(usize) -> bool + Sync,
+) -> Vec<f32> {
+    let (w, h) = (width as usize, height as usize);
+    // Pass 1: per column, the distance to the nearest feature in that column (two sweeps,
+    // row by row so the inner loop runs along memory).
+    let mut g = vec![f32::INFINITY; w * h];
+    g.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+        for (x, v) in row.iter_mut().enumerate() {
+            if is_feature(y * w + x) {
+                *v = 0.0;
+            }
+        }
+    });
+    for y in 1..h {
+        let (above, rest) = g.split_at_mut(y * w);
+        let prev = &above[(y - 1) * w..];
+        for (v, p) in rest[..w].iter_mut().zip(prev) {
+            *v = v.min(p + 1.0);
+        }
+    }
+    for y in (0..h.saturating_sub(1)).rev() {
+        let (head, below) = g.split_at_mut((y + 1) * w);
+        let row = &mut head[y * w..];
+        for (v, n) in row.iter_mut().zip(&below[..w]) {
+            *v = v.min(n + 1.0);
+        }
+    }
+    // Pass 2: per row, the lower envelope of the parabolas (x - q)^2 + g(q)^2, leaving out
+    // columns whose nearest feature is `limit` or farther.
+    g.par_chunks_mut(w).for_each_init(
+        || (Vec::with_capacity(w), Vec::with_capacity(w + 1), Vec::with_capacity(w)),
+        |(v, z, f): &mut (Vec<usize>, Vec<f64>, Vec<f64>), row| {
+            if row.iter().all(|&d| d >= limit) {
+                row.fill(f32::INFINITY);
+                return;
+            }
+            f.clear();
+            f.extend(row.iter().map(|&d| if d < limit { (d as f64) * (d as f64) } else { f64::INFINITY }));
+            envelope(f, v, z, row);
+        },
+    );
+    g
+}
+
+/// The 1-D squared distance transform of `f` (infinite = no parabola there), written as
+/// distances into `out`. `v` and `z` are scratch buffers.
+fn envelope(f: &[f64], v: &mut Vec<usize>, z: &mut Vec<f64>, out: &mut [f32]) {
+    v.clear();
+    z.clear();
+    for (q, &fq) in f.iter().enumerate() {
+        if !fq.is_finite() {
+            continue;
+        }
+        // Drop parabolas that the new one hides everywhere to the right of their boundary.
+        loop {
+            match v.last() {
+                None => {
+                    v.push(q);
+                    z.push(f64::NEG_INFINITY);
+                    break;
+                }
+                Some(&p) => {
+                    let qf = q as f64;
+                    let pf = p as f64;
+                    let s = ((fq + qf * qf) - (f[p] + pf * pf)) / (2.0 * (qf - pf));
+                    if s <= *z.last().unwrap() {
+                        v.pop();
+                        z.pop();
+                    } else {
+                        v.push(q);
+                        z.push(s);
+                        break;
+                    }
+                }
+            }
+        }
+    }
+    if v.is_empty() {
+        out.fill(f32::INFINITY);
+        return;
+    }
+    let mut k = 0;
+    for (x, o) in out.iter_mut().enumerate() {
+        let xf = x as f64;
+        while k + 1 < v.len() && z[k + 1] < xf {
+            k += 1;
+        }
+        let d = xf - v[k] as f64;
+        *o = (d * d + f[v[k]]).sqrt() as f32;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn brute(w: usize, h: usize, feat: &[bool]) -> Vec<f32> {
+        (0..w * h)
+            .map(|i| {
+                let (x, y) = ((i % w) as f64, (i / w) as f64);
+                let mut best = f64::INFINITY;
+                for (j, &f) in feat.iter().enumerate() {
+                    if f {
+                        let (fx, fy) = ((j % w) as f64, (j / w) as f64);
+                        best = best.min(((x - fx).powi(2) + (y - fy).powi(2)).sqrt());
+                    }
+                }
+                best as f32
+            })
+            .collect()
+    }
+
+    #[test]
+    fn single_point_gives_euclidean_distances() {
+        let (w, h) = (7usize, 5usize);
+        let d = distance_to_features(w as u32, h as u32, f32::INFINITY, |i| i == 2 * w + 3);
+        assert_eq!(d[2 * w + 3], 0.0);
+        assert_eq!(d[2 * w + 6], 3.0);
+        assert!((d[0] - (9.0f32 + 4.0).sqrt()).abs() < 1e-6);
+    }
+
+    #[test]
+    fn no_features_is_infinite() {
+        let d = distance_to_features(4, 3, f32::INFINITY, |_| false);
+        assert!(d.iter().all(|v| v.is_infinite()));
+    }
+
+    proptest! {
+        #[test]
+        fn matches_brute_force(w in 1usize..24, h in 1usize..24, bits in proptest::collection::vec(0u8..16, 576), limit in 0.5f32..30.0) {
+            let feat: Vec<bool> = (0..w * h).map(|i| bits[i] == 0).collect();
+            let b = brute(w, h, &feat);
+            let d = distance_to_features(w as u32, h as u32, f32::INFINITY, |i| feat[i]);
+            let near = distance_to_features(w as u32, h as u32, limit, |i| feat[i]);
+            for i in 0..w * h {
+                prop_assert!(d[i] == b[i] || (d[i] - b[i]).abs() < 1e-4, "pixel {} got {} want {}", i, d[i], b[i]);
+                if b[i] < limit {
+                    prop_assert!((near[i] - b[i]).abs() < 1e-4, "limited: pixel {} got {} want {}", i, near[i], b[i]);
+                } else {
+                    prop_assert!(near[i] >= limit - 1e-4, "limited: pixel {} got {} beyond {}", i, near[i], limit);
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,327 @@
+//! Painterly effects (SPEC "Painterly effects", thesis 4.4): a fixed chain of post effects on
+//! the rendered colour, reading the facet ids and hit buffers, each its own module behind the
+//! `Effect` trait and left out of the chain when its setting is off.
+//!
+//! Order (fixed): chiaroscuro (relights the shading, so it must see the unmodified render) ->
+//! silhouettes -> facet borders -> gradient overlays (the geometric darkenings and
+//! lightenings) -> colour transfer / palette (maps the final luminance onto the painter's
+//! colours, so borders and gradients come out in palette colours too) -> quantisation (last,
+//! so the image really has at most K colours).
+//!
+//! Background and alpha. An opaque image's background is part of the canvas: every effect
+//! paints it (borders cross it, the palette colours it). A transparent image has no background
+//! to paint: colour effects touch only what was rendered (coverage > 0), and the darkening
+//! effects (borders, silhouettes) become black with alpha, so compositing the PNG over the
+//! background colour gives the opaque image wherever only darkening happened. The frame's
+//! colour stays in the form `output::encode` expects: colour = foreground premultiplied +
+//! (1 - alpha) x background.
+
+pub mod borders;
+pub mod chiaroscuro;
+pub mod distance;
+pub mod gradients;
+pub mod palette;
+pub mod quantise;
+pub mod silhouettes;
+
+use glam::{Vec3, Vec4};
+use rayon::prelude::*;
+
+use crate::error::{Error, Result};
+use crate::facets::FacetMap;
+use crate::frame::{Frame, PixelHit};
+use crate::render::splitmix64;
+use crate::scene::World;
+use crate::settings::Settings;
+use crate::shading::LightRig;
+
+/// The image the effects work on, in place on the frame's colour buffer (row 0 at the top).
+/// Each pixel's `xyz` is, on an opaque canvas, the composited colour (linear RGB) and, on a
+/// transparent one, the straight (not premultiplied) colour of the painted layer, meaningful
+/// where `w > 0`. Its `w` is the coverage on an opaque canvas (never changed) and the painted
+/// layer's alpha on a transparent one (darkening effects raise it).
+pub struct Canvas<'a> {
+    pub width: u32,
+    pub height: u32,
+    pub px: &'a mut [Vec4],
+    /// Transparent canvases: each pixel's rendered coverage (the layer alpha changes).
+    /// Opaque canvases keep it in `px[i].w`.
+    coverage: Option<Vec<f32>>,
+    /// The render's background colour (linear RGB).
+    pub background: Vec3,
+    /// Whether the output has a transparent background (see the module doc).
+    pub transparent: bool,
+}
+
+impl<'a> Canvas<'a> {
+    /// Paints on `color` (a frame's colour buffer, as `render` writes it): an opaque canvas
+    /// uses it as it is; a transparent one un-blends the background first.
+    pub fn new(width: u32, height: u32, color: &'a mut [Vec4], background: [f32; 3], transparent: bool) -> Canvas<'a> {
+        let bg = Vec3::from(background);
+        let coverage = transparent.then(|| {
+            let cov = color.par_iter().map(|c| c.w).collect();
+            color.par_iter_mut().for_each(|c| {
+                let a = c.w;
+                let rgb = if a > 0.0 { (c.truncate() - bg * (1.0 - a)) / a } else { Vec3::ZERO };
+                *c = rgb.extend(a);
+            });
+            cov
+        });
+        Canvas { width, height, px: color, coverage, background: bg, transparent }
+    }
+
+    /// Puts the colour back in the form `output::encode` reads: premultiplied + (1 - alpha)
+    /// x background on a transparent canvas (an opaque one already is).
+    pub fn finish(self) {
+        if self.transparent {
+            let bg = self.background;
+            self.px.par_iter_mut().for_each(|c| *c = (c.truncate() * c.w + bg * (1.0 - c.w)).extend(c.w));
+        }
+    }
+
+    pub fn pixel_count(&self) -> usize {
+        self.px.len()
+    }
+
+    /// The rendered coverage of every pixel, and the pixels (split borrows for parallel loops).
+    pub fn coverage_and_pixels(&mut self) -> (Coverage<'_>, &mut [Vec4]) {
+        (Coverage(self.coverage.as_deref()), &mut *self.px)
+    }
+}
+
+/// Reads a pixel's rendered coverage (see `Canvas::coverage_and_pixels`).
+#[derive(Clone, Copy)]
+pub struct Coverage<'a>(Option<&'a [f32]>);
+
+impl Coverage<'_> {
+    pub fn of(&self, i: usize, p: &Vec4) -> f32 {
+        self.0.map_or(p.w, |c| c[i])
+    }
+
+    /// Whether colour effects may repaint pixel `i`: everything on an opaque canvas, what was
+    /// rendered (coverage > 0) on a transparent one, so a silhouette's black stays black.
+    pub fn is_painted(&self, i: usize) -> bool {
+        self.0.is_none_or(|c| c[i] > 0.0)
+    }
+}
+
+/// Multiplies the whole pixel (foreground and background) by `f` in [0, 1]. On a transparent
+/// canvas, as black laid over the pixel with alpha 1 - f.
+pub fn darken(p: &mut Vec4, f: f32, transparent: bool) {
+    if !transparent {
+        *p = (p.truncate() * f).extend(p.w);
+        return;
+    }
+    let a = p.w;
+    let a2 = 1.0 - f * (1.0 - a);
+    if a2 > 0.0 {
+        *p = (p.truncate() * (f * a / a2)).extend(a2);
+    }
+}
+
+/// Multiplies only the background part (1 - `coverage`) of the pixel by `f` in [0, 1].
+/// Opaque: that part is still the plain background colour `bg` (silhouettes run before any
+/// effect that repaints the background). Transparent: black with alpha under the unchanged
+/// foreground.
+pub fn darken_background(p: &mut Vec4, coverage: f32, f: f32, bg: Vec3, transparent: bool) {
+    if !transparent {
+        let rgb = (p.truncate() - bg * ((1.0 - coverage) * (1.0 - f))).max(Vec3::ZERO);
+        *p = rgb.extend(p.w);
+        return;
+    }
+    let a = p.w;
+    let a2 = a + (1.0 - a) * (1.0 - f);
+    if a2 > 0.0 {
+        *p = (p.truncate() * (a / a2)).extend(a2);
+    }
+}
+
+/// The scene's lights as the render used them (chiaroscuro relights with them).
+pub struct Lighting<'a> {
+    pub world: &'a World,
+    pub rig: &'a LightRig,
+}
+
+/// What the effects read besides the canvas.
+pub struct PaintContext<'a> {
+    /// The representative hit of every pixel (normals for chiaroscuro).
+    pub hits: &'a [PixelHit],
+    /// Facet id of every pixel; None = one facet (faceting none).
+    pub facets: Option<&'a FacetMap>,
+    pub lighting: Option<&'a Lighting<'a>>,
+}
+
+impl PaintContext<'_> {
+    /// The facet id of pixel `i` (0 without a facet map).
+    pub fn facet(&self, i: usize) -> u32 {
+        self.facets.map_or(0, |f| f.ids[i])
+    }
+
+    /// Number of facets (1 without a facet map), at least one more than any id.
+    pub fn facet_count(&self) -> usize {
+        self.facets
+            .map_or(1, |f| (f.facet_count as usize).max(f.ids.iter().copied().max().map_or(0, |m| m as usize + 1)))
+    }
+}
+
+/// One painterly effect. `apply` must be deterministic (no thread-dependent order) and must
+/// keep the canvas's alpha conventions (see the module doc).
+pub trait Effect: Send + Sync {
+    fn name(&self) -> &'static str;
+    fn apply(&self, canvas: &mut Canvas<'_>, ctx: &PaintContext) -> Result<()>;
+}
+
+/// A seed for one effect's random choices: the render's seed mixed with the effect's salt.
+pub fn effect_seed(seed: u64, salt: u64) -> u64 {
+    splitmix64(seed ^ splitmix64(salt))
+}
+
+/// The enabled effects of a render, in chain order. Built once per settings (it loads the
+/// palette painting), reusable for every frame of an animation.
+pub struct Painter {
+    effects: Vec<Box<dyn Effect>>,
+    background: [f32; 3],
+    transparent: bool,
+}
+
+impl Painter {
+    /// The chain the settings ask for; effects that are off are left out.
+    pub fn new(settings: &Settings) -> Result<Painter> {
+        let scale = settings.pixel_scale();
+        let mut effects: Vec<Box<dyn Effect>> = Vec::new();
+        if settings.chiaroscuro > 0.0 {
+            effects.push(Box::new(chiaroscuro::Chiaroscuro::new(settings.chiaroscuro as f32, settings.seed)));
+        }
+        if settings.silhouette_width > 0.0 && settings.silhouette_strength > 0.0 {
+            effects.push(Box::new(silhouettes::Silhouettes {
+                width: (settings.silhouette_width * scale) as f32,
+                strength: settings.silhouette_strength as f32,
+            }));
+        }
+        if settings.border_width > 0.0 && settings.border_strength > 0.0 {
+            effects.push(Box::new(borders::Borders {
+                width: (settings.border_width * scale) as f32,
+                strength: settings.border_strength as f32,
+            }));
+        }
+        if settings.gradients > 0.0 {
+            effects.push(Box::new(gradients::Gradients { fraction: settings.gradients, seed: settings.seed }));
+        }
+        if let Some(path) = &settings.palette_image {
+            effects.push(Box::new(palette::ColourTransfer::from_image(path)?));
+        } else if let Some(ramp) = palette::ramp(settings.palette) {
+            effects.push(Box::new(palette::ColourTransfer::from_ramp(ramp)));
+        }
+        if settings.colors > 0 {
+            effects.push(Box::new(quantise::Quantise { colors: settings.colors }));
+        }
+        Ok(Painter { effects, background: settings.background, transparent: settings.transparent })
+    }
+
+    /// A chain of the given effects (tests, benchmarks).
+    pub fn from_effects(effects: Vec<Box<dyn Effect>>, background: [f32; 3], transparent: bool) -> Painter {
+        Painter { effects, background, transparent }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.effects.is_empty()
+    }
+
+    /// Names of the enabled effects, in chain order.
+    pub fn names(&self) -> Vec<&'static str> {
+        self.effects.iter().map(|e| e.name()).collect()
+    }
+
+    /// Runs the chain on `frame`'s colour. With no effect enabled the frame is not touched
+    /// (bit-identical). `facets` must match the frame's size.
+    pub fn apply(&self, frame: &mut Frame, facets: Option<&FacetMap>, lighting: Option<&Lighting>) -> Result<()> {
+        if self.effects.is_empty() {
+            return Ok(());
+        }
+        if let Some(f) =
+            facets.filter(|f| f.width != frame.width || f.height != frame.height || f.ids.len() != frame.pixel_count())
+        {
+            return Err(Error::setting(
+                "facets",
+                format!("the facet map is {}x{} but the image is {}x{}", f.width, f.height, frame.width, frame.height),
+            ));
+        }
+        let (w, h) = (frame.width, frame.height);
+        let mut canvas = Canvas::new(w, h, &mut frame.color, self.background, self.transparent);
+        let ctx = PaintContext { hits: &frame.hits, facets, lighting };
+        let mut result = Ok(());
+        for e in &self.effects {
+            result = e.apply(&mut canvas, &ctx);
+            if result.is_err() {
+                break;
+            }
+        }
+        canvas.finish();
+        result
+    }
+}
+
+/// Builds the chain from `settings` and runs it on `frame` (see `Painter`).
+pub fn apply_chain(
+    frame: &mut Frame,
+    facets: Option<&FacetMap>,
+    settings: &Settings,
+    lighting: Option<&Lighting>,
+) -> Result<()> {
+    Painter::new(settings)?.apply(frame, facets, lighting)
+}
+
+/// Luminance of linear RGB (Rec. 709), as `shading::luminance`.
+pub fn luminance(c: Vec3) -> f32 {
+    crate::shading::luminance(c)
+}
+
+#[cfg(test)]
+mod tests;
+
+/// Number of luminance levels the rank-based effects sort into: far finer than the 8-bit
+/// output, and a counting sort over them is linear time.
+pub const KEY_LEVELS: usize = 1 << 16;
+
+/// The painted pixels' luminances as sortable keys: `keys[i]` = sqrt(L / L_max) in 16 bits
+/// (square root: more levels in the shadows, roughly perceptual), `UNPAINTED` for pixels the
+/// effects do not paint, plus the histogram of keys. Monotone: L_a < L_b implies
+/// key_a <= key_b, so mapping by key preserves luminance order; equal keys are ties and get
+/// the same treatment (deterministic, and flat areas stay flat).
+pub struct LuminanceKeys {
+    pub keys: Vec<u32>,
+    pub histogram: Vec<u32>,
+    /// Number of painted pixels.
+    pub total: u64,
+}
+
+/// The key of a pixel colour effects leave alone.
+pub const UNPAINTED: u32 = u32::MAX;
+
+impl LuminanceKeys {
+    pub fn new(canvas: &Canvas) -> LuminanceKeys {
+        let coverage = Coverage(canvas.coverage.as_deref());
+        let lum = |(i, p): (usize, &Vec4)| if coverage.is_painted(i) { luminance(p.truncate()).max(0.0) } else { -1.0 };
+        let max = canvas.px.par_iter().enumerate().map(lum).reduce(|| 0.0f32, f32::max);
+        let scale = if max > 0.0 && max.is_finite() { 1.0 / max } else { 0.0 };
+        let top = (KEY_LEVELS - 1) as f32;
+        let keys: Vec<u32> = canvas
+            .px
+            .par_iter()
+            .enumerate()
+            .map(|ip| {
+                let l = lum(ip);
+                if l < 0.0 { UNPAINTED } else { ((l * scale).min(1.0).sqrt() * top + 0.5) as u32 }
+            })
+            .collect();
+        let mut histogram = vec![0u32; KEY_LEVELS];
+        let mut total = 0u64;
+        for &k in &keys {
+            if k != UNPAINTED {
+                histogram[k as usize] += 1;
+                total += 1;
+            }
+        }
+        LuminanceKeys { keys, histogram, total }
+    }
+}

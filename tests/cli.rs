@@ -1,0 +1,146 @@
+//! The `cubist` binary: the README's first command, flags and config, exit codes, one-line
+//! errors and no partial output.
+
+mod common;
+
+use common::run;
+
+#[test]
+fn render_without_a_scene_writes_cubist_png() {
+    let dir = tempfile::tempdir().unwrap();
+    let (code, _, err) = run(dir.path(), &["render", "--width", "80", "--height", "60", "--spp", "1"]);
+    assert_eq!(code, 0, "{err}");
+    let img = image::open(dir.path().join("cubist.png")).unwrap().to_rgba8();
+    assert_eq!(img.dimensions(), (80, 60));
+    // Not blank: the still life has many colours.
+    let mut colours: Vec<[u8; 4]> = img.pixels().map(|p| p.0).collect();
+    colours.sort();
+    colours.dedup();
+    assert!(colours.len() > 50);
+}
+
+#[test]
+fn help_lists_every_option_with_unit_and_default() {
+    let dir = tempfile::tempdir().unwrap();
+    let (code, out, _) = run(dir.path(), &["render", "--help"]);
+    assert_eq!(code, 0);
+    for flag in [
+        "--camera",
+        "--ambiguity",
+        "--width",
+        "--height",
+        "--spp",
+        "--seed",
+        "--config",
+        "--faceting",
+        "--discontinuity",
+    ] {
+        assert!(out.contains(flag), "--help lacks {flag}");
+    }
+    assert!(out.contains("degrees") && out.contains("[default: 140"), "{out}");
+}
+
+#[test]
+fn settings_from_json_and_flags_override_it() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("s.json"), r#"{"width": 40, "height": 30, "spp": 1, "camera": "cylindrical"}"#)
+        .unwrap();
+    let (code, _, err) = run(dir.path(), &["render", "--config", "s.json", "--height", "20", "-o", "o.png"]);
+    assert_eq!(code, 0, "{err}");
+    let img = image::open(dir.path().join("o.png")).unwrap();
+    assert_eq!((img.width(), img.height()), (40, 20));
+}
+
+#[test]
+fn unknown_json_keys_and_bad_values_are_usage_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("s.json"), r#"{"widht": 40}"#).unwrap();
+    let (code, _, err) = run(dir.path(), &["render", "--config", "s.json"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("unknown key `widht`") && err.lines().count() == 1, "{err}");
+    for args in [
+        &["render", "--camera", "planar", "--ambiguity", "180"][..],
+        &["render", "--ambiguity", "720"],
+        &["render", "--width", "0"],
+        &["render", "--width", "100000"],
+        &["render", "--camera", "teapot"],
+        &["render", "--spp", "-1"],
+    ] {
+        let (code, _, err) = run(dir.path(), args);
+        assert_eq!(code, 2, "{args:?}: {err}");
+        assert!(!dir.path().join("cubist.png").exists(), "{args:?} wrote an image");
+    }
+}
+
+#[test]
+fn bad_input_files_fail_with_one_line_and_no_output() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("broken.glb"), b"glTF\x02\x00\x00\x00garbage").unwrap();
+    for scene in ["broken.glb", "missing.gltf"] {
+        let (code, _, err) = run(dir.path(), &["render", scene, "-o", "out.png"]);
+        assert_eq!(code, 1, "{scene}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+        assert!(err.contains(scene), "{err}");
+        assert!(!dir.path().join("out.png").exists());
+    }
+    // Only .png outputs; an unwritable directory is an error, not a panic.
+    let (code, _, err) = run(dir.path(), &["render", "-o", "out.jpg"]);
+    assert_eq!(code, 2, "{err}");
+    let (code, _, err) = run(dir.path(), &["render", "-o", "no/such/dir/out.png", "--width", "8", "--height", "8"]);
+    assert_eq!(code, 1, "{err}");
+    let leftovers: Vec<_> = std::fs::read_dir(dir.path()).unwrap().flatten().map(|e| e.file_name()).collect();
+    assert_eq!(leftovers.len(), 1, "{leftovers:?}");
+}
+
+#[test]
+fn faces_prints_a_table_row_in_one_call() {
+    let Some(sphere) = common::model("sphere_1280.glb") else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let s = sphere.to_str().unwrap();
+    let (code, out, err) = run(
+        dir.path(),
+        &[
+            "faces",
+            s,
+            "--view",
+            "spherical:120",
+            "--view",
+            "spherical:360",
+            "--view",
+            "orthographic",
+            "--json",
+            "--width",
+            "256",
+            "--height",
+            "256",
+            "--spp",
+            "1",
+        ],
+    );
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let rows = v["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 3);
+    assert!(rows[1]["visible"].as_u64().unwrap() > 1260, "{out}");
+    assert_eq!(rows[1]["total"], 1280);
+    let (code, out, _) = run(
+        dir.path(),
+        &["faces", s, "--camera", "planar", "--angles", "90,120,150", "--width", "128", "--height", "128"],
+    );
+    assert_eq!(code, 0);
+    assert_eq!(out.lines().filter(|l| l.contains("planar")).count(), 3, "{out}");
+}
+
+#[test]
+fn progress_lines_for_the_addon() {
+    let dir = tempfile::tempdir().unwrap();
+    let (code, _, err) =
+        run(dir.path(), &["render", "--progress", "lines", "--width", "64", "--height", "48", "--spp", "1"]);
+    assert_eq!(code, 0);
+    let lines: Vec<&str> = err.lines().filter(|l| l.starts_with("PROGRESS ")).collect();
+    assert!(lines.len() >= 3, "{err}");
+    for l in lines {
+        let f: f64 = l.split_whitespace().nth(1).unwrap().parse().unwrap();
+        assert!((0.0..=1.0).contains(&f));
+    }
+}

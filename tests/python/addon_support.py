@@ -1,0 +1,106 @@
+"""Fixtures and helpers of the add-on tests (imported by them, not a conftest.py, so other
+suites in tests/python keep their own): the release binary (built when missing or stale),
+headless Blender (bpy) with a throw-away user folder, the add-on enabled from this checkout."""
+
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+BINARY = ROOT / "target" / "release" / ("cubist.exe" if sys.platform == "win32" else "cubist")
+
+# Blender writes its user configuration here instead of ~/.config/blender (TOOLCHAIN.md).
+# Set before anything imports bpy.
+os.environ.setdefault("BLENDER_USER_RESOURCES", tempfile.mkdtemp(prefix="cubist-blender-user-"))
+
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+
+@pytest.fixture(scope="session")
+def cubist_binary() -> Path:
+    """The release binary. `cargo build --release` is a no-op (about a second) when
+    `cargo test --release` already built it, and builds it on a fresh clone."""
+    r = subprocess.run(["cargo", "build", "--release", "--locked", "--bin", "cubist"], cwd=ROOT,
+                       capture_output=True, text=True)
+    assert r.returncode == 0, f"cargo build --release failed:\n{r.stderr[-3000:]}"
+    assert BINARY.is_file()
+    return BINARY
+
+
+@pytest.fixture(scope="session")
+def bpy_module():
+    import bpy
+
+    return bpy
+
+
+@pytest.fixture(scope="session")
+def addon(bpy_module, cubist_binary):
+    """The add-on enabled from this checkout as a legacy add-on (module `blender_addon`),
+    with the binary path set in its preferences."""
+    import addon_utils
+
+    mod = addon_utils.enable("blender_addon", default_set=True, persistent=True)
+    assert mod is not None, "addon_utils.enable('blender_addon') failed"
+    prefs = bpy_module.context.preferences.addons["blender_addon"].preferences
+    prefs.binary_path = str(cubist_binary)
+    yield sys.modules["blender_addon"]
+
+
+def new_scene(bpy, width=64, height=48, engine="CUBIST"):
+    """An empty factory scene with a camera looking at a monkey and a cube, a sun, a grey
+    world, and colour management that round-trips 8-bit sRGB exactly (TOOLCHAIN.md)."""
+    # Not read_factory_settings: it resets the preferences and so disables the add-on.
+    bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
+    scene = bpy.context.scene
+    bpy.ops.mesh.primitive_monkey_add(location=(0, 0, 0))
+    bpy.ops.mesh.primitive_cube_add(size=0.8, location=(1.4, 0.5, -0.3))
+    cam_data = bpy.data.cameras.new("Camera")
+    cam = bpy.data.objects.new("Camera", cam_data)
+    scene.collection.objects.link(cam)
+    cam.location = (0.0, -6.0, 0.5)
+    cam.rotation_euler = (1.4908, 0.0, 0.0)  # about 85 degrees: looking along +Y, slightly down
+    scene.camera = cam
+    sun_data = bpy.data.lights.new("Sun", "SUN")
+    sun = bpy.data.objects.new("Sun", sun_data)
+    sun.rotation_euler = (0.6, 0.2, 0.4)
+    scene.collection.objects.link(sun)
+    world = bpy.data.worlds.new("World")
+    world.color = (0.3, 0.35, 0.4)
+    if bpy.app.version < (5, 0, 0):
+        world.use_nodes = True  # always on (and deprecated) from Blender 5
+    scene.world = world
+    r = scene.render
+    r.engine = engine
+    r.resolution_x, r.resolution_y, r.resolution_percentage = width, height, 100
+    r.dither_intensity = 0.0
+    r.image_settings.file_format = "PNG"
+    r.image_settings.color_mode = "RGBA"
+    r.image_settings.color_depth = "8"
+    scene.view_settings.view_transform = "Standard"
+    scene.view_settings.look = "None"
+    scene.view_settings.exposure = 0.0
+    scene.view_settings.gamma = 1.0
+    if engine == "CUBIST":
+        scene.cubist.spp = 1
+    return scene
+
+
+def read_png(bpy, path):
+    """Pixels of a PNG as a float array (h, w, 4), rows bottom-up, no colour management."""
+    import numpy as np
+
+    img = bpy.data.images.load(str(path), check_existing=False)
+    try:
+        img.colorspace_settings.name = "Non-Color"
+        w, h = img.size
+        px = np.empty(w * h * 4, dtype=np.float32)
+        img.pixels.foreach_get(px)
+    finally:
+        bpy.data.images.remove(img)
+    return px.reshape(h, w, 4)

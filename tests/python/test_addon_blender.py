@@ -1,0 +1,519 @@
+"""The add-on in headless Blender (bpy 5.0.1): enable, F12, animation with static facets,
+cancel, errors, panel -> settings JSON, render passes, the extension zip.
+
+Small images (64x48, 1 sample) keep the whole file to a few seconds of rendering."""
+
+import hashlib
+import json
+import os
+import struct
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from addon_support import BINARY, ROOT, addon, bpy_module, cubist_binary, new_scene, read_png  # noqa: F401
+
+
+@pytest.fixture
+def bpy(addon, bpy_module):
+    return bpy_module
+
+
+@pytest.fixture
+def engine(addon):
+    return sys.modules["blender_addon.engine"]
+
+
+def render_still(bpy, scene, path: Path):
+    scene.render.filepath = str(path)
+    bpy.ops.render.render(write_still=True)
+    return path
+
+
+def set_world_colour(scene, rgb):
+    bg = next(n for n in scene.world.node_tree.nodes if n.type == "BACKGROUND")
+    bg.inputs["Color"].default_value = (*rgb, 1.0)
+    bg.inputs["Strength"].default_value = 1.0
+
+
+def srgb(c):
+    c = np.asarray(c, dtype=np.float64)
+    return np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1 / 2.4) - 0.055)
+
+
+def cubist_temp_dirs():
+    return set(Path(tempfile.gettempdir()).glob("cubist-render-*"))
+
+
+# ---------------------------------------------------------------------------------------------
+
+
+def test_addon_enables_with_engine_panels_and_properties(bpy):
+    assert bpy.types.RenderEngine.bl_rna_get_subclass_py("CUBIST") is not None
+    scene = new_scene(bpy)  # selects the engine: fails unless it is registered
+    assert scene.render.engine == "CUBIST"
+    assert scene.cubist.ambiguity == 140.0
+    for name in ("CUBIST_PT_render", "CUBIST_PT_camera", "CUBIST_PT_facets", "CUBIST_PT_imprecision",
+                 "CUBIST_PT_painterly", "CUBIST_PT_sampling", "CUBIST_PT_passes", "CUBIST_PT_output",
+                 "CUBIST_MT_presets"):
+        assert hasattr(bpy.types, name), name
+    # Blender's generic panels (output format, camera lens and depth of field) show for Cubist.
+    assert "CUBIST" in bpy.types.DATA_PT_camera_dof.COMPAT_ENGINES
+
+
+class FakeLayout:
+    """Stands in for a panel's UILayout (no UI in background mode): records every property
+    drawn and checks it exists, so a typo in ui.py fails here rather than in a user's panel."""
+
+    def __init__(self, drawn):
+        self.drawn = drawn
+        self.use_property_split = False
+        self.active = True
+
+    def prop(self, data, name, **kw):
+        assert hasattr(data, name), f"{type(data).__name__} has no property {name!r}"
+        self.drawn.append(name)
+
+    def operator(self, idname, **kw):
+        module, op = idname.split(".")
+        assert hasattr(getattr(bpy_ops(), module), op), idname
+        return type("Props", (), {})()
+
+    def label(self, **kw):
+        self.drawn.append("label:" + kw.get("text", ""))
+
+    def menu(self, *a, **kw):
+        pass
+
+    def separator(self, **kw):
+        pass
+
+    def column(self, **kw):
+        return self
+
+    def row(self, **kw):
+        return self
+
+
+def bpy_ops():
+    import bpy
+
+    return bpy.ops
+
+
+def test_every_panel_draws_existing_properties(bpy, engine):
+    ui = sys.modules["blender_addon.ui"]
+    scene = new_scene(bpy)
+    drawn = []
+    panels = [c for c in ui.classes if issubclass(c, bpy.types.Panel)]
+    for camera in ("AUTO", "PLANAR", "PERSPECTIVE", "ORTHOGRAPHIC"):
+        for faceting in ("NONE", "CONSTANT", "VORONOI", "PATCH", "SEGMENT"):
+            scene.cubist.camera, scene.cubist.faceting = camera, faceting
+            scene.cubist.facet_projection = "LINEAR"
+            for panel in panels:
+                fake = type("P", (), {"layout": FakeLayout(drawn)})()
+                panel.draw(fake, bpy.context)
+    # Every panel property is reachable from the panels.
+    props = set(sys.modules["blender_addon.presets"].DEFAULTS)
+    assert props - set(drawn) == set(), "not shown in any panel"
+
+
+def test_f12_renders_the_cli_picture(bpy, engine, tmp_path):
+    scene = new_scene(bpy)
+    set_world_colour(scene, (0.3, 0.35, 0.4))
+    out = render_still(bpy, scene, tmp_path / "f12.png")
+    assert out.is_file(), engine.last_run
+    img = read_png(bpy, out)
+    assert img.shape == (48, 64, 4)
+    progress = engine.last_run["progress"]
+    assert progress == sorted(progress) and progress[-1] == 1.0, progress
+
+    # Not a blank render: a good share of pixels differ from the background.
+    bg = srgb([0.3, 0.35, 0.4])
+    assert np.abs(img[0, 0, :3] - bg).max() < 1.5 / 255  # a corner is background: the world colour
+    differs = (np.abs(img[..., :3] - bg).max(axis=2) > 0.1).mean()
+    assert differs > 0.1, f"only {differs:.1%} of pixels show the scene"
+
+    # The CLI on the same exported scene with the same settings gives the same pixels.
+    export = sys.modules["blender_addon.export"]
+    glb = export.export_glb(scene, bpy.context.view_layer, scene.frame_current, tmp_path / "scene.glb")
+    cfg = tmp_path / "settings.json"
+    cfg.write_text(engine.last_run["settings_json"])
+    cli_out = tmp_path / "cli.png"
+    r = subprocess.run([str(BINARY), "render", str(glb), "-o", str(cli_out), "--config", str(cfg)],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    cli = read_png(bpy, cli_out)
+    assert np.abs(cli - img).max() <= 1.0 / 255 + 1e-6
+
+
+def test_settings_json_follows_the_panel_and_the_scene(bpy, engine, tmp_path):
+    scene = new_scene(bpy, 48, 32)
+    render_still(bpy, scene, tmp_path / "a.png")
+    before = json.loads(engine.last_run["settings_json"])
+    c = scene.cubist
+    c.discontinuity = 120.0
+    c.ambiguity = 150.0
+    c.spp = 2
+    c.palette = "OCHRE"
+    scene.render.resolution_percentage = 50
+    scene.render.film_transparent = True
+    set_world_colour(scene, (0.5, 0.25, 0.125))
+    render_still(bpy, scene, tmp_path / "b.png")
+    after = json.loads(engine.last_run["settings_json"])
+    assert before["discontinuity"] == 0.0 and after["discontinuity"] == 120.0
+    assert (before["ambiguity"], after["ambiguity"]) == (140.0, 150.0)
+    assert (before["spp"], after["spp"]) == (1, 2)
+    assert after["palette"] == "ochre"
+    assert (after["width"], after["height"]) == (24, 16)
+    assert after["transparent"] is True
+    assert after["background"] == pytest.approx([0.5, 0.25, 0.125])
+    # The Blender camera at (0, -6, 0.5) is at (0, 0.5, 6) in the exported (Y-up) scene.
+    assert after["camera_position"] == pytest.approx([0.0, 0.5, 6.0], abs=1e-5)
+    # Untouched values stay.
+    for k in ("faceting", "seed", "camera", "border_width"):
+        assert before[k] == after[k]
+
+
+def test_render_region_is_the_same_part_of_the_frame(bpy, tmp_path):
+    scene = new_scene(bpy)
+    full = read_png(bpy, render_still(bpy, scene, tmp_path / "full.png"))
+    r = scene.render
+    r.use_border, r.use_crop_to_border = True, True
+    r.border_min_x, r.border_max_x, r.border_min_y, r.border_max_y = 0.25, 0.75, 0.5, 1.0
+    crop = read_png(bpy, render_still(bpy, scene, tmp_path / "crop.png"))
+    # Rows bottom-up: y from 24 to 48 is the top half.
+    assert crop.shape == (24, 32, 4)
+    assert np.array_equal(crop, full[24:48, 16:48])
+
+
+def test_builtin_preset_operator_sets_the_panel(bpy):
+    scene = new_scene(bpy)
+    bpy.ops.cubist.apply_preset(name="Voronoi facets")
+    assert scene.cubist.faceting == "VORONOI" and scene.cubist.discontinuity == 100.0
+    bpy.ops.cubist.apply_preset(name="Default")
+    assert scene.cubist.faceting == "NONE" and scene.cubist.discontinuity == 0.0
+
+
+def test_user_presets_save_and_load(bpy):
+    scene = new_scene(bpy)
+    scene.cubist.faceting, scene.cubist.discontinuity, scene.cubist.ambiguity = "PATCH", 77.0, 123.0
+    scene.cubist.pass_depth = True
+    assert bpy.ops.cubist.preset_add(name="My Look") == {"FINISHED"}
+    path = Path(bpy.utils.preset_find("My Look", "cubist", display_name=True))
+    try:
+        assert "cubist.discontinuity = 77.0" in path.read_text()
+        bpy.ops.cubist.apply_preset(name="Default")
+        assert scene.cubist.faceting == "NONE"
+        bpy.ops.script.execute_preset(filepath=str(path), menu_idname="CUBIST_MT_presets")
+        assert (scene.cubist.faceting, scene.cubist.discontinuity, scene.cubist.ambiguity) == ("PATCH", 77.0, 123.0)
+        assert scene.cubist.pass_depth  # presets are looks: passes are not part of them
+    finally:
+        path.unlink()
+
+
+def test_missing_binary_is_an_error_and_writes_nothing(bpy, engine, tmp_path):
+    scene = new_scene(bpy)
+    prefs = bpy.context.preferences.addons["blender_addon"].preferences
+    saved = prefs.binary_path
+    prefs.binary_path = str(tmp_path / "no" / "cubist")
+    try:
+        with pytest.raises(RuntimeError, match="cubist binary not found at"):
+            render_still(bpy, scene, tmp_path / "x.png")
+    finally:
+        prefs.binary_path = saved
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_renderer_error_reaches_the_user(bpy, engine, tmp_path):
+    scene = new_scene(bpy)
+    scene.cubist.camera = "PLANAR"
+    scene.cubist.ambiguity = 200.0
+    with pytest.raises(RuntimeError, match="ambiguity.*impossible for the planar camera"):
+        render_still(bpy, scene, tmp_path / "x.png")
+    assert not (tmp_path / "x.png").exists()
+    assert engine.last_run["returncode"] == 2
+
+
+def test_empty_scene_is_an_error(bpy, tmp_path):
+    scene = new_scene(bpy)
+    for ob in list(scene.objects):
+        if ob.type == "MESH":
+            bpy.data.objects.remove(ob)
+    with pytest.raises(RuntimeError, match="nothing to render"):
+        render_still(bpy, scene, tmp_path / "x.png")
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_a_mesh_without_faces_gets_the_renderers_message(bpy, tmp_path):
+    scene = new_scene(bpy)
+    for ob in list(scene.objects):
+        if ob.type == "MESH":
+            bpy.data.objects.remove(ob)
+    me = bpy.data.meshes.new("Points")
+    me.from_pydata([(0, 0, 0), (1, 0, 0), (0, 1, 0)], [], [])
+    scene.collection.objects.link(bpy.data.objects.new("Points", me))
+    with pytest.raises(RuntimeError, match="Cubist: the exported scene: the scene has no triangles to render"):
+        render_still(bpy, scene, tmp_path / "x.png")
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_cancel_kills_the_renderer_and_leaves_no_temp_files(bpy, engine, tmp_path):
+    # Blender's cancel (Esc) as test_break() would report it: once the renderer is under way.
+    engine.cancel_hook = lambda: engine.last_run.get("progress_lines", 0) > 0
+    try:
+        scene = new_scene(bpy, 640, 480)
+        scene.cubist.spp = 64  # seconds of work: long enough to be cancelled mid-way
+        before = cubist_temp_dirs()
+        render_still(bpy, scene, tmp_path / "x.png")
+    finally:
+        engine.cancel_hook = None
+    assert engine.last_run.get("cancelled"), engine.last_run
+    proc = engine.last_run["process"]
+    assert proc.poll() is not None, "the renderer process survived cancel"
+    assert proc.returncode != 0  # terminated, not finished
+    assert not engine.last_run["workspace"].exists()
+    assert cubist_temp_dirs() - before == set()
+    # Nothing of the renderer's reached the result. (Blender still saves the empty result
+    # here because a simulated cancel is not Blender's own Esc, which stops the job unsaved.)
+    if (tmp_path / "x.png").exists():
+        assert not read_png(bpy, tmp_path / "x.png").any(), "a partial picture was delivered"
+
+
+# ---------------------------------------------------------------------------------------------
+# Animation: moving camera and object, static facets
+
+
+def animated_scene(bpy, layout_dir: Path):
+    scene = new_scene(bpy, 64, 48)
+    scene.frame_start, scene.frame_end = 1, 3
+    cam = scene.camera
+    for frame, x in ((1, -1.0), (3, 1.0)):
+        cam.location.x = x
+        cam.keyframe_insert("location", index=0, frame=frame)
+    cube = scene.objects["Cube"]
+    for frame, z in ((1, -0.3), (3, 0.6)):
+        cube.location.z = z
+        cube.keyframe_insert("location", index=2, frame=frame)
+    c = scene.cubist
+    c.faceting = "VORONOI"
+    c.facet_count = 12
+    c.grid_cells = 4
+    c.discontinuity = 100.0
+    c.static_facets = True
+    c.layout_folder = str(layout_dir)
+    return scene
+
+
+def render_animation(bpy, scene, out_dir: Path, layout_hashes: list):
+    def snapshot(scene_, *args):
+        layouts = sorted(Path(scene_.cubist.layout_folder).glob("*.facets.json"))
+        layout_hashes.append({p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in layouts})
+
+    bpy.app.handlers.render_post.append(snapshot)
+    try:
+        scene.render.filepath = str(out_dir / "frame_####")
+        bpy.ops.render.render(animation=True)
+    finally:
+        bpy.app.handlers.render_post.remove(snapshot)
+    return {f: out_dir / f"frame_{f:04d}.png" for f in range(scene.frame_start, scene.frame_end + 1)}
+
+
+def test_animation_renders_every_frame_with_one_layout(bpy, engine, tmp_path):
+    """Needs the renderer's `save_facets`/`facets` (facets branch) for the layout asserts."""
+    scene = animated_scene(bpy, tmp_path / "layouts")
+    engine.history.clear()
+    hashes = []
+    frames = render_animation(bpy, scene, tmp_path / "out", hashes)
+    images = {f: read_png(bpy, p) for f, p in frames.items()}
+    # Three different pictures: the camera and the cube move.
+    for a, b in ((1, 2), (2, 3), (1, 3)):
+        assert np.abs(images[a] - images[b]).max() > 0.1, f"frames {a} and {b} are the same picture"
+    runs = [h for h in engine.history if h["frame"] in frames]
+    assert [h["frame"] for h in runs] == [1, 2, 3]
+    positions = [tuple(round(v, 4) for v in h["settings"]["camera_position"]) for h in runs]
+    assert len(set(positions)) == 3, f"the camera did not move in the export: {positions}"
+    # Static facets: frame 1 computes and saves the layout, frames 2 and 3 load that file.
+    layout = runs[0]["settings"].get("save_facets")
+    assert layout, "frame 1 did not ask the renderer to save the layout"
+    assert [h["settings"].get("facets") for h in runs[1:]] == [layout, layout], [h["warnings"] for h in runs]
+    assert Path(layout).is_file(), "the renderer did not write the facet layout"
+    assert len(hashes) == 3 and hashes[0] == hashes[1] == hashes[2] and hashes[0], hashes
+
+
+def test_frame_chunks_match_one_run(bpy, engine, tmp_path):
+    """Frames 2-3 rendered alone (another process or farm machine, no layout yet) equal the
+    same frames of a 1-3 run: the chunk computes the layout on frame 1 first.
+    Needs the renderer's `save_facets`/`facets` (facets branch)."""
+    scene = animated_scene(bpy, tmp_path / "layouts_full")
+    full = render_animation(bpy, scene, tmp_path / "full", [])
+    scene = animated_scene(bpy, tmp_path / "layouts_chunk")
+    # A farm chunk: `blender -b file.blend -E CUBIST -s 2 -e 3 -a` moves the frame range start.
+    scene.frame_start, scene.frame_end = 2, 3
+    chunk = render_animation(bpy, scene, tmp_path / "chunk", [])
+    full_layouts = sorted((tmp_path / "layouts_full").glob("*.facets.json"))
+    chunk_layouts = sorted((tmp_path / "layouts_chunk").glob("*.facets.json"))
+    assert full_layouts and [p.name for p in full_layouts] == [p.name for p in chunk_layouts]
+    assert full_layouts[0].read_bytes() == chunk_layouts[0].read_bytes()
+    for f in (2, 3):
+        assert np.array_equal(read_png(bpy, full[f]), read_png(bpy, chunk[f])), f"frame {f} differs"
+
+
+def test_recompute_layout_removes_the_saved_layout(bpy, engine, tmp_path):
+    scene = animated_scene(bpy, tmp_path / "layouts")
+    path = engine.current_layout_path(scene)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text("{}")
+    bpy.ops.cubist.recompute_layout()
+    assert not path.exists()
+
+
+# ---------------------------------------------------------------------------------------------
+# Render passes
+
+
+def exr_channels(path: Path) -> dict:
+    """Channel name -> (h, w) float array of an uncompressed scanline OpenEXR, single- or
+    multi-part (Blender writes each pass as a part). Enough to read Blender's multilayer
+    output with codec NONE without an OpenEXR module."""
+    data = path.read_bytes()
+    assert data[:4] == b"\x76\x2f\x31\x01", "not an OpenEXR file"
+    multipart = bool(struct.unpack_from("<I", data, 4)[0] & 0x1000)
+    pos, headers = 8, []
+    while True:
+        attrs = {}
+        while data[pos] != 0:
+            name_end = data.index(b"\0", pos)
+            type_end = data.index(b"\0", name_end + 1)
+            size = struct.unpack_from("<i", data, type_end + 1)[0]
+            attrs[data[pos:name_end].decode()] = data[type_end + 5:type_end + 5 + size]
+            pos = type_end + 5 + size
+        pos += 1
+        headers.append(attrs)
+        if not multipart or data[pos] == 0:
+            pos += 1 if multipart else 0
+            break
+    parts = []
+    for attrs in headers:
+        chans, c, i = [], attrs["channels"], 0
+        while c[i] != 0:
+            end = c.index(b"\0", i)
+            chans.append((c[i:end].decode(), struct.unpack_from("<i", c, end + 1)[0]))
+            i = end + 1 + 16
+        assert attrs["compression"][0] == 0, "expected an uncompressed EXR"
+        x0, y0, x1, y1 = struct.unpack("<4i", attrs["dataWindow"])
+        parts.append((chans, x1 - x0 + 1, y1 - y0 + 1, y0))
+    offsets = []
+    for part, (_, _, h, _) in enumerate(parts):
+        offsets += [(part, o) for o in struct.unpack_from(f"<{h}Q", data, pos)]
+        pos += 8 * h
+    out = {name: np.zeros((h, w), np.float32) for chans, w, h, _ in parts for name, _ in chans}
+    sizes = {2: ("<f4", 4), 1: ("<f2", 2), 0: ("<u4", 4)}
+    for part, off in offsets:
+        if multipart:
+            assert struct.unpack_from("<i", data, off)[0] == part
+            off += 4
+        chans, w, h, y0 = parts[part]
+        y = struct.unpack_from("<i", data, off)[0] - y0
+        p = off + 8
+        for name, ptype in chans:
+            dtype, n = sizes[ptype]
+            out[name][y] = np.frombuffer(data, dtype, w, p).astype(np.float32)
+            p += n * w
+    return out
+
+
+def test_passes_reach_the_render_result(bpy, engine, tmp_path):
+    """Object colours and depth (the renderer writes them today) arrive as Blender passes
+    with the renderer's values; saliency and facet ids work the same way once written."""
+    scene = new_scene(bpy)
+    scene.cubist.pass_objects = True
+    scene.cubist.pass_depth = True
+    settings = scene.render.image_settings
+    if hasattr(settings, "media_type"):  # Blender 5; 4.x has the file format only
+        settings.media_type = "MULTI_LAYER_IMAGE"
+    settings.file_format = "OPEN_EXR_MULTILAYER"
+    settings.exr_codec = "NONE"
+    settings.color_depth = "32"
+    scene.render.filepath = str(tmp_path / "passes.exr")
+    bpy.ops.render.render(write_still=True)
+    ch = exr_channels(tmp_path / "passes.exr")
+    layer = bpy.context.view_layer.name
+    for name in ("Object Colors.R", "Object Colors.G", "Object Colors.B", "Cubist Depth.X"):
+        assert f"{layer}.{name}" in ch, sorted(ch)
+    # The same passes from the CLI on the same scene and settings.
+    export = sys.modules["blender_addon.export"]
+    glb = export.export_glb(scene, bpy.context.view_layer, scene.frame_current, tmp_path / "scene.glb")
+    cfg = tmp_path / "settings.json"
+    cfg.write_text(engine.last_run["settings_json"])
+    r = subprocess.run([str(BINARY), "render", str(glb), "-o", str(tmp_path / "cli.png"), "--config", str(cfg)],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    depth = read_png(bpy, tmp_path / "cli.depth.png")[..., 0]
+    objects = read_png(bpy, tmp_path / "cli.objects.png")
+    # EXR rows run top-down, Blender images bottom-up.
+    assert np.abs(ch[f"{layer}.Cubist Depth.X"][::-1] - depth).max() < 1e-6
+    assert np.abs(ch[f"{layer}.Object Colors.G"][::-1] - objects[..., 1]).max() < 1e-6
+    assert depth.std() > 0.05  # not an empty pass
+
+
+# ---------------------------------------------------------------------------------------------
+# Packaging
+
+
+EXTENSION_SCRIPT = r"""
+import json, os, sys, tempfile
+os.environ["BLENDER_USER_RESOURCES"] = tempfile.mkdtemp(prefix="cubist-blender-ext-")
+import bpy
+zip_path, out = sys.argv[1], sys.argv[2]
+res = bpy.ops.extensions.package_install_files(filepath=zip_path, repo="user_default", enable_on_install=True)
+pkg = "bl_ext.user_default.cubist"
+runner = sys.modules[pkg + ".runner"]
+binary = str(runner.find_binary(""))
+bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
+scene = bpy.context.scene
+bpy.ops.mesh.primitive_monkey_add()
+cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+scene.collection.objects.link(cam)
+cam.location = (0, -5, 0); cam.rotation_euler = (1.5708, 0, 0)
+scene.camera = cam
+scene.render.engine = "CUBIST"
+scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 32, 24, 100
+scene.cubist.spp = 1
+scene.render.filepath = out
+bpy.ops.render.render(write_still=True)
+print("RESULT " + json.dumps({"install": sorted(res), "enabled": pkg in bpy.context.preferences.addons,
+                              "binary": binary, "written": os.path.isfile(out)}))
+"""
+
+
+def test_extension_zip_installs_and_renders_with_its_bundled_binary(cubist_binary, tmp_path):
+    r = subprocess.run([sys.executable, str(ROOT / "scripts" / "build_addon.py"), "--binary", str(cubist_binary),
+                        "--out", str(tmp_path / "dist")], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    zip_path = Path(r.stdout.strip().splitlines()[-1])
+    assert zip_path.name.startswith("cubist-") and zip_path.suffix == ".zip"
+    # Blender's own strict manifest validation (what `blender --command extension validate` runs).
+    import importlib.util
+
+    bpy_dir = Path(importlib.util.find_spec("bpy").origin).parent
+    validator = next(bpy_dir.glob("*/scripts/addons_core/bl_pkg/cli/blender_ext.py"))
+    for source in (ROOT / "blender_addon", zip_path):
+        v = subprocess.run([sys.executable, str(validator), "validate", str(source)], capture_output=True, text=True)
+        assert v.returncode == 0 and "Success" in v.stdout, f"{source}: {v.stdout}{v.stderr}"
+    script = tmp_path / "install.py"
+    script.write_text(EXTENSION_SCRIPT)
+    env = dict(os.environ, PATH="/usr/bin:/bin")  # no cubist on PATH: the bundled one must be used
+    env.pop("BLENDER_USER_RESOURCES", None)
+    r = subprocess.run([sys.executable, str(script), str(zip_path), str(tmp_path / "ext.png")],
+                       capture_output=True, text=True, env=env, timeout=300)
+    line = next((ln for ln in r.stdout.splitlines() if ln.startswith("RESULT ")), None)
+    assert line, f"{r.stdout[-2000:]}\n{r.stderr[-3000:]}"
+    res = json.loads(line[len("RESULT "):])
+    assert res["install"] == ["FINISHED"] and res["enabled"], res
+    assert "/extensions/user_default/cubist/bin/" in res["binary"].replace(os.sep, "/"), res
+    assert res["written"], r.stderr[-3000:]
