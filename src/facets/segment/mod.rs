@@ -26,7 +26,7 @@ use crate::frame::Frame;
 use crate::pipeline::Prepared;
 use crate::progress::Progress;
 use crate::render::splitmix64;
-use crate::settings::{Faceting, Pass, Settings};
+use crate::settings::{Faceting, Pass, Preset, Settings};
 
 use graph::RegionGraph;
 use ncut::Shortfall;
@@ -161,13 +161,13 @@ pub fn layout(frame: &Frame, settings: &Settings) -> Result<(FacetLayout, Segmen
 
     let features = Features::new(frame, &weights);
     lap("features".into(), &mut timings);
-    let sp = superpixels::slic(&features, want, weights.separates_objects());
+    let seed = splitmix64(settings.seed ^ 0x5E6E_E7);
+    let sp = superpixels::slic(&features, want, weights.separates_objects(), seed);
     lap("superpixels".into(), &mut timings);
     let graph = RegionGraph::build(&sp, &features, &weights);
     lap("graph".into(), &mut timings);
     let no_convergence =
         |_| Error::setting("segments", "the eigensolver did not converge on this image's region graph");
-    let seed = splitmix64(settings.seed ^ 0x5E6E_E7);
     let embedding = ncut::embed(&graph, None, max_n as usize, seed).map_err(no_convergence)?;
     lap("eigenvectors".into(), &mut timings);
 
@@ -231,13 +231,23 @@ pub struct Inspection {
     pub warnings: Vec<String>,
 }
 
-/// Pre-renders `settings`' view (unfaceted, with the saliency map), computes the Segment
-/// layout and its inspection images.
+/// Pre-renders `settings`' view (unfaceted, unpainted, with the saliency map: the frame the
+/// render pipeline's faceting stage sees), computes the Segment layout and its inspection
+/// images.
 pub fn inspect(prep: &Prepared, settings: &Settings, progress: &Progress) -> Result<Inspection> {
     let show_levels = settings.passes.contains(&Pass::Segments);
     let mut pre = settings.clone();
     pre.faceting = Faceting::None;
-    pre.passes.retain(|p| *p != Pass::Segments);
+    (pre.facets, pre.save_facets) = (None, None);
+    let plain = Settings::preset(Preset::Plain);
+    pre.border_width = plain.border_width;
+    pre.silhouette_width = plain.silhouette_width;
+    pre.palette = plain.palette;
+    pre.palette_image = None;
+    pre.colors = plain.colors;
+    pre.gradients = plain.gradients;
+    pre.chiaroscuro = plain.chiaroscuro;
+    pre.passes.retain(|p| !matches!(p, Pass::Segments | Pass::Facets | Pass::FacetIds));
     if !pre.passes.contains(&Pass::Saliency) {
         pre.passes.push(Pass::Saliency); // makes the pipeline compute the saliency map
     }

@@ -11,6 +11,7 @@ use rayon::prelude::*;
 
 use super::SegmentWeights;
 use crate::frame::{Frame, NO_HIT};
+use crate::render::{splitmix64, unit_f64};
 
 /// Components of a pixel's feature vector: CIELAB colour (3), normal (3), log depth, saliency.
 pub const FEATURES: usize = 8;
@@ -175,7 +176,7 @@ impl Grid {
 /// window of SLIC, seen from the pixel as in gSLICr), so rows are assigned in parallel; the
 /// seed update sums each seed's pixels in a fixed order, so the result does not depend on
 /// the thread count.
-pub fn slic(features: &Features, count: usize, separate_objects: bool) -> Superpixels {
+pub fn slic(features: &Features, count: usize, separate_objects: bool, seed: u64) -> Superpixels {
     let (w, h) = (features.width, features.height);
     let grid = Grid::new(w, h, count);
     let s = grid.interval();
@@ -183,7 +184,10 @@ pub fn slic(features: &Features, count: usize, separate_objects: bool) -> Superp
     let f = &features.values;
     let obj = &features.object;
 
-    // Seeds: cell centres moved to the lowest-gradient pixel of their 3 x 3 neighbourhood.
+    // Seeds: cell centres jittered by up to S/4 (seeded) so superpixels in flat regions are
+    // irregular polygons rather than a square grid (segment boundaries through a flat
+    // background would otherwise be staircases), then moved to the lowest-gradient pixel of
+    // their 3 x 3 neighbourhood.
     let gradient = |x: usize, y: usize| -> f32 {
         let xl = x.saturating_sub(1);
         let xr = (x + 1).min(w - 1);
@@ -194,8 +198,14 @@ pub fn slic(features: &Features, count: usize, separate_objects: bool) -> Superp
     let mut centres: Vec<Centre> = (0..grid.gx * grid.gy)
         .map(|c| {
             let (i, j) = (c % grid.gx, c / grid.gx);
-            let cx = (grid.x0(i) + grid.x0(i + 1)) / 2;
-            let cy = (grid.y0(j) + grid.y0(j + 1)) / 2;
+            let h1 = splitmix64(seed ^ splitmix64(c as u64));
+            let jitter = |h: u64, lo: usize, hi: usize| -> usize {
+                let (lo, hi) = (lo as f64, hi as f64);
+                let mid = 0.5 * (lo + hi) + (unit_f64(h) - 0.5) * 0.5 * (hi - lo);
+                (mid as usize).clamp(lo as usize, (hi as usize).saturating_sub(1).max(lo as usize))
+            };
+            let cx = jitter(h1, grid.x0(i), grid.x0(i + 1));
+            let cy = jitter(splitmix64(h1), grid.y0(j), grid.y0(j + 1));
             let (mut best, mut bx, mut by) = (f32::INFINITY, cx, cy);
             for y in cy.saturating_sub(1)..=(cy + 1).min(h - 1) {
                 for x in cx.saturating_sub(1)..=(cx + 1).min(w - 1) {

@@ -383,7 +383,7 @@ fn shift_invert_matches_the_dense_solver() {
     let frame = noisy_frame(300, 220);
     let w = SegmentWeights::default();
     let f = Features::new(&frame, &w);
-    let sp = superpixels::slic(&f, 600, true);
+    let sp = superpixels::slic(&f, 600, true, 1);
     let g = RegionGraph::build(&sp, &f, &w);
     assert!(g.len() > ncut::DENSE_LIMIT);
     let k = 40;
@@ -430,7 +430,7 @@ fn superpixels_are_connected_and_respect_objects() {
     let frame = noisy_frame(200, 150);
     let w = SegmentWeights::default();
     let f = Features::new(&frame, &w);
-    let sp = superpixels::slic(&f, 150, true);
+    let sp = superpixels::slic(&f, 150, true, 1);
     assert!(sp.count > 100 && sp.count < 260, "{}", sp.count);
     // Each label one object and one 4-connected piece.
     let mut object = vec![None; sp.count];
