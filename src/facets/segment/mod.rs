@@ -20,6 +20,8 @@ use std::time::{Duration, Instant};
 
 use image::RgbaImage;
 
+use rayon::prelude::*;
+
 use crate::error::{Error, Result};
 use crate::facets::{FacetLayout, LabelImage};
 use crate::frame::Frame;
@@ -117,7 +119,8 @@ pub struct SegmentLevels {
     pub superpixel_count: usize,
     pub levels: Vec<SegmentLevel>,
     /// Step durations in order: features, superpixels, graph, eigenvectors, each level's
-    /// cut ("ncut N"), selection.
+    /// cut, pixel labels and statistics ("ncut N"; levels run in parallel, so these overlap),
+    /// the wall time of all levels ("levels (wall)"), selection.
     pub timings: Vec<(String, Duration)>,
     /// Levels that got another segment count than asked, said in words.
     pub warnings: Vec<String>,
@@ -172,43 +175,60 @@ pub fn layout(frame: &Frame, settings: &Settings) -> Result<(FacetLayout, Segmen
     lap("eigenvectors".into(), &mut timings);
 
     let (w, h) = (frame.width, frame.height);
+    // Levels are independent given the embedding: cut in parallel, collected in order.
+    let level_specs: Vec<(usize, u32, f64)> =
+        settings.segments.iter().zip(&settings.thresholds).enumerate().map(|(i, (&n, &t))| (i, n, t)).collect();
+    let results: Vec<Result<(SegmentLevel, Duration)>> = level_specs
+        .par_iter()
+        .map(|&(li, requested, threshold)| {
+            let t = Instant::now();
+            let part =
+                ncut::partition(&graph, &embedding, requested as usize, weights.hard_objects(), seed ^ li as u64)
+                    .map_err(no_convergence)?;
+            let labels = LabelImage {
+                width: w,
+                height: h,
+                labels: sp.labels.iter().map(|&s| part.labels[s as usize]).collect(),
+            };
+            let stats = select::segment_stats(&labels, part.count, &features.saliency);
+            let selected: Vec<bool> = stats.iter().map(|s| s.area > 0 && s.mean_saliency() >= threshold).collect();
+            let quads = stats.iter().map(|s| s.quad(w, h)).collect();
+            let level = SegmentLevel {
+                requested,
+                count: part.count as u32,
+                threshold,
+                labels,
+                stats,
+                selected,
+                quads,
+                shortfall: part.shortfall,
+            };
+            Ok((level, t.elapsed()))
+        })
+        .collect();
     let mut levels = Vec::new();
     let mut warnings = Vec::new();
-    for (li, (&requested, &threshold)) in settings.segments.iter().zip(&settings.thresholds).enumerate() {
-        let part = ncut::partition(&graph, &embedding, requested as usize, weights.hard_objects(), seed ^ li as u64)
-            .map_err(no_convergence)?;
-        let labels =
-            LabelImage { width: w, height: h, labels: sp.labels.iter().map(|&s| part.labels[s as usize]).collect() };
-        let stats = select::segment_stats(&labels, part.count, &features.saliency);
-        let selected: Vec<bool> = stats.iter().map(|s| s.area > 0 && s.mean_saliency() >= threshold).collect();
-        let quads = stats.iter().map(|s| s.quad(w, h)).collect();
-        match part.shortfall {
+    for (li, r) in results.into_iter().enumerate() {
+        let (level, time) = r?;
+        match level.shortfall {
             Some(Shortfall::TooFewRegions) => warnings.push(format!(
                 "segment level {}: {} segments asked for but only {} superpixels (raise `superpixels`)",
                 li + 1,
-                requested,
-                part.count
+                level.requested,
+                level.count
             )),
             Some(Shortfall::ObjectWalls) => warnings.push(format!(
                 "segment level {}: {} segments asked for, {} made: with weight_object 1 no segment crosses an object boundary and the image has more object pieces",
                 li + 1,
-                requested,
-                part.count
+                level.requested,
+                level.count
             )),
             None => {}
         }
-        levels.push(SegmentLevel {
-            requested,
-            count: part.count as u32,
-            threshold,
-            labels,
-            stats,
-            selected,
-            quads,
-            shortfall: part.shortfall,
-        });
-        lap(format!("ncut {requested}"), &mut timings);
+        timings.push((format!("ncut {}", level.requested), time));
+        levels.push(level);
     }
+    lap("levels (wall)".into(), &mut timings);
     let inputs: Vec<LevelInput> =
         levels.iter().map(|l| LevelInput { labels: &l.labels, stats: &l.stats, threshold: l.threshold }).collect();
     let selection = select::select(&inputs);
@@ -231,11 +251,10 @@ pub struct Inspection {
     pub warnings: Vec<String>,
 }
 
-/// Pre-renders `settings`' view (unfaceted, unpainted, with the saliency map: the frame the
-/// render pipeline's faceting stage sees), computes the Segment layout and its inspection
-/// images.
-pub fn inspect(prep: &Prepared, settings: &Settings, progress: &Progress) -> Result<Inspection> {
-    let show_levels = settings.passes.contains(&Pass::Segments);
+/// Settings whose render stops where faceting would start: unfaceted, unpainted, with the
+/// saliency map (its pass is added), so the render's frame is what the render pipeline's
+/// faceting stage sees. Passes that need facets are dropped.
+pub fn prerender_settings(settings: &Settings) -> Settings {
     let mut pre = settings.clone();
     pre.faceting = Faceting::None;
     (pre.facets, pre.save_facets) = (None, None);
@@ -251,6 +270,14 @@ pub fn inspect(prep: &Prepared, settings: &Settings, progress: &Progress) -> Res
     if !pre.passes.contains(&Pass::Saliency) {
         pre.passes.push(Pass::Saliency); // makes the pipeline compute the saliency map
     }
+    pre
+}
+
+/// Pre-renders `settings`' view (`prerender_settings`), computes the Segment layout and its
+/// inspection images.
+pub fn inspect(prep: &Prepared, settings: &Settings, progress: &Progress) -> Result<Inspection> {
+    let show_levels = settings.passes.contains(&Pass::Segments);
+    let pre = prerender_settings(settings);
     let rendered = crate::render(prep, &pre, progress)?;
     progress.begin("segment", 1);
     let t = Instant::now();

@@ -179,13 +179,14 @@ const SHIFT: f64 = 1e-7;
 /// (0.1% and 0.5% after 5, at 30% more time); for k = 30 it is exact to 1e-6.
 const SUBSPACE_ITERATIONS: usize = 4;
 
-/// The k leading eigenpairs by subspace iteration with shift-and-invert (a sparse Cholesky
-/// factor of the shifted normalised Laplacian, faer) and a final Rayleigh-Ritz projection. The
+/// The k leading eigenpairs by subspace iteration with shift-and-invert (a sparse supernodal
+/// Cholesky factor of the shifted normalised Laplacian, faer, sequential) and a final Rayleigh-Ritz projection. The
 /// normalised affinity of a region graph has its top eigenvalues packed within 1e-3 of 1
 /// (the self-loops dominate), which stalls Krylov methods on M itself; inverted, they spread
 /// out by orders of magnitude. Start block seeded: the same result on every run.
 fn shift_invert(op: &NormalisedAffinity, k: usize, seed: u64) -> Result<(Mat<f64>, Vec<f64>), NoConvergence> {
-    use faer::linalg::solvers::Solve;
+    use faer::sparse::linalg::SupernodalThreshold;
+    use faer::sparse::linalg::cholesky::{CholeskySymbolicParams, SymmetricOrdering, factorize_symbolic_cholesky};
     use faer::sparse::{SparseColMat, Triplet};
     let n = op.n();
     let b = (k + (k / 4).max(8)).min(n);
@@ -197,10 +198,32 @@ fn shift_invert(op: &NormalisedAffinity, k: usize, seed: u64) -> Result<(Mat<f64
         }
     }
     let a = SparseColMat::<u32, f64>::try_new_from_triplets(n, n, &triplets).map_err(|_| NoConvergence)?;
-    let llt = a.sp_cholesky(faer::Side::Lower).map_err(|_| NoConvergence)?;
+    // Supernodal even where faer's heuristic picks simplicial: with a block of ~150
+    // right-hand sides its dense kernels solve 3-4x faster (measured at n = 1700).
+    let params = CholeskySymbolicParams {
+        supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+        ..Default::default()
+    };
+    let symbolic = factorize_symbolic_cholesky(a.symbolic(), faer::Side::Lower, SymmetricOrdering::Amd, params)
+        .map_err(|_| NoConvergence)?;
+    let par = Par::Seq;
+    let mut values = vec![0f64; symbolic.len_val()];
+    let mut buf = MemBuffer::new(symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()));
+    let llt = symbolic
+        .factorize_numeric_llt(
+            &mut values,
+            a.as_ref(),
+            faer::Side::Lower,
+            Default::default(),
+            par,
+            MemStack::new(&mut buf),
+            Default::default(),
+        )
+        .map_err(|_| NoConvergence)?;
+    let mut solve_buf = MemBuffer::new(symbolic.solve_in_place_scratch::<f64>(b, par));
     let mut q = Mat::<f64>::from_fn(n, b, |i, j| unit_f64(splitmix64(seed ^ splitmix64((i * b + j) as u64))) - 0.5);
     for _ in 0..SUBSPACE_ITERATIONS {
-        llt.solve_in_place(q.as_mut());
+        llt.solve_in_place_with_conj(faer::Conj::No, q.as_mut(), par, MemStack::new(&mut solve_buf));
         q = q.qr().compute_thin_Q();
     }
     // Rayleigh-Ritz on M: T = Q^T M Q.
@@ -217,54 +240,60 @@ fn shift_invert(op: &NormalisedAffinity, k: usize, seed: u64) -> Result<(Mat<f64
     Ok((vectors, values))
 }
 
-/// Most rotation updates of the discretisation (it typically settles in 5 to 10).
+/// Most rotation updates of the discretisation (it settles in 5 to 20).
 const MAX_ROTATIONS: usize = 50;
+/// The discretisation stops when its objective improves by less than this, relatively (at
+/// k = 120 on a 1000 px still life that is after 15 updates, the last 4 of which had gained
+/// 0.06% together).
+const ROTATION_TOLERANCE: f64 = 1e-4;
 
 /// Yu and Shi's discretisation (ICCV 2003): the k-way partition nearest, up to a rotation R, to
 /// the relaxed solution. Rows of X* = D^-1/2 Z are normalised to X~; R starts from k rows of
 /// X~ as mutually orthogonal as possible (the first one drawn with `seed`), then alternates
 /// X = one-hot argmax of X~ R and R = V U^T from the SVD X^T X~ = U S V^T until the objective
-/// trace(S) stops improving (relative change below 1e-5) or the partition stops changing.
+/// trace(S) stops improving (`ROTATION_TOLERANCE`) or the partition stops changing.
 pub fn discretise(emb: &Embedding, k: usize, seed: u64) -> Vec<u32> {
     let n = emb.vectors.nrows();
     let k = k.min(emb.vectors.ncols());
     if k <= 1 || n == 0 {
         return vec![0; n];
     }
-    let mut x = Mat::<f64>::from_fn(n, k, |i, j| emb.vectors[(i, j)] / emb.degrees[i].sqrt());
-    for i in 0..n {
-        let norm = (0..k).map(|j| x[(i, j)] * x[(i, j)]).sum::<f64>().sqrt();
+    // X~, row-major: each region's row contiguous (the loops below run along rows).
+    let mut x = vec![0f64; n * k];
+    for (i, row) in x.chunks_exact_mut(k).enumerate() {
+        let inv_sqrt_d = 1.0 / emb.degrees[i].sqrt();
+        for (j, v) in row.iter_mut().enumerate() {
+            *v = emb.vectors[(i, j)] * inv_sqrt_d;
+        }
+        let norm = row.iter().map(|v| v * v).sum::<f64>().sqrt();
         let inv = if norm > 0.0 { 1.0 / norm } else { 0.0 };
-        for j in 0..k {
-            x[(i, j)] *= inv;
-        }
+        row.iter_mut().for_each(|v| *v *= inv);
     }
-    // Initial rotation.
+    let row = |i: usize| &x[i * k..(i + 1) * k];
+    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(p, q)| p * q).sum::<f64>();
+    // Initial rotation: columns are rows of X~, each the least aligned with those before.
     let mut r = Mat::<f64>::zeros(k, k);
-    let first = (splitmix64(seed ^ 0x5E6_0000) % n as u64) as usize;
-    for j in 0..k {
-        r[(j, 0)] = x[(first, j)];
-    }
+    let mut pick = (splitmix64(seed ^ 0x5E6_0000) % n as u64) as usize;
     let mut c = vec![0f64; n];
-    for col in 1..k {
-        let dots = &x * r.col(col - 1);
-        for i in 0..n {
-            c[i] += dots[i].abs();
-        }
-        let mut best = 0;
-        for i in 1..n {
-            if c[i] < c[best] {
-                best = i;
+    for col in 0..k {
+        if col > 0 {
+            let p = row(pick);
+            for (i, ci) in c.iter_mut().enumerate() {
+                *ci += dot(row(i), p).abs();
             }
+            pick = (0..n).fold(0, |b, i| if c[i] < c[b] { i } else { b });
         }
-        for j in 0..k {
-            r[(j, col)] = x[(best, j)];
+        for (j, &v) in row(pick).iter().enumerate() {
+            r[(j, col)] = v;
         }
     }
+    let xm = MatRef::from_row_major_slice(&x, n, k);
     let par = Par::Seq;
     let mut labels = vec![0u32; n];
     let mut last = 0.0;
     let mut xr = Mat::<f64>::zeros(n, k);
+    let mut best_value = vec![0f64; n];
+    let mut m = vec![0f64; k * k];
     let mut buf = MemBuffer::new(faer::linalg::svd::svd_scratch::<f64>(
         k,
         k,
@@ -274,34 +303,39 @@ pub fn discretise(emb: &Embedding, k: usize, seed: u64) -> Vec<u32> {
         Default::default(),
     ));
     for iteration in 0..MAX_ROTATIONS {
-        faer::linalg::matmul::matmul(xr.as_mut(), faer::Accum::Replace, x.as_ref(), r.as_ref(), 1.0, par);
+        faer::linalg::matmul::matmul(xr.as_mut(), faer::Accum::Replace, xm, r.as_ref(), 1.0, par);
+        // Row-wise argmax (first maximum), column by column for contiguous reads.
         let mut changed = iteration == 0;
-        for i in 0..n {
-            let mut best = 0;
-            for j in 1..k {
-                if xr[(i, j)] > xr[(i, best)] {
-                    best = j;
+        best_value.fill(f64::NEG_INFINITY);
+        let mut best = vec![0u32; n];
+        for j in 0..k {
+            for (i, &v) in xr.col_as_slice(j).iter().enumerate() {
+                if v > best_value[i] {
+                    best_value[i] = v;
+                    best[i] = j as u32;
                 }
             }
-            changed |= labels[i] != best as u32;
-            labels[i] = best as u32;
         }
+        for i in 0..n {
+            changed |= labels[i] != best[i];
+        }
+        labels = best;
         if !changed {
             break; // a fixed point: R would not change again
         }
         // X^T X~: row l sums the rows of X~ labelled l.
-        let mut m = Mat::<f64>::zeros(k, k);
+        m.fill(0.0);
         for i in 0..n {
             let l = labels[i] as usize;
-            for j in 0..k {
-                m[(l, j)] += x[(i, j)];
+            for (mj, &v) in m[l * k..(l + 1) * k].iter_mut().zip(row(i)) {
+                *mj += v;
             }
         }
         let mut s = Diag::<f64>::zeros(k);
         let mut u = Mat::<f64>::zeros(k, k);
         let mut v = Mat::<f64>::zeros(k, k);
         if svd(
-            m.as_ref(),
+            MatRef::from_row_major_slice(&m, k, k),
             s.as_mut(),
             Some(u.as_mut()),
             Some(v.as_mut()),
@@ -314,7 +348,7 @@ pub fn discretise(emb: &Embedding, k: usize, seed: u64) -> Vec<u32> {
             break;
         }
         let objective: f64 = (0..k).map(|j| s[j]).sum();
-        if iteration > 0 && (objective - last).abs() <= 1e-5 * objective.abs().max(1.0) {
+        if iteration > 0 && (objective - last).abs() <= ROTATION_TOLERANCE * objective.abs().max(1.0) {
             break;
         }
         last = objective;
