@@ -250,23 +250,23 @@ pub struct SettingsArgs {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub superpixels: Option<u32>,
     /// Segment: weight of colour differences in the segmentation's affinity [default: 1]
-    #[arg(long, help_heading = "Facets")]
+    #[arg(long, help_heading = "Facets", allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub weight_colour: Option<f64>,
     /// Segment: weight of surface normal differences [default: 1]
-    #[arg(long, help_heading = "Facets")]
+    #[arg(long, help_heading = "Facets", allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub weight_normal: Option<f64>,
     /// Segment: weight of relative depth differences [default: 0.5]
-    #[arg(long, help_heading = "Facets")]
+    #[arg(long, help_heading = "Facets", allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub weight_depth: Option<f64>,
     /// Segment: how far object boundaries cut the affinity, 0..1; 1 = segments never cross objects [default: 0.9]
-    #[arg(long, help_heading = "Facets")]
+    #[arg(long, help_heading = "Facets", allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub weight_object: Option<f64>,
     /// Segment: weight of saliency differences [default: 0.5]
-    #[arg(long, help_heading = "Facets")]
+    #[arg(long, help_heading = "Facets", allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub weight_saliency: Option<f64>,
 

@@ -100,6 +100,25 @@ pub struct Embedding {
     pub degrees: Vec<f64>,
 }
 
+/// Clears the upper halves of this thread's vector registers (VZEROUPPER). faer's kernels
+/// (AVX2/AVX-512, picked at run time) can return with that state dirty, after which SSE code
+/// (the rest of this crate, built for baseline x86-64) runs several times slower on the thread:
+/// measured, SLIC took 4x longer after an eigensolve, and every later stage of the render
+/// would pay too. Called after each use of faer.
+pub(crate) fn clear_upper_simd_state() {
+    #[cfg(target_arch = "x86_64")]
+    {
+        #[target_feature(enable = "avx")]
+        unsafe fn zeroupper() {
+            std::arch::x86_64::_mm256_zeroupper();
+        }
+        if std::arch::is_x86_feature_detected!("avx") {
+            // SAFETY: AVX is available (checked above); VZEROUPPER only zeroes upper halves.
+            unsafe { zeroupper() }
+        }
+    }
+}
+
 /// The eigensolver failed (faer's QR iteration did not converge).
 #[derive(Debug)]
 pub struct NoConvergence;
@@ -137,7 +156,9 @@ pub fn embed_with(
         Solver::Dense => false,
         Solver::ShiftInvert => k < n,
     };
-    let (vectors, values) = if iterative { shift_invert(&op, k, seed)? } else { dense(&op, k)? };
+    let solved = if iterative { shift_invert(&op, k, seed) } else { dense(&op, k) };
+    clear_upper_simd_state();
+    let (vectors, values) = solved?;
     Ok(Embedding { vectors, values, degrees })
 }
 
@@ -253,6 +274,12 @@ const ROTATION_TOLERANCE: f64 = 1e-4;
 /// X = one-hot argmax of X~ R and R = V U^T from the SVD X^T X~ = U S V^T until the objective
 /// trace(S) stops improving (`ROTATION_TOLERANCE`) or the partition stops changing.
 pub fn discretise(emb: &Embedding, k: usize, seed: u64) -> Vec<u32> {
+    let labels = rotate(emb, k, seed);
+    clear_upper_simd_state();
+    labels
+}
+
+fn rotate(emb: &Embedding, k: usize, seed: u64) -> Vec<u32> {
     let n = emb.vectors.nrows();
     let k = k.min(emb.vectors.ncols());
     if k <= 1 || n == 0 {

@@ -245,15 +245,15 @@ fn assign(
     // Per column: its cell and the neighbouring cell on the side of the column (left of the
     // cell's middle: the cell to the left). Seeds stay near their cell's middle, so the seeds
     // within reach (SLIC's window: S around the seed) are those of these 2 x 2 cells.
-    let near = |pos: usize, cells: usize, start: &dyn Fn(usize) -> usize| -> (usize, usize) {
-        let c = (pos * cells / if cells == grid.gx { grid.width } else { grid.height }).min(cells - 1);
+    let near = |pos: usize, cells: usize, size: usize, start: &dyn Fn(usize) -> usize| -> (usize, usize) {
+        let c = (pos * cells / size).min(cells - 1);
         let mid2 = start(c) + start(c + 1);
         let other = if 2 * pos < mid2 { c.checked_sub(1) } else { Some(c + 1).filter(|&o| o < cells) };
         (c, other.unwrap_or(c))
     };
-    let columns: Vec<(usize, usize)> = (0..w).map(|x| near(x, grid.gx, &|i| grid.x0(i))).collect();
+    let columns: Vec<(usize, usize)> = (0..w).map(|x| near(x, grid.gx, grid.width, &|i| grid.x0(i))).collect();
     labels.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-        let (cy, oy) = near(y, grid.gy, &|j| grid.y0(j));
+        let (cy, oy) = near(y, grid.gy, grid.height, &|j| grid.y0(j));
         let yf = y as f32;
         for (x, label) in row.iter_mut().enumerate() {
             let (cx, ox) = columns[x];
