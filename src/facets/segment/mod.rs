@@ -7,7 +7,8 @@
 //! depth, object id, saliency) -> their region adjacency graph, whose normalized cut is the
 //! pixel graph's restricted to superpixel unions (`graph`) -> one eigendecomposition shared by
 //! all levels, Yu-Shi discretisation, then exactly N connected segments per level (`ncut`)
-//! -> selection, quads and draw order (`select`). About 0.2-0.4 s for 1000 x 1000 on 2 cores.
+//! -> selection, quads and draw order (`select`). About 0.19 s of CPU for 1000 x 1000
+//! (docs/segment.md; the thesis's pipeline was its slow step).
 
 pub mod debug;
 pub mod graph;
