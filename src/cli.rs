@@ -34,6 +34,10 @@ pub enum Command {
     Faces(FacesArgs),
     /// Write the saliency map seen through the camera (grey PNG) and/or print per-vertex mesh saliency as JSON.
     Saliency(SaliencyArgs),
+    /// Compute a scene's Segment facet layout and write it as images: <stem>.png the
+    /// pre-render, <stem>.layout.png the facets; with --pass segments also the superpixels and
+    /// each level (<stem>.level1.png...), as in the thesis's Fig. 4.5.
+    Facets(FacetsArgs),
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -109,6 +113,25 @@ pub struct FacesArgs {
     /// JSON settings file, as for `render`.
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
+    #[command(flatten)]
+    pub settings: SettingsArgs,
+}
+
+#[derive(Args, Debug)]
+pub struct FacetsArgs {
+    /// Scene (.gltf or .glb). Without one, the built-in still life.
+    pub scene: Option<PathBuf>,
+    /// Output image (.png): the pre-render; the layout and levels go beside it.
+    #[arg(short, long, default_value = "facets.png")]
+    pub output: PathBuf,
+    /// JSON file of settings, as for `render`.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Print each step's time and each level's segment count.
+    #[arg(short, long)]
+    pub verbose: bool,
+    #[arg(long, value_enum, default_value = "auto")]
+    pub progress: ProgressMode,
     #[command(flatten)]
     pub settings: SettingsArgs,
 }
@@ -249,6 +272,30 @@ pub struct SettingsArgs {
     #[arg(long, value_delimiter = ',', num_args = 1, value_name = "T,...", help_heading = "Facets")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub thresholds: Option<Vec<f64>>,
+    /// Segment: superpixels the normalized cut groups; 0 = automatic [default: 0]
+    #[arg(long, help_heading = "Facets")]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub superpixels: Option<u32>,
+    /// Segment: weight of colour differences in the segmentation's affinity [default: 1]
+    #[arg(long, help_heading = "Facets", allow_negative_numbers = true)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub weight_colour: Option<f64>,
+    /// Segment: weight of surface normal differences [default: 1]
+    #[arg(long, help_heading = "Facets", allow_negative_numbers = true)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub weight_normal: Option<f64>,
+    /// Segment: weight of relative depth differences [default: 0.5]
+    #[arg(long, help_heading = "Facets", allow_negative_numbers = true)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub weight_depth: Option<f64>,
+    /// Segment: how far object boundaries cut the affinity, 0..1; 1 = segments never cross objects [default: 0.9]
+    #[arg(long, help_heading = "Facets", allow_negative_numbers = true)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub weight_object: Option<f64>,
+    /// Segment: weight of saliency differences [default: 0.5]
+    #[arg(long, help_heading = "Facets", allow_negative_numbers = true)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub weight_saliency: Option<f64>,
 
     /// How facets are re-aimed [default: saliency]
     #[arg(long, value_enum, help_heading = "Spatial imprecision")]

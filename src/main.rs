@@ -6,7 +6,7 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::Parser;
-use cubist::cli::{Cli, Command, FacesArgs, ProgressMode, RenderArgs, SaliencyArgs};
+use cubist::cli::{Cli, Command, FacesArgs, FacetsArgs, ProgressMode, RenderArgs, SaliencyArgs};
 use cubist::eval::visible_faces;
 use cubist::output::{pass_path, write_png, write_png16};
 use cubist::progress::Progress;
@@ -25,6 +25,7 @@ fn main() -> ExitCode {
         Command::Render(args) => run_render(args),
         Command::Faces(args) => run_faces(args),
         Command::Saliency(args) => run_saliency(args),
+        Command::Facets(args) => run_facets(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -219,6 +220,43 @@ fn run_faces(args: FacesArgs) -> anyhow::Result<()> {
                 r["total"],
                 r["percent"].as_f64().unwrap_or(0.0)
             );
+        }
+    }
+    Ok(())
+}
+
+fn run_facets(args: FacetsArgs) -> anyhow::Result<()> {
+    let settings = args.settings.resolve(args.config.as_deref())?;
+    cubist::output::check_png_path(&args.output)?;
+    let progress = progress_for(args.progress);
+    progress.begin("loading", 1);
+    let prep = Prepared::load(args.scene.as_deref())?;
+    let out = cubist::facets::segment::inspect(&prep, &settings, &progress)?;
+    progress.begin("writing", 1);
+    write_png(&args.output, &out.view)?;
+    for (name, img) in &out.images {
+        write_png(&pass_path(&args.output, name), img)?;
+    }
+    if let Some(path) = &settings.save_facets {
+        let map = out.layout.rasterize(settings.width, settings.height);
+        cubist::facets::io::save(path, &out.layout, &map)?;
+    }
+    progress.begin("done", 1);
+    progress.finish();
+    for w in &out.warnings {
+        eprintln!("warning: {w}");
+    }
+    if args.verbose {
+        for l in &out.levels.levels {
+            let chosen = l.selected.iter().filter(|s| **s).count();
+            eprintln!(
+                "level N={}: {} segments, {} selected (mean saliency >= {})",
+                l.requested, l.count, chosen, l.threshold
+            );
+        }
+        eprintln!("superpixels: {}, facets: {}", out.levels.superpixel_count, out.layout.facet_count);
+        for (stage, t) in out.timings.iter().chain(&out.levels.timings) {
+            eprintln!("{stage:>14}: {:>9.1} ms", t.as_secs_f64() * 1e3);
         }
     }
     Ok(())

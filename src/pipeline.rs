@@ -200,6 +200,8 @@ pub fn render_with(
                 passes.push((pass, facets_pass(&map, &shown, frame.saliency.as_deref(), settings.pixel_scale())));
             }
             Pass::FacetIds => passes16.push((pass, facet_ids_pass(&map))),
+            // The final layout (Fig. 4.5 f); `cubist facets --pass segments` also shows each level.
+            Pass::Segments => passes.push((pass, facets::segment::debug::map_image(&map))),
             _ => {}
         }
     }

@@ -232,6 +232,19 @@ pub struct Settings {
     pub segments: Vec<u32>,
     /// Segment: mean-saliency threshold per level, in [0, 1].
     pub thresholds: Vec<f64>,
+    /// Segment: superpixels the normalized cut groups; 0 = automatic (see `facets::segment`).
+    pub superpixels: u32,
+    /// Segment: weight of colour (CIELAB) differences in the segmentation's affinity.
+    pub weight_colour: f64,
+    /// Segment: weight of surface normal differences.
+    pub weight_normal: f64,
+    /// Segment: weight of relative depth differences.
+    pub weight_depth: f64,
+    /// Segment: how far object boundaries cut the affinity, in [0, 1]; 1 = segments never
+    /// cross an object boundary (a level may then get more than N segments).
+    pub weight_object: f64,
+    /// Segment: weight of saliency differences.
+    pub weight_saliency: f64,
 
     // ---- spatial imprecision (SPEC "Spatial imprecision")
     pub imprecision: Imprecision,
@@ -312,6 +325,12 @@ impl Settings {
             occlusion: 3.0,
             segments: vec![5, 30, 120],
             thresholds: vec![0.0, 0.05, 0.08],
+            superpixels: 0,
+            weight_colour: 1.0,
+            weight_normal: 1.0,
+            weight_depth: 0.5,
+            weight_object: 0.9,
+            weight_saliency: 0.5,
             imprecision: Imprecision::Saliency,
             discontinuity: 0.0,
             neighborhood: 0.0,
@@ -569,6 +588,14 @@ impl Settings {
         for t in &s.thresholds {
             unit("thresholds", *t)?;
         }
+        if s.superpixels > 1_000_000 {
+            return Err(Error::setting("superpixels", "at most 1000000 (0 = automatic)"));
+        }
+        nonneg("weight_colour", s.weight_colour)?;
+        nonneg("weight_normal", s.weight_normal)?;
+        nonneg("weight_depth", s.weight_depth)?;
+        unit("weight_object", s.weight_object)?;
+        nonneg("weight_saliency", s.weight_saliency)?;
         if s.colors == 1 {
             return Err(Error::setting("colors", "quantising to 1 colour leaves no image; use 0 (off) or >= 2"));
         }

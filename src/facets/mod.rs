@@ -15,6 +15,7 @@
 pub mod constant;
 pub mod io;
 pub mod patch;
+pub mod segment;
 pub mod voronoi;
 
 use std::collections::VecDeque;
@@ -278,7 +279,7 @@ pub(crate) fn rand01(seed: u64, stream: u64, index: u64) -> f64 {
 
 /// The layout the settings ask for: loaded from `settings.facets`, or computed by the
 /// faceting method (`frame` is the pre-render, for methods that follow the picture).
-pub fn layout_for(settings: &Settings, _frame: &Frame) -> Result<FacetLayout> {
+pub fn layout_for(settings: &Settings, frame: &Frame) -> Result<FacetLayout> {
     if let Some(path) = &settings.facets {
         return io::load(path);
     }
@@ -302,9 +303,7 @@ pub fn layout_for(settings: &Settings, _frame: &Frame) -> Result<FacetLayout> {
             settings.width as f64 / settings.height as f64,
             settings.seed,
         )?,
-        Faceting::Segment => {
-            return Err(Error::setting("faceting", "segment faceting is not built in this branch"));
-        }
+        Faceting::Segment => segment::layout(frame, settings)?.0,
     };
     debug_assert!(layout.validate().is_ok());
     Ok(layout)

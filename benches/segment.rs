@@ -1,0 +1,233 @@
+//! Segment faceting, timed and measured (`cargo bench --bench segment`).
+//!
+//! Table 1: the whole Segment faceting (features, superpixels, region graph, eigenvectors, each
+//! level's cut, selection and quads) of a 1000 x 1000 pre-render of the still life and of
+//! venus_11k, split by step: the median of `--reps` runs, wall-clock, on the default rayon
+//! pool and on one thread, with the process CPU time per run and the load average (this
+//! machine's 2 cores are shared, so wall time under load overstates the cost; CPU time does
+//! not).
+//!
+//! Table 2: time against quality. For a range of superpixel counts, each level's boundary
+//! agreement with a fine reference (the same method with 8000 superpixels), where boundary
+//! agreement is `facets::segment::quality::boundary_f_measure` with a 2-pixel tolerance: the
+//! F-measure of boundary precision and recall, a boundary pixel counting as matched when a
+//! boundary pixel of the other segmentation lies within 2 px (Euclidean). The last row, the
+//! reference against itself with another seed, is the ceiling: how far two equally good
+//! normalized cuts already differ.
+//!
+//! Saliency: when the pipeline computes none (the mesh saliency stage not in this build), a
+//! synthetic one stands in: 1 at the model's highest point falling to 0 at distance 0.5
+//! (render units); the tables say which was used. It only changes which segments are selected
+//! and, through the saliency weight, slightly where they go.
+//!
+//! The still life needs nothing; venus needs ../shared/models (skipped with a message without).
+//! Options (after `--`): `--size N` (default 1000), `--reps R` (default 5), `--quick` (2 reps,
+//! fewer superpixel counts).
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use cubist::facets::segment::{self, SegmentLevels, prerender_settings, quality::boundary_f_measure};
+use cubist::frame::Frame;
+use cubist::pipeline::{Prepared, render_with};
+use cubist::progress::Progress;
+use cubist::settings::Settings;
+use glam::Vec3;
+
+fn models() -> Option<PathBuf> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/models");
+    dir.is_dir().then_some(dir)
+}
+
+/// Process CPU time (user + system, all threads), from /proc/self/stat; None elsewhere.
+fn cpu_time() -> Option<f64> {
+    let s = std::fs::read_to_string("/proc/self/stat").ok()?;
+    let fields: Vec<&str> = s.rsplit(')').next()?.split_whitespace().collect();
+    let ticks: f64 = fields.get(11)?.parse::<f64>().ok()? + fields.get(12)?.parse::<f64>().ok()?;
+    Some(ticks / 100.0)
+}
+
+fn load_average() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
+        .unwrap_or_else(|_| "?".into())
+}
+
+/// The pre-render the Segment faceting sees, with a synthetic saliency if none was computed.
+fn prerender(prep: &Prepared, settings: &Settings) -> (Frame, bool) {
+    let top = prep
+        .world
+        .positions
+        .iter()
+        .flatten()
+        .fold(Vec3::splat(f32::NEG_INFINITY), |a, p| if p.y > a.y { *p } else { a });
+    let synthetic = std::sync::atomic::AtomicBool::new(false);
+    let r = render_with(prep, &prerender_settings(settings), &Progress::silent(), &|p, f| {
+        if f.saliency.is_none() {
+            let map = (0..f.pixel_count())
+                .map(|i| {
+                    let smp = f.pixel_samples(i);
+                    smp.iter()
+                        .filter(|h| h.is_hit())
+                        .map(|h| {
+                            let q = p.world.positions[h.tri as usize];
+                            let x = q[0] * (1.0 - h.u - h.v) + q[1] * h.u + q[2] * h.v;
+                            (1.0 - (x - top).length_squared() / 0.25).max(0.0)
+                        })
+                        .sum::<f32>()
+                        / smp.len() as f32
+                })
+                .collect();
+            f.saliency = Some(map);
+            synthetic.store(true, std::sync::atomic::Ordering::Relaxed);
+        }
+    })
+    .expect("pre-render");
+    (r.frame, synthetic.into_inner())
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// Runs the faceting `reps` times: (median step times in ms, median total ms, CPU ms per run, last levels).
+fn time_layout(frame: &Frame, s: &Settings, reps: usize) -> (Vec<(String, f64)>, f64, Option<f64>, SegmentLevels) {
+    let mut steps: Vec<(String, Vec<f64>)> = Vec::new();
+    let mut totals = Vec::new();
+    let mut last = None;
+    let c0 = cpu_time();
+    for _ in 0..reps {
+        let t = Instant::now();
+        let (_, levels) = segment::layout(frame, s).expect("layout");
+        totals.push(t.elapsed().as_secs_f64() * 1e3);
+        if steps.is_empty() {
+            steps = levels.timings.iter().map(|(n, _)| (n.clone(), Vec::new())).collect();
+        }
+        for (i, (_, d)) in levels.timings.iter().enumerate() {
+            steps[i].1.push(d.as_secs_f64() * 1e3);
+        }
+        last = Some(levels);
+    }
+    let cpu = cpu_time().zip(c0).map(|(a, b)| (a - b) * 1e3 / reps as f64);
+    (steps.into_iter().map(|(n, v)| (n, median(v))).collect(), median(totals), cpu, last.expect("reps > 0"))
+}
+
+fn one_thread<T: Send>(f: impl FnOnce() -> T + Send) -> T {
+    rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("pool").install(f)
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let arg = |name: &str| -> Option<u32> {
+        args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).and_then(|v| v.parse().ok())
+    };
+    let quick = args.iter().any(|a| a == "--quick");
+    let size = arg("--size").unwrap_or(1000);
+    let reps = arg("--reps").unwrap_or(if quick { 2 } else { 5 }) as usize;
+
+    let mut scenes: Vec<(String, Option<PathBuf>)> = vec![("still life".into(), None)];
+    match models() {
+        Some(dir) => scenes.push(("venus_11k".into(), Some(dir.join("venus_11k.glb")))),
+        None => println!("../shared/models not found: venus_11k skipped"),
+    }
+    let mut settings = Settings::default();
+    (settings.width, settings.height) = (size, size);
+
+    let mut frames = Vec::new();
+    for (name, path) in &scenes {
+        let prep = Prepared::load(path.as_deref()).expect("scene");
+        let (frame, synthetic) = prerender(&prep, &settings);
+        frames.push((name.clone(), frame, synthetic));
+    }
+
+    println!(
+        "\n## Segment faceting at {size} x {size}, segments {:?}, thresholds {:?} (median of {reps}, ms)\n",
+        settings.segments, settings.thresholds
+    );
+    println!("rayon threads: {}, load average before: {}\n", rayon::current_num_threads(), load_average());
+    let mut header = false;
+    for (name, frame, synthetic) in &frames {
+        for threads in [0usize, 1] {
+            let (steps, total, cpu, levels) = if threads == 1 {
+                one_thread(|| time_layout(frame, &settings, reps))
+            } else {
+                time_layout(frame, &settings, reps)
+            };
+            if !header {
+                let names: Vec<&str> = steps.iter().map(|(n, _)| n.as_str()).collect();
+                println!("| scene | threads | superpixels | {} | total (wall) | CPU per run |", names.join(" | "));
+                println!("|---|---|---|{}---|---|", "---|".repeat(names.len()));
+                header = true;
+            }
+            let cells: Vec<String> = steps.iter().map(|(_, t)| format!("{t:.1}")).collect();
+            println!(
+                "| {name}{} | {} | {} | {} | **{total:.0}** | {} |",
+                if *synthetic { " (synthetic saliency)" } else { "" },
+                if threads == 1 { "1".to_string() } else { rayon::current_num_threads().to_string() },
+                levels.superpixel_count,
+                cells.join(" | "),
+                cpu.map(|c| format!("{c:.0}")).unwrap_or_else(|| "-".into()),
+            );
+        }
+    }
+    println!("\nload average after: {}", load_average());
+    for (name, frame, _) in &frames {
+        let (_, levels) = segment::layout(frame, &settings).expect("layout");
+        let sel: Vec<String> = levels
+            .levels
+            .iter()
+            .map(|l| {
+                format!(
+                    "N={}: {} segments, {} selected",
+                    l.requested,
+                    l.count,
+                    l.selected.iter().filter(|s| **s).count()
+                )
+            })
+            .collect();
+        println!("{name}: {}", sel.join("; "));
+    }
+
+    println!("\n## Superpixel count against boundary agreement with a fine reference (8000 superpixels)\n");
+    println!("F = boundary F-measure, 2 px tolerance, per level; time = whole faceting, median of {reps}, ms.\n");
+    println!(
+        "| scene | superpixels asked | made | time (ms) | F level 1 (N=5) | F level 2 (N=30) | F level 3 (N=120) |"
+    );
+    println!("|---|---|---|---|---|---|---|");
+    let counts: &[u32] = if quick { &[500, 1667, 4000] } else { &[250, 500, 1000, 1667, 2500, 4000] };
+    for (name, frame, _) in &frames {
+        let mut fine = settings.clone();
+        fine.superpixels = 8000;
+        let t = Instant::now();
+        let (_, reference) = segment::layout(frame, &fine).expect("reference");
+        let ref_ms = t.elapsed().as_secs_f64() * 1e3;
+        let agreement = |levels: &SegmentLevels| -> Vec<String> {
+            levels
+                .levels
+                .iter()
+                .zip(&reference.levels)
+                .map(|(a, b)| format!("{:.3}", boundary_f_measure(&a.labels, &b.labels, 2).unwrap_or(f64::NAN)))
+                .collect()
+        };
+        for &count in counts {
+            let mut s = settings.clone();
+            s.superpixels = count;
+            let (_, total, _, levels) = time_layout(frame, &s, reps.min(3));
+            let auto = if count as usize == segment::auto_superpixels(size, size, 120) { " (auto)" } else { "" };
+            println!(
+                "| {name} | {count}{auto} | {} | {total:.0} | {} |",
+                levels.superpixel_count,
+                agreement(&levels).join(" | ")
+            );
+        }
+        let mut other = fine.clone();
+        other.seed = 1;
+        let (_, reseeded) = segment::layout(frame, &other).expect("reference, seed 1");
+        println!(
+            "| {name} | 8000, seed 1 (ceiling) | {} | {ref_ms:.0} (seed 0) | {} |",
+            reseeded.superpixel_count,
+            agreement(&reseeded).join(" | ")
+        );
+    }
+}
