@@ -76,9 +76,12 @@ pub struct FacesArgs {
     /// Several angles for --camera, degrees, comma-separated (e.g. 90,120,150).
     #[arg(long, value_delimiter = ',', value_name = "DEG,...")]
     pub angles: Vec<f64>,
-    /// Print JSON instead of a table.
+    /// Print JSON instead of a table (with each view's camera in scene units).
     #[arg(long)]
     pub json: bool,
+    /// With --json, also list the visible triangle ids of each view.
+    #[arg(long, requires = "json")]
+    pub ids: bool,
     /// JSON settings file, as for `render`.
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
@@ -164,6 +167,10 @@ pub struct SettingsArgs {
     #[arg(long, help_heading = "Camera", allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub camera_size: Option<f64>,
+    /// Fraction of the view the scene fills under automatic framing, (0, 1]: of the convergence half-angles for cubist cameras, of the smaller image side for perspective/orthographic [default: 0.8 cubist, 0.9 others]
+    #[arg(long, help_heading = "Camera")]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fill: Option<f64>,
 
     /// Cast shadow rays (true/false) [default: true]
     #[arg(long, help_heading = "Shading")]
