@@ -65,6 +65,19 @@ def camera_pose(view):
     return pose
 
 
+_OFFSCREEN = None
+
+
+def _offscreen(w, h):
+    """One OpenGL context for the whole process, resized as needed: pyrender's EGL
+    renderers share one display, and deleting any of them terminates it for all."""
+    global _OFFSCREEN
+    if _OFFSCREEN is None:
+        _OFFSCREEN = pyrender.OffscreenRenderer(w, h)
+    _OFFSCREEN.viewport_width, _OFFSCREEN.viewport_height = w, h
+    return _OFFSCREEN
+
+
 class FaceIdRenderer:
     """Renders face-id images of one mesh through cameras described as by `cubist faces --json`."""
 
@@ -74,12 +87,6 @@ class FaceIdRenderer:
         lo, hi = mesh.bounds
         self.centre = (lo + hi) / 2
         self.radius = float(np.max(np.linalg.norm(mesh.vertices - self.centre, axis=1)))
-        self._renderers = {}
-
-    def _renderer(self, w, h):
-        if (w, h) not in self._renderers:
-            self._renderers[(w, h)] = pyrender.OffscreenRenderer(w, h)
-        return self._renderers[(w, h)]
 
     def camera(self, view):
         w, h = view["width"], view["height"]
@@ -102,7 +109,7 @@ class FaceIdRenderer:
         scene.add(self.pmesh)
         scene.add(self.camera(view), pose=camera_pose(view))
         flags = pyrender.RenderFlags.FLAT | pyrender.RenderFlags.SKIP_CULL_FACES
-        color, _ = self._renderer(view["width"], view["height"]).render(scene, flags=flags)
+        color, _ = _offscreen(view["width"], view["height"]).render(scene, flags=flags)
         c = color[..., :3].astype(np.int64)
         return ((c[..., 0] << 16) | (c[..., 1] << 8) | c[..., 2]) - 1
 
@@ -115,9 +122,7 @@ class FaceIdRenderer:
         return set(int(i) for i in ids)
 
     def close(self):
-        for r in self._renderers.values():
-            r.delete()
-        self._renderers.clear()
+        """Frees nothing today (the context is shared); kept so callers can scope a renderer."""
 
 
 def icosphere_glb(path):

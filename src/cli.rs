@@ -137,7 +137,7 @@ pub struct SettingsArgs {
         num_args = 1,
         value_name = "X,Y,Z",
         help_heading = "Camera",
-        allow_negative_numbers = true
+        allow_hyphen_values = true
     )]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub camera_position: Option<Vec<f64>>,
@@ -148,7 +148,7 @@ pub struct SettingsArgs {
         num_args = 1,
         value_name = "X,Y,Z",
         help_heading = "Camera",
-        allow_negative_numbers = true
+        allow_hyphen_values = true
     )]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub camera_target: Option<Vec<f64>>,
@@ -159,7 +159,7 @@ pub struct SettingsArgs {
         num_args = 1,
         value_name = "X,Y,Z",
         help_heading = "Camera",
-        allow_negative_numbers = true
+        allow_hyphen_values = true
     )]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub camera_up: Option<Vec<f64>>,
@@ -310,5 +310,32 @@ impl SettingsArgs {
             None => None,
         };
         Settings::from_layers(json.as_ref().map(|(p, v)| (*p, v.clone())), self.to_layer())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Regression: `--camera-position -2,1,2.5` was refused as an unknown flag `-2`.
+    #[test]
+    fn vectors_may_start_with_a_minus_sign() {
+        let cli = Cli::try_parse_from([
+            "cubist",
+            "faces",
+            "a.glb",
+            "--camera-position",
+            "-2,1,2.5",
+            "--camera-target",
+            "-0.5,-1,0",
+            "--camera-up",
+            "-1,0,0",
+        ])
+        .unwrap();
+        let Command::Faces(args) = cli.command else { panic!("not faces") };
+        let s = args.settings.resolve(None).unwrap();
+        assert_eq!(s.camera_position, Some([-2.0, 1.0, 2.5]));
+        assert_eq!(s.camera_target, Some([-0.5, -1.0, 0.0]));
+        assert_eq!(s.camera_up, Some([-1.0, 0.0, 0.0]));
     }
 }
