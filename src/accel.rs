@@ -156,10 +156,7 @@ impl Accel {
 
     /// The closest hit along `origin + t dir`, t in [tmin, tmax]. Equal distances resolve to
     /// the lowest triangle id, so the result never depends on traversal order.
-    ///
-    /// Never inlined: inlined into the render loop, the traversal competed for registers
-    /// with the loop's state and ran ~20-40% slower (measured by benches/pipeline.rs).
-    #[inline(never)]
+    #[inline]
     pub fn closest(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
         let bvh = self.bvh.as_ref()?;
         if !(origin.is_finite() && dir.is_finite()) || dir == Vec3::ZERO {
