@@ -116,6 +116,16 @@ fn traced_direction(d: Vec3A) -> Vec3A {
     Vec3A::new(fix(d.x), fix(d.y), fix(d.z))
 }
 
+/// obvhs's medium preset without reinsertion: reinsertion's branch-and-bound search cannot
+/// prune among heavily overlapping triangles and turns quadratic there (30,000 overlapping
+/// boxes, 360K triangles: 38 s; 100,000: over 2 min). Without it the same scenes build in
+/// well under a second, and primary rays on the test meshes trace as fast (BENCHMARKS.md).
+const BUILD: BvhBuildParams = BvhBuildParams {
+    reinsertion_batch_ratio: 0.0,
+    post_collapse_reinsertion_batch_ratio_multiplier: 0.0,
+    ..BvhBuildParams::medium_build()
+};
+
 pub struct Accel {
     bvh: Option<Bvh2>,
     /// Triangles in BVH leaf order (so leaves index them directly).
@@ -126,11 +136,25 @@ impl Accel {
     /// Builds a BVH2 over the world's triangles (medium preset: no spatial splits, so each
     /// triangle appears once). The build is deterministic for a given triangle list.
     ///
-    /// Triangles with a non-finite corner can never be hit and are left out: their infinite
-    /// or NaN bounds would corrupt the tree (a NaN vertex once hid a whole quad beside it).
+    /// Left out, as no query could ever return them: triangles with a non-finite corner
+    /// (their NaN or infinite bounds corrupt the tree: a NaN vertex once hid a quad beside it),
+    /// triangles with two equal corners (the watertight test's determinant is exactly 0), and
+    /// exact copies of a lower-numbered triangle (ties go to the lowest id). obvhs's PLOC
+    /// build degenerates to quadratic time on coincident triangles: 30,000 instances of a
+    /// box at one place (a 0.5 MB file) took 106 s to build, now milliseconds.
     pub fn new(world: &World) -> Accel {
+        let mut seen = std::collections::HashSet::new();
         let ids: Vec<u32> = (0..world.positions.len() as u32)
-            .filter(|&i| world.positions[i as usize].iter().all(|p| p.is_finite()))
+            .filter(|&i| {
+                let [a, b, c] = world.positions[i as usize];
+                if !(a.is_finite() && b.is_finite() && c.is_finite()) || a == b || b == c || a == c {
+                    return false;
+                }
+                // The corners as a set (either winding, any starting corner), bit for bit.
+                let mut key = [a, b, c].map(|p| p.to_array().map(f32::to_bits));
+                key.sort_unstable();
+                seen.insert(key)
+            })
             .collect();
         if ids.is_empty() {
             return Accel { bvh: None, tris: Vec::new() };
@@ -142,7 +166,7 @@ impl Accel {
                 Triangle { v0: a.into(), v1: b.into(), v2: c.into() }
             })
             .collect();
-        let bvh = build_bvh2_from_tris(&tris, BvhBuildParams::medium_build(), &mut Duration::default());
+        let bvh = build_bvh2_from_tris(&tris, BUILD, &mut Duration::default());
         let ordered = bvh
             .primitive_indices
             .iter()
@@ -328,6 +352,49 @@ mod tests {
             let p = tri[0] * (1.0 - h.u - h.v) + tri[1] * h.u + tri[2] * h.v;
             assert!((p - target).length() < tol, "{dir:?}: {p:?}");
             assert!((o + dir * h.t - target).length() < tol);
+        }
+    }
+
+    /// Regression: 30,000 instances of a box at one place took 106 s to build (obvhs's PLOC
+    /// and reinsertion degenerate on coincident triangles). Copies, whatever their winding
+    /// or first corner, and triangles with repeated corners are left out of the tree, and
+    /// every query answers as if they were there (ties go to the lowest id anyway).
+    #[test]
+    fn coincident_copies_and_repeated_corners_are_left_out() {
+        let box_tris: Vec<[Vec3; 3]> = (0..6)
+            .flat_map(|f| {
+                let (a, b) = (f % 3, (f % 3 + 1) % 3);
+                let s = if f < 3 { 1.0 } else { -1.0 };
+                let c = |u: f32, v: f32| {
+                    let mut p = Vec3::splat(s);
+                    p[a] = u;
+                    p[b] = v;
+                    p
+                };
+                [[c(-1.0, -1.0), c(1.0, -1.0), c(1.0, 1.0)], [c(-1.0, -1.0), c(1.0, 1.0), c(-1.0, 1.0)]]
+            })
+            .collect();
+        let mut tris = Vec::new();
+        for copy in 0..3000 {
+            for t in &box_tris {
+                // Rotate the corners and flip the winding on some copies: still the same triangle.
+                let t = match copy % 3 {
+                    0 => *t,
+                    1 => [t[1], t[2], t[0]],
+                    _ => [t[2], t[1], t[0]],
+                };
+                tris.push(t);
+            }
+        }
+        tris.push([Vec3::ZERO, Vec3::ZERO, Vec3::X]);
+        let a = Accel::new(&world_of(tris));
+        assert_eq!(a.tris.len(), 12, "only the first box's triangles are built");
+        assert!(a.tris.iter().all(|t| t.id < 12));
+        for dir in [Vec3::NEG_Z, Vec3::new(0.3, -0.5, -0.8).normalize(), Vec3::X] {
+            let o = Vec3::new(0.1, 0.2, 0.3) - dir * 5.0;
+            let h = a.closest(o, dir, 0.0, f32::INFINITY).unwrap();
+            assert!(h.tri < 12, "a copy won: {h:?}");
+            assert!(a.occluded(o, dir, 0.0, 10.0));
         }
     }
 }
