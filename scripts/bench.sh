@@ -35,7 +35,7 @@ tmp=BENCHMARKS.md.tmp
     echo "- CPU: $cpu, $(nproc) logical cores available (SIMD: ${simd% })"
     echo "- Memory: $mem"
     echo "- $(uname -sr), $(rustc --version)"
-    echo "- Build: release profile, \`$rustflags\` (.cargo/config.toml), obvhs $obvhs (BVH2, medium build)"
+    echo "- Build: release profile, \`$rustflags\` (.cargo/config.toml), obvhs $obvhs (BVH2: medium preset without reinsertion, see src/accel.rs)"
     echo "- Load average (1, 5, 15 min) before: $load_before; after: $load_after"
     echo "- Commit $commit$dirty, $(date -u '+%Y-%m-%d %H:%M UTC')"
     echo
