@@ -96,6 +96,22 @@ fn settings_json_regressions() {
     }
 }
 
+/// Found by the fuzzer (12 bytes: "glTF", version 0, length 0): the gltf crate computed
+/// `length - 12` unchecked. Release builds wrapped around into a length error; builds with
+/// overflow checks panicked. Now refused up front, by name.
+#[test]
+fn a_glb_declaring_less_than_its_headers_is_refused() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fuzz_regressions/gltf_loader");
+    for bytes in [
+        std::fs::read(dir.join("glb_declared_length_0.glb")).unwrap(),
+        b"glTF\x02\0\0\0\x13\0\0\0".to_vec(),
+        b"glTF\x02\0".to_vec(),
+    ] {
+        let e = Scene::from_slice(&bytes).unwrap_err().to_string();
+        assert!(e.contains("declares") || e.contains("truncated GLB"), "{e}");
+    }
+}
+
 /// A one-triangle .gltf (data: URI buffer) with `nodes`: node 0 holds the mesh.
 fn gltf_with_nodes(nodes: Vec<Value>, roots: Vec<usize>) -> Vec<u8> {
     let mut bin = Vec::new();

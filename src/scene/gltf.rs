@@ -169,6 +169,25 @@ impl<'a> Loader<'a> {
             return Err(Error::scene(path, "the JSON starts with a UTF-8 byte-order mark, which glTF forbids"));
         }
         let is_glb = bytes.starts_with(b"glTF");
+        if is_glb {
+            // The gltf crate computes `declared length - 12` unchecked: a shorter declared
+            // length overflowed (a panic with overflow checks; found by fuzzing).
+            let declared = bytes.get(8..12).map(|l| u32::from_le_bytes([l[0], l[1], l[2], l[3]]));
+            match declared {
+                None => {
+                    return Err(Error::scene(path, format!("truncated GLB: {} bytes, no complete header", bytes.len())));
+                }
+                Some(n) if n < 20 => {
+                    return Err(Error::scene(
+                        path,
+                        format!(
+                            "malformed GLB container: its header declares {n} bytes, less than the headers themselves"
+                        ),
+                    ));
+                }
+                _ => {}
+            }
+        }
         if !is_glb && bytes.len() >= 4 && bytes[..4].iter().any(|b| *b == 0) && !bytes.starts_with(b"{") {
             return Err(Error::scene(path, "not a glTF file: neither a GLB header ('glTF' magic) nor JSON"));
         }
