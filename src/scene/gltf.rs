@@ -175,7 +175,10 @@ impl<'a> Loader<'a> {
             let declared = bytes.get(8..12).map(|l| u32::from_le_bytes([l[0], l[1], l[2], l[3]]));
             match declared {
                 None => {
-                    return Err(Error::scene(path, format!("truncated GLB: {} bytes, no complete header", bytes.len())));
+                    return Err(Error::scene(
+                        path,
+                        format!("truncated GLB: {} bytes, no complete header", bytes.len()),
+                    ));
                 }
                 Some(n) if n < 20 => {
                     return Err(Error::scene(
@@ -801,6 +804,20 @@ impl<'a> Loader<'a> {
         }
         let image = t.source();
         let what = format!("image {} (texture {})", image.index(), t.index());
+        // `Image::source` unwraps what the spec requires (a mimeType beside a bufferView, a uri
+        // otherwise): a file without them panicked inside the gltf crate (found by fuzzing).
+        if let Some(json) = self.doc.as_json().images.get(image.index()) {
+            match (&json.buffer_view, &json.uri) {
+                (Some(v), _) if v.value() >= self.doc.views().len() => {
+                    return Err(self.err(format!("{what}: bufferView {} does not exist", v.value())));
+                }
+                (Some(_), _) if json.mime_type.is_none() => {
+                    return Err(self.err(format!("{what}: an image in a bufferView needs a mimeType")));
+                }
+                (None, None) => return Err(self.err(format!("{what}: has neither a uri nor a bufferView"))),
+                _ => {}
+            }
+        }
         let bytes: Vec<u8> = match image.source() {
             gltf::image::Source::View { view, .. } => {
                 let b = view.buffer().index();
