@@ -112,6 +112,58 @@ fn a_glb_declaring_less_than_its_headers_is_refused() {
     }
 }
 
+/// A textured one-triangle .gltf whose image is `image` (JSON) over buffer bytes `data`.
+fn textured_gltf(image: Value, data: &[u8]) -> Vec<u8> {
+    let mut bin = Vec::new();
+    for v in [[0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]] {
+        for c in v {
+            bin.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    bin.extend_from_slice(data);
+    let uri =
+        format!("data:application/octet-stream;base64,{}", base64::engine::general_purpose::STANDARD.encode(&bin));
+    let doc = json!({
+        "asset": {"version": "2.0"},
+        "buffers": [{"byteLength": bin.len(), "uri": uri}],
+        "bufferViews": [{"buffer": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 36},
+                        {"buffer": 0, "byteOffset": 72, "byteLength": data.len()}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                       "min": [0, 0, 0], "max": [1, 1, 0]},
+                      {"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC3"}],
+        "images": [image],
+        "textures": [{"source": 0}],
+        "materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "material": 0}]}],
+        "nodes": [{"mesh": 0}],
+        "scenes": [{"nodes": [0]}],
+        "scene": 0,
+    });
+    serde_json::to_vec(&doc).unwrap()
+}
+
+/// Found by the fuzzer (a mutated textured sample): an image in a bufferView without a
+/// mimeType, or with neither uri nor bufferView, panicked inside the gltf crate (an unwrap
+/// in `Image::source`), reported only as "the parser failed on this file".
+#[test]
+fn images_without_mimetype_or_source_are_named() {
+    let png = [0x89u8, b'P', b'N', b'G'];
+    let e = load_and_render(textured_gltf(json!({"bufferView": 2}), &png), "no mimeType".into()).unwrap_err();
+    assert!(e.contains("mimeType"), "{e}");
+    let e = load_and_render(textured_gltf(json!({}), &png), "no source".into()).unwrap_err();
+    assert!(e.contains("neither a uri nor a bufferView"), "{e}");
+}
+
+/// Found by the fuzzer (a mutated sample with a JPEG texture): the JPEG decoder's error spans
+/// two lines; every error is one line.
+#[test]
+fn a_corrupt_jpeg_gives_a_one_line_error() {
+    let jpeg = [0xFFu8, 0xD8, 0xFF, 0xE0, 0x00, 0x10, b'J', b'F', b'I', b'F', 0x00, 0x01, 0x01, 0x00, 0x00];
+    let image = json!({"bufferView": 2, "mimeType": "image/jpeg"});
+    let e = load_and_render(textured_gltf(image, &jpeg), "corrupt jpeg".into()).unwrap_err();
+    assert!(e.contains("cannot decode") && !e.contains('\n'), "{e}");
+}
+
 /// A one-triangle .gltf (data: URI buffer) with `nodes`: node 0 holds the mesh.
 fn gltf_with_nodes(nodes: Vec<Value>, roots: Vec<usize>) -> Vec<u8> {
     let mut bin = Vec::new();
