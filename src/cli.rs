@@ -107,9 +107,12 @@ pub struct FacesArgs {
     /// Several angles for --camera, degrees, comma-separated (e.g. 90,120,150).
     #[arg(long, value_delimiter = ',', value_name = "DEG,...")]
     pub angles: Vec<f64>,
-    /// Print JSON instead of a table.
+    /// Print JSON instead of a table (with each view's camera in scene units).
     #[arg(long)]
     pub json: bool,
+    /// With --json, also list the visible triangle ids of each view.
+    #[arg(long, requires = "json")]
+    pub ids: bool,
     /// JSON settings file, as for `render`.
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
@@ -184,7 +187,7 @@ pub struct SettingsArgs {
         num_args = 1,
         value_name = "X,Y,Z",
         help_heading = "Camera",
-        allow_negative_numbers = true
+        allow_hyphen_values = true
     )]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub camera_position: Option<Vec<f64>>,
@@ -195,7 +198,7 @@ pub struct SettingsArgs {
         num_args = 1,
         value_name = "X,Y,Z",
         help_heading = "Camera",
-        allow_negative_numbers = true
+        allow_hyphen_values = true
     )]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub camera_target: Option<Vec<f64>>,
@@ -206,7 +209,7 @@ pub struct SettingsArgs {
         num_args = 1,
         value_name = "X,Y,Z",
         help_heading = "Camera",
-        allow_negative_numbers = true
+        allow_hyphen_values = true
     )]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub camera_up: Option<Vec<f64>>,
@@ -214,6 +217,10 @@ pub struct SettingsArgs {
     #[arg(long, help_heading = "Camera", allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub camera_size: Option<f64>,
+    /// Fraction of the view the scene fills under automatic framing, (0, 1]: of the convergence half-angles for cubist cameras, of the smaller image side for perspective/orthographic [default: 0.8 cubist, 0.9 others]
+    #[arg(long, help_heading = "Camera")]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fill: Option<f64>,
 
     /// Cast shadow rays (true/false) [default: true]
     #[arg(long, help_heading = "Shading")]
@@ -386,5 +393,32 @@ impl SettingsArgs {
             None => None,
         };
         Settings::from_layers(json.as_ref().map(|(p, v)| (*p, v.clone())), self.to_layer())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Regression: `--camera-position -2,1,2.5` was refused as an unknown flag `-2`.
+    #[test]
+    fn vectors_may_start_with_a_minus_sign() {
+        let cli = Cli::try_parse_from([
+            "cubist",
+            "faces",
+            "a.glb",
+            "--camera-position",
+            "-2,1,2.5",
+            "--camera-target",
+            "-0.5,-1,0",
+            "--camera-up",
+            "-1,0,0",
+        ])
+        .unwrap();
+        let Command::Faces(args) = cli.command else { panic!("not faces") };
+        let s = args.settings.resolve(None).unwrap();
+        assert_eq!(s.camera_position, Some([-2.0, 1.0, 2.5]));
+        assert_eq!(s.camera_target, Some([-0.5, -1.0, 0.0]));
+        assert_eq!(s.camera_up, Some([-1.0, 0.0, 0.0]));
     }
 }

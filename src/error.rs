@@ -39,9 +39,18 @@ pub enum Error {
     Cancelled,
 }
 
+/// Joins a message's lines: messages from other crates (the image decoders) may span several,
+/// and ours are one line (found by fuzzing a JPEG texture).
+fn one_line(message: String) -> String {
+    if !message.contains(['\n', '\r']) {
+        return message;
+    }
+    message.lines().map(str::trim).filter(|l| !l.is_empty()).collect::<Vec<_>>().join(" ")
+}
+
 impl Error {
     pub fn scene(path: &Path, message: impl Into<String>) -> Self {
-        Error::Scene { path: path.to_path_buf(), message: message.into() }
+        Error::Scene { path: path.to_path_buf(), message: one_line(message.into()) }
     }
 
     pub fn setting(key: &'static str, message: impl Into<String>) -> Self {
@@ -49,7 +58,7 @@ impl Error {
     }
 
     pub fn input(path: &Path, message: impl Into<String>) -> Self {
-        Error::Input { path: path.to_path_buf(), message: message.into() }
+        Error::Input { path: path.to_path_buf(), message: one_line(message.into()) }
     }
 
     pub fn output(path: &Path, message: impl std::fmt::Display) -> Self {

@@ -3,13 +3,14 @@
 
 use serde::Serialize;
 
-use crate::camera::frame_camera;
+use crate::camera::{Framed, frame_camera};
 use crate::error::Result;
 use crate::frame::Frame;
 use crate::pipeline::Prepared;
 use crate::progress::Progress;
 use crate::render::Tracer;
-use crate::settings::Settings;
+use crate::scene::World;
+use crate::settings::{CameraKind, Settings};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 pub struct VisibleFaces {
@@ -40,12 +41,87 @@ pub fn count_visible(frame: &Frame, total: usize) -> VisibleFaces {
     VisibleFaces { visible, total }
 }
 
+/// The distinct triangle ids among every sample of a traced frame, ascending.
+pub fn visible_ids(frame: &Frame, total: usize) -> Vec<u32> {
+    let mut seen = vec![false; total];
+    for s in &frame.samples {
+        if let Some(slot) = seen.get_mut(s.tri as usize) {
+            *slot = true;
+        }
+    }
+    seen.iter().enumerate().filter(|(_, s)| **s).map(|(i, _)| i as u32).collect()
+}
+
+/// The camera a count was made with, in scene units, so that an independent renderer
+/// (the pyrender reference of `tests/python`) can use exactly the same one. Image axes:
+/// +x = `right`, +y = `up`, view direction `forward`; pixel centres are sampled at spp 1.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct CameraParams {
+    pub kind: CameraKind,
+    /// Convergence angle, or the perspective camera's vertical field of view, degrees;
+    /// None for the orthographic camera.
+    pub angle_deg: Option<f64>,
+    /// Perspective: the eye. Orthographic: the centre of the view plane. Planar: the plane's
+    /// centre c_p. Spherical/cylindrical: the start of the central ray.
+    pub position: [f64; 3],
+    pub forward: [f64; 3],
+    pub up: [f64; 3],
+    pub right: [f64; 3],
+    /// Orthographic view height, planar plane height, cylindrical band height.
+    pub view_height: Option<f64>,
+    /// Where the rays converge (spherical, planar; the focal line's centre for cylindrical).
+    pub focal_centre: Option<[f64; 3]>,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl CameraParams {
+    pub fn new(framed: &Framed, world: &World, settings: &Settings) -> CameraParams {
+        let sim = world.to_render;
+        let point = |p: glam::DVec3| (p / sim.scale + sim.centre).to_array();
+        let f = &framed.frame;
+        CameraParams {
+            kind: framed.kind,
+            angle_deg: (framed.kind != CameraKind::Orthographic).then_some(framed.angle_deg),
+            position: point(f.position),
+            forward: f.forward.to_array(),
+            up: f.up.to_array(),
+            right: f.right.to_array(),
+            view_height: framed.view_height.map(|h| h / sim.scale),
+            focal_centre: framed.focal_centre.map(point),
+            width: settings.width,
+            height: settings.height,
+        }
+    }
+}
+
+/// A visible-face count with the camera it was made with.
+#[derive(Clone, Debug)]
+pub struct Evaluation {
+    pub faces: VisibleFaces,
+    pub camera: CameraParams,
+    /// The visible triangle ids (world ids: file order within each object, objects in order).
+    pub ids: Vec<u32>,
+}
+
 /// Traces the primary rays of `settings`' camera (no shading) and counts visible faces.
-pub fn visible_faces(prep: &Prepared, settings: &Settings) -> Result<VisibleFaces> {
+pub fn evaluate(prep: &Prepared, settings: &Settings) -> Result<Evaluation> {
+    settings.validate()?;
     let framed = frame_camera(settings, &prep.world)?;
     let mut frame = Frame::new(settings.width, settings.height, settings.spp);
     let tracer =
         Tracer { world: &prep.world, accel: &prep.accel, rig: None, background: glam::Vec3::ZERO, seed: settings.seed };
     tracer.render(&mut frame, &|_, p| framed.camera.ray(p), None, &Progress::silent());
-    Ok(count_visible(&frame, prep.world.triangle_count()))
+    let total = prep.world.triangle_count();
+    let ids = visible_ids(&frame, total);
+    Ok(Evaluation {
+        faces: VisibleFaces { visible: ids.len(), total },
+        camera: CameraParams::new(&framed, &prep.world, settings),
+        ids,
+    })
+}
+
+/// Traces the primary rays of `settings`' camera (no shading) and counts visible faces.
+pub fn visible_faces(prep: &Prepared, settings: &Settings) -> Result<VisibleFaces> {
+    Ok(evaluate(prep, settings)?.faces)
 }

@@ -7,7 +7,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::Parser;
 use cubist::cli::{Cli, Command, FacesArgs, FacetsArgs, ProgressMode, RenderArgs, SaliencyArgs};
-use cubist::eval::visible_faces;
+use cubist::eval::evaluate;
 use cubist::output::{pass_path, write_png, write_png16};
 use cubist::progress::Progress;
 use cubist::settings::CameraKind;
@@ -187,16 +187,21 @@ fn run_faces(args: FacesArgs) -> anyhow::Result<()> {
             s.camera = kind;
             s.ambiguity = angle.or(base.ambiguity);
             s.validate()?;
-            let faces = visible_faces(&prep, &s)?;
-            let used_angle = (kind != CameraKind::Orthographic).then(|| s.angle_deg(kind, None));
-            rows.push(serde_json::json!({
+            let eval = evaluate(&prep, &s)?;
+            let faces = eval.faces;
+            let mut row = serde_json::json!({
                 "scene": scene.display().to_string(),
                 "camera": kind.as_str(),
-                "angle": used_angle,
+                "angle": eval.camera.angle_deg,
                 "visible": faces.visible,
                 "total": faces.total,
                 "percent": (faces.percent() * 100.0).round() / 100.0,
-            }));
+                "view": eval.camera,
+            });
+            if args.ids {
+                row["ids"] = serde_json::json!(eval.ids);
+            }
+            rows.push(row);
         }
     }
     if args.json {

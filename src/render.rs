@@ -37,6 +37,7 @@ fn strata(spp: u32) -> (u32, u32) {
 
 /// Offset of sample `s` within pixel `pixel`, in [0, 1)^2. One sample: the pixel centre.
 /// Otherwise jittered stratified: one sample per cell of the `strata` grid.
+#[inline]
 pub fn sample_offset(seed: u64, pixel: u64, s: u32, spp: u32) -> DVec2 {
     if spp == 1 {
         return DVec2::splat(0.5);
@@ -49,6 +50,7 @@ pub fn sample_offset(seed: u64, pixel: u64, s: u32, spp: u32) -> DVec2 {
 }
 
 /// The screen point of pixel (x, y) at sub-pixel `offset` (row 0 is the top).
+#[inline]
 pub fn screen_point(x: u32, y: u32, offset: DVec2, width: u32, height: u32) -> DVec2 {
     DVec2::new((x as f64 + offset.x) / width as f64 - 0.5, 0.5 - (y as f64 + offset.y) / height as f64)
 }
@@ -89,14 +91,18 @@ impl Tracer<'_> {
                 Some(h) => {
                     samples[s as usize] = SampleHit { tri: h.tri, u: h.u, v: h.v };
                     covered += 1;
-                    let sp = surface(self.world, &h, ray.origin, ray.dir);
-                    if let Some(rig) = self.rig {
-                        color += shade(self.accel, rig, &sp, ray.dir);
-                    }
-                    if centre_dist < best.0 {
-                        let object = self.world.triangle_object[h.tri as usize];
-                        best =
-                            (centre_dist, PixelHit { tri: h.tri, object, t: h.t, normal: sp.normal, u: h.u, v: h.v });
+                    // The surface is needed to shade, or for the pixel's representative hit.
+                    let nearest = centre_dist < best.0;
+                    if self.rig.is_some() || nearest {
+                        let sp = surface(self.world, &h, ray.origin, ray.dir);
+                        if let Some(rig) = self.rig {
+                            color += shade(self.accel, rig, &sp, ray.dir);
+                        }
+                        if nearest {
+                            let object = self.world.triangle_object[h.tri as usize];
+                            let hit = PixelHit { tri: h.tri, object, t: h.t, normal: sp.normal, u: h.u, v: h.v };
+                            best = (centre_dist, hit);
+                        }
                     }
                 }
                 None => {

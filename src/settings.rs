@@ -201,6 +201,11 @@ pub struct Settings {
     /// Planar camera plane height / orthographic view height / cylindrical band height,
     /// scene units. None: fits the scene.
     pub camera_size: Option<f64>,
+    /// Fraction of the view the scene fills when the camera is framed automatically: of the
+    /// convergence half-angles for cubist cameras (measured on the image plane, i.e. in
+    /// tan(angle), for the planar camera), of the smaller image side for perspective and
+    /// orthographic cameras. None: 0.8 for cubist cameras, 0.9 for the others.
+    pub fill: Option<f64>,
 
     // ---- shading
     /// Cast one shadow ray per light per hit.
@@ -311,6 +316,7 @@ impl Settings {
             camera_target: None,
             camera_up: None,
             camera_size: None,
+            fill: None,
             shadows: true,
             background: [0.62, 0.56, 0.46],
             transparent: false,
@@ -518,6 +524,11 @@ impl Settings {
         if let Some(c) = s.camera_size {
             if !(c.is_finite() && c > 0.0) {
                 return Err(Error::setting("camera_size", format!("{c} must be a positive size")));
+            }
+        }
+        if let Some(f) = s.fill {
+            if !(f.is_finite() && f > 0.0 && f <= 1.0) {
+                return Err(Error::setting("fill", format!("{f} must be in (0, 1]")));
             }
         }
         for (key, v) in [("camera_position", s.camera_position), ("camera_target", s.camera_target)] {

@@ -18,9 +18,10 @@ use crate::error::{Error, Result};
 use crate::scene::{Projection, World};
 use crate::settings::{CameraKind, Framing, Settings};
 
-/// Fraction of the convergence half-angles the scene fills under `fit`.
+/// Fraction of the convergence half-angles the scene fills under `fit` (setting `fill`).
 pub const FIT_FILL: f64 = 0.8;
-/// Fraction of the image the scene's outline fills for perspective/orthographic defaults.
+/// Fraction of the image the scene's outline fills for perspective/orthographic defaults
+/// (setting `fill`).
 pub const PINHOLE_FILL: f64 = 0.9;
 /// Height / width ratio from which `auto` picks the cylindrical camera.
 pub const TALL_RATIO: f64 = 1.6;
@@ -33,6 +34,9 @@ pub struct Framed {
     pub kind: CameraKind,
     /// Convergence angle or field of view, degrees.
     pub angle_deg: f64,
+    /// View height of the orthographic camera, plane height s of the planar camera, band
+    /// height of the cylindrical camera: render units (what a reference renderer needs).
+    pub view_height: Option<f64>,
     /// Focal centre (point, or the centre of the focal line), render space, when there is one.
     pub focal_centre: Option<DVec3>,
     pub frame: CameraFrame,
@@ -50,11 +54,11 @@ impl Framed {
     }
 }
 
-/// Scene vertices (a bounded sample) in render space.
+/// Scene vertices (a bounded sample) in render space; non-finite ones (never hit) skipped.
 fn sample_points(world: &World) -> Vec<DVec3> {
     let n = world.positions.len() * 3;
     let step = n.div_ceil(FIT_SAMPLES).max(1);
-    world.positions.iter().flatten().step_by(step).map(|p| p.as_dvec3()).collect()
+    world.positions.iter().flatten().step_by(step).filter(|p| p.is_finite()).map(|p| p.as_dvec3()).collect()
 }
 
 /// Angles (horizontal, vertical) from the view axis at which a camera with focal centre `c`
@@ -74,16 +78,24 @@ fn view_angles(kind: CameraKind, f: &CameraFrame, c: DVec3, p: DVec3) -> (f64, f
 }
 
 /// Distance k behind `axis` (along the view) for the focal centre: the smallest k at which
-/// every sampled vertex is in front of C and within `FIT_FILL` of the half-angles (each
+/// every sampled vertex is in front of C and within `fill` of the half-angles (each
 /// capped at 80 deg, so C stays outside the scene even at 360 deg).
-fn fit_depth(points: &[DVec3], kind: CameraKind, f: &CameraFrame, axis: DVec3, half: (f64, f64), radius: f64) -> f64 {
+fn fit_depth(
+    points: &[DVec3],
+    kind: CameraKind,
+    f: &CameraFrame,
+    axis: DVec3,
+    half: (f64, f64),
+    radius: f64,
+    fill: f64,
+) -> f64 {
     let cap = 80f64.to_radians();
     let lim = if kind == CameraKind::Planar {
         // The planar camera maps tan(angle) linearly to the image: fill in tangent space.
-        let t = |h: f64| (FIT_FILL * h.tan()).atan().min(cap);
+        let t = |h: f64| (fill * h.tan()).atan().min(cap);
         (t(half.0), t(half.1))
     } else {
-        ((FIT_FILL * half.0).min(cap), (FIT_FILL * half.1).min(cap))
+        ((fill * half.0).min(cap), (fill * half.1).min(cap))
     };
     if lim.0 <= 0.0 || (kind != CameraKind::Cylindrical && lim.1 <= 0.0) {
         return 1e6 * radius;
@@ -189,6 +201,9 @@ pub fn frame_camera(settings: &Settings, world: &World) -> Result<Framed> {
         if position.is_none() && target.is_none() { scene_cam.and_then(|c| c.focus_distance) } else { None };
     let focus = settings.focus_distance.map(|f| sim.length(f)).or(scene_focus);
     let size_setting = settings.camera_size.map(|s| sim.length(s));
+    let fit_fill = settings.fill.unwrap_or(FIT_FILL);
+    let pinhole_fill = settings.fill.unwrap_or(PINHOLE_FILL);
+    let view_height;
 
     let camera: Box<dyn Camera>;
     let focal_centre;
@@ -198,7 +213,7 @@ pub fn frame_camera(settings: &Settings, world: &World) -> Result<Framed> {
                 if kind == CameraKind::Spherical { (alpha / 2.0, alpha / aspect / 2.0) } else { (alpha / 2.0, 0.0) };
             let framed_c = || match settings.framing {
                 Framing::Centre => axis,
-                Framing::Fit => axis + fwd * fit_depth(&points, kind, &frame, axis, half, radius),
+                Framing::Fit => axis + fwd * fit_depth(&points, kind, &frame, axis, half, radius, fit_fill),
             };
             let (c, distance) = match (focus, given_position) {
                 (Some(f), Some(p)) => (p + fwd * f, f),
@@ -220,6 +235,7 @@ pub fn frame_camera(settings: &Settings, world: &World) -> Result<Framed> {
                 let centre = c + frame.up * (0.5 * (ext_u.0 + ext_u.1) - c.dot(frame.up));
                 camera = Box::new(Cylindrical { frame, centre, distance, angle_x: alpha, height, clip_radius: clip });
                 focal_centre = Some(centre);
+                view_height = Some(height);
             } else {
                 camera = Box::new(Spherical {
                     frame,
@@ -230,6 +246,7 @@ pub fn frame_camera(settings: &Settings, world: &World) -> Result<Framed> {
                     clip_radius: clip,
                 });
                 focal_centre = Some(c);
+                view_height = None;
             }
         }
         CameraKind::Planar => {
@@ -243,12 +260,12 @@ pub fn frame_camera(settings: &Settings, world: &World) -> Result<Framed> {
             } else if alpha < 1e-5 {
                 // The orthographic limit (the fit below would put f_p a million radii away):
                 // f_p at infinity, the plane frames the scene.
-                let s = size_setting.unwrap_or((ext_u.1 - ext_u.0).max((ext_r.1 - ext_r.0) / aspect) / PINHOLE_FILL);
+                let s = size_setting.unwrap_or((ext_u.1 - ext_u.0).max((ext_r.1 - ext_r.0) / aspect) / pinhole_fill);
                 (axis - fwd * 3.0 * radius, s.max(1e-9))
             } else {
                 let fp = match settings.framing {
                     Framing::Centre => axis,
-                    Framing::Fit => axis + fwd * fit_depth(&points, kind, &frame, axis, half, radius),
+                    Framing::Fit => axis + fwd * fit_depth(&points, kind, &frame, axis, half, radius, fit_fill),
                 };
                 match size_setting {
                     Some(s) => (fp - fwd * (s / (2.0 * tan)), s),
@@ -264,6 +281,7 @@ pub fn frame_camera(settings: &Settings, world: &World) -> Result<Framed> {
             };
             frame.position = cp;
             let planar = Planar::new(frame, s.max(1e-12), aspect, alpha, clip);
+            view_height = Some(planar.size);
             focal_centre = planar.focal_point();
             camera = Box::new(planar);
         }
@@ -271,27 +289,29 @@ pub fn frame_camera(settings: &Settings, world: &World) -> Result<Framed> {
             let tan_half = (alpha / 2.0).tan();
             let half_min = if aspect >= 1.0 { tan_half } else { tan_half * aspect };
             let p = given_position.unwrap_or_else(|| {
-                // The bounding sphere's outline fills PINHOLE_FILL of the smaller image side.
-                let rho = (PINHOLE_FILL * half_min).atan();
+                // The bounding sphere's outline fills `fill` of the smaller image side.
+                let rho = (pinhole_fill * half_min).atan();
                 -fwd * (radius / rho.sin())
             });
             frame.position = p;
             let f = focus.unwrap_or_else(|| (DVec3::ZERO - p).dot(fwd).max(1e-6));
             camera = Box::new(Perspective { frame, tan_half_fov: tan_half, aspect, focus: f, clip_radius: clip });
             focal_centre = None;
+            view_height = None;
         }
         CameraKind::Orthographic => {
             let gltf_height = scene_cam.and_then(|c| match c.projection {
                 Projection::Orthographic { ymag } if settings.camera_position.is_none() => Some(2.0 * ymag),
                 _ => None,
             });
-            let height = size_setting.or(gltf_height).unwrap_or_else(|| 2.0 * radius / PINHOLE_FILL / aspect.min(1.0));
+            let height = size_setting.or(gltf_height).unwrap_or_else(|| 2.0 * radius / pinhole_fill / aspect.min(1.0));
             let p = given_position.unwrap_or(-fwd * 3.0 * radius);
             frame.position = p;
             let f = focus.unwrap_or_else(|| (DVec3::ZERO - p).dot(fwd).max(1e-6));
             camera = Box::new(Orthographic { frame, height, aspect, focus: f, clip_radius: clip });
             focal_centre = None;
+            view_height = Some(height);
         }
     }
-    Ok(Framed { camera, kind, angle_deg, focal_centre, frame, warnings })
+    Ok(Framed { camera, kind, angle_deg, view_height, focal_centre, frame, warnings })
 }

@@ -33,6 +33,9 @@ const SUPPORTED_REQUIRED: &[&str] = &[
 
 /// Largest file we read into memory, bytes.
 const MAX_FILE: u64 = 2 << 30;
+/// Most triangles a scene may expand to once instanced: about 100 bytes each in the render
+/// space plus the BVH, so ~6 GB at this bound.
+pub const MAX_TRIANGLES: usize = 50_000_000;
 
 pub(super) fn load(path: &Path) -> Result<Scene> {
     let meta = std::fs::metadata(path).map_err(|e| Error::scene(path, format!("cannot read: {e}")))?;
@@ -143,6 +146,8 @@ struct Loader<'a> {
     texture_cache: HashMap<usize, usize>,
     world: Vec<Option<DMat4>>,
     warned: std::collections::HashSet<String>,
+    /// Triangles placed so far (instances counted each time).
+    triangles: usize,
 }
 
 impl<'a> Loader<'a> {
@@ -164,6 +169,28 @@ impl<'a> Loader<'a> {
             return Err(Error::scene(path, "the JSON starts with a UTF-8 byte-order mark, which glTF forbids"));
         }
         let is_glb = bytes.starts_with(b"glTF");
+        if is_glb {
+            // The gltf crate computes `declared length - 12` unchecked: a shorter declared
+            // length overflowed (a panic with overflow checks; found by fuzzing).
+            let declared = bytes.get(8..12).map(|l| u32::from_le_bytes([l[0], l[1], l[2], l[3]]));
+            match declared {
+                None => {
+                    return Err(Error::scene(
+                        path,
+                        format!("truncated GLB: {} bytes, no complete header", bytes.len()),
+                    ));
+                }
+                Some(n) if n < 20 => {
+                    return Err(Error::scene(
+                        path,
+                        format!(
+                            "malformed GLB container: its header declares {n} bytes, less than the headers themselves"
+                        ),
+                    ));
+                }
+                _ => {}
+            }
+        }
         if !is_glb && bytes.len() >= 4 && bytes[..4].iter().any(|b| *b == 0) && !bytes.starts_with(b"{") {
             return Err(Error::scene(path, "not a glTF file: neither a GLB header ('glTF' magic) nor JSON"));
         }
@@ -190,6 +217,7 @@ impl<'a> Loader<'a> {
             texture_cache: HashMap::new(),
             world: Vec::new(),
             warned: Default::default(),
+            triangles: 0,
         };
         loader.check_asset()?;
         loader.load_buffers(blob)?;
@@ -274,7 +302,7 @@ impl<'a> Loader<'a> {
         self.world = vec![None; self.doc.nodes().len()];
         let roots: Vec<_> = scene.nodes().collect();
         for node in &roots {
-            self.compute_world(node.clone(), DMat4::IDENTITY, 0)?;
+            self.compute_world(node.clone(), DMat4::IDENTITY)?;
         }
         let mut stack: Vec<gltf::Node> = roots.into_iter().rev().collect();
         let mut first_camera = true;
@@ -300,18 +328,19 @@ impl<'a> Loader<'a> {
         Ok(())
     }
 
-    fn compute_world(&mut self, node: gltf::Node<'a>, parent: DMat4, depth: usize) -> Result<()> {
-        let i = node.index();
-        if depth > self.world.len() || self.world[i].is_some() {
-            return Err(
-                self.err(format!("node {i} appears twice in the hierarchy (a node loop or a node with two parents)"))
-            );
-        }
-        let local = self.local_transform(&node)?;
-        let world = parent * local;
-        self.world[i] = Some(world);
-        for child in node.children() {
-            self.compute_world(child, world, depth + 1)?;
+    /// World transforms of `node` and its descendants. Iterative: a chain of 20,000 nested
+    /// nodes (a 1 MB file) overflowed the stack when this recursed (tests/fuzz_regressions).
+    fn compute_world(&mut self, node: gltf::Node<'a>, parent: DMat4) -> Result<()> {
+        let mut stack = vec![(node, parent)];
+        while let Some((node, parent)) = stack.pop() {
+            let i = node.index();
+            if self.world[i].is_some() {
+                return Err(self
+                    .err(format!("node {i} appears twice in the hierarchy (a node loop or a node with two parents)")));
+            }
+            let world = parent * self.local_transform(&node)?;
+            self.world[i] = Some(world);
+            stack.extend(node.children().map(|child| (child, world)));
         }
         Ok(())
     }
@@ -434,6 +463,13 @@ impl<'a> Loader<'a> {
             let Some(mesh_index) = mesh_index else {
                 continue;
             };
+            // Instancing multiplies triangles: a small file must not expand without bound.
+            self.triangles += self.scene.meshes[mesh_index].triangles.len();
+            if self.triangles > MAX_TRIANGLES {
+                return Err(self.err(format!(
+                    "the scene expands to more than {MAX_TRIANGLES} triangles (meshes instanced by many nodes)"
+                )));
+            }
             let name = node.name().map(str::to_string).unwrap_or_else(|| format!("node {}", node.index()));
             // Skinned vertices are already in scene space (glTF ignores the node's transform).
             let transform = if skin_matrices.is_some() { DMat4::IDENTITY } else { world };
@@ -768,6 +804,20 @@ impl<'a> Loader<'a> {
         }
         let image = t.source();
         let what = format!("image {} (texture {})", image.index(), t.index());
+        // `Image::source` unwraps what the spec requires (a mimeType beside a bufferView, a uri
+        // otherwise): a file without them panicked inside the gltf crate (found by fuzzing).
+        if let Some(json) = self.doc.as_json().images.get(image.index()) {
+            match (&json.buffer_view, &json.uri) {
+                (Some(v), _) if v.value() >= self.doc.views().len() => {
+                    return Err(self.err(format!("{what}: bufferView {} does not exist", v.value())));
+                }
+                (Some(_), _) if json.mime_type.is_none() => {
+                    return Err(self.err(format!("{what}: an image in a bufferView needs a mimeType")));
+                }
+                (None, None) => return Err(self.err(format!("{what}: has neither a uri nor a bufferView"))),
+                _ => {}
+            }
+        }
         let bytes: Vec<u8> = match image.source() {
             gltf::image::Source::View { view, .. } => {
                 let b = view.buffer().index();

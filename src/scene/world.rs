@@ -81,14 +81,18 @@ pub struct World {
 
 impl World {
     pub fn new(scene: &Scene) -> World {
-        // Bounds in scene units (f64), over every placed vertex.
+        // Bounds in scene units (f64), over every placed vertex. Non-finite vertices (the
+        // loader refuses them; a scene built in code may have them) never hit anything and
+        // must not drag the render space to infinity.
         let mut lo = DVec3::splat(f64::INFINITY);
         let mut hi = DVec3::splat(f64::NEG_INFINITY);
         for o in &scene.objects {
             for p in &scene.meshes[o.mesh].positions {
                 let w = o.transform.transform_point3(p.as_dvec3());
-                lo = lo.min(w);
-                hi = hi.max(w);
+                if w.is_finite() {
+                    lo = lo.min(w);
+                    hi = hi.max(w);
+                }
             }
         }
         if !lo.is_finite() || !hi.is_finite() {
@@ -99,7 +103,10 @@ impl World {
         let mut r2: f64 = 0.0;
         for o in &scene.objects {
             for p in &scene.meshes[o.mesh].positions {
-                r2 = r2.max((o.transform.transform_point3(p.as_dvec3()) - centre).length_squared());
+                let d2 = (o.transform.transform_point3(p.as_dvec3()) - centre).length_squared();
+                if d2.is_finite() {
+                    r2 = r2.max(d2);
+                }
             }
         }
         let r = r2.sqrt();
@@ -170,7 +177,7 @@ impl World {
         let (mut blo, mut bhi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
         let mut radius = 0.0f32;
         for tri in &w.positions {
-            for p in tri {
+            for p in tri.iter().filter(|p| p.is_finite()) {
                 blo = blo.min(*p);
                 bhi = bhi.max(*p);
                 radius = radius.max(p.length());
