@@ -59,6 +59,19 @@ impl AimContext<'_> {
         self.accel.closest(r.origin, r.dir, 0.0, f32::INFINITY).map(|h| h.t as f64 + r.skipped as f64)
     }
 
+    /// The largest turn (|d_c' - d_c|) at pixel position `fc` that changes no ray: the smaller
+    /// of 1e-6 and a thousandth of the angle between neighbouring pixels' rays. Why: with one
+    /// focal point shared by every ray (spherical, planar cameras) a saliency centre on the
+    /// background aims the facet at its own focal point (SPEC: the point at the focal distance
+    /// of the ray at sc), i.e. no turn at all, but the f32 rays leave a turn of ~3e-8; without
+    /// this bound such facets (often the large background ones) were re-traced into the same
+    /// pixels, up to 80% of the image.
+    pub fn negligible_turn(&self, fc: DVec2) -> f64 {
+        let a = self.ray_at(fc).dir.as_dvec3();
+        let b = self.ray_at(fc + DVec2::X).dir.as_dvec3();
+        ((b - a).length() * 1e-3).min(1e-6)
+    }
+
     /// The re-aim that turns the facet-centre ray (at `fc`) towards P, the point the ray at
     /// `sc` hits (if it hits nothing: its focal point; parallel rays: its direction), and the
     /// point P itself when there is one. None when the turn is degenerate.
@@ -410,7 +423,9 @@ pub fn aim_facets(ctx: &AimContext, map: &FacetMap, saliency: Option<&[f32]>, se
             if s != c
                 && let Some((r, p)) = ctx.reaim(c, s)
             {
-                aim.reaim = Some(r);
+                if r.turn.length() > ctx.negligible_turn(c) {
+                    aim.reaim = Some(r);
+                }
                 aim.target = p;
             }
             if linear {
