@@ -6,7 +6,7 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::Parser;
-use cubist::cli::{Cli, Command, FacesArgs, FacetsArgs, ProgressMode, RenderArgs, SaliencyArgs};
+use cubist::cli::{Cli, Command, FacesArgs, FacetsArgs, ProgressMode, RenderArgs, SaliencyArgs, SettingsCmdArgs};
 use cubist::eval::evaluate;
 use cubist::output::{pass_path, write_png, write_png16};
 use cubist::progress::Progress;
@@ -26,6 +26,7 @@ fn main() -> ExitCode {
         Command::Faces(args) => run_faces(args),
         Command::Saliency(args) => run_saliency(args),
         Command::Facets(args) => run_facets(args),
+        Command::Settings(args) => run_settings(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -227,6 +228,12 @@ fn run_faces(args: FacesArgs) -> anyhow::Result<()> {
             );
         }
     }
+    Ok(())
+}
+
+fn run_settings(args: SettingsCmdArgs) -> anyhow::Result<()> {
+    let settings = args.settings.resolve(args.config.as_deref())?;
+    println!("{}", serde_json::to_string_pretty(&settings)?);
     Ok(())
 }
 

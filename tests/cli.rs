@@ -144,3 +144,64 @@ fn progress_lines_for_the_addon() {
         assert!((0.0..=1.0).contains(&f));
     }
 }
+
+/// `cubist settings` prints the resolved settings: every key (null where chosen per scene),
+/// the preset's values, then the config file, then the flags; bad values are usage errors.
+#[test]
+fn settings_prints_every_resolved_key_as_json() {
+    use cubist::settings::{Preset, Settings};
+    let dir = tempfile::tempdir().unwrap();
+    let parse = |out: &str| -> serde_json::Value { serde_json::from_str(out).expect("stdout is JSON") };
+
+    let (code, out, err) = run(dir.path(), &["settings"]);
+    assert_eq!(code, 0, "{err}");
+    let json = parse(&out);
+    // Every key of `Settings`, and back into Settings the defaults (the output is a valid
+    // config file; f32 values print as typed, 0.62 rather than 0.6200000047683716).
+    let keys = json.as_object().unwrap();
+    let all = serde_json::to_value(Settings::default()).unwrap();
+    assert!(keys.keys().eq(all.as_object().unwrap().keys()), "{out}");
+    let back: Settings = serde_json::from_value(json.clone()).unwrap();
+    assert_eq!(back, Settings::default());
+    assert_eq!(json["background"], serde_json::json!([0.62, 0.56, 0.46]));
+    for key in ["preset", "fill", "superpixels", "weight_object", "saliency_method", "saliency_cache", "passes"] {
+        assert!(keys.contains_key(key), "no `{key}` in {out}");
+    }
+    assert_eq!(json["preset"], "analytic");
+    assert_eq!(json["ambiguity"], serde_json::Value::Null);
+    assert_eq!(json["discontinuity"], 200.0);
+
+    for (name, preset) in [
+        ("analytic", Preset::Analytic),
+        ("braque", Preset::Braque),
+        ("blue-period", Preset::BluePeriod),
+        ("grisaille", Preset::Grisaille),
+        ("plain", Preset::Plain),
+    ] {
+        let (code, out, err) = run(dir.path(), &["settings", "--preset", name]);
+        assert_eq!(code, 0, "{name}: {err}");
+        let back: Settings = serde_json::from_value(parse(&out)).unwrap();
+        assert_eq!(back, Settings::preset(preset), "{name}");
+    }
+
+    // Layers: preset named in the file, file values, then flags.
+    std::fs::write(dir.path().join("s.json"), r#"{"preset": "braque", "width": 40, "colors": 3}"#).unwrap();
+    let (code, out, err) = run(dir.path(), &["settings", "--config", "s.json", "--colors", "5", "--pass", "depth"]);
+    assert_eq!(code, 0, "{err}");
+    let json = parse(&out);
+    assert_eq!((json["preset"].as_str(), json["width"].as_u64()), (Some("braque"), Some(40)));
+    assert_eq!((json["colors"].as_u64(), json["palette"].as_str()), (Some(5), Some("olive")));
+    assert_eq!(json["passes"], serde_json::json!(["depth"]));
+
+    // Validated like a render: one-line usage errors, nothing on stdout.
+    std::fs::write(dir.path().join("bad.json"), r#"{"widht": 40}"#).unwrap();
+    for args in [
+        &["settings", "--config", "bad.json"][..],
+        &["settings", "--fill", "1.5"],
+        &["settings", "--segments", "5,30", "--thresholds", "0"],
+    ] {
+        let (code, out, err) = run(dir.path(), args);
+        assert_eq!(code, 2, "{args:?}: {err}");
+        assert!(out.is_empty() && err.trim().lines().count() == 1, "{args:?}: {out} {err}");
+    }
+}
