@@ -252,7 +252,7 @@ pub struct SettingsArgs {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub exposure: Option<f32>,
 
-    /// Faceting method; segment follows the picture's forms (needs saliency) [default: none]
+    /// Faceting method; segment follows the picture's forms (needs saliency) [analytic: segment]
     #[arg(long, value_enum, help_heading = "Facets")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub faceting: Option<Faceting>,

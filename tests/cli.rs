@@ -205,3 +205,41 @@ fn settings_prints_every_resolved_key_as_json() {
         assert!(out.is_empty() && err.trim().lines().count() == 1, "{args:?}: {out} {err}");
     }
 }
+
+/// Every `[default: X]` / `[analytic: X]` written in a flag's help is the value the settings
+/// really take (the help is hand-written; this keeps it honest when a preset changes).
+#[test]
+fn help_defaults_match_the_settings() {
+    use clap::CommandFactory;
+    let defaults = serde_json::to_value(cubist::Settings::default()).unwrap();
+    let cli = cubist::cli::Cli::command();
+    let render = cli.find_subcommand("render").unwrap();
+    let mut checked = 0;
+    for arg in render.get_arguments() {
+        let key = arg.get_id().as_str();
+        let key = if key == "pass" { "passes" } else { key };
+        let Some(value) = defaults.get(key) else { continue };
+        let help = arg.get_help().map(|h| h.to_string()).unwrap_or_default();
+        let Some(start) = help.find("[default: ").map(|i| i + 10).or_else(|| help.find("[analytic: ").map(|i| i + 11))
+        else {
+            continue;
+        };
+        let stated = help[start..].split(']').next().unwrap();
+        let stated = stated.split([' ', ';']).next().unwrap();
+        let actual = match value {
+            serde_json::Value::Null => continue, // chosen per scene: the help describes how
+            serde_json::Value::String(s) => s.clone(),
+            serde_json::Value::Array(a) => a.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(","),
+            v => v.to_string(),
+        };
+        let same = stated == actual
+            || matches!((stated.parse::<f64>(), actual.parse::<f64>()), (Ok(a), Ok(b)) if (a - b).abs() < 1e-9)
+            || (actual.contains(',')
+                && stated.split(',').zip(actual.split(',')).all(
+                    |(a, b)| matches!((a.parse::<f64>(), b.parse::<f64>()), (Ok(x), Ok(y)) if (x - y).abs() < 1e-6),
+                ));
+        assert!(same, "--{}: the help says {stated}, the default is {actual}", key.replace('_', "-"));
+        checked += 1;
+    }
+    assert!(checked > 25, "only {checked} defaults checked");
+}
