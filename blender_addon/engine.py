@@ -17,6 +17,9 @@ last_run: dict = {}
 # One entry per rendered frame (frame, settings sent, layout, error), the newest last.
 history: list = []
 HISTORY_LIMIT = 1000
+# The layout frame's source (runner.layout_source) per render job, for frames other than the
+# layout frame: cleared when a job starts (render_init).
+_job_sources: dict = {}
 # Tests simulate Blender's cancel (Esc, which test_break() reports) with a callable here.
 cancel_hook = None
 
@@ -46,7 +49,7 @@ def layout_folder(props) -> Path:
 
 def _panel(props) -> dict:
     panel = panel_values(props)
-    for key in ("facet_map", "palette_image"):
+    for key in ("facet_map", "palette_image", "layout_file", "saliency_cache"):
         if panel[key]:
             panel[key] = bpy.path.abspath(panel[key])
     return panel
@@ -94,7 +97,8 @@ class CubistRenderEngine(bpy.types.RenderEngine):
             last_run["error"] = f"{type(e).__name__}: {e}"
             self.report({"ERROR"}, f"Cubist: internal error: {type(e).__name__}: {e}")
         finally:
-            entry = {k: last_run.get(k) for k in ("frame", "settings", "layout", "error", "cancelled", "warnings")}
+            entry = {k: last_run.get(k) for k in ("frame", "settings", "layout", "prepass", "error", "cancelled",
+                                                  "warnings")}
             history.append(entry)
             del history[:-HISTORY_LIMIT]
 
@@ -167,31 +171,54 @@ class CubistRenderEngine(bpy.types.RenderEngine):
                 # The panel's seed, not the animated one: one layout for every frame.
                 layout = runner.layout_path(folder, scene.name, {**settings, "seed": panel["seed"]},
                                             props.layout_frame)
-            cache = folder / "saliency"
-            if runner.needs_saliency(settings) and runner.binary_supports(binary, "saliency_cache"):
+            cache = Path(panel["saliency_cache"]) if panel["saliency_cache"] else folder / "saliency"
+            if props.use_saliency_cache and runner.needs_saliency(settings):
                 settings["saliency_cache"] = str(cache)
-            if layout is not None or "saliency_cache" in settings:
-                try:
+            # A binary set in the preferences may be older than the add-on.
+            settings = runner.settings_for_binary(binary, settings)
+            try:
+                if layout is not None:
                     folder.mkdir(parents=True, exist_ok=True)
-                    if "saliency_cache" in settings:
-                        cache.mkdir(exist_ok=True)
-                except OSError as e:
-                    raise runner.CubistError(f"cannot create the layout folder {folder}: {e.strerror}") from None
+                if "saliency_cache" in settings:
+                    cache.mkdir(parents=True, exist_ok=True)
+            except OSError as e:
+                where = folder if layout is not None and not folder.is_dir() else cache
+                raise runner.CubistError(f"cannot create the folder {where}: {e.strerror}") from None
 
-            plan = runner.plan_layout(settings, layout, frame, props.layout_frame)
+            # A Segment layout follows what the layout frame shows: reused only while that is
+            # unchanged (runner.layout_source), so a moved camera or object gives new facets.
+            source = None
+            pre_glb = pre_settings = None
+            if layout is not None and settings["faceting"] == "segment":
+                if frame == props.layout_frame:
+                    source = runner.layout_source(glb, settings)
+                    _job_sources[(scene.name, frame, str(layout))] = source
+                else:
+                    source, pre_glb, pre_settings = self._layout_frame_source(scene, view_layer, panel,
+                                                                              props.layout_frame, layout, tmp)
+                    if pre_glb is not None:
+                        scene.frame_set(frame)  # back from the layout frame
+            current = runner.layout_is_current(layout, source) if layout is not None else None
+            plan = runner.plan_layout(settings, layout, frame, props.layout_frame, current)
+            if layout is not None and not current:
+                runner.forget_source(layout)
             span = (0.0, 1.0)
+            last_run["prepass"] = plan.prepass_frame
             if plan.prepass_frame is not None:
-                # This chunk does not start on the layout frame: compute the layout there first,
-                # so every process and machine gets the same one.
+                # This frame is not the layout frame: compute the layout there first, so every
+                # process and machine (farm chunks) gets the same one.
                 self.update_stats("Cubist", f"Frame {frame} | facet layout from frame {plan.prepass_frame}")
-                pre_glb = export.export_glb(scene, view_layer, plan.prepass_frame, tmp / "layout.glb")
-                pre_facts = export.scene_facts(scene, plan.prepass_frame)
-                pre = mapping.settings_from_panel(panel, pre_facts)
+                if pre_glb is None:
+                    pre_glb = export.export_glb(scene, view_layer, plan.prepass_frame, tmp / "layout.glb")
+                    pre_settings = mapping.settings_from_panel(panel, export.scene_facts(scene, plan.prepass_frame))
+                pre = dict(pre_settings)
                 if "saliency_cache" in settings:
                     pre["saliency_cache"] = settings["saliency_cache"]
                 pre = runner.layout_prepass(pre, layout)
                 warnings += self._run(binary, pre_glb, tmp / "layout.png", pre, tmp / "layout.json",
                                       plan.prepass_frame, (0.0, 0.5))
+                if source is not None and layout.is_file():
+                    runner.record_source(layout, source)
                 span = (0.5, 1.0)
                 # Back to the frame being rendered (its scene.glb is already written).
                 scene.frame_set(frame)
@@ -202,13 +229,30 @@ class CubistRenderEngine(bpy.types.RenderEngine):
             out = tmp / "render.png"
             last_run["settings"] = dict(plan.settings)
             warnings += self._run(binary, glb, out, plan.settings, tmp / "settings.json", frame, span)
-            if "save_facets" in plan.settings and not Path(plan.settings["save_facets"]).is_file():
-                warnings.append("the renderer did not save a facet layout: later frames compute their own")
+            if "save_facets" in plan.settings:
+                if not Path(plan.settings["save_facets"]).is_file():
+                    warnings.append("the renderer did not save a facet layout: later frames compute their own")
+                elif source is not None:
+                    runner.record_source(layout, source)
             last_run["layout"] = str(layout) if layout is not None else None
             self._deliver(scene, view_layer, facts, out, plan.settings, warnings)
         last_run["warnings"] = warnings
         for w in dict.fromkeys(warnings):
             self.report({"WARNING"}, f"Cubist: {w}")
+
+    def _layout_frame_source(self, scene, view_layer, panel, layout_frame: int, layout: Path, tmp: Path):
+        """(source, exported scene, settings) of the layout frame, seen from another frame; the
+        scene and settings are None when the source is known already. The layout frame is
+        exported once per render job (F12, or a whole Render Animation) and its source kept:
+        nothing is edited while a job runs."""
+        key = (scene.name, layout_frame, str(layout))
+        if key in _job_sources:
+            return _job_sources[key], None, None
+        self.update_stats("Cubist", f"Frame {scene.frame_current} | checking the facet layout of frame {layout_frame}")
+        glb = export.export_glb(scene, view_layer, layout_frame, tmp / "layout.glb")
+        settings = mapping.settings_from_panel(panel, export.scene_facts(scene, layout_frame))
+        _job_sources[key] = runner.layout_source(glb, settings)
+        return _job_sources[key], glb, settings
 
     def _deliver(self, scene, view_layer, facts, out: Path, settings: dict, warnings: list):
         """Loads the picture and passes into the render result, only once all are read, so a
@@ -295,13 +339,21 @@ def get_panels():
             yield panel
 
 
+@bpy.app.handlers.persistent
+def _render_job_starts(*_args):
+    _job_sources.clear()
+
+
 def register():
     bpy.utils.register_class(CubistRenderEngine)
+    bpy.app.handlers.render_init.append(_render_job_starts)
     for panel in get_panels():
         panel.COMPAT_ENGINES.add(ENGINE_ID)
 
 
 def unregister():
+    if _render_job_starts in bpy.app.handlers.render_init:
+        bpy.app.handlers.render_init.remove(_render_job_starts)
     for panel in get_panels():
         panel.COMPAT_ENGINES.discard(ENGINE_ID)
     bpy.utils.unregister_class(CubistRenderEngine)

@@ -15,23 +15,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Mapping, Optional, Sequence
 
-from . import runner
+from . import presets, runner
 
-# Panel enum identifiers -> settings values.
-ENUMS = {
-    "camera": {"AUTO": "auto", "SPHERICAL": "spherical", "CYLINDRICAL": "cylindrical", "PLANAR": "planar",
-               "PERSPECTIVE": "perspective", "ORTHOGRAPHIC": "orthographic"},
-    "framing": {"FIT": "fit", "CENTRE": "centre"},
-    "faceting": {"NONE": "none", "CONSTANT": "constant", "VORONOI": "voronoi", "PATCH": "patch",
-                 "SEGMENT": "segment"},
-    "imprecision": {"SALIENCY": "saliency", "RANDOM": "random", "NONE": "none"},
-    "facet_projection": {"CONVERGING": "converging", "LINEAR": "linear"},
-    "palette": {"NONE": "none", "OCHRE": "ochre", "GREY": "grey", "BLUE_PERIOD": "blue-period", "OLIVE": "olive"},
-    "preset": {"ANALYTIC": "analytic", "PLAIN": "plain"},
-}
+# Panel enum properties: identifier (BLUE_PERIOD) -> settings value (blue-period).
+ENUM_KEYS = presets.ENUM_KEYS
 
-# Panel properties copied to the settings key of the same name, unchanged.
+# Panel properties copied to the settings key of the same name (floats as typed, see
+# runner.f32_decimal).
 PLAIN_KEYS = ("spp", "shadows", "exposure", "facet_count", "grid_cells", "patch_count", "occlusion",
+              "superpixels", "weight_colour", "weight_normal", "weight_depth", "weight_object", "weight_saliency",
               "discontinuity", "neighborhood", "facet_fov", "border_width", "border_strength",
               "silhouette_width", "silhouette_strength", "colors", "gradients", "chiaroscuro")
 
@@ -141,20 +133,23 @@ def settings_from_panel(panel: Mapping[str, object], facts: SceneFacts) -> dict:
     """Every settings key from the panel's values (property name -> value) and Blender's
     facts. Raises runner.SettingError for text fields that do not parse."""
     p = panel
-    s: dict = {"preset": ENUMS["preset"][p["preset"]], "width": facts.width, "height": facts.height}
+    f32 = runner.f32_decimal
+    s: dict = {"width": facts.width, "height": facts.height}
     seed = int(p["seed"])
     if p.get("animate_seed"):
         seed += int(facts.frame)
     s["seed"] = max(seed, 0)
     for key in PLAIN_KEYS:
-        s[key] = p[key]
-    for key in ("camera", "framing", "faceting", "imprecision", "facet_projection", "palette"):
-        s[key] = ENUMS[key][p[key]]
+        v = p[key]
+        s[key] = f32(v) if isinstance(v, float) else v
+    for key in ENUM_KEYS:
+        s[key] = presets.enum_value(str(p[key]))
 
     # Camera: the active camera's frame, its focus, its lens for the perspective kind.
     cam = facts.camera
     kind = s["camera"]
-    s["ambiguity"] = float(p["ambiguity"])
+    s["ambiguity"] = f32(p["ambiguity"])
+    camera_size = f32(p["camera_size"])
     if cam is not None:
         pos, fwd, up = cam.position(), cam.forward(), cam.up()
         focus, why = cam.focus() if p["use_camera_focus"] else (None, None)
@@ -167,25 +162,28 @@ def settings_from_panel(panel: Mapping[str, object], facts: SceneFacts) -> dict:
         s["focus_distance"] = focus
         if kind == "perspective" and p["use_camera_lens"]:
             s["ambiguity"] = cam.vertical_fov_deg(facts.width, facts.height)
-        if kind == "orthographic" and p["use_camera_lens"] and float(p["camera_size"]) <= 0:
+        if kind == "orthographic" and p["use_camera_lens"] and camera_size <= 0:
             s["camera_size"] = cam.ortho_height(facts.width, facts.height)
     if kind == "orthographic":
         s.pop("ambiguity")  # no angle: parallel rays
-    if float(p["camera_size"]) > 0:
-        s["camera_size"] = float(p["camera_size"])
+    if camera_size > 0:
+        s["camera_size"] = camera_size
+    fill = f32(p["fill"])
+    s["fill"] = fill if fill > 0 else None  # 0 = the renderer's automatic fill
 
     # Background: the world colour (linear), else the panel's colour; Film > Transparent.
     if p["use_world_background"] and facts.background is not None:
         s["background"] = [max(float(c), 0.0) for c in facts.background[:3]]
     else:
-        s["background"] = [float(c) for c in p["background"][:3]]
+        s["background"] = [f32(c) for c in p["background"][:3]]
     s["transparent"] = bool(facts.transparent)
 
-    # Facets.
+    # Facets. A layout file of the user's replaces the computed (or static) layout.
     if p["faceting"] == "CONSTANT" or p.get("facet_map"):
         s["facet_map"] = p.get("facet_map") or None
+    s["facets"] = p.get("layout_file") or None
     s["segments"] = runner.parse_number_list(str(p["segments"]), "Segments", int)
-    s["thresholds"] = runner.parse_number_list(str(p["thresholds"]), "Thresholds", float)
+    s["thresholds"] = [f32(t) for t in runner.parse_number_list(str(p["thresholds"]), "Thresholds", float)]
 
     # Painterly.
     s["palette_image"] = p.get("palette_image") or None

@@ -1,10 +1,12 @@
 """The Cubist settings of a scene (`scene.cubist`): one property per renderer setting, with
 units and the thesis's recommended values in the tooltips. Defaults come from presets.DEFAULTS
-(the renderer's own defaults); mapping.settings_from_panel turns them into the settings JSON."""
+(the renderer's own `analytic` values, read from renderer_presets.json);
+mapping.settings_from_panel turns the properties into the settings JSON."""
 
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, FloatVectorProperty, IntProperty, StringProperty
 
+from . import presets
 from .presets import DEFAULTS
 
 D = DEFAULTS
@@ -16,14 +18,31 @@ def _update_passes(self, context):
         context.view_layer.update_render_passes()
 
 
+def apply_look(props, values: dict) -> None:
+    """Sets panel values, the preset first (its update sets the whole look)."""
+    if "preset" in values:
+        props.preset = values["preset"]
+    for k, v in values.items():
+        if k != "preset":
+            setattr(props, k, v)
+
+
+def _update_preset(self, context):
+    # Choosing a preset sets every look value to the renderer's own (renderer_presets.json);
+    # sampling, passes, files and the scene's choices stay.
+    values = presets.renderer_preset_values(presets.enum_value(self.preset))
+    for k, v in values.items():
+        if k != "preset":
+            setattr(self, k, v)
+
+
 class CubistSettings(bpy.types.PropertyGroup):
     preset: EnumProperty(
-        name="Base",
-        description="The renderer's preset the panel's values are applied over (every value below is sent "
-                    "explicitly, so this only matters for settings the panel does not show)",
-        items=[("ANALYTIC", "Analytic", "The paper's recommended look (renderer default)"),
-               ("PLAIN", "Plain", "The bare cubist camera: no facets, no painterly effects")],
-        default=D["preset"])
+        name="Preset",
+        description="The renderer's preset (`cubist render --preset`). Choosing one sets the camera, facets, "
+                    "imprecision and painterly values to the preset's; sampling, passes and files stay",
+        items=[(presets.enum_id(name), label, desc) for name, (label, desc) in presets.PRESET_LABELS.items()],
+        default=D["preset"], update=_update_preset)
 
     # ---- Sampling
     spp: IntProperty(name="Samples", description="Samples per pixel, stratified and seeded. 1 for previews, "
@@ -66,6 +85,11 @@ class CubistSettings(bpy.types.PropertyGroup):
     camera_size: FloatProperty(
         name="Camera Size", description="Planar camera plane height / orthographic view height / cylindrical "
         "band height, scene units. 0 = fit the scene", default=D["camera_size"], min=0.0, unit="LENGTH")
+    fill: FloatProperty(
+        name="Fill", description="Fraction of the view the scene fills when the focal centre is placed by Fit "
+        "framing: of the convergence half-angles for cubist cameras, of the smaller image side otherwise. "
+        "0 = automatic (0.8 for cubist cameras, 0.9 for the others)", default=D["fill"], min=0.0, max=1.0,
+        subtype="FACTOR")
 
     # ---- Shading
     shadows: BoolProperty(name="Shadows", description="Cast one shadow ray per light per hit",
@@ -106,10 +130,28 @@ class CubistSettings(bpy.types.PropertyGroup):
                              "(paper: 5, 30, 120)", default=D["segments"])
     thresholds: StringProperty(name="Thresholds", description="Segment: mean-saliency threshold per level, 0-1, "
                                "one per level (paper: 0, 0.05, 0.08)", default=D["thresholds"])
+    superpixels: IntProperty(name="Superpixels", description="Segment: superpixels the normalized cut groups "
+                             "into segments; 0 = automatic (from the image size and the finest level)",
+                             default=D["superpixels"], min=0, max=1000000, soft_max=5000)
+    weight_colour: FloatProperty(name="Colour", description="Segment: weight of colour (CIELAB) differences "
+                                 "in the affinity between superpixels", default=D["weight_colour"], min=0.0,
+                                 soft_max=4.0)
+    weight_normal: FloatProperty(name="Normal", description="Segment: weight of surface normal differences",
+                                 default=D["weight_normal"], min=0.0, soft_max=4.0)
+    weight_depth: FloatProperty(name="Depth", description="Segment: weight of relative depth differences",
+                                default=D["weight_depth"], min=0.0, soft_max=4.0)
+    weight_object: FloatProperty(name="Object", description="Segment: how far object boundaries cut the "
+                                 "affinity, 0-1; 1 = segments never cross an object boundary (a level may then "
+                                 "get more segments than asked)", default=D["weight_object"], min=0.0, max=1.0,
+                                 subtype="FACTOR")
+    weight_saliency: FloatProperty(name="Saliency", description="Segment: weight of saliency differences",
+                                   default=D["weight_saliency"], min=0.0, soft_max=4.0)
     static_facets: BoolProperty(
-        name="Static Facets", description="Compute the facet layout once, on the Layout Frame, save it in the layout folder and reuse it for every frame: camera and objects move, "
-        "facets stay (thesis Ch. 6). Frame chunks rendered by separate processes or farm machines then "
-        "match one run. Off: a new layout for every render", default=D["static_facets"])
+        name="Static Facets", description="Compute the facet layout once, on the Layout Frame, save it in the "
+        "layout folder and reuse it for every frame: camera and objects move, facets stay (thesis Ch. 6). "
+        "A Segment layout is computed again when what the Layout Frame shows changes. Frame chunks rendered "
+        "by separate processes or farm machines then match one run. Off: a new layout for every render",
+        default=D["static_facets"])
     layout_frame: IntProperty(
         name="Layout Frame", description="The frame whose view computes the static facet layout. Every frame, "
         "and every farm chunk whatever its frame range, reuses this frame's layout", default=D["layout_frame"])
@@ -117,6 +159,10 @@ class CubistSettings(bpy.types.PropertyGroup):
         name="Layout Folder", description="Where the facet layout and the saliency cache are kept. Empty: a "
         "'cubist' folder beside the .blend (share it with the render farm)", subtype="DIR_PATH",
         default=D["layout_folder"])
+    layout_file: StringProperty(
+        name="Layout File", description="Load this facet layout (.json or .png, e.g. saved by `cubist render "
+        "--save-facets` or `cubist facets`) for every frame instead of computing one. Empty: computed "
+        "(once, with Static Facets)", subtype="FILE_PATH", default=D["layout_file"])
 
     # ---- Spatial imprecision
     imprecision: EnumProperty(
@@ -143,6 +189,21 @@ class CubistSettings(bpy.types.PropertyGroup):
                              "0 = orthographic facets (paper's default)", default=D["facet_fov"], min=0.0,
                              max=179.0)
 
+    # ---- Mesh saliency
+    saliency_method: EnumProperty(
+        name="Saliency Method", description="How mesh saliency's Gaussian means are evaluated",
+        items=[("AUTO", "Auto", "Exact while the sums stay affordable (a few seconds), clustered above"),
+               ("EXACT", "Exact", "The definition's exact sums, whatever the mesh's size"),
+               ("CLUSTERED", "Clustered", "Clustered sums: fast on huge meshes, approximate")],
+        default=D["saliency_method"])
+    use_saliency_cache: BoolProperty(
+        name="Saliency Cache", description="Keep each mesh's saliency on disk, keyed by its content: frames and "
+        "farm machines compute a mesh's saliency once (the picture is the same either way)",
+        default=D["use_saliency_cache"])
+    saliency_cache: StringProperty(
+        name="Cache Folder", description="Where the saliency cache is kept. Empty: 'saliency' in the Layout "
+        "Folder", subtype="DIR_PATH", default=D["saliency_cache"])
+
     # ---- Painterly
     border_width: FloatProperty(
         name="Border Width", description="Facet border darkening distance md of eq 4.8, pixels at 1000 px; 0 = off",
@@ -159,9 +220,9 @@ class CubistSettings(bpy.types.PropertyGroup):
         "thesis 4.4)",
         items=[("NONE", "None", "Keep the rendered colours"),
                ("OCHRE", "Ochre", "Browns and ochres of Braque and Picasso, 1910"),
-               ("GREY", "Grey", "Greys"),
-               ("BLUE_PERIOD", "Blue Period", "Blues"),
-               ("OLIVE", "Olive", "Greens and olives")],
+               ("GREY", "Grey", "Grisaille, 1911: warm blacks, brownish and cool greys"),
+               ("BLUE_PERIOD", "Blue Period", "Picasso's blue period: Prussian blue to pale blue-grey"),
+               ("OLIVE", "Olive", "Braque, 1908-09: olive and earth greens to pale ochre")],
         default=D["palette"])
     palette_image: StringProperty(name="Palette Image", description="A painting whose colours are mapped onto "
                                   "the luminance (overrides Palette)", subtype="FILE_PATH",

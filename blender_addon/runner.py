@@ -11,11 +11,14 @@ prints `PROGRESS <fraction> <stage>` lines on stderr, `warning: ...` lines, and 
 from __future__ import annotations
 
 import hashlib
+import math
 import json
 import os
 import queue
+import re
 import shutil
 import stat
+import struct
 import subprocess
 import sys
 import tempfile
@@ -32,28 +35,33 @@ BINARY_NAME = "cubist.exe" if sys.platform == "win32" else "cubist"
 # an error there). tests/python/test_runner.py checks this list against settings.rs.
 SETTINGS_KEYS = frozenset(
     """preset width height spp seed camera ambiguity framing focus_distance camera_position
-    camera_target camera_up camera_size shadows background transparent exposure faceting
+    camera_target camera_up camera_size fill shadows background transparent exposure faceting
     facet_map facets save_facets facet_count grid_cells patch_count occlusion segments
-    thresholds imprecision discontinuity neighborhood facet_projection facet_fov border_width
+    thresholds superpixels weight_colour weight_normal weight_depth weight_object weight_saliency
+    imprecision discontinuity neighborhood facet_projection facet_fov border_width
     border_strength silhouette_width silhouette_strength palette palette_image colors gradients
-    chiaroscuro passes""".split()
+    chiaroscuro saliency_method saliency_cache passes""".split()
 )
-# Keys newer binaries accept; sent only when `binary_supports` says the binary knows them.
+# Keys that only save time (the picture is the same without them): left out, rather than
+# refused, for a binary that does not know them (`settings_for_binary`).
 OPTIONAL_KEYS = frozenset({"saliency_cache"})
 
 # Settings that decide a facet layout (besides the pre-render, for segment faceting): a
 # change of any of them gives a new layout file name, so a stale layout is never reused.
 LAYOUT_KEYS = ("faceting", "facet_map", "facet_count", "grid_cells", "patch_count", "occlusion", "segments",
-               "thresholds", "seed")
+               "thresholds", "superpixels", "weight_colour", "weight_normal", "weight_depth", "weight_object",
+               "weight_saliency", "saliency_method", "seed")
 
 # Renderer stages in pipeline order with their rough share of a frame's time, for one
 # progress bar that only moves forward. Unknown stages keep the bar where it is.
+# Names as src/pipeline.rs and src/main.rs report them (`--progress lines`).
 STAGE_WEIGHTS = (
     ("loading", 0.05),
-    ("pre-render", 0.40),
+    ("pre-render", 0.30),
     ("saliency", 0.15),
-    ("facets", 0.10),
-    ("imprecision", 0.20),
+    ("faceting", 0.20),
+    ("imprecision", 0.05),
+    ("re-trace", 0.15),
     ("paint", 0.05),
     ("writing", 0.05),
 )
@@ -144,30 +152,79 @@ def find_binary(preference: str = "", addon_dir: Path = ADDON_DIR, path_env: Opt
     )
 
 
-_SUPPORT_CACHE: dict[tuple[str, float, int], str] = {}
+_KEYS_CACHE: dict[tuple[str, float, int], frozenset] = {}
 
 
-def binary_help(binary: Path) -> str:
-    """`cubist render --help`, cached per binary file version."""
+def binary_keys(binary: Path) -> frozenset:
+    """The settings keys this binary accepts, cached per binary file version: the keys of
+    `cubist settings` (every key, resolved), else, for binaries older than that subcommand,
+    the flags of `cubist render --help` (every setting has a mirrored flag)."""
     st = binary.stat()
     key = (str(binary), st.st_mtime, st.st_size)
-    if key not in _SUPPORT_CACHE:
+    if key not in _KEYS_CACHE:
+        keys: frozenset = frozenset()
         try:
-            r = subprocess.run([str(binary), "render", "--help"], capture_output=True, text=True, timeout=30,
+            r = subprocess.run([str(binary), "settings"], capture_output=True, text=True, timeout=30,
                                **_popen_platform_args())
-            _SUPPORT_CACHE[key] = r.stdout + r.stderr
-        except (OSError, subprocess.SubprocessError):
-            _SUPPORT_CACHE[key] = ""
-    return _SUPPORT_CACHE[key]
+            data = json.loads(r.stdout) if r.returncode == 0 else None
+            if isinstance(data, dict):
+                keys = frozenset(data)
+        except (OSError, subprocess.SubprocessError, ValueError):
+            pass
+        if not keys:
+            try:
+                r = subprocess.run([str(binary), "render", "--help"], capture_output=True, text=True, timeout=30,
+                                   **_popen_platform_args())
+                flags = re.findall(r"--([a-z][a-z0-9-]*)", r.stdout + r.stderr)
+                keys = frozenset("passes" if f == "pass" else f.replace("-", "_") for f in flags) & SETTINGS_KEYS
+            except (OSError, subprocess.SubprocessError):
+                pass
+        _KEYS_CACHE[key] = keys
+    return _KEYS_CACHE[key]
 
 
 def binary_supports(binary: Path, key: str) -> bool:
-    """Whether this binary accepts the setting `key` (every setting has a mirrored flag)."""
-    return f"--{key.replace('_', '-')}" in binary_help(binary)
+    """Whether this binary accepts the setting `key`."""
+    return key in binary_keys(binary)
+
+
+def settings_for_binary(binary: Path, settings: Mapping[str, object]) -> dict:
+    """`settings` for this binary: optional keys it does not know are left out; any other
+    unknown key is an error saying the binary is older than the add-on (a binary set in the
+    preferences), rather than the renderer's bare `unknown key`."""
+    known = binary_keys(binary)
+    if not known:
+        return dict(settings)  # could not ask: let the renderer judge
+    out = {k: v for k, v in settings.items() if k in known or k not in OPTIONAL_KEYS}
+    unknown = sorted(k for k in out if k not in known)
+    if unknown:
+        raise CubistError(f"the cubist binary {binary} does not know the setting(s) {', '.join(unknown)}: it is "
+                          "older than this add-on (use the bundled one: clear Preferences > Add-ons > Cubist > "
+                          "Cubist Binary)")
+    return out
 
 
 # ---------------------------------------------------------------------------------------------
 # Settings
+
+
+def f32_decimal(v: float) -> float:
+    """The shortest decimal that is the same 32-bit float as `v`. Blender keeps float
+    properties in 32 bits, so a typed 0.85 reads back as 0.8500000238418579; the renderer
+    reads 64-bit numbers, and gets what was typed (as from `--border-strength 0.85`)."""
+    v = float(v)
+    if not math.isfinite(v):
+        return v
+    try:
+        bits = struct.pack("<f", v)
+    except OverflowError:
+        return v
+    x = struct.unpack("<f", bits)[0]
+    for digits in range(1, 10):
+        d = float(f"{x:.{digits}g}")
+        if struct.pack("<f", d) == bits:
+            return d
+    return x
 
 
 def parse_number_list(text: str, key: str, kind: type = float) -> list:
@@ -240,16 +297,21 @@ def layout_path(folder: Path, scene_name: str, settings: Mapping[str, object], l
 
 
 def uses_layout(settings: Mapping[str, object]) -> bool:
-    return settings.get("faceting", "none") != "none"
+    """Whether the add-on manages a layout file for these settings: faceted, and no layout
+    file of the user's (`facets`) already given."""
+    return settings.get("faceting", "none") != "none" and not settings.get("facets")
 
 
 def needs_saliency(settings: Mapping[str, object]) -> bool:
     """Whether the renderer computes mesh saliency for these settings (mirrors
     `Settings::needs_saliency` in src/settings.rs): only then is a saliency cache useful."""
     faceting = settings.get("faceting", "none")
-    reaims = (settings.get("imprecision", "saliency") == "saliency" and faceting != "none"
+    faceted = faceting != "none" or bool(settings.get("facets"))
+    reaims = (settings.get("imprecision", "saliency") == "saliency" and faceted
               and float(settings.get("discontinuity", 0.0)) > 0.0)
-    return reaims or faceting == "segment" or "saliency" in settings.get("passes", [])
+    segments = faceting == "segment" and not settings.get("facets")
+    passes = settings.get("passes", [])
+    return reaims or segments or "saliency" in passes or "facets" in passes
 
 
 @dataclass
@@ -264,11 +326,16 @@ class LayoutPlan:
     prepass_frame: Optional[int] = None
 
 
-def plan_layout(settings: Mapping[str, object], layout: Optional[Path], frame: int, layout_frame: int) -> LayoutPlan:
+def plan_layout(settings: Mapping[str, object], layout: Optional[Path], frame: int, layout_frame: int,
+                current: Optional[bool] = None) -> LayoutPlan:
+    """`current`: whether the saved layout is still the layout frame's (`layout_is_current`);
+    None: whenever the file exists."""
     s = dict(settings)
     if layout is None or not uses_layout(s):
         return LayoutPlan(s)
-    if layout.is_file():
+    if current is None:
+        current = layout.is_file()
+    if current:
         s["facets"] = str(layout)
         return LayoutPlan(s)
     if frame == layout_frame:
@@ -276,6 +343,56 @@ def plan_layout(settings: Mapping[str, object], layout: Optional[Path], frame: i
         return LayoutPlan(s)
     s["facets"] = str(layout)
     return LayoutPlan(s, prepass_frame=layout_frame)
+
+
+# Settings that decide the pre-render a Segment layout is computed from (besides the layout
+# frame's scene itself). Not the size: the layout is resolution-independent (its aspect ratio
+# is in the file name), so a 50% preview and the final share it.
+PRERENDER_KEYS = ("camera", "ambiguity", "framing", "focus_distance", "camera_position", "camera_target",
+                  "camera_up", "camera_size", "fill", "shadows", "background", "exposure", "spp")
+
+
+def layout_source(scene_file: Path, settings: Mapping[str, object]) -> str:
+    """What a Segment layout was computed from: a hash of the layout frame's exported scene
+    and of the settings that shape its pre-render. A layout whose recorded source differs is
+    stale (the camera, an object, a light or a material moved or changed on the layout frame)."""
+    h = hashlib.sha256()
+    with open(scene_file, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    view = {k: settings.get(k) for k in PRERENDER_KEYS}
+    h.update(json.dumps(view, sort_keys=True, default=str).encode())
+    return h.hexdigest()
+
+
+def source_path(layout: Path) -> Path:
+    return layout.with_name(layout.name + ".source")
+
+
+def layout_is_current(layout: Path, source: Optional[str]) -> bool:
+    """Whether the saved layout can be reused: it exists and, when its source matters
+    (`source` given: Segment faceting), was computed from that source."""
+    if not layout.is_file():
+        return False
+    if source is None:
+        return True
+    try:
+        return source_path(layout).read_text(encoding="utf-8").strip() == source
+    except OSError:
+        return False
+
+
+def forget_source(layout: Path) -> None:
+    """Before the layout is computed again: until the new source is recorded, it is stale."""
+    source_path(layout).unlink(missing_ok=True)
+
+
+def record_source(layout: Path, source: str) -> None:
+    """After the renderer saved the layout: what it was computed from (written atomically)."""
+    p = source_path(layout)
+    tmp = p.with_name(f".{p.name}.{os.getpid()}.tmp")
+    tmp.write_text(source + "\n", encoding="utf-8")
+    os.replace(tmp, p)
 
 
 def layout_prepass(settings: Mapping[str, object], layout: Path) -> dict:

@@ -1,12 +1,13 @@
 """Render-properties panels for the Cubist engine, grouped as the thesis groups its parameters
-(Camera, Facets, Spatial imprecision, Painterly, Sampling, Passes, Output), the preset menu,
-and the operators behind its buttons (apply/save presets, recompute the facet layout)."""
+(Camera, Facets, Spatial imprecision with Mesh saliency, Painterly, Sampling, Passes, Output),
+the preset menu, and the operators behind its buttons (apply/save presets, recompute the facet
+layout)."""
 
 import bpy
 from bl_operators.presets import AddPresetBase
 
 from . import engine, presets, runner
-from .presets import DEFAULTS
+from .properties import apply_look
 
 PRESET_SUBDIR = "cubist"
 
@@ -30,9 +31,7 @@ class CUBIST_OT_apply_preset(bpy.types.Operator):
         except KeyError as e:
             self.report({"ERROR"}, str(e))
             return {"CANCELLED"}
-        props = context.scene.cubist
-        for k, v in values.items():
-            setattr(props, k, v)
+        apply_look(context.scene.cubist, values)
         return {"FINISHED"}
 
 
@@ -43,7 +42,8 @@ class CUBIST_OT_preset_add(AddPresetBase, bpy.types.Operator):
     bl_label = "Add Cubist Preset"
     preset_menu = "CUBIST_MT_presets"
     preset_defines = ["cubist = bpy.context.scene.cubist"]
-    preset_values = [f"cubist.{k}" for k in DEFAULTS if k not in presets.NOT_IN_PRESETS]
+    # The preset first: setting it resets the look, the file's other values follow.
+    preset_values = [f"cubist.{k}" for k in presets.LOOK_KEYS]
     preset_subdir = PRESET_SUBDIR
 
 
@@ -54,8 +54,10 @@ class CUBIST_MT_presets(bpy.types.Menu):
 
     def draw(self, context):
         layout = self.layout
-        for name in presets.BUILTIN:
-            layout.operator(CUBIST_OT_apply_preset.bl_idname, text=name).name = name
+        for label, (_name, overrides) in presets.BUILTIN.items():
+            if overrides and label == next(iter(presets.VARIANTS)):
+                layout.separator()
+            layout.operator(CUBIST_OT_apply_preset.bl_idname, text=label).name = label
         paths = bpy.utils.preset_paths(PRESET_SUBDIR)
         if paths:
             layout.separator()
@@ -133,6 +135,9 @@ class CUBIST_PT_camera(CubistPanel, bpy.types.Panel):
             layout.prop(c, "ambiguity")
         layout.prop(c, "use_camera_focus")
         layout.prop(c, "framing")
+        row = layout.row()
+        row.active = c.framing == "FIT"
+        row.prop(c, "fill")
         if c.camera in {"PLANAR", "CYLINDRICAL", "ORTHOGRAPHIC"}:
             layout.prop(c, "camera_size")
 
@@ -158,7 +163,12 @@ class CUBIST_PT_facets(CubistPanel, bpy.types.Panel):
         elif f == "SEGMENT":
             layout.prop(c, "segments")
             layout.prop(c, "thresholds")
-        if f == "NONE":
+            layout.prop(c, "superpixels")
+            col = layout.column(heading="Affinity", align=True)
+            for key in ("weight_colour", "weight_normal", "weight_depth", "weight_object", "weight_saliency"):
+                col.prop(c, key)
+        layout.prop(c, "layout_file")
+        if f == "NONE" or c.layout_file:
             return
         col = layout.column(heading="Animation")
         col.prop(c, "static_facets")
@@ -168,7 +178,12 @@ class CUBIST_PT_facets(CubistPanel, bpy.types.Panel):
         sub.prop(c, "layout_folder")
         try:
             path = engine.current_layout_path(context.scene)
-            state = "saved" if path.is_file() else f"computed on frame {c.layout_frame} at next render"
+            if not path.is_file():
+                state = f"computed on frame {c.layout_frame} at next render"
+            elif c.faceting == "SEGMENT":
+                state = f"saved (again when frame {c.layout_frame}'s view changes)"
+            else:
+                state = "saved"
             sub.label(text=f"{path.name}: {state}", icon="FILE")
         except runner.CubistError as e:
             sub.label(text=str(e), icon="ERROR")
@@ -190,6 +205,22 @@ class CUBIST_PT_imprecision(CubistPanel, bpy.types.Panel):
         layout.prop(c, "facet_projection")
         if c.facet_projection == "LINEAR":
             layout.prop(c, "facet_fov")
+
+
+class CUBIST_PT_saliency(CubistPanel, bpy.types.Panel):
+    bl_label = "Mesh Saliency"
+    bl_parent_id = "CUBIST_PT_imprecision"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        c = context.scene.cubist
+        layout = self.layout
+        layout.use_property_split = True
+        layout.prop(c, "saliency_method")
+        layout.prop(c, "use_saliency_cache")
+        row = layout.row()
+        row.active = c.use_saliency_cache
+        row.prop(c, "saliency_cache")
 
 
 class CUBIST_PT_painterly(CubistPanel, bpy.types.Panel):
@@ -269,6 +300,7 @@ classes = (
     CUBIST_PT_camera,
     CUBIST_PT_facets,
     CUBIST_PT_imprecision,
+    CUBIST_PT_saliency,
     CUBIST_PT_painterly,
     CUBIST_PT_sampling,
     CUBIST_PT_passes,

@@ -47,6 +47,13 @@ def current_platform() -> str:
     return PLATFORMS[key]
 
 
+def _this_platform():
+    try:
+        return current_platform()
+    except SystemExit:
+        return None
+
+
 def manifest_for(platform_tag: str) -> tuple[str, str]:
     """The manifest text with `platforms` set, and the version."""
     text = (ADDON / "blender_manifest.toml").read_text(encoding="utf-8")
@@ -111,6 +118,18 @@ def main(argv=None) -> int:
     if not binary.is_file():
         print(f"error: {binary}: no such binary", file=sys.stderr)
         return 1
+    # The add-on's defaults and presets come from renderer_presets.json: it must be the
+    # bundled binary's (a binary for another platform cannot run here; the tests check the
+    # file against this checkout's build).
+    if args.platform is None or args.platform == _this_platform():
+        sys.path.insert(0, str(Path(__file__).resolve().parent))
+        from sync_addon_presets import check
+
+        diff = check(binary)
+        if diff:
+            print("error: blender_addon/renderer_presets.json differs from the binary's presets "
+                  "(run python3 scripts/sync_addon_presets.py):\n  " + "\n  ".join(diff), file=sys.stderr)
+            return 1
     out = build(binary, tag, args.out)
     print(out)
     return 0

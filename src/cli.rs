@@ -38,6 +38,10 @@ pub enum Command {
     /// pre-render, <stem>.layout.png the facets; with --pass segments also the superpixels and
     /// each level (<stem>.level1.png...), as in the thesis's Fig. 4.5.
     Facets(FacetsArgs),
+    /// Print the fully resolved, validated settings as JSON on stdout: every key, with the
+    /// preset's values and the defaults, after the config file and the flags (null = chosen
+    /// per scene, see each flag's help). Nothing is rendered.
+    Settings(SettingsCmdArgs),
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -135,6 +139,15 @@ pub struct FacetsArgs {
     pub verbose: bool,
     #[arg(long, value_enum, default_value = "auto")]
     pub progress: ProgressMode,
+    #[command(flatten)]
+    pub settings: SettingsArgs,
+}
+
+#[derive(Args, Debug)]
+pub struct SettingsCmdArgs {
+    /// JSON file of settings, as for `render`; flags override it.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
     #[command(flatten)]
     pub settings: SettingsArgs,
 }
@@ -239,7 +252,7 @@ pub struct SettingsArgs {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub exposure: Option<f32>,
 
-    /// Faceting method; segment follows the picture's forms (needs saliency) [default: none]
+    /// Faceting method; segment follows the picture's forms (needs saliency) [analytic: segment]
     #[arg(long, value_enum, help_heading = "Facets")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub faceting: Option<Faceting>,

@@ -6,7 +6,7 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::Parser;
-use cubist::cli::{Cli, Command, FacesArgs, FacetsArgs, ProgressMode, RenderArgs, SaliencyArgs};
+use cubist::cli::{Cli, Command, FacesArgs, FacetsArgs, ProgressMode, RenderArgs, SaliencyArgs, SettingsCmdArgs};
 use cubist::eval::evaluate;
 use cubist::output::{pass_path, write_png, write_png16};
 use cubist::progress::Progress;
@@ -26,6 +26,7 @@ fn main() -> ExitCode {
         Command::Faces(args) => run_faces(args),
         Command::Saliency(args) => run_saliency(args),
         Command::Facets(args) => run_facets(args),
+        Command::Settings(args) => run_settings(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -59,7 +60,11 @@ fn progress_for(mode: ProgressMode) -> Progress {
                 }
             }))
         }
-        ProgressMode::Lines => Progress::new(Box::new(|stage, f| eprintln!("PROGRESS {f:.4} {stage}"))),
+        // Written without `eprintln!`, which panics if the reader (the add-on) went away.
+        ProgressMode::Lines => Progress::new(Box::new(|stage, f| {
+            use std::io::Write;
+            let _ = writeln!(std::io::stderr(), "PROGRESS {f:.4} {stage}");
+        })),
         _ => Progress::silent(),
     }
 }
@@ -129,7 +134,7 @@ fn run_saliency(args: SaliencyArgs) -> anyhow::Result<()> {
         let t = std::time::Instant::now();
         let json = cubist::saliency::vertex_json(&prep, settings.saliency_cache.as_deref(), settings.saliency_method)?;
         stages.push(("vertex saliency", t.elapsed()));
-        println!("{}", serde_json::to_string(&json)?);
+        emit(&serde_json::to_string(&json)?)?;
     }
     progress.begin("done", 1);
     progress.finish();
@@ -205,19 +210,15 @@ fn run_faces(args: FacesArgs) -> anyhow::Result<()> {
         }
     }
     if args.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(
-                &serde_json::json!({ "width": base.width, "height": base.height, "spp": base.spp, "rows": rows })
-            )?
-        );
+        emit(&serde_json::to_string_pretty(
+            &serde_json::json!({ "width": base.width, "height": base.height, "spp": base.spp, "rows": rows }),
+        )?)?;
     } else {
-        println!("| scene | camera | angle | visible | total | % |");
-        println!("|---|---|---|---|---|---|");
+        let mut table = String::from("| scene | camera | angle | visible | total | % |\n|---|---|---|---|---|---|");
         for r in &rows {
             let angle = r["angle"].as_f64().map(|a| format!("{a}")).unwrap_or_else(|| "-".into());
-            println!(
-                "| {} | {} | {} | {} | {} | {:.1} |",
+            table += &format!(
+                "\n| {} | {} | {} | {} | {} | {:.1} |",
                 r["scene"].as_str().unwrap_or(""),
                 r["camera"].as_str().unwrap_or(""),
                 angle,
@@ -226,8 +227,25 @@ fn run_faces(args: FacesArgs) -> anyhow::Result<()> {
                 r["percent"].as_f64().unwrap_or(0.0)
             );
         }
+        emit(&table)?;
     }
     Ok(())
+}
+
+fn run_settings(args: SettingsCmdArgs) -> anyhow::Result<()> {
+    let settings = args.settings.resolve(args.config.as_deref())?;
+    emit(&serde_json::to_string_pretty(&settings)?)
+}
+
+/// Prints `text` and a newline on stdout. A reader that went away (`cubist settings | head`)
+/// ends the output quietly instead of panicking like `println!`.
+fn emit(text: &str) -> anyhow::Result<()> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match writeln!(out, "{text}").and_then(|()| out.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(e.into()),
+        _ => Ok(()),
+    }
 }
 
 fn run_facets(args: FacetsArgs) -> anyhow::Result<()> {

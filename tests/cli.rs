@@ -144,3 +144,102 @@ fn progress_lines_for_the_addon() {
         assert!((0.0..=1.0).contains(&f));
     }
 }
+
+/// `cubist settings` prints the resolved settings: every key (null where chosen per scene),
+/// the preset's values, then the config file, then the flags; bad values are usage errors.
+#[test]
+fn settings_prints_every_resolved_key_as_json() {
+    use cubist::settings::{Preset, Settings};
+    let dir = tempfile::tempdir().unwrap();
+    let parse = |out: &str| -> serde_json::Value { serde_json::from_str(out).expect("stdout is JSON") };
+
+    let (code, out, err) = run(dir.path(), &["settings"]);
+    assert_eq!(code, 0, "{err}");
+    let json = parse(&out);
+    // Every key of `Settings`, and back into Settings the defaults (the output is a valid
+    // config file; f32 values print as typed, 0.62 rather than 0.6200000047683716).
+    let keys = json.as_object().unwrap();
+    let all = serde_json::to_value(Settings::default()).unwrap();
+    assert!(keys.keys().eq(all.as_object().unwrap().keys()), "{out}");
+    let back: Settings = serde_json::from_value(json.clone()).unwrap();
+    assert_eq!(back, Settings::default());
+    assert_eq!(json["background"], serde_json::json!([0.62, 0.56, 0.46]));
+    for key in ["preset", "fill", "superpixels", "weight_object", "saliency_method", "saliency_cache", "passes"] {
+        assert!(keys.contains_key(key), "no `{key}` in {out}");
+    }
+    assert_eq!(json["preset"], "analytic");
+    assert_eq!(json["ambiguity"], serde_json::Value::Null);
+    assert_eq!(json["discontinuity"], 200.0);
+
+    for (name, preset) in [
+        ("analytic", Preset::Analytic),
+        ("braque", Preset::Braque),
+        ("blue-period", Preset::BluePeriod),
+        ("grisaille", Preset::Grisaille),
+        ("plain", Preset::Plain),
+    ] {
+        let (code, out, err) = run(dir.path(), &["settings", "--preset", name]);
+        assert_eq!(code, 0, "{name}: {err}");
+        let back: Settings = serde_json::from_value(parse(&out)).unwrap();
+        assert_eq!(back, Settings::preset(preset), "{name}");
+    }
+
+    // Layers: preset named in the file, file values, then flags.
+    std::fs::write(dir.path().join("s.json"), r#"{"preset": "braque", "width": 40, "colors": 3}"#).unwrap();
+    let (code, out, err) = run(dir.path(), &["settings", "--config", "s.json", "--colors", "5", "--pass", "depth"]);
+    assert_eq!(code, 0, "{err}");
+    let json = parse(&out);
+    assert_eq!((json["preset"].as_str(), json["width"].as_u64()), (Some("braque"), Some(40)));
+    assert_eq!((json["colors"].as_u64(), json["palette"].as_str()), (Some(5), Some("olive")));
+    assert_eq!(json["passes"], serde_json::json!(["depth"]));
+
+    // Validated like a render: one-line usage errors, nothing on stdout.
+    std::fs::write(dir.path().join("bad.json"), r#"{"widht": 40}"#).unwrap();
+    for args in [
+        &["settings", "--config", "bad.json"][..],
+        &["settings", "--fill", "1.5"],
+        &["settings", "--segments", "5,30", "--thresholds", "0"],
+    ] {
+        let (code, out, err) = run(dir.path(), args);
+        assert_eq!(code, 2, "{args:?}: {err}");
+        assert!(out.is_empty() && err.trim().lines().count() == 1, "{args:?}: {out} {err}");
+    }
+}
+
+/// Every `[default: X]` / `[analytic: X]` written in a flag's help is the value the settings
+/// really take (the help is hand-written; this keeps it honest when a preset changes).
+#[test]
+fn help_defaults_match_the_settings() {
+    use clap::CommandFactory;
+    let defaults = serde_json::to_value(cubist::Settings::default()).unwrap();
+    let cli = cubist::cli::Cli::command();
+    let render = cli.find_subcommand("render").unwrap();
+    let mut checked = 0;
+    for arg in render.get_arguments() {
+        let key = arg.get_id().as_str();
+        let key = if key == "pass" { "passes" } else { key };
+        let Some(value) = defaults.get(key) else { continue };
+        let help = arg.get_help().map(|h| h.to_string()).unwrap_or_default();
+        let Some(start) = help.find("[default: ").map(|i| i + 10).or_else(|| help.find("[analytic: ").map(|i| i + 11))
+        else {
+            continue;
+        };
+        let stated = help[start..].split(']').next().unwrap();
+        let stated = stated.split([' ', ';']).next().unwrap();
+        let actual = match value {
+            serde_json::Value::Null => continue, // chosen per scene: the help describes how
+            serde_json::Value::String(s) => s.clone(),
+            serde_json::Value::Array(a) => a.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(","),
+            v => v.to_string(),
+        };
+        let same = stated == actual
+            || matches!((stated.parse::<f64>(), actual.parse::<f64>()), (Ok(a), Ok(b)) if (a - b).abs() < 1e-9)
+            || (actual.contains(',')
+                && stated.split(',').zip(actual.split(',')).all(
+                    |(a, b)| matches!((a.parse::<f64>(), b.parse::<f64>()), (Ok(x), Ok(y)) if (x - y).abs() < 1e-6),
+                ));
+        assert!(same, "--{}: the help says {stated}, the default is {actual}", key.replace('_', "-"));
+        checked += 1;
+    }
+    assert!(checked > 25, "only {checked} defaults checked");
+}

@@ -1,5 +1,6 @@
-"""The add-on in headless Blender (bpy 5.0.1): enable, F12, animation with static facets,
-cancel, errors, panel -> settings JSON, render passes, the extension zip.
+"""The add-on in headless Blender (bpy 5.0.1): enable, F12 against the CLI, the panel's
+defaults and presets against the binary's, animation with static facets, cancel, errors,
+panel -> settings JSON, render passes, the extension zip.
 
 Small images (64x48, 1 sample) keep the whole file to a few seconds of rendering."""
 
@@ -10,6 +11,7 @@ import struct
 import subprocess
 import sys
 import tempfile
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -58,8 +60,8 @@ def test_addon_enables_with_engine_panels_and_properties(bpy):
     assert scene.render.engine == "CUBIST"
     assert scene.cubist.ambiguity == 140.0
     for name in ("CUBIST_PT_render", "CUBIST_PT_camera", "CUBIST_PT_facets", "CUBIST_PT_imprecision",
-                 "CUBIST_PT_painterly", "CUBIST_PT_sampling", "CUBIST_PT_passes", "CUBIST_PT_output",
-                 "CUBIST_MT_presets"):
+                 "CUBIST_PT_saliency", "CUBIST_PT_painterly", "CUBIST_PT_sampling", "CUBIST_PT_passes",
+                 "CUBIST_PT_output", "CUBIST_MT_presets"):
         assert hasattr(bpy.types, name), name
     # Blender's generic panels (output format, camera lens and depth of field) show for Cubist.
     assert "CUBIST" in bpy.types.DATA_PT_camera_dof.COMPAT_ENGINES
@@ -122,8 +124,20 @@ def test_every_panel_draws_existing_properties(bpy, engine):
     assert props - set(drawn) == set(), "not shown in any panel"
 
 
+def cli_render(tmp_path, scene_glb, out, settings_json=None, args=()):
+    argv = [str(BINARY), "render", str(scene_glb), "-o", str(out), *args]
+    if settings_json is not None:
+        cfg = tmp_path / "settings.json"
+        cfg.write_text(settings_json)
+        argv += ["--config", str(cfg)]
+    r = subprocess.run(argv, capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    return out
+
+
 def test_f12_renders_the_cli_picture(bpy, engine, tmp_path):
     scene = new_scene(bpy)
+    scene.cubist.preset = "PLAIN"  # no palette: the background keeps the world's colour
     set_world_colour(scene, (0.3, 0.35, 0.4))
     out = render_still(bpy, scene, tmp_path / "f12.png")
     assert out.is_file(), engine.last_run
@@ -141,14 +155,82 @@ def test_f12_renders_the_cli_picture(bpy, engine, tmp_path):
     # The CLI on the same exported scene with the same settings gives the same pixels.
     export = sys.modules["blender_addon.export"]
     glb = export.export_glb(scene, bpy.context.view_layer, scene.frame_current, tmp_path / "scene.glb")
-    cfg = tmp_path / "settings.json"
-    cfg.write_text(engine.last_run["settings_json"])
-    cli_out = tmp_path / "cli.png"
-    r = subprocess.run([str(BINARY), "render", str(glb), "-o", str(cli_out), "--config", str(cfg)],
-                       capture_output=True, text=True)
-    assert r.returncode == 0, r.stderr
-    cli = read_png(bpy, cli_out)
+    cli = read_png(bpy, cli_render(tmp_path, glb, tmp_path / "cli.png", engine.last_run["settings_json"]))
     assert np.abs(cli - img).max() <= 1.0 / 255 + 1e-6
+
+
+def test_f12_with_an_untouched_panel_is_cubist_render(bpy, engine, tmp_path):
+    """An untouched panel paints what `cubist render` paints with its defaults (the analytic
+    preset): only what Blender decides (size, camera, world colour, samples) is given as flags."""
+    scene = new_scene(bpy, 80, 60)
+    out = render_still(bpy, scene, tmp_path / "f12.png")
+    sent = json.loads(engine.last_run["settings_json"])
+    assert (sent["preset"], sent["faceting"], sent["palette"]) == ("analytic", "segment", "ochre")
+    export = sys.modules["blender_addon.export"]
+    glb = export.export_glb(scene, bpy.context.view_layer, scene.frame_current, tmp_path / "scene.glb")
+    vec = lambda k: ",".join(repr(float(c)) for c in sent[k])  # noqa: E731
+    flags = ["--width", "80", "--height", "60", "--spp", "1", "--camera-position", vec("camera_position"),
+             "--camera-target", vec("camera_target"), "--camera-up", vec("camera_up"), "--background",
+             vec("background")]
+    cli = cli_render(tmp_path, glb, tmp_path / "cli.png", args=flags)
+    img, ref = read_png(bpy, out), read_png(bpy, cli)
+    assert np.array_equal(img, ref), f"max difference {np.abs(img - ref).max() * 255:.1f}/255"
+    # A painted picture, not a blank one: many colours.
+    assert len(np.unique(np.round(img[..., :3] * 255).reshape(-1, 3), axis=0)) > 30
+
+
+def binary_settings(*args):
+    r = subprocess.run([str(BINARY), "settings", *args], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    return json.loads(r.stdout)
+
+
+def effective(settings):
+    """Resolved settings as the renderer uses them, nulls dropped (null ambiguity = 140 deg
+    for cubist cameras, which the panel sends explicitly)."""
+    s = {k: v for k, v in settings.items() if v is not None}
+    if "ambiguity" not in s and s["camera"] not in ("perspective", "orthographic"):
+        s["ambiguity"] = 140.0
+    return s
+
+
+def panel_settings(scene):
+    """The settings the panel gives without a camera or world, at the binary's default size."""
+    mapping = sys.modules["blender_addon.mapping"]
+    engine = sys.modules["blender_addon.engine"]
+    panel = dict(engine._panel(scene.cubist), use_world_background=False)
+    return mapping.settings_from_panel(panel, mapping.SceneFacts(width=800, height=600, frame=1))
+
+
+def test_panel_defaults_and_presets_are_the_binarys(bpy):
+    """In Blender (32-bit float properties): the untouched panel is `cubist settings`, and
+    choosing each preset in the panel's Preset menu is `cubist settings --preset NAME`."""
+    scene = new_scene(bpy)
+    scene.cubist.spp = 4  # new_scene's previews use 1; the binary's default is 4
+    assert panel_settings(scene) == effective(binary_settings())
+    presets = sys.modules["blender_addon.presets"]
+    for name in presets.PRESET_LABELS:
+        c = scene.cubist
+        c.discontinuity, c.palette, c.faceting, c.weight_object, c.fill = 3.0, "GREY", "PATCH", 0.1, 0.5
+        c.preset = presets.enum_id(name)
+        assert panel_settings(scene) == effective(binary_settings("--preset", name)), name
+
+
+def test_every_enum_choice_is_accepted_by_the_binary(bpy, tmp_path):
+    scene = new_scene(bpy)
+    presets = sys.modules["blender_addon.presets"]
+    for key in presets.ENUM_KEYS:
+        for item in scene.cubist.bl_rna.properties[key].enum_items:
+            scene.cubist.preset = "ANALYTIC"
+            setattr(scene.cubist, key, item.identifier)
+            s = panel_settings(scene)
+            if s["faceting"] == "constant":
+                s["facet_map"] = str(tmp_path / "map.png")
+            cfg = tmp_path / "s.json"
+            cfg.write_text(json.dumps(s))
+            r = subprocess.run([str(BINARY), "settings", "--config", str(cfg)], capture_output=True, text=True)
+            assert r.returncode == 0, f"{key} = {item.identifier}: {r.stderr}"
+            assert json.loads(r.stdout)[key] == s[key]
 
 
 def test_settings_json_follows_the_panel_and_the_scene(bpy, engine, tmp_path):
@@ -159,23 +241,27 @@ def test_settings_json_follows_the_panel_and_the_scene(bpy, engine, tmp_path):
     c.discontinuity = 120.0
     c.ambiguity = 150.0
     c.spp = 2
-    c.palette = "OCHRE"
+    c.palette = "OLIVE"
+    c.weight_depth = 0.75
+    c.fill = 0.7
     scene.render.resolution_percentage = 50
     scene.render.film_transparent = True
     set_world_colour(scene, (0.5, 0.25, 0.125))
     render_still(bpy, scene, tmp_path / "b.png")
     after = json.loads(engine.last_run["settings_json"])
-    assert before["discontinuity"] == 0.0 and after["discontinuity"] == 120.0
+    assert (before["discontinuity"], after["discontinuity"]) == (200.0, 120.0)
     assert (before["ambiguity"], after["ambiguity"]) == (140.0, 150.0)
     assert (before["spp"], after["spp"]) == (1, 2)
-    assert after["palette"] == "ochre"
+    assert (before["palette"], after["palette"]) == ("ochre", "olive")
+    assert (before["weight_depth"], after["weight_depth"]) == (0.5, 0.75)
+    assert "fill" not in before and after["fill"] == 0.7  # typed values, not 32-bit floats' digits
     assert (after["width"], after["height"]) == (24, 16)
     assert after["transparent"] is True
     assert after["background"] == pytest.approx([0.5, 0.25, 0.125])
     # The Blender camera at (0, -6, 0.5) is at (0, 0.5, 6) in the exported (Y-up) scene.
     assert after["camera_position"] == pytest.approx([0.0, 0.5, 6.0], abs=1e-5)
     # Untouched values stay.
-    for k in ("faceting", "seed", "camera", "border_width"):
+    for k in ("faceting", "seed", "camera", "border_width", "superpixels", "saliency_method"):
         assert before[k] == after[k]
 
 
@@ -193,10 +279,15 @@ def test_render_region_is_the_same_part_of_the_frame(bpy, tmp_path):
 
 def test_builtin_preset_operator_sets_the_panel(bpy):
     scene = new_scene(bpy)
-    bpy.ops.cubist.apply_preset(name="Voronoi facets")
-    assert scene.cubist.faceting == "VORONOI" and scene.cubist.discontinuity == 100.0
-    bpy.ops.cubist.apply_preset(name="Default")
-    assert scene.cubist.faceting == "NONE" and scene.cubist.discontinuity == 0.0
+    scene.cubist.pass_depth = True
+    bpy.ops.cubist.apply_preset(name="Voronoi Facets")
+    c = scene.cubist
+    assert (c.preset, c.faceting, c.discontinuity, c.palette) == ("ANALYTIC", "VORONOI", 200.0, "OCHRE")
+    bpy.ops.cubist.apply_preset(name="Plain")
+    assert (c.preset, c.faceting, c.discontinuity, c.palette, c.border_width) == ("PLAIN", "NONE", 0.0, "NONE", 0.0)
+    bpy.ops.cubist.apply_preset(name="Braque")
+    assert (c.preset, c.faceting, c.palette, c.colors, c.ambiguity) == ("BRAQUE", "SEGMENT", "OLIVE", 8, 150.0)
+    assert c.spp == 1 and c.pass_depth  # sampling and passes are not part of a look
 
 
 def test_user_presets_save_and_load(bpy):
@@ -207,7 +298,7 @@ def test_user_presets_save_and_load(bpy):
     path = Path(bpy.utils.preset_find("My Look", "cubist", display_name=True))
     try:
         assert "cubist.discontinuity = 77.0" in path.read_text()
-        bpy.ops.cubist.apply_preset(name="Default")
+        bpy.ops.cubist.apply_preset(name="Plain")
         assert scene.cubist.faceting == "NONE"
         bpy.ops.script.execute_preset(filepath=str(path), menu_idname="CUBIST_MT_presets")
         assert (scene.cubist.faceting, scene.cubist.discontinuity, scene.cubist.ambiguity) == ("PATCH", 77.0, 123.0)
@@ -288,7 +379,7 @@ def test_cancel_kills_the_renderer_and_leaves_no_temp_files(bpy, engine, tmp_pat
 # Animation: moving camera and object, static facets
 
 
-def animated_scene(bpy, layout_dir: Path):
+def animated_scene(bpy, layout_dir: Path, faceting="VORONOI"):
     scene = new_scene(bpy, 64, 48)
     scene.frame_start, scene.frame_end = 1, 3
     cam = scene.camera
@@ -300,16 +391,17 @@ def animated_scene(bpy, layout_dir: Path):
         cube.location.z = z
         cube.keyframe_insert("location", index=2, frame=frame)
     c = scene.cubist
-    c.faceting = "VORONOI"
-    c.facet_count = 12
-    c.grid_cells = 4
-    c.discontinuity = 100.0
+    c.faceting = faceting
+    if faceting == "VORONOI":
+        c.facet_count = 12
+        c.grid_cells = 4
+        c.discontinuity = 100.0
     c.static_facets = True
     c.layout_folder = str(layout_dir)
     return scene
 
 
-def render_animation(bpy, scene, out_dir: Path, layout_hashes: list):
+def render_animation(bpy, scene, out_dir: Path, layout_hashes: list, ext="png"):
     def snapshot(scene_, *args):
         layouts = sorted(Path(scene_.cubist.layout_folder).glob("*.facets.json"))
         layout_hashes.append({p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in layouts})
@@ -320,11 +412,10 @@ def render_animation(bpy, scene, out_dir: Path, layout_hashes: list):
         bpy.ops.render.render(animation=True)
     finally:
         bpy.app.handlers.render_post.remove(snapshot)
-    return {f: out_dir / f"frame_{f:04d}.png" for f in range(scene.frame_start, scene.frame_end + 1)}
+    return {f: out_dir / f"frame_{f:04d}.{ext}" for f in range(scene.frame_start, scene.frame_end + 1)}
 
 
 def test_animation_renders_every_frame_with_one_layout(bpy, engine, tmp_path):
-    """Needs the renderer's `save_facets`/`facets` (facets branch) for the layout asserts."""
     scene = animated_scene(bpy, tmp_path / "layouts")
     engine.history.clear()
     hashes = []
@@ -345,13 +436,13 @@ def test_animation_renders_every_frame_with_one_layout(bpy, engine, tmp_path):
     assert len(hashes) == 3 and hashes[0] == hashes[1] == hashes[2] and hashes[0], hashes
 
 
-def test_frame_chunks_match_one_run(bpy, engine, tmp_path):
+@pytest.mark.parametrize("faceting", ["VORONOI", "SEGMENT"])
+def test_frame_chunks_match_one_run(bpy, engine, tmp_path, faceting):
     """Frames 2-3 rendered alone (another process or farm machine, no layout yet) equal the
-    same frames of a 1-3 run: the chunk computes the layout on frame 1 first.
-    Needs the renderer's `save_facets`/`facets` (facets branch)."""
-    scene = animated_scene(bpy, tmp_path / "layouts_full")
+    same frames of a 1-3 run: the chunk computes the layout on frame 1 first."""
+    scene = animated_scene(bpy, tmp_path / "layouts_full", faceting)
     full = render_animation(bpy, scene, tmp_path / "full", [])
-    scene = animated_scene(bpy, tmp_path / "layouts_chunk")
+    scene = animated_scene(bpy, tmp_path / "layouts_chunk", faceting)
     # A farm chunk: `blender -b file.blend -E CUBIST -s 2 -e 3 -a` moves the frame range start.
     scene.frame_start, scene.frame_end = 2, 3
     chunk = render_animation(bpy, scene, tmp_path / "chunk", [])
@@ -361,6 +452,97 @@ def test_frame_chunks_match_one_run(bpy, engine, tmp_path):
     assert full_layouts[0].read_bytes() == chunk_layouts[0].read_bytes()
     for f in (2, 3):
         assert np.array_equal(read_png(bpy, full[f]), read_png(bpy, chunk[f])), f"frame {f} differs"
+
+
+def test_static_segment_facets_stay_while_the_picture_moves(bpy, engine, tmp_path):
+    """The default look (Segment facets, computed from the layout frame's pre-render):
+    every frame has the same facets, down to each pixel's facet id, while the camera and the
+    cube move through them."""
+    scene = animated_scene(bpy, tmp_path / "layouts", faceting="SEGMENT")
+    assert scene.cubist.preset == "ANALYTIC"
+    scene.cubist.pass_facet_ids = True
+    use_multilayer_exr(scene)
+    engine.history.clear()
+    hashes = []
+    frames = render_animation(bpy, scene, tmp_path / "out", hashes, ext="exr")
+    runs = [h for h in engine.history if h["frame"] in frames]
+    assert [h["settings"]["faceting"] for h in runs] == ["segment"] * 3
+    assert [bool(h["settings"].get("save_facets")) for h in runs] == [True, False, False]
+    assert len(hashes) == 3 and hashes[0] == hashes[1] == hashes[2] and hashes[0], hashes
+    layer = bpy.context.view_layer.name
+    ch = {f: exr_channels(p) for f, p in frames.items()}
+    ids = [ch[f][f"{layer}.Facet Index.X"] for f in frames]
+    assert len(np.unique(ids[0])) >= 4, np.unique(ids[0])
+    assert all(np.array_equal(ids[0], i) for i in ids[1:]), "the facets moved between frames"
+    rgb = [np.stack([ch[f][f"{layer}.Combined.{c}"] for c in "RGB"]) for f in frames]
+    for a, b in ((0, 1), (1, 2), (0, 2)):
+        assert np.abs(rgb[a] - rgb[b]).max() > 0.1, f"frames {a + 1} and {b + 1} are the same picture"
+
+
+def test_segment_layout_follows_what_the_layout_frame_shows(bpy, engine, tmp_path):
+    """A Segment layout is reused while the layout frame shows the same thing; a camera or an
+    object moved there gives new facets (on the next render, whatever its frame); painterly
+    changes keep them."""
+    scene = new_scene(bpy)
+    c = scene.cubist
+    c.layout_folder = str(tmp_path / "layouts")
+    assert c.faceting == "SEGMENT" and c.static_facets
+    layout_bytes = lambda: Path(engine.last_run["layout"]).read_bytes()  # noqa: E731
+
+    render_still(bpy, scene, tmp_path / "1.png")
+    assert "save_facets" in engine.last_run["settings"]
+    first = layout_bytes()
+    c.palette = "GREY"
+    render_still(bpy, scene, tmp_path / "2.png")
+    assert "facets" in engine.last_run["settings"] and "save_facets" not in engine.last_run["settings"]
+    assert layout_bytes() == first
+
+    scene.camera.location.x += 0.6
+    render_still(bpy, scene, tmp_path / "3.png")
+    assert "save_facets" in engine.last_run["settings"], "the camera moved: the layout is stale"
+    moved = layout_bytes()
+    assert moved != first
+
+    # From another frame: the layout frame is checked, and the layout computed there again.
+    scene.objects["Cube"].location.z += 0.5
+    scene.frame_set(5)
+    render_still(bpy, scene, tmp_path / "5.png")
+    assert engine.last_run["prepass"] == 1 and engine.last_run["settings"]["facets"] == engine.last_run["layout"]
+    assert layout_bytes() != moved
+    render_still(bpy, scene, tmp_path / "5b.png")
+    assert engine.last_run["prepass"] is None  # unchanged since: reused
+    assert np.array_equal(read_png(bpy, tmp_path / "5.png"), read_png(bpy, tmp_path / "5b.png"))
+
+
+def test_a_layout_file_of_the_users_is_used_for_every_frame(bpy, engine, tmp_path):
+    scene = animated_scene(bpy, tmp_path / "layouts")
+    render_still(bpy, scene, tmp_path / "first.png")
+    saved = engine.last_run["settings"]["save_facets"]
+    own = tmp_path / "mine.facets.json"
+    own.write_bytes(Path(saved).read_bytes())
+    scene.cubist.layout_file = str(own)
+    scene.frame_set(3)
+    render_still(bpy, scene, tmp_path / "third.png")
+    sent = engine.last_run["settings"]
+    assert sent["facets"] == str(own) and "save_facets" not in sent, sent
+    assert engine.last_run["layout"] is None  # no layout of the add-on's
+
+
+def test_saliency_cache_follows_the_panel(bpy, engine, tmp_path):
+    scene = new_scene(bpy)  # Segment faceting: mesh saliency is computed
+    scene.cubist.layout_folder = str(tmp_path / "layouts")
+    render_still(bpy, scene, tmp_path / "a.png")
+    cache = tmp_path / "layouts" / "saliency"
+    assert engine.last_run["settings"]["saliency_cache"] == str(cache)
+    assert any(cache.iterdir()), "no saliency was cached"
+    scene.cubist.saliency_cache = str(tmp_path / "elsewhere")
+    render_still(bpy, scene, tmp_path / "b.png")
+    assert any((tmp_path / "elsewhere").iterdir())
+    scene.cubist.use_saliency_cache = False
+    render_still(bpy, scene, tmp_path / "c.png")
+    assert "saliency_cache" not in engine.last_run["settings"]
+    # The cache saves time only: the same picture.
+    assert np.array_equal(read_png(bpy, tmp_path / "a.png"), read_png(bpy, tmp_path / "c.png"))
 
 
 def test_recompute_layout_removes_the_saved_layout(bpy, engine, tmp_path):
@@ -427,38 +609,92 @@ def exr_channels(path: Path) -> dict:
     return out
 
 
-def test_passes_reach_the_render_result(bpy, engine, tmp_path):
-    """Object colours and depth (the renderer writes them today) arrive as Blender passes
-    with the renderer's values; saliency and facet ids work the same way once written."""
-    scene = new_scene(bpy)
-    scene.cubist.pass_objects = True
-    scene.cubist.pass_depth = True
+def use_multilayer_exr(scene):
     settings = scene.render.image_settings
     if hasattr(settings, "media_type"):  # Blender 5; 4.x has the file format only
         settings.media_type = "MULTI_LAYER_IMAGE"
     settings.file_format = "OPEN_EXR_MULTILAYER"
     settings.exr_codec = "NONE"
     settings.color_depth = "32"
+
+
+def png16_grey(path: Path) -> np.ndarray:
+    """A 16-bit greyscale PNG as (h, w) integers, rows top-down: decoded here (zlib and the
+    PNG filters), independently of Blender's image loading the add-on uses."""
+    data = path.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n"
+    pos, idat, ihdr = 8, b"", None
+    while pos < len(data):
+        n, kind = struct.unpack(">I4s", data[pos:pos + 8])
+        body = data[pos + 8:pos + 8 + n]
+        pos += 12 + n
+        if kind == b"IHDR":
+            ihdr = struct.unpack(">IIBBBBB", body)
+        elif kind == b"IDAT":
+            idat += body
+    w, h, depth, colour_type, _, _, interlace = ihdr
+    assert (depth, colour_type, interlace) == (16, 0, 0), ihdr
+    raw, stride, bpp = zlib.decompress(idat), 2 * w, 2
+    rows, prev = [], [0] * stride
+    for y in range(h):
+        f, line = raw[y * (stride + 1)], raw[y * (stride + 1) + 1:(y + 1) * (stride + 1)]
+        cur = [0] * stride
+        for x in range(stride):
+            a = cur[x - bpp] if x >= bpp else 0
+            b, c = prev[x], (prev[x - bpp] if x >= bpp else 0)
+            if f == 0:
+                pred = 0
+            elif f == 1:
+                pred = a
+            elif f == 2:
+                pred = b
+            elif f == 3:
+                pred = (a + b) // 2
+            else:
+                pa, pb, pc = abs(b - c), abs(a - c), abs(a + b - 2 * c)
+                pred = a if pa <= pb and pa <= pc else (b if pb <= pc else c)
+            cur[x] = (line[x] + pred) & 0xFF
+        rows.append(cur)
+        prev = cur
+    return np.array(rows, dtype=np.uint8).view(">u2").astype(np.int64)
+
+
+def test_passes_reach_the_render_result(bpy, engine, tmp_path):
+    """Every pass arrives in Blender's render result (compositor, multilayer EXR) with the
+    renderer's values: saliency 0-1, facet ids as exact integers, the rest as data colours."""
+    scene = new_scene(bpy)
+    for toggle in ("pass_saliency", "pass_facet_ids", "pass_facets", "pass_segments", "pass_objects",
+                   "pass_normals", "pass_depth"):
+        setattr(scene.cubist, toggle, True)
+    use_multilayer_exr(scene)
     scene.render.filepath = str(tmp_path / "passes.exr")
     bpy.ops.render.render(write_still=True)
     ch = exr_channels(tmp_path / "passes.exr")
     layer = bpy.context.view_layer.name
-    for name in ("Object Colors.R", "Object Colors.G", "Object Colors.B", "Cubist Depth.X"):
-        assert f"{layer}.{name}" in ch, sorted(ch)
+    mapping = sys.modules["blender_addon.mapping"]
+    for _toggle, _name, bname, channels, chan_id, _kind in mapping.PASSES:
+        for c in (chan_id if channels == 3 else "X"):
+            assert f"{layer}.{bname}.{c}" in ch, sorted(ch)
     # The same passes from the CLI on the same scene and settings.
     export = sys.modules["blender_addon.export"]
     glb = export.export_glb(scene, bpy.context.view_layer, scene.frame_current, tmp_path / "scene.glb")
-    cfg = tmp_path / "settings.json"
-    cfg.write_text(engine.last_run["settings_json"])
-    r = subprocess.run([str(BINARY), "render", str(glb), "-o", str(tmp_path / "cli.png"), "--config", str(cfg)],
-                       capture_output=True, text=True)
-    assert r.returncode == 0, r.stderr
+    cli_render(tmp_path, glb, tmp_path / "cli.png", engine.last_run["settings_json"])
+    exr = lambda name: ch[f"{layer}.{name}"][::-1]  # noqa: E731 (EXR rows run top-down, Blender's bottom-up)
     depth = read_png(bpy, tmp_path / "cli.depth.png")[..., 0]
-    objects = read_png(bpy, tmp_path / "cli.objects.png")
-    # EXR rows run top-down, Blender images bottom-up.
-    assert np.abs(ch[f"{layer}.Cubist Depth.X"][::-1] - depth).max() < 1e-6
-    assert np.abs(ch[f"{layer}.Object Colors.G"][::-1] - objects[..., 1]).max() < 1e-6
+    assert np.abs(exr("Cubist Depth.X") - depth).max() < 1e-6
     assert depth.std() > 0.05  # not an empty pass
+    for bname, name in (("Object Colors", "objects"), ("Cubist Normal", "normals"), ("Facets", "facets"),
+                        ("Segments", "segments")):
+        png = read_png(bpy, tmp_path / f"cli.{name}.png")
+        for i, c in enumerate("RGB"):
+            assert np.abs(exr(f"{bname}.{c}") - png[..., i]).max() < 1e-6, (bname, c)
+    saliency = read_png(bpy, tmp_path / "cli.saliency.png")[..., 0]
+    assert np.abs(exr("Saliency.X") - saliency).max() < 1e-6 and saliency.max() > 0.5
+    # Facet ids: the 16-bit PNG decoded here, top-down like the EXR's rows.
+    ids = ch[f"{layer}.Facet Index.X"]
+    expected = png16_grey(tmp_path / "cli.facet-ids.png")
+    assert np.array_equal(ids, expected.astype(np.float32)), np.abs(ids - expected).max()
+    assert len(np.unique(expected)) >= 4
 
 
 # ---------------------------------------------------------------------------------------------

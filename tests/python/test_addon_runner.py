@@ -1,5 +1,6 @@
 """The add-on's bpy-free part (runner, mapping, presets), tested in plain Python: finding the
-binary, the settings contract with src/settings.rs, argv, progress and error parsing, cancel,
+binary, the settings contract with src/settings.rs and the binary (`cubist settings`), the
+panel defaults and presets against the renderer's, argv, progress and error parsing, cancel,
 temporary files, the facet layout plan, the Blender camera mapping."""
 
 import json
@@ -48,6 +49,28 @@ def test_settings_keys_match_settings_rs():
     assert runner.SETTINGS_KEYS == settings_rs_keys()
 
 
+def settings_rs_presets():
+    text = (ROOT / "src" / "settings.rs").read_text()
+    body = text[text.index("    Preset {"):]
+    body = body[:body.index("\n    }\n")]
+    return re.findall(r'= "([a-z-]+)"', body)
+
+
+def binary_settings(binary, *args):
+    r = subprocess.run([str(binary), "settings", *args], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    return json.loads(r.stdout)
+
+
+def effective(settings):
+    """Resolved settings as the renderer uses them, nulls dropped: a null `ambiguity` is
+    140 deg for cubist cameras (Settings::angle_deg), which the panel sends explicitly."""
+    s = {k: v for k, v in settings.items() if v is not None}
+    if "ambiguity" not in s and s["camera"] not in ("perspective", "orthographic"):
+        s["ambiguity"] = 140.0
+    return s
+
+
 def default_facts(**kw):
     return mapping.SceneFacts(width=kw.pop("width", 64), height=kw.pop("height", 48), frame=kw.pop("frame", 1), **kw)
 
@@ -56,9 +79,102 @@ def test_panel_defaults_cover_every_setting_the_panel_owns():
     s = mapping.settings_from_panel(dict(presets.DEFAULTS), default_facts())
     # The keys the add-on does not send from the panel: camera frame (no camera here), files
     # it decides per frame (layout), paths left empty, and the focus (none without a camera).
-    not_sent = {"camera_position", "camera_target", "camera_up", "focus_distance", "camera_size", "facets",
-                "save_facets", "facet_map", "palette_image"}
+    # `fill` and `camera_size` are automatic (0 in the panel, null in the settings); the engine
+    # adds the saliency cache folder.
+    not_sent = {"camera_position", "camera_target", "camera_up", "focus_distance", "camera_size", "fill", "facets",
+                "save_facets", "facet_map", "palette_image", "saliency_cache"}
     assert set(s) == runner.SETTINGS_KEYS - not_sent
+
+
+# ---------------------------------------------------------------------------------------------
+# Defaults and presets: the renderer's own
+
+
+def test_renderer_presets_file_is_the_binarys(cubist_binary):
+    """blender_addon/renderer_presets.json (where the panel's defaults and presets come from)
+    is what this checkout's binary prints: a changed default or preset fails here until
+    `python3 scripts/sync_addon_presets.py` is run."""
+    sys.path.insert(0, str(ROOT / "scripts"))
+    try:
+        import sync_addon_presets
+    finally:
+        sys.path.pop(0)
+    assert sync_addon_presets.check(cubist_binary) == []
+    r = subprocess.run([sys.executable, str(ROOT / "scripts" / "sync_addon_presets.py"), "--check", "--binary",
+                        str(cubist_binary)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+
+
+def test_presets_are_the_renderers_presets():
+    names = settings_rs_presets()
+    assert names and set(names) == set(presets.RENDERER_PRESETS) == set(presets.PRESET_LABELS)
+    assert presets.DEFAULTS["preset"] == "ANALYTIC"
+    # Every renderer preset is in the menu, then the variants.
+    assert list(presets.BUILTIN)[:len(names)] == [presets.PRESET_LABELS[n][0] for n in presets.PRESET_LABELS]
+
+
+def test_an_untouched_panel_sends_cubist_renders_defaults(cubist_binary):
+    """F12 with an untouched panel renders what `cubist render` renders: the panel's
+    defaults, through the mapping, are the binary's resolved defaults (at the binary's
+    default size, without a Blender camera or world)."""
+    panel = dict(presets.DEFAULTS, use_world_background=False)
+    sent = mapping.settings_from_panel(panel, default_facts(width=800, height=600))
+    assert sent == effective(binary_settings(cubist_binary))
+
+
+@pytest.mark.parametrize("name", list(presets.PRESET_LABELS))
+def test_each_preset_sends_the_binarys_preset(cubist_binary, name):
+    """Choosing a preset in the panel sends exactly `cubist render --preset NAME`'s settings,
+    whatever the panel held before (every look value is set)."""
+    panel = dict(presets.DEFAULTS, use_world_background=False)
+    panel.update(discontinuity=3.0, palette="GREY", faceting="PATCH", weight_depth=2.0, fill=0.5, colors=9)
+    panel.update(presets.renderer_preset_values(name))
+    sent = mapping.settings_from_panel(panel, default_facts(width=800, height=600))
+    assert sent == effective(binary_settings(cubist_binary, "--preset", name))
+
+
+@pytest.mark.parametrize("name", ["analytic", "grisaille", "plain"])
+def test_panel_settings_render_the_presets_picture(cubist_binary, tmp_path, name):
+    """The same picture both ways, so sending the implicit values explicitly (ambiguity 140
+    for null) changes nothing."""
+    panel = dict(presets.DEFAULTS, use_world_background=False, spp=1)
+    panel.update(presets.renderer_preset_values(name))
+    sent = mapping.settings_from_panel(panel, default_facts(width=72, height=54))
+    r, ours = run_cli(cubist_binary, sent, tmp_path)
+    assert r.returncode == 0, r.stderr
+    theirs = tmp_path / "theirs.png"
+    r = subprocess.run([str(cubist_binary), "render", "--preset", name, "--width", "72", "--height", "54", "--spp",
+                        "1", "-o", str(theirs)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert ours.read_bytes() == theirs.read_bytes()
+
+
+def test_panel_from_settings_knows_every_key():
+    s = dict(presets.RENDERER_PRESETS["braque"])
+    assert presets.panel_from_settings(s)["palette"] == "OLIVE"
+    with pytest.raises(runner.CubistError, match="does not know: new_knob"):
+        presets.panel_from_settings(dict(s, new_knob=1))
+    del s["fill"]
+    with pytest.raises(runner.CubistError, match="missing: fill"):
+        presets.panel_from_settings(s)
+    # Automatic values are the panel's 0; lists become the text fields.
+    p = presets.panel_from_settings(dict(s, fill=0.7, camera_size=None, thresholds=[0, 0.05, 0.125]))
+    assert (p["fill"], p["camera_size"], p["thresholds"]) == (0.7, 0.0, "0, 0.05, 0.125")
+
+
+def test_floats_are_sent_as_typed():
+    """Blender keeps float properties in 32 bits: the panel's 0.85 reads back as
+    0.8500000238418579, and is sent as 0.85."""
+    import struct
+
+    as_blender = lambda v: struct.unpack("<f", struct.pack("<f", v))[0]  # noqa: E731
+    for typed in (0.85, 0.3, 0.05, 140.0, 1e-7, 123.456, 0.9, 2.5e6, 0.0):
+        assert runner.f32_decimal(as_blender(typed)) == typed
+    assert runner.f32_decimal(float("inf")) == float("inf")
+    panel = dict(presets.DEFAULTS, border_strength=as_blender(0.85), thresholds="0, 0.05, 0.08",
+                 background=tuple(as_blender(c) for c in (0.62, 0.56, 0.46)), use_world_background=False)
+    s = mapping.settings_from_panel(panel, default_facts())
+    assert s["border_strength"] == 0.85 and s["background"] == [0.62, 0.56, 0.46]
 
 
 def run_cli(binary, settings, tmp_path, scene=None):
@@ -81,13 +197,20 @@ def test_the_renderer_accepts_every_builtin_preset(cubist_binary, tmp_path, name
     panel = dict(presets.DEFAULTS)
     panel.update(presets.preset_values(name))
     s = mapping.settings_from_panel(panel, default_facts())
-    r, _ = run_cli(cubist_binary, s, tmp_path)
+    runner.write_settings(tmp_path / "s.json", s)
+    r = subprocess.run([str(cubist_binary), "settings", "--config", str(tmp_path / "s.json")], capture_output=True,
+                       text=True)
     assert r.returncode == 0, f"preset {name}: {r.stderr}"
+    assert effective(json.loads(r.stdout)) == s
 
 
-def test_presets_only_set_panel_properties():
+def test_presets_set_every_look_value_and_nothing_else():
     for name in presets.BUILTIN:
-        assert set(presets.preset_values(name)) <= set(presets.DEFAULTS), name
+        assert set(presets.preset_values(name)) == set(presets.LOOK_KEYS), name
+    assert presets.preset_values("Voronoi Facets")["faceting"] == "VORONOI"
+    # Sampling, passes, files and the scene's own choices are not part of a look.
+    for key in ("spp", "seed", "pass_depth", "layout_folder", "use_world_background", "background"):
+        assert key not in presets.LOOK_KEYS
 
 
 @pytest.mark.parametrize("prop,value,key,expected", [
@@ -102,15 +225,29 @@ def test_presets_only_set_panel_properties():
     ("thresholds", "0.1 0.2 0.3", "thresholds", [0.1, 0.2, 0.3]),
     ("imprecision", "RANDOM", "imprecision", "random"),
     ("discontinuity", 120.0, "discontinuity", 120.0),
+    ("faceting", "NONE", "faceting", "none"),
     ("facet_projection", "LINEAR", "facet_projection", "linear"),
     ("border_width", 5.0, "border_width", 5.0),
     ("palette", "BLUE_PERIOD", "palette", "blue-period"),
+    ("silhouette_width", 7.0, "silhouette_width", 7.0),
     ("colors", 12, "colors", 12),
     ("gradients", 0.4, "gradients", 0.4),
     ("chiaroscuro", 0.2, "chiaroscuro", 0.2),
     ("shadows", False, "shadows", False),
     ("pass_facet_ids", True, "passes", ["facet-ids"]),
     ("camera_size", 2.5, "camera_size", 2.5),
+    ("fill", 0.6, "fill", 0.6),
+    ("superpixels", 400, "superpixels", 400),
+    ("weight_colour", 2.0, "weight_colour", 2.0),
+    ("weight_normal", 0.25, "weight_normal", 0.25),
+    ("weight_depth", 1.5, "weight_depth", 1.5),
+    ("weight_object", 1.0, "weight_object", 1.0),
+    ("weight_saliency", 0.0, "weight_saliency", 0.0),
+    ("saliency_method", "CLUSTERED", "saliency_method", "clustered"),
+    ("layout_file", "/a/layout.json", "facets", "/a/layout.json"),
+    ("preset", "BRAQUE", "preset", "braque"),
+    ("exposure", 1.5, "exposure", 1.5),
+    ("neighborhood", 10.0, "neighborhood", 10.0),
 ])
 def test_a_panel_change_changes_the_settings(prop, value, key, expected):
     base = mapping.settings_from_panel(dict(presets.DEFAULTS), default_facts())
@@ -391,17 +528,46 @@ def test_workspace_is_removed_on_error(tmp_path):
     assert not ws.exists()
 
 
-def test_newer_settings_are_sent_only_to_binaries_that_know_them(tmp_path):
-    old = make_exe(tmp_path / "old" / "cubist", "print('  --facet-count <N>')\n")
-    new = make_exe(tmp_path / "new" / "cubist", "print('  --facet-count <N>\\n  --saliency-cache <DIR>')\n")
-    assert not runner.binary_supports(old, "saliency_cache")
-    assert runner.binary_supports(new, "saliency_cache")
+def test_settings_for_an_older_binary(tmp_path):
+    """A binary set in the preferences may predate settings the add-on sends: time-saving
+    keys are left out, others are a clear error rather than the renderer's `unknown key`."""
+    # Before `cubist settings`: only `render --help` tells the keys.
+    old = make_exe(tmp_path / "old" / "cubist", """
+        import sys
+        if sys.argv[1:2] == ["settings"]:
+            print("error: unrecognized subcommand 'settings'", file=sys.stderr); sys.exit(2)
+        print('  --facet-count <N>\\n  --spp <SPP>\\n  --pass <PASS>')
+    """)
+    new = make_exe(tmp_path / "new" / "cubist", """
+        import json, sys
+        print(json.dumps({"facet_count": 150, "spp": 4, "passes": [], "saliency_cache": None, "fill": None}))
+    """)
+    assert runner.binary_keys(old) == {"facet_count", "spp", "passes"}
+    assert runner.binary_keys(new) == {"facet_count", "spp", "passes", "saliency_cache", "fill"}
+    assert not runner.binary_supports(old, "saliency_cache") and runner.binary_supports(new, "saliency_cache")
+    s = {"spp": 1, "passes": ["depth"], "saliency_cache": "/c"}
+    assert runner.settings_for_binary(old, s) == {"spp": 1, "passes": ["depth"]}
+    assert runner.settings_for_binary(new, s) == s
+    with pytest.raises(runner.CubistError, match=r"does not know the setting\(s\) fill: it is older than this add-on"):
+        runner.settings_for_binary(old, dict(s, fill=0.5))
 
 
-def test_binary_capability_detection(cubist_binary):
-    assert runner.binary_supports(cubist_binary, "facet_count")
-    assert runner.binary_supports(cubist_binary, "save_facets")
-    assert not runner.binary_supports(cubist_binary, "no_such_setting")
+def test_the_real_binary_knows_every_key(cubist_binary):
+    assert runner.binary_keys(cubist_binary) == runner.SETTINGS_KEYS
+    s = mapping.settings_from_panel(dict(presets.DEFAULTS), default_facts())
+    assert runner.settings_for_binary(cubist_binary, s) == s
+
+
+def test_progress_stages_are_the_binarys(cubist_binary, tmp_path):
+    """Every stage the renderer reports has its share of the progress bar (a renamed stage
+    would freeze the bar)."""
+    r = subprocess.run([str(cubist_binary), "render", "--width", "48", "--height", "36", "--spp", "1", "--faceting",
+                        "voronoi", "-o", str(tmp_path / "o.png"), "--progress", "lines"], capture_output=True,
+                       text=True)
+    assert r.returncode == 0, r.stderr
+    stages = {ln.split(" ", 2)[2] for ln in r.stderr.splitlines() if ln.startswith("PROGRESS ")}
+    assert {"pre-render", "saliency", "faceting", "imprecision", "paint"} <= stages, stages
+    assert stages - {name for name, _ in runner.STAGE_WEIGHTS} <= {"done"}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -416,6 +582,10 @@ def test_saliency_is_needed_exactly_when_the_renderer_computes_it():
     assert not runner.needs_saliency(dict(base, faceting="voronoi", discontinuity=100.0, imprecision="random"))
     assert runner.needs_saliency(dict(base, faceting="segment"))
     assert runner.needs_saliency(dict(base, passes=["saliency"]))
+    assert runner.needs_saliency(dict(base, passes=["facets"]))
+    # A loaded layout replaces the segmentation; re-aiming still needs saliency.
+    assert not runner.needs_saliency(dict(base, faceting="segment", facets="/l.json"))
+    assert runner.needs_saliency(dict(base, faceting="none", facets="/l.json", discontinuity=50.0))
 
 
 def test_layout_plan(tmp_path):
@@ -434,6 +604,39 @@ def test_layout_plan(tmp_path):
     none = runner.plan_layout(dict(s, faceting="none"), layout, 3, 1)
     assert "facets" not in none.settings and "save_facets" not in none.settings
     assert runner.plan_layout(s, None, 3, 1).settings == s
+    # The user's own layout file: used as it is, for every frame.
+    assert not runner.uses_layout(dict(s, facets="/mine.png"))
+    # A saved layout that is no longer the layout frame's: computed again, there.
+    stale_here = runner.plan_layout(s, layout, frame=1, layout_frame=1, current=False)
+    assert stale_here.settings["save_facets"] == str(layout) and "facets" not in stale_here.settings
+    stale_there = runner.plan_layout(s, layout, frame=7, layout_frame=1, current=False)
+    assert stale_there.prepass_frame == 1 and stale_there.settings["facets"] == str(layout)
+
+
+def test_layout_source_follows_the_layout_frames_view(tmp_path):
+    glb = tmp_path / "scene.glb"
+    glb.write_bytes(b"glTF scene at the layout frame")
+    base = {"camera_position": [0, 1, 6], "camera_target": [0, 1, 5], "spp": 4, "palette": "ochre", "width": 800,
+            "height": 600}
+    src = runner.layout_source(glb, base)
+    # Painterly settings and the size (a preview shares the final's layout) do not matter...
+    assert runner.layout_source(glb, dict(base, palette="grey", width=400, height=300, border_width=3)) == src
+    # ...the camera and the scene do.
+    assert runner.layout_source(glb, dict(base, camera_position=[0, 1, 7])) != src
+    assert runner.layout_source(glb, dict(base, fill=0.5)) != src
+    glb.write_bytes(b"glTF scene with the cube moved")
+    assert runner.layout_source(glb, base) != src
+
+    layout = tmp_path / "l.facets.json"
+    assert not runner.layout_is_current(layout, src)
+    layout.write_text("{}")
+    assert runner.layout_is_current(layout, None)  # Voronoi, Patch: the view does not matter
+    assert not runner.layout_is_current(layout, src)  # no recorded source: stale
+    runner.record_source(layout, src)
+    assert runner.layout_is_current(layout, src) and not runner.layout_is_current(layout, "other")
+    runner.forget_source(layout)
+    assert not runner.layout_is_current(layout, src)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["l.facets.json", "scene.glb"]
 
 
 def test_layout_file_name_follows_the_facet_settings_only():
@@ -444,6 +647,8 @@ def test_layout_file_name_follows_the_facet_settings_only():
     assert runner.layout_key(dict(base, width=960, height=540)) == key  # a 50% preview shares it
     assert runner.layout_key(dict(base, facet_count=100)) != key
     assert runner.layout_key(dict(base, seed=1)) != key
+    for k, v in (("superpixels", 300), ("weight_object", 1.0), ("thresholds", [0, 0.1]), ("segments", [4])):
+        assert runner.layout_key(dict(base, **{k: v})) != key, k
     assert runner.layout_key(dict(base, width=1080, height=1920)) != key
     assert runner.layout_key(base, layout_frame=1001) != key
     assert runner.layout_path(Path("/x"), "Scene 1/a", base).name == f"Scene_1_a.{key}.facets.json"
