@@ -15,75 +15,34 @@
 //! reference against itself with another seed, is the ceiling: how far two equally good
 //! normalized cuts already differ.
 //!
-//! Saliency: when the pipeline computes none (the mesh saliency stage not in this build), a
-//! synthetic one stands in: 1 at the model's highest point falling to 0 at distance 0.5
-//! (render units); the tables say which was used. It only changes which segments are selected
-//! and, through the saliency weight, slightly where they go.
+//! Saliency: the pipeline's mesh saliency map of the pre-render (as `cubist render` computes it).
 //!
 //! The still life needs nothing; venus needs ../shared/models (skipped with a message without).
 //! Options (after `--`): `--size N` (default 1000), `--reps R` (default 5), `--quick` (2 reps,
-//! fewer superpixel counts).
+//! fewer superpixel counts), `--timing` (table 1 only).
+
+#[path = "common/mod.rs"]
+mod common;
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use cubist::facets::segment::{self, SegmentLevels, prerender_settings, quality::boundary_f_measure};
 use cubist::frame::Frame;
-use cubist::pipeline::{Prepared, render_with};
+use cubist::pipeline::{Prepared, render};
 use cubist::progress::Progress;
 use cubist::settings::Settings;
-use glam::Vec3;
 
 fn models() -> Option<PathBuf> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/models");
     dir.is_dir().then_some(dir)
 }
 
-/// Process CPU time (user + system, all threads), from /proc/self/stat; None elsewhere.
-fn cpu_time() -> Option<f64> {
-    let s = std::fs::read_to_string("/proc/self/stat").ok()?;
-    let fields: Vec<&str> = s.rsplit(')').next()?.split_whitespace().collect();
-    let ticks: f64 = fields.get(11)?.parse::<f64>().ok()? + fields.get(12)?.parse::<f64>().ok()?;
-    Some(ticks / 100.0)
-}
-
-fn load_average() -> String {
-    std::fs::read_to_string("/proc/loadavg")
-        .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
-        .unwrap_or_else(|_| "?".into())
-}
-
-/// The pre-render the Segment faceting sees, with a synthetic saliency if none was computed.
-fn prerender(prep: &Prepared, settings: &Settings) -> (Frame, bool) {
-    let top = prep
-        .world
-        .positions
-        .iter()
-        .flatten()
-        .fold(Vec3::splat(f32::NEG_INFINITY), |a, p| if p.y > a.y { *p } else { a });
-    let synthetic = std::sync::atomic::AtomicBool::new(false);
-    let r = render_with(prep, &prerender_settings(settings), &Progress::silent(), &|p, f| {
-        if f.saliency.is_none() {
-            let map = (0..f.pixel_count())
-                .map(|i| {
-                    let smp = f.pixel_samples(i);
-                    smp.iter()
-                        .filter(|h| h.is_hit())
-                        .map(|h| {
-                            let q = p.world.positions[h.tri as usize];
-                            let x = q[0] * (1.0 - h.u - h.v) + q[1] * h.u + q[2] * h.v;
-                            (1.0 - (x - top).length_squared() / 0.25).max(0.0)
-                        })
-                        .sum::<f32>()
-                        / smp.len() as f32
-                })
-                .collect();
-            f.saliency = Some(map);
-            synthetic.store(true, std::sync::atomic::Ordering::Relaxed);
-        }
-    })
-    .expect("pre-render");
-    (r.frame, synthetic.into_inner())
+/// The pre-render the Segment faceting sees, with the pipeline's saliency map.
+fn prerender(prep: &Prepared, settings: &Settings) -> Frame {
+    let r = render(prep, &prerender_settings(settings), &Progress::silent()).expect("pre-render");
+    assert!(r.frame.saliency.is_some(), "the pre-render computes the saliency map");
+    r.frame
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -96,7 +55,7 @@ fn time_layout(frame: &Frame, s: &Settings, reps: usize) -> (Vec<(String, f64)>,
     let mut steps: Vec<(String, Vec<f64>)> = Vec::new();
     let mut totals = Vec::new();
     let mut last = None;
-    let c0 = cpu_time();
+    let c0 = common::cpu_time();
     for _ in 0..reps {
         let t = Instant::now();
         let (_, levels) = segment::layout(frame, s).expect("layout");
@@ -109,7 +68,7 @@ fn time_layout(frame: &Frame, s: &Settings, reps: usize) -> (Vec<(String, f64)>,
         }
         last = Some(levels);
     }
-    let cpu = cpu_time().zip(c0).map(|(a, b)| (a - b) * 1e3 / reps as f64);
+    let cpu = common::cpu_time().zip(c0).map(|(a, b)| common::ms(a - b) / reps as f64);
     (steps.into_iter().map(|(n, v)| (n, median(v))).collect(), median(totals), cpu, last.expect("reps > 0"))
 }
 
@@ -123,6 +82,7 @@ fn main() {
         args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).and_then(|v| v.parse().ok())
     };
     let quick = args.iter().any(|a| a == "--quick");
+    let timing_only = args.iter().any(|a| a == "--timing");
     let size = arg("--size").unwrap_or(1000);
     let reps = arg("--reps").unwrap_or(if quick { 2 } else { 5 }) as usize;
 
@@ -137,17 +97,17 @@ fn main() {
     let mut frames = Vec::new();
     for (name, path) in &scenes {
         let prep = Prepared::load(path.as_deref()).expect("scene");
-        let (frame, synthetic) = prerender(&prep, &settings);
-        frames.push((name.clone(), frame, synthetic));
+        frames.push((name.clone(), prerender(&prep, &settings)));
     }
 
     println!(
-        "\n## Segment faceting at {size} x {size}, segments {:?}, thresholds {:?} (median of {reps}, ms)\n",
+        "\n### Segment faceting at {size} x {size}, segments {:?}, thresholds {:?} (median of {reps}, ms)\n",
         settings.segments, settings.thresholds
     );
-    println!("rayon threads: {}, load average before: {}\n", rayon::current_num_threads(), load_average());
+    println!("rayon threads: {}, load average before: {}\n", rayon::current_num_threads(), common::load_average());
     let mut header = false;
-    for (name, frame, synthetic) in &frames {
+    let mut worst_wall: f64 = 0.0;
+    for (name, frame) in &frames {
         for threads in [0usize, 1] {
             let (steps, total, cpu, levels) = if threads == 1 {
                 one_thread(|| time_layout(frame, &settings, reps))
@@ -161,9 +121,11 @@ fn main() {
                 header = true;
             }
             let cells: Vec<String> = steps.iter().map(|(_, t)| format!("{t:.1}")).collect();
+            if threads == 0 {
+                worst_wall = worst_wall.max(total);
+            }
             println!(
-                "| {name}{} | {} | {} | {} | **{total:.0}** | {} |",
-                if *synthetic { " (synthetic saliency)" } else { "" },
+                "| {name} | {} | {} | {} | **{total:.0}** | {} |",
                 if threads == 1 { "1".to_string() } else { rayon::current_num_threads().to_string() },
                 levels.superpixel_count,
                 cells.join(" | "),
@@ -171,8 +133,18 @@ fn main() {
             );
         }
     }
-    println!("\nload average after: {}", load_average());
-    for (name, frame, _) in &frames {
+    println!("\nload average after: {}", common::load_average());
+    common::target(
+        5,
+        &format!(
+            "whole Segment faceting at {size} x {size} on {} threads (median wall, worst scene)",
+            rayon::current_num_threads()
+        ),
+        "< 0.5 s on 2 cores",
+        &format!("{:.3} s", worst_wall / 1e3),
+        Some(worst_wall < 500.0),
+    );
+    for (name, frame) in &frames {
         let (_, levels) = segment::layout(frame, &settings).expect("layout");
         let sel: Vec<String> = levels
             .levels
@@ -189,14 +161,17 @@ fn main() {
         println!("{name}: {}", sel.join("; "));
     }
 
-    println!("\n## Superpixel count against boundary agreement with a fine reference (8000 superpixels)\n");
+    if timing_only {
+        return;
+    }
+    println!("\n### Superpixel count against boundary agreement with a fine reference (8000 superpixels)\n");
     println!("F = boundary F-measure, 2 px tolerance, per level; time = whole faceting, median of {reps}, ms.\n");
     println!(
         "| scene | superpixels asked | made | time (ms) | F level 1 (N=5) | F level 2 (N=30) | F level 3 (N=120) |"
     );
     println!("|---|---|---|---|---|---|---|");
     let counts: &[u32] = if quick { &[500, 1667, 4000] } else { &[250, 500, 1000, 1667, 2500, 4000] };
-    for (name, frame, _) in &frames {
+    for (name, frame) in &frames {
         let mut fine = settings.clone();
         fine.superpixels = 8000;
         let t = Instant::now();

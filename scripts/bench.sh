@@ -1,34 +1,73 @@
 #!/usr/bin/env bash
-# Regenerates BENCHMARKS.md: a description of this machine, then the tables printed by
-# benches/pipeline.rs (primary rays, spp against PSNR, stage timings). About 2-4 minutes.
-#   bash scripts/bench.sh [SCENE] [extra bench options, see: cargo bench --bench pipeline -- --help]
+# Regenerates BENCHMARKS.md: a description of this machine, a summary of the targets the
+# issues set, then the tables of every bench binary (benches/*.rs), one section per issue.
+# About 5 minutes on 2 idle cores; --quick about 2 (fewer runs and seeds, smaller figures).
+#   bash scripts/bench.sh [--quick] [SCENE]      (SCENE: the pipeline tables' scene, default venus_11k)
 # Benchmarks, not tests: nothing here fails on a slow machine. Run it on a quiet machine when
-# you can; the tables give CPU times too, which hold up on a shared one.
+# you can; the tables give CPU times too, which hold up on a shared one. The exact saliency
+# of the 1.25M-vertex mesh takes 5-10 minutes: it comes from an earlier
+# `cargo bench --bench saliency` (without --quick) when one left its result in target/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-scene=${1:-../shared/models/venus_11k.glb}
-shift || true
+quick=()
+scene=../shared/models/venus_11k.glb
+for arg in "$@"; do
+    case $arg in
+        --quick) quick=(--quick) ;;
+        -h | --help) sed -n '2,9p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+        *) scene=$arg ;;
+    esac
+done
 if [ ! -f "$scene" ]; then
-    echo "note: $scene is absent: benchmarking the built-in still life" >&2
+    echo "note: $scene is absent: the pipeline tables use the built-in still life" >&2
 fi
-cargo bench --locked --bench pipeline --no-run
+benches=(pipeline saliency facet_stages segment paint)
+cargo bench --locked --no-run $(printf -- '--bench %s ' "${benches[@]}") 2>/dev/null ||
+    cargo bench --locked --no-run $(printf -- '--bench %s ' "${benches[@]}")
+log=$(mktemp)
+trap 'rm -f "$log" BENCHMARKS.md.tmp' EXIT
 load_before=$(cut -d' ' -f1-3 /proc/loadavg)
-tables=$(cargo bench --locked --bench pipeline -- --scene "$scene" "$@")
+start=$(date +%s)
+declare -A out
+for b in "${benches[@]}"; do
+    echo "running benches/$b.rs ..." >&2
+    t0=$(date +%s)
+    case $b in
+        pipeline) args=(--scene "$scene" "${quick[@]}") ;;
+        # The huge mesh's clustered figures always; its exact sums only from an earlier full run.
+        saliency) args=(--quick) ;;
+        *) args=("${quick[@]}") ;;
+    esac
+    out[$b]=$(cargo bench --locked --bench "$b" -- "${args[@]}" 2>>"$log") || {
+        cat "$log" >&2
+        exit 1
+    }
+    echo "  $(($(date +%s) - t0)) s" >&2
+done
+seconds=$(($(date +%s) - start))
 load_after=$(cut -d' ' -f1-3 /proc/loadavg)
 cpu=$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2- | sed 's/^ *//')
 flags=$(grep -m1 '^flags' /proc/cpuinfo)
-simd=$(for f in sse4_2 popcnt avx2 fma avx512f; do case " $flags " in *" $f "*) printf '%s ' "$f";; esac; done)
+simd=$(for f in sse4_2 popcnt avx2 fma avx512f; do case " $flags " in *" $f "*) printf '%s ' "$f" ;; esac; done)
 mem=$(awk '/MemTotal/ {printf "%.1f GiB", $2 / 1048576}' /proc/meminfo)
 obvhs=$(awk '/^name = "obvhs"/ {getline; print $3}' Cargo.lock | tr -d '"')
 rustflags=$(grep -m1 'rustflags' .cargo/config.toml 2>/dev/null | sed 's/^ *//' || true)
 commit=$(git rev-parse --short HEAD 2>/dev/null || echo unknown)
-dirty=$(git diff --quiet 2>/dev/null || echo " (with uncommitted changes)")
+dirty=$(git diff --quiet HEAD 2>/dev/null || echo " (with uncommitted changes)")
+mode=${quick[0]:-full}
+# The lines `TARGET | issue | what | target | measured | met |` go to the summary; the rest
+# stays in its section.
+body() { grep -v '^TARGET |' <<<"${out[$1]}" || true; }
+targets=$(for b in "${benches[@]}"; do grep '^TARGET |' <<<"${out[$b]}" || true; done | sort -t'|' -k2,2n -s | sed 's/^TARGET //')
 tmp=BENCHMARKS.md.tmp
 {
     echo "# Benchmarks"
     echo
-    echo "Regenerate with \`bash scripts/bench.sh\` (writes this file). Benchmarks, not tests: see"
-    echo "\`benches/pipeline.rs\` for what each table measures."
+    echo "Regenerate with \`bash scripts/bench.sh\` (writes this file; \`--quick\` for a shorter run)."
+    echo "Benchmarks, not tests: each table says what it measures; the bench binaries in \`benches/\`"
+    echo "say how. Issue 8's tables: samples per pixel against PSNR and the whole pipeline's stages"
+    echo "(Issues 2 and 8), mesh saliency exact against clustered (Issue 3), Segment superpixels"
+    echo "against boundary agreement (Issue 5)."
     echo
     echo "## Machine"
     echo
@@ -36,20 +75,39 @@ tmp=BENCHMARKS.md.tmp
     echo "- Memory: $mem"
     echo "- $(uname -sr), $(rustc --version)"
     echo "- Build: release profile, \`$rustflags\` (.cargo/config.toml), obvhs $obvhs (BVH2: medium preset without reinsertion, see src/accel.rs)"
-    echo "- Load average (1, 5, 15 min) before: $load_before; after: $load_after"
-    echo "- Commit $commit$dirty, $(date -u '+%Y-%m-%d %H:%M UTC')"
+    echo "- Load average (1, 5, 15 min) before: $load_before; after: $load_after (the machine is shared: see each table's CPU times)"
+    echo "- Commit $commit$dirty, $(date -u '+%Y-%m-%d %H:%M UTC'); run: $mode, $seconds s"
     echo
-    echo "## Results"
+    echo "## Summary of targets"
     echo
-    echo "$tables"
+    echo "| issue | what | target | measured | met |"
+    echo "|---|---|---|---|---|"
+    if [ -n "$targets" ]; then echo "$targets"; fi
     echo
-    echo "## Not measured yet"
+    echo "## Issues 2 and 8: the pipeline (\`benches/pipeline.rs\`)"
     echo
-    echo "These need stages that are being built on other branches; the bench gains a table for"
-    echo "each when they are merged: mesh saliency exact against any approximation (error, time),"
-    echo "Segment faceting's superpixel count against boundary agreement. The stage table above"
-    echo "lists whatever stages \`render\` times, so saliency, facets, imprecision and paint appear"
-    echo "there by themselves."
-} > "$tmp"
+    body pipeline
+    echo
+    echo "## Issue 3: mesh saliency (\`benches/saliency.rs --quick\`)"
+    echo
+    echo "Exact sums against the clustered approximation (cells of sigma / beta), error of the final"
+    echo "[0, 1] saliency against exact. The 1.25M-vertex mesh is bunny_full refined by PN triangles"
+    echo "(36 sub-triangles each); its exact row comes from an earlier full run (\`cargo bench --bench"
+    echo "saliency\`), when there was one."
+    echo
+    body saliency
+    echo
+    echo "## Issue 4: facets and spatial imprecision (\`benches/facet_stages.rs\`)"
+    echo
+    body facet_stages
+    echo
+    echo "## Issue 5: Segment faceting (\`benches/segment.rs\`)"
+    echo
+    body segment
+    echo
+    echo "## Issue 6: painterly effects (\`benches/paint.rs\`)"
+    echo
+    body paint
+} >"$tmp"
 mv "$tmp" BENCHMARKS.md
-echo "wrote BENCHMARKS.md" >&2
+echo "wrote BENCHMARKS.md ($seconds s)" >&2

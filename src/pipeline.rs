@@ -153,6 +153,11 @@ pub fn render_with(
         }
     }
 
+    // Saliency centres count pixels within `neighborhood` of a facet: bounded work, or an error.
+    if faceted && settings.neighborhood > 0.0 && frame.saliency.is_some() {
+        imprecision::check_neighbourhood(&map, settings.neighborhood * settings.pixel_scale())?;
+    }
+
     // Spatial imprecision (SPEC "Spatial imprecision"): re-aim facets, re-trace only the pixels
     // of facets whose rays changed; at discontinuity 0 with converging facets nothing runs.
     let clip_radius = (prep.world.radius as f64).max(1e-9) * 1.001;
