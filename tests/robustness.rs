@@ -457,65 +457,11 @@ fn empty_and_pointlike_scenes() {
 
 // ---- Stages after the pre-render (saliency, facets, imprecision, painterly effects) -------
 
-/// An icosphere of `levels` subdivisions (20 x 4^levels faces) of radius `r`: every vertex on
-/// the sphere, so its mesh saliency is 0 everywhere (SPEC: no variation, no NaN).
+/// An icosphere of `levels` subdivisions of radius `r`: every vertex on the sphere, so its
+/// mesh saliency is 0 everywhere (SPEC: no variation, no NaN).
 fn icosphere(levels: u32, r: f32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
-    let t = (1.0 + 5f32.sqrt()) / 2.0;
-    let mut p: Vec<Vec3> = [
-        [-1.0, t, 0.0],
-        [1.0, t, 0.0],
-        [-1.0, -t, 0.0],
-        [1.0, -t, 0.0],
-        [0.0, -1.0, t],
-        [0.0, 1.0, t],
-        [0.0, -1.0, -t],
-        [0.0, 1.0, -t],
-        [t, 0.0, -1.0],
-        [t, 0.0, 1.0],
-        [-t, 0.0, -1.0],
-        [-t, 0.0, 1.0],
-    ]
-    .iter()
-    .map(|v| Vec3::from(*v).normalize())
-    .collect();
-    let mut f: Vec<[u32; 3]> = vec![
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    for _ in 0..levels {
-        let mut mid = std::collections::HashMap::new();
-        let mut next = Vec::new();
-        let mut m = |a: u32, b: u32, p: &mut Vec<Vec3>| -> u32 {
-            *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
-                p.push(((p[a as usize] + p[b as usize]) * 0.5).normalize());
-                (p.len() - 1) as u32
-            })
-        };
-        for [a, b, c] in f {
-            let (ab, bc, ca) = (m(a, b, &mut p), m(b, c, &mut p), m(c, a, &mut p));
-            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
-        }
-        f = next;
-    }
-    (p.into_iter().map(|v| v * r).collect(), f)
+    let m = cubist::scene::default::icosphere("icosphere", levels, r, 0);
+    (m.positions, m.triangles)
 }
 
 const IMPRECISIONS: [Imprecision; 3] = [Imprecision::Saliency, Imprecision::Random, Imprecision::None];

@@ -99,46 +99,8 @@ fn height_grid(n: u32, f: impl Fn(f32, f32) -> f32) -> Mesh {
 
 /// An icosphere of `levels` subdivisions (level 3 = the thesis's 1280-face sphere).
 fn icosphere(levels: u32) -> Mesh {
-    let t = (1.0 + 5f32.sqrt()) / 2.0;
-    let mut p: Vec<Vec3> = [
-        [-1.0, t, 0.0],
-        [1.0, t, 0.0],
-        [-1.0, -t, 0.0],
-        [1.0, -t, 0.0],
-        [0.0, -1.0, t],
-        [0.0, 1.0, t],
-        [0.0, -1.0, -t],
-        [0.0, 1.0, -t],
-        [t, 0.0, -1.0],
-        [t, 0.0, 1.0],
-        [-t, 0.0, -1.0],
-        [-t, 0.0, 1.0],
-    ]
-    .iter()
-    .map(|v| Vec3::from(*v).normalize())
-    .collect();
-    #[rustfmt::skip]
-    let mut f: Vec<[u32; 3]> = vec![
-        [0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4],
-        [11, 10, 2], [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8],
-        [3, 8, 9], [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1],
-    ];
-    for _ in 0..levels {
-        let mut mid = std::collections::HashMap::new();
-        let mut nf = Vec::new();
-        for [a, b, c] in f {
-            let mut m = |a: u32, b: u32| -> u32 {
-                *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
-                    p.push(((p[a as usize] + p[b as usize]) * 0.5).normalize());
-                    (p.len() - 1) as u32
-                })
-            };
-            let (ab, bc, ca) = (m(a, b), m(b, c), m(c, a));
-            nf.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
-        }
-        f = nf;
-    }
-    mesh("icosphere", p, f)
+    let m = cubist::scene::default::icosphere("icosphere", levels, 1.0, 0);
+    mesh("icosphere", m.positions, m.triangles)
 }
 
 /// A cube of side 2 whose faces are k x k grids, each face with its own vertices (welded by

@@ -62,6 +62,49 @@ pub fn ellipsoid(name: &str, radii: Vec3, rings: u32, segments: u32, material: u
     m
 }
 
+/// An icosphere: the icosahedron subdivided `levels` times (20 x 4^levels faces), every
+/// vertex at `radius` from the origin. Level 3 is the thesis's 1280-face sphere; with no
+/// curvature variation its mesh saliency is 0 everywhere, which makes it a shared test shape.
+pub fn icosphere(name: &str, levels: u32, radius: f32, material: usize) -> Mesh {
+    let t = (1.0 + 5f32.sqrt()) / 2.0;
+    #[rustfmt::skip]
+    let corners = [
+        [-1.0, t, 0.0], [1.0, t, 0.0], [-1.0, -t, 0.0], [1.0, -t, 0.0],
+        [0.0, -1.0, t], [0.0, 1.0, t], [0.0, -1.0, -t], [0.0, 1.0, -t],
+        [t, 0.0, -1.0], [t, 0.0, 1.0], [-t, 0.0, -1.0], [-t, 0.0, 1.0],
+    ];
+    let mut positions: Vec<Vec3> = corners.iter().map(|v| Vec3::from(*v).normalize()).collect();
+    #[rustfmt::skip]
+    let mut triangles: Vec<[u32; 3]> = vec![
+        [0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4],
+        [11, 10, 2], [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8],
+        [3, 8, 9], [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1],
+    ];
+    for _ in 0..levels {
+        // Each edge's midpoint is made once and shared by the two triangles beside it.
+        let mut midpoints = std::collections::HashMap::new();
+        let mut midpoint = |a: u32, b: u32, p: &mut Vec<Vec3>| -> u32 {
+            *midpoints.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                p.push(((p[a as usize] + p[b as usize]) * 0.5).normalize());
+                (p.len() - 1) as u32
+            })
+        };
+        let mut next = Vec::with_capacity(triangles.len() * 4);
+        for [a, b, c] in triangles {
+            let ab = midpoint(a, b, &mut positions);
+            let bc = midpoint(b, c, &mut positions);
+            let ca = midpoint(c, a, &mut positions);
+            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+        }
+        triangles = next;
+    }
+    let normals = positions.clone();
+    for p in &mut positions {
+        *p *= radius;
+    }
+    Mesh { name: name.into(), positions, normals, uvs: None, colors: None, triangles, material: Some(material) }
+}
+
 /// An axis-aligned box centred at the origin, flat-shaded (4 vertices per face).
 pub fn cuboid(name: &str, size: Vec3, material: usize) -> Mesh {
     let h = size * 0.5;
