@@ -152,46 +152,39 @@ pub struct SettingsCmdArgs {
     pub settings: SettingsArgs,
 }
 
-/// Every setting as an optional flag. Keys (after serde) are those of `Settings`.
+/// Every setting as an optional flag. Keys (after serde) are those of `Settings`; flags not
+/// given are left out of the layer, so the config file's or the preset's value stands.
+#[serde_with::skip_serializing_none]
 #[derive(Args, Serialize, Debug, Default)]
 pub struct SettingsArgs {
     /// Bundle of defaults the other options override (docs/presets.md lists their values) [default: analytic]
     #[arg(long, value_enum, help_heading = "Settings")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub preset: Option<Preset>,
 
     /// Image width, pixels [default: 800]
     #[arg(long, help_heading = "Image")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub width: Option<u32>,
     /// Image height, pixels [default: 600]
     #[arg(long, help_heading = "Image")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub height: Option<u32>,
     /// Samples per pixel, stratified [default: 4]
     #[arg(long, help_heading = "Image")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub spp: Option<u32>,
     /// Seed of every random choice [default: 0]
     #[arg(long, help_heading = "Image")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub seed: Option<u64>,
 
     /// Camera model [default: auto = spherical, or cylindrical for tall scenes]
     #[arg(long, value_enum, help_heading = "Camera")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub camera: Option<CameraKind>,
     /// Convergence angle of cubist cameras, degrees (spherical/cylindrical 0..360, planar 0..<180); vertical field of view of the perspective camera [default: 140; perspective: the glTF camera's or 60]
     #[arg(long, help_heading = "Camera", allow_negative_numbers = true)]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub ambiguity: Option<f64>,
     /// Where the focal centre goes without --focus-distance: fit = behind the scene so all of it is in view, centre = the bounding box's centre [default: fit]
     #[arg(long, value_enum, help_heading = "Camera")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub framing: Option<Framing>,
     /// Distance from the camera position to the focal centre along the view, scene units [default: chosen by --framing]
     #[arg(long, help_heading = "Camera", allow_negative_numbers = true)]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub focus_distance: Option<f64>,
     /// Camera position X,Y,Z, scene units [default: the glTF camera's, else in front (+Z) of the scene]
     #[arg(
@@ -202,7 +195,6 @@ pub struct SettingsArgs {
         help_heading = "Camera",
         allow_hyphen_values = true
     )]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub camera_position: Option<Vec<f64>>,
     /// Point looked at X,Y,Z, scene units [default: the glTF camera's view, else the scene's centre]
     #[arg(
@@ -213,7 +205,6 @@ pub struct SettingsArgs {
         help_heading = "Camera",
         allow_hyphen_values = true
     )]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub camera_target: Option<Vec<f64>>,
     /// Camera up vector X,Y,Z [default: the glTF camera's, else 0,1,0]
     #[arg(
@@ -224,164 +215,125 @@ pub struct SettingsArgs {
         help_heading = "Camera",
         allow_hyphen_values = true
     )]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub camera_up: Option<Vec<f64>>,
     /// Planar plane height / orthographic view height / cylindrical band height, scene units [default: fits the scene]
     #[arg(long, help_heading = "Camera", allow_negative_numbers = true)]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub camera_size: Option<f64>,
     /// Fraction of the view the scene fills under automatic framing, (0, 1]: of the convergence half-angles for cubist cameras, of the smaller image side for perspective/orthographic [default: 0.8 cubist, 0.9 others]
     #[arg(long, help_heading = "Camera")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub fill: Option<f64>,
 
     /// Cast shadow rays (true/false) [default: true]
     #[arg(long, help_heading = "Shading")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub shadows: Option<bool>,
     /// Background colour R,G,B, linear, 0..1 [default: 0.62,0.56,0.46]
     #[arg(long, value_delimiter = ',', num_args = 1, value_name = "R,G,B", help_heading = "Shading")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub background: Option<Vec<f32>>,
     /// Transparent background (alpha 0) [default: false]
     #[arg(long, num_args = 0..=1, default_missing_value = "true", help_heading = "Shading")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub transparent: Option<bool>,
     /// Multiplier on the automatically exposed lights [default: 1]
     #[arg(long, help_heading = "Shading")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub exposure: Option<f32>,
 
     /// Faceting method; segment follows the picture's forms (needs saliency) [analytic: segment]
     #[arg(long, value_enum, help_heading = "Facets")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub faceting: Option<Faceting>,
     /// Facet map image for constant faceting, each distinct colour a facet
     #[arg(long, value_name = "PNG", help_heading = "Facets")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub facet_map: Option<PathBuf>,
     /// Load this facet layout (.json or .png) instead of computing one
     #[arg(long, value_name = "FILE", help_heading = "Facets")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub facets: Option<PathBuf>,
     /// Save the facet layout used (.json or .png) for reuse across frames
     #[arg(long, value_name = "FILE", help_heading = "Facets")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub save_facets: Option<PathBuf>,
     /// Voronoi: number of facets k [default: 150]
     #[arg(long, help_heading = "Facets")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub facet_count: Option<u32>,
     /// Voronoi: grid cells m the points are stratified over [default: 15]
     #[arg(long, help_heading = "Facets")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub grid_cells: Option<u32>,
     /// Patch: number of quadrilaterals n_p (eq 4.3) [default: 80]
     #[arg(long, help_heading = "Facets")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub patch_count: Option<u32>,
     /// Patch: occlusion ratio r_occ (eq 4.3) [default: 3]
     #[arg(long, help_heading = "Facets")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub occlusion: Option<f64>,
     /// Segment: segments per level, comma-separated [default: 5,30,120]
     #[arg(long, value_delimiter = ',', num_args = 1, value_name = "N,...", help_heading = "Facets")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub segments: Option<Vec<u32>>,
     /// Segment: mean-saliency threshold per level, 0..1 [default: 0,0.05,0.08]
     #[arg(long, value_delimiter = ',', num_args = 1, value_name = "T,...", help_heading = "Facets")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub thresholds: Option<Vec<f64>>,
     /// Segment: superpixels the normalized cut groups; 0 = automatic [default: 0]
     #[arg(long, help_heading = "Facets")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub superpixels: Option<u32>,
     /// Segment: weight of colour differences in the segmentation's affinity [default: 1]
     #[arg(long, help_heading = "Facets", allow_negative_numbers = true)]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub weight_colour: Option<f64>,
     /// Segment: weight of surface normal differences [default: 1]
     #[arg(long, help_heading = "Facets", allow_negative_numbers = true)]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub weight_normal: Option<f64>,
     /// Segment: weight of relative depth differences [default: 0.5]
     #[arg(long, help_heading = "Facets", allow_negative_numbers = true)]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub weight_depth: Option<f64>,
     /// Segment: how far object boundaries cut the affinity, 0..1; 1 = segments never cross objects [default: 0.9]
     #[arg(long, help_heading = "Facets", allow_negative_numbers = true)]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub weight_object: Option<f64>,
     /// Segment: weight of saliency differences [default: 0.5]
     #[arg(long, help_heading = "Facets", allow_negative_numbers = true)]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub weight_saliency: Option<f64>,
 
     /// How facets are re-aimed [default: saliency]
     #[arg(long, value_enum, help_heading = "Spatial imprecision")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub imprecision: Option<Imprecision>,
     /// Largest facet-centre to saliency-centre shift, pixels at 1000 px; the paper recommends 50-200 [analytic: 200]
     #[arg(long, help_heading = "Spatial imprecision", allow_negative_numbers = true)]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub discontinuity: Option<f64>,
     /// Pixels outside a facet that count for its saliency centre, at 1000 px [default: 0]
     #[arg(long, help_heading = "Spatial imprecision", allow_negative_numbers = true)]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub neighborhood: Option<f64>,
     /// Rays of a re-aimed facet: converging on its new focal point, or linear (eq 4.6) [default: converging]
     #[arg(long, value_enum, help_heading = "Spatial imprecision")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub facet_projection: Option<FacetProjection>,
     /// Field of view of linear facets, degrees (eq 4.7); 0 = orthographic facets [default: 0]
     #[arg(long, help_heading = "Spatial imprecision")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub facet_fov: Option<f64>,
 
     /// Facet border darkening distance md (eq 4.8), pixels at 1000 px; 0 = off [analytic: 12]
     #[arg(long, help_heading = "Painterly effects")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub border_width: Option<f64>,
     /// Facet border darkening strength, 0..1; 1 = eq 4.8 as printed [analytic: 0.85]
     #[arg(long, help_heading = "Painterly effects")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub border_strength: Option<f64>,
     /// Background darkening distance around the objects, pixels at 1000 px; 0 = off [analytic: 40]
     #[arg(long, help_heading = "Painterly effects")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub silhouette_width: Option<f64>,
     /// Silhouette darkening strength, 0..1 [analytic: 0.5]
     #[arg(long, help_heading = "Painterly effects")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub silhouette_strength: Option<f64>,
     /// Built-in palette mapped onto the luminance ranks [analytic: ochre]
     #[arg(long, value_enum, help_heading = "Painterly effects")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub palette: Option<Palette>,
     /// A painting (PNG/JPEG, any size) whose colours are mapped onto the luminance ranks; overrides --palette
     #[arg(long, value_name = "IMAGE", help_heading = "Painterly effects")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub palette_image: Option<PathBuf>,
     /// Quantise to K colours by luminance; 0 = off [analytic: 0]
     #[arg(long, value_name = "K", help_heading = "Painterly effects")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub colors: Option<u32>,
     /// Fraction of facets with a gradient overlay on a corner, 0..1 [analytic: 0.3]
     #[arg(long, value_name = "FRACTION", help_heading = "Painterly effects")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub gradients: Option<f64>,
     /// Per-facet variation of light direction and intensity, 0..1; 0 = off [analytic: 0]
     #[arg(long, help_heading = "Painterly effects")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub chiaroscuro: Option<f64>,
 
     /// How mesh saliency's Gaussian means are evaluated [default: auto]
     #[arg(long, value_enum, help_heading = "Saliency")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub saliency_method: Option<SaliencyMethod>,
     /// Directory keeping per-mesh saliency across runs, keyed by mesh content (created if missing)
     #[arg(long, value_name = "DIR", help_heading = "Saliency")]
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub saliency_cache: Option<PathBuf>,
 
     /// Extra image written beside the output as <stem>.<pass>.png; repeat for several
