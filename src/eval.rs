@@ -31,11 +31,11 @@ pub fn count_visible(frame: &Frame, total: usize) -> VisibleFaces {
     let mut seen = vec![false; total];
     let mut visible = 0;
     for s in &frame.samples {
-        if let Some(slot) = seen.get_mut(s.tri as usize) {
-            if !*slot {
-                *slot = true;
-                visible += 1;
-            }
+        if let Some(slot) = seen.get_mut(s.tri as usize)
+            && !*slot
+        {
+            *slot = true;
+            visible += 1;
         }
     }
     VisibleFaces { visible, total }

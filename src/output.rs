@@ -41,10 +41,10 @@ pub fn write_atomic(path: &Path, write: impl FnOnce(&Path) -> std::result::Resul
     if path.file_name().is_none() {
         return Err(Error::output(path, "not a file name"));
     }
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        if !dir.is_dir() {
-            return Err(Error::output(path, format!("directory {} does not exist", dir.display())));
-        }
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty())
+        && !dir.is_dir()
+    {
+        return Err(Error::output(path, format!("directory {} does not exist", dir.display())));
     }
     let tmp = temp_path(path);
     match write(&tmp) {

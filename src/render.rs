@@ -29,7 +29,7 @@ pub fn unit_f64(h: u64) -> f64 {
 /// Strata of `spp` samples: a `nx x ny` grid with nx * ny = spp, as square as spp allows.
 fn strata(spp: u32) -> (u32, u32) {
     let mut ny = (spp as f64).sqrt() as u32;
-    while ny > 1 && spp % ny != 0 {
+    while ny > 1 && !spp.is_multiple_of(ny) {
         ny -= 1;
     }
     (spp / ny.max(1), ny.max(1))
@@ -54,6 +54,9 @@ pub fn sample_offset(seed: u64, pixel: u64, s: u32, spp: u32) -> DVec2 {
 pub fn screen_point(x: u32, y: u32, offset: DVec2, width: u32, height: u32) -> DVec2 {
     DVec2::new((x as f64 + offset.x) / width as f64 - 0.5, 0.5 - (y as f64 + offset.y) / height as f64)
 }
+
+/// One chunk of a pixel-subset re-trace: each pixel's colour and hit, then its samples' hits.
+type SubsetChunk = (Vec<(Vec4, PixelHit)>, Vec<SampleHit>);
 
 /// Everything a trace needs besides the rays.
 pub struct Tracer<'a> {
@@ -143,7 +146,7 @@ impl Tracer<'_> {
                     });
             }
             Some(list) => {
-                let chunks: Vec<(Vec<(Vec4, PixelHit)>, Vec<SampleHit>)> = list
+                let chunks: Vec<SubsetChunk> = list
                     .par_chunks(256)
                     .map(|chunk| {
                         let mut samples = vec![SampleHit::MISS; chunk.len() * spp];

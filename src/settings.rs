@@ -516,37 +516,37 @@ impl Settings {
                 _ => {}
             }
         }
-        if let Some(f) = s.focus_distance {
-            if !(f.is_finite() && f > 0.0) {
-                return Err(Error::setting("focus_distance", format!("{f} must be a positive distance")));
-            }
+        if let Some(f) = s.focus_distance
+            && !(f.is_finite() && f > 0.0)
+        {
+            return Err(Error::setting("focus_distance", format!("{f} must be a positive distance")));
         }
-        if let Some(c) = s.camera_size {
-            if !(c.is_finite() && c > 0.0) {
-                return Err(Error::setting("camera_size", format!("{c} must be a positive size")));
-            }
+        if let Some(c) = s.camera_size
+            && !(c.is_finite() && c > 0.0)
+        {
+            return Err(Error::setting("camera_size", format!("{c} must be a positive size")));
         }
-        if let Some(f) = s.fill {
-            if !(f.is_finite() && f > 0.0 && f <= 1.0) {
-                return Err(Error::setting("fill", format!("{f} must be in (0, 1]")));
-            }
+        if let Some(f) = s.fill
+            && !(f.is_finite() && f > 0.0 && f <= 1.0)
+        {
+            return Err(Error::setting("fill", format!("{f} must be in (0, 1]")));
         }
         for (key, v) in [("camera_position", s.camera_position), ("camera_target", s.camera_target)] {
-            if let Some(v) = v {
-                if v.iter().any(|x| !x.is_finite()) {
-                    return Err(Error::setting(key, "must be three finite numbers"));
-                }
+            if let Some(v) = v
+                && v.iter().any(|x| !x.is_finite())
+            {
+                return Err(Error::setting(key, "must be three finite numbers"));
             }
         }
-        if let Some(u) = s.camera_up {
-            if u.iter().any(|x| !x.is_finite()) || u.iter().all(|x| *x == 0.0) {
-                return Err(Error::setting("camera_up", "must be a finite, non-zero vector"));
-            }
+        if let Some(u) = s.camera_up
+            && (u.iter().any(|x| !x.is_finite()) || u.iter().all(|x| *x == 0.0))
+        {
+            return Err(Error::setting("camera_up", "must be a finite, non-zero vector"));
         }
-        if let (Some(p), Some(t)) = (s.camera_position, s.camera_target) {
-            if p == t {
-                return Err(Error::setting("camera_target", "coincides with camera_position: no view direction"));
-            }
+        if let (Some(p), Some(t)) = (s.camera_position, s.camera_target)
+            && p == t
+        {
+            return Err(Error::setting("camera_target", "coincides with camera_position: no view direction"));
         }
         if s.background.iter().any(|c| !c.is_finite() || *c < 0.0) {
             return Err(Error::setting("background", "must be three finite, non-negative numbers"));
@@ -613,10 +613,11 @@ impl Settings {
         if s.colors > 4096 {
             return Err(Error::setting("colors", "at most 4096"));
         }
-        if let Some(dir) = &s.saliency_cache {
-            if dir.exists() && !dir.is_dir() {
-                return Err(Error::setting("saliency_cache", format!("{} is not a directory", dir.display())));
-            }
+        if let Some(dir) = &s.saliency_cache
+            && dir.exists()
+            && !dir.is_dir()
+        {
+            return Err(Error::setting("saliency_cache", format!("{} is not a directory", dir.display())));
         }
         if s.faceting == Faceting::Constant && s.facet_map.is_none() && s.facets.is_none() {
             return Err(Error::setting("facet_map", "constant faceting needs a facet map image (--facet-map)"));

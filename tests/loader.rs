@@ -77,7 +77,7 @@ fn node_hierarchy_composes_world_transforms() {
     let m = tetra(&mut g, true);
     let child = g.node(json!({"mesh": m, "scale": [2.0, 2.0, 2.0], "translation": [1.0, 0.0, 0.0]}));
     let parent = g.node(
-        json!({"children": [child], "translation": [0.0, 10.0, 0.0], "rotation": [0.0, 0.0, 0.7071068, 0.7071068]}),
+        json!({"children": [child], "translation": [0.0, 10.0, 0.0], "rotation": [0.0, 0.0, std::f64::consts::FRAC_1_SQRT_2, std::f64::consts::FRAC_1_SQRT_2]}),
     );
     g.scene_nodes.push(parent);
     let s = load(&g).unwrap();

@@ -287,7 +287,7 @@ mod tests {
         let g = gaussian_means(&pts, &h, &[0.75, 1.0]);
         let w1 = (-1.0f64 / (2.0 * 0.5625)).exp();
         assert!((g[2 * 2] - 3.0 / (1.0 + 2.0 * w1)).abs() < 1e-12);
-        assert!((g[2 * 1] - 3.0 * w1 / (1.0 + 2.0 * w1)).abs() < 1e-12);
+        assert!((g[2] - 3.0 * w1 / (1.0 + 2.0 * w1)).abs() < 1e-12);
         assert_eq!(g[0], 0.0); // vertex 2 is 2 away from 0: outside 2 sigma = 1.5
         // sigma 1: cut at d < 2, so distance 2 is out and distance 1 is in.
         let w = (-0.5f64).exp();

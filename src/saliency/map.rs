@@ -26,10 +26,10 @@ pub fn saliency_map(world: &World, sal: &MeshSaliency, frame: &Frame) -> Vec<f32
             for s in samples.iter().filter(|s| s.is_hit()) {
                 let (o, local) = world.local_triangle(s.tri);
                 let mesh = world.objects[o as usize].mesh;
-                if let Some(Some(c)) = sal.corners.get(mesh) {
-                    if let Some(c) = c.get(local as usize) {
-                        sum += (1.0 - s.u - s.v) * c[0] + s.u * c[1] + s.v * c[2];
-                    }
+                if let Some(Some(c)) = sal.corners.get(mesh)
+                    && let Some(c) = c.get(local as usize)
+                {
+                    sum += (1.0 - s.u - s.v) * c[0] + s.u * c[1] + s.v * c[2];
                 }
             }
             (sum / spp as f32).clamp(0.0, 1.0)

@@ -190,10 +190,10 @@ pub fn cached_mesh_saliency(
     cache_dir: Option<&Path>,
 ) -> Result<Arc<Vec<f32>>> {
     let key = content_key(mesh, method);
-    if let Some(m) = memo {
-        if let Some(v) = m.0.lock().ok().and_then(|g| g.get(&key).cloned()) {
-            return Ok(v);
-        }
+    if let Some(m) = memo
+        && let Some(v) = m.0.lock().ok().and_then(|g| g.get(&key).cloned())
+    {
+        return Ok(v);
     }
     let from_disk = match cache_dir {
         Some(dir) => cache::load(dir, key, mesh.positions.len()),
@@ -209,10 +209,10 @@ pub fn cached_mesh_saliency(
             v
         }
     };
-    if let Some(m) = memo {
-        if let Ok(mut g) = m.0.lock() {
-            g.insert(key, values.clone());
-        }
+    if let Some(m) = memo
+        && let Ok(mut g) = m.0.lock()
+    {
+        g.insert(key, values.clone());
     }
     Ok(values)
 }

@@ -191,7 +191,7 @@ impl<'a> Loader<'a> {
                 _ => {}
             }
         }
-        if !is_glb && bytes.len() >= 4 && bytes[..4].iter().any(|b| *b == 0) && !bytes.starts_with(b"{") {
+        if !is_glb && bytes.len() >= 4 && bytes[..4].contains(&0) && !bytes.starts_with(b"{") {
             return Err(Error::scene(path, "not a glTF file: neither a GLB header ('glTF' magic) nor JSON"));
         }
         let gltf =
@@ -385,14 +385,14 @@ impl<'a> Loader<'a> {
                 if !(yfov > 0.0 && yfov < std::f64::consts::PI) {
                     return Err(self.err(format!("camera {}: yfov {yfov} rad is not in (0, pi)", camera.index())));
                 }
-                if let Some(zfar) = p.zfar() {
-                    if zfar <= p.znear() {
-                        return Err(self.err(format!(
-                            "camera {}: zfar {zfar} is not greater than znear {}",
-                            camera.index(),
-                            p.znear()
-                        )));
-                    }
+                if let Some(zfar) = p.zfar()
+                    && zfar <= p.znear()
+                {
+                    return Err(self.err(format!(
+                        "camera {}: zfar {zfar} is not greater than znear {}",
+                        camera.index(),
+                        p.znear()
+                    )));
                 }
                 Projection::Perspective { yfov }
             }
@@ -596,10 +596,11 @@ impl<'a> Loader<'a> {
                 }
             }
         }
-        if !weights.is_empty() && prim.morph_targets().len() > 0 {
-            if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
-                return Err(self.err(format!("{name}: morphed vertex {i} is not finite")));
-            }
+        if !weights.is_empty()
+            && prim.morph_targets().len() > 0
+            && let Some(i) = positions.iter().position(|p| !p.is_finite())
+        {
+            return Err(self.err(format!("{name}: morphed vertex {i} is not finite")));
         }
 
         if let Some(joint_matrices) = skin {
@@ -698,15 +699,15 @@ impl<'a> Loader<'a> {
             return Ok(());
         };
         let tol = |v: Vec3| v.abs() * 1e-5 + Vec3::splat(1e-6);
-        if let Some(min) = min {
-            if (lo + tol(lo)).cmplt(min).any() {
-                return Err(self.err(format!("{what}: data reach {lo:?}, below the declared min {min:?}")));
-            }
+        if let Some(min) = min
+            && (lo + tol(lo)).cmplt(min).any()
+        {
+            return Err(self.err(format!("{what}: data reach {lo:?}, below the declared min {min:?}")));
         }
-        if let Some(max) = max {
-            if (hi - tol(hi)).cmpgt(max).any() {
-                return Err(self.err(format!("{what}: data reach {hi:?}, above the declared max {max:?}")));
-            }
+        if let Some(max) = max
+            && (hi - tol(hi)).cmpgt(max).any()
+        {
+            return Err(self.err(format!("{what}: data reach {hi:?}, above the declared max {max:?}")));
         }
         Ok(())
     }

@@ -165,7 +165,7 @@ pub fn layout(frame: &Frame, settings: &Settings) -> Result<(FacetLayout, Segmen
 
     let features = Features::new(frame, &weights);
     lap("features".into(), &mut timings);
-    let seed = splitmix64(settings.seed ^ 0x5E6E_E7);
+    let seed = splitmix64(settings.seed ^ 0x005E_6EE7);
     let sp = superpixels::slic(&features, want, weights.separates_objects(), seed);
     lap("superpixels".into(), &mut timings);
     let graph = RegionGraph::build(&sp, &features, &weights);

@@ -53,10 +53,7 @@ fn voronoi(seeds: &[(f32, f32)]) -> impl Fn(u32, u32) -> usize + '_ {
 }
 
 fn settings(segments: &[u32], thresholds: &[f64]) -> Settings {
-    let mut s = Settings::default();
-    s.segments = segments.to_vec();
-    s.thresholds = thresholds.to_vec();
-    s
+    Settings { segments: segments.to_vec(), thresholds: thresholds.to_vec(), ..Settings::default() }
 }
 
 fn truth(w: u32, h: u32, region: impl Fn(u32, u32) -> usize) -> LabelImage {
