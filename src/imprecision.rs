@@ -19,6 +19,7 @@ use rayon::prelude::*;
 
 use crate::accel::Accel;
 use crate::camera::{Camera, CameraRay, finish_ray};
+use crate::distance::squared_distance_to_features;
 use crate::error::{Error, Result};
 use crate::facets::{FacetMap, rand01};
 use crate::settings::{FacetProjection, Imprecision, Settings};
@@ -329,12 +330,12 @@ fn neighbourhood_sum(map: &FacetMap, own: &[u32], radius: f64, weight: &dyn Fn(u
     let r = radius.ceil() as i64;
     let (x0, y0, x1, y1) = ((x0 - r).max(0), (y0 - r).max(0), (x1 + r).min(w - 1), (y1 + r).min(h - 1));
     let (bw, bh) = ((x1 - x0 + 1) as usize, (y1 - y0 + 1) as usize);
-    let mut dist = vec![EDT_INF; bw * bh];
+    let mut is_own = vec![false; bw * bh];
     for &i in own {
         let (x, y) = (i as i64 % w - x0, i as i64 / w - y0);
-        dist[y as usize * bw + x as usize] = 0.0;
+        is_own[y as usize * bw + x as usize] = true;
     }
-    distance_transform_sq(&mut dist, bw, bh);
+    let dist = squared_distance_to_features(bw, bh, |i| is_own[i]);
     let r2 = radius * radius;
     let mut t = (0.0, 0.0, 0.0);
     for by in 0..bh {
@@ -349,71 +350,6 @@ fn neighbourhood_sum(map: &FacetMap, own: &[u32], radius: f64, weight: &dyn Fn(u
         }
     }
     t
-}
-
-const EDT_INF: f64 = 1e20;
-
-/// In place: `f` holds 0 at feature pixels and `EDT_INF` elsewhere; afterwards, each pixel's
-/// squared Euclidean distance to the nearest feature pixel (Felzenszwalb & Huttenlocher 2012,
-/// separable, linear time).
-pub fn distance_transform_sq(f: &mut [f64], w: usize, h: usize) {
-    let n = w.max(h);
-    let (mut line, mut out, mut v, mut z) = (vec![0.0; n], vec![0.0; n], vec![0usize; n], vec![0.0; n + 1]);
-    for x in 0..w {
-        for y in 0..h {
-            line[y] = f[y * w + x];
-        }
-        edt_1d(&line[..h], &mut out[..h], &mut v, &mut z);
-        for y in 0..h {
-            f[y * w + x] = out[y];
-        }
-    }
-    for y in 0..h {
-        line[..w].copy_from_slice(&f[y * w..(y + 1) * w]);
-        edt_1d(&line[..w], &mut out[..w], &mut v, &mut z);
-        f[y * w..(y + 1) * w].copy_from_slice(&out[..w]);
-    }
-}
-
-/// The 1D squared distance transform of a sampled function (lower envelope of parabolas).
-fn edt_1d(f: &[f64], d: &mut [f64], v: &mut [usize], z: &mut [f64]) {
-    let n = f.len();
-    if n == 0 {
-        return;
-    }
-    let mut k = 0usize;
-    v[0] = 0;
-    z[0] = f64::NEG_INFINITY;
-    z[1] = f64::INFINITY;
-    for q in 1..n {
-        loop {
-            let p = v[k];
-            let s = ((f[q] + (q * q) as f64) - (f[p] + (p * p) as f64)) / (2.0 * (q as f64 - p as f64));
-            if s <= z[k] && k > 0 {
-                k -= 1;
-                continue;
-            }
-            if s <= z[k] {
-                // k == 0 and the new parabola is lower everywhere: replace it.
-                v[0] = q;
-                z[1] = f64::INFINITY;
-                break;
-            }
-            k += 1;
-            v[k] = q;
-            z[k] = s;
-            z[k + 1] = f64::INFINITY;
-            break;
-        }
-    }
-    let mut k = 0;
-    for q in 0..n {
-        while z[k + 1] < q as f64 {
-            k += 1;
-        }
-        let p = v[k];
-        d[q] = (q as f64 - p as f64).powi(2) + f[p];
-    }
 }
 
 /// The discontinuity limit: sc moved onto the circle of radius `radius` around fc when it is
@@ -592,26 +528,6 @@ mod tests {
         assert!((inner - 0.25).abs() < 0.02, "{inner}");
         let right = pts.iter().filter(|p| p.x > 0.0).count() as f64 / pts.len() as f64;
         assert!((right - 0.5).abs() < 0.02, "{right}");
-    }
-
-    #[test]
-    fn distance_transform_is_exact() {
-        let (w, h) = (13, 9);
-        let feats = [(2usize, 3usize), (10, 1), (7, 8)];
-        let mut f = vec![EDT_INF; w * h];
-        for &(x, y) in &feats {
-            f[y * w + x] = 0.0;
-        }
-        distance_transform_sq(&mut f, w, h);
-        for y in 0..h {
-            for x in 0..w {
-                let want = feats
-                    .iter()
-                    .map(|&(fx, fy)| (x as f64 - fx as f64).powi(2) + (y as f64 - fy as f64).powi(2))
-                    .fold(f64::INFINITY, f64::min);
-                assert_eq!(f[y * w + x], want, "({x}, {y})");
-            }
-        }
     }
 
     /// A converging bundle like the spherical camera's: origins on a sphere of radius d_f

@@ -9,6 +9,7 @@
 pub mod accel;
 pub mod camera;
 pub mod cli;
+pub mod distance;
 pub mod error;
 pub mod eval;
 pub mod facets;

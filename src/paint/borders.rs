@@ -3,8 +3,8 @@
 
 use rayon::prelude::*;
 
-use super::distance::distance_to_features;
 use super::{Canvas, Effect, PaintContext, darken};
+use crate::distance::distance_to_features;
 use crate::error::Result;
 
 /// Eq 4.8: colour factor (md + 3 sqrt(p_d md)) / (4 md) for p_d in [0, md], 1 beyond:

@@ -18,7 +18,6 @@
 
 pub mod borders;
 pub mod chiaroscuro;
-pub mod distance;
 pub mod gradients;
 pub mod palette;
 pub mod quantise;

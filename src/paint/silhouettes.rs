@@ -4,8 +4,8 @@
 use rayon::prelude::*;
 
 use super::borders::darkening;
-use super::distance::distance_to_features;
 use super::{Canvas, Effect, PaintContext, darken_background};
+use crate::distance::distance_to_features;
 use crate::error::Result;
 
 /// Darkens the background near the foreground.

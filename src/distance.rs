@@ -1,6 +1,7 @@
 //! Exact Euclidean distance transform in linear time (Felzenszwalb and Huttenlocher, "Distance
 //! transforms of sampled functions", 2012): the p_d of SPEC eq 4.8 for every pixel at once,
-//! instead of the thesis's per-pixel circle search.
+//! instead of the thesis's per-pixel circle search, and the pixels within the neighbourhood
+//! radius of a facet (SPEC "Spatial imprecision").
 //!
 //! Hand-written: it is two short passes, and the crates that have one (imageproc) would pull
 //! a large dependency tree for a single-threaded f64 version; this one runs its rows on rayon.
@@ -19,8 +20,47 @@ pub fn distance_to_features(
     is_feature: impl Fn(usize) -> bool + Sync,
 ) -> Vec<f32> {
     let (w, h) = (width as usize, height as usize);
-    // Pass 1: per column, the distance to the nearest feature in that column (two sweeps,
-    // row by row so the inner loop runs along memory).
+    let mut g = column_distances(w, h, &is_feature);
+    // Pass 2: per row, the lower envelope of the parabolas (x - q)^2 + g(q)^2, leaving out
+    // columns whose nearest feature is `limit` or farther.
+    g.par_chunks_mut(w).for_each_init(
+        || (Vec::with_capacity(w), Vec::with_capacity(w + 1), Vec::with_capacity(w)),
+        |(v, z, f): &mut (Vec<usize>, Vec<f64>, Vec<f64>), row| {
+            if row.iter().all(|&d| d >= limit) {
+                row.fill(f32::INFINITY);
+                return;
+            }
+            f.clear();
+            f.extend(row.iter().map(|&d| if d < limit { (d as f64) * (d as f64) } else { f64::INFINITY }));
+            envelope(f, v, z, |x, d2| row[x] = d2.sqrt() as f32);
+        },
+    );
+    g
+}
+
+/// Squared Euclidean distance from every pixel to the nearest pixel where `is_feature(index)`
+/// holds, exact (integers in f64; infinite when there is no feature). For the neighbourhood
+/// test `d^2 <= r^2` of the saliency centres, which must not round.
+pub fn squared_distance_to_features(
+    width: usize,
+    height: usize,
+    is_feature: impl Fn(usize) -> bool + Sync,
+) -> Vec<f64> {
+    let (w, h) = (width, height);
+    let g = column_distances(w, h, &is_feature);
+    let mut out = vec![f64::INFINITY; w * h];
+    let (mut v, mut z, mut f) = (Vec::with_capacity(w), Vec::with_capacity(w + 1), Vec::with_capacity(w));
+    for (row, col) in out.chunks_mut(w).zip(g.chunks(w)) {
+        f.clear();
+        f.extend(col.iter().map(|&d| (d as f64) * (d as f64)));
+        envelope(&f, &mut v, &mut z, |x, d2| row[x] = d2);
+    }
+    out
+}
+
+/// Pass 1 of both transforms: per column, the distance to the nearest feature in that column
+/// (two sweeps, row by row so the inner loop runs along memory); integers, exact in f32.
+fn column_distances(w: usize, h: usize, is_feature: &(impl Fn(usize) -> bool + Sync)) -> Vec<f32> {
     let mut g = vec![f32::INFINITY; w * h];
     g.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
         for (x, v) in row.iter_mut().enumerate() {
@@ -43,26 +83,12 @@ pub fn distance_to_features(
             *v = v.min(n + 1.0);
         }
     }
-    // Pass 2: per row, the lower envelope of the parabolas (x - q)^2 + g(q)^2, leaving out
-    // columns whose nearest feature is `limit` or farther.
-    g.par_chunks_mut(w).for_each_init(
-        || (Vec::with_capacity(w), Vec::with_capacity(w + 1), Vec::with_capacity(w)),
-        |(v, z, f): &mut (Vec<usize>, Vec<f64>, Vec<f64>), row| {
-            if row.iter().all(|&d| d >= limit) {
-                row.fill(f32::INFINITY);
-                return;
-            }
-            f.clear();
-            f.extend(row.iter().map(|&d| if d < limit { (d as f64) * (d as f64) } else { f64::INFINITY }));
-            envelope(f, v, z, row);
-        },
-    );
     g
 }
 
-/// The 1-D squared distance transform of `f` (infinite = no parabola there), written as
-/// distances into `out`. `v` and `z` are scratch buffers.
-fn envelope(f: &[f64], v: &mut Vec<usize>, z: &mut Vec<f64>, out: &mut [f32]) {
+/// The 1-D squared distance transform of `f` (infinite = no parabola there): `put(x, d^2)`
+/// for every x. `v` and `z` are scratch buffers.
+fn envelope(f: &[f64], v: &mut Vec<usize>, z: &mut Vec<f64>, mut put: impl FnMut(usize, f64)) {
     v.clear();
     z.clear();
     for (q, &fq) in f.iter().enumerate() {
@@ -94,17 +120,17 @@ fn envelope(f: &[f64], v: &mut Vec<usize>, z: &mut Vec<f64>, out: &mut [f32]) {
         }
     }
     if v.is_empty() {
-        out.fill(f32::INFINITY);
+        (0..f.len()).for_each(|x| put(x, f64::INFINITY));
         return;
     }
     let mut k = 0;
-    for (x, o) in out.iter_mut().enumerate() {
+    for x in 0..f.len() {
         let xf = x as f64;
         while k + 1 < v.len() && z[k + 1] < xf {
             k += 1;
         }
         let d = xf - v[k] as f64;
-        *o = (d * d + f[v[k]]).sqrt() as f32;
+        put(x, d * d + f[v[k]]);
     }
 }
 
@@ -139,6 +165,23 @@ mod tests {
     }
 
     #[test]
+    fn squared_distances_are_exact() {
+        let (w, h) = (13, 9);
+        let feats = [(2usize, 3usize), (10, 1), (7, 8)];
+        let f = squared_distance_to_features(w, h, |i| feats.contains(&(i % w, i / w)));
+        for y in 0..h {
+            for x in 0..w {
+                let want = feats
+                    .iter()
+                    .map(|&(fx, fy)| (x as f64 - fx as f64).powi(2) + (y as f64 - fy as f64).powi(2))
+                    .fold(f64::INFINITY, f64::min);
+                assert_eq!(f[y * w + x], want, "({x}, {y})");
+            }
+        }
+        assert!(squared_distance_to_features(4, 3, |_| false).iter().all(|v| v.is_infinite()));
+    }
+
+    #[test]
     fn no_features_is_infinite() {
         let d = distance_to_features(4, 3, f32::INFINITY, |_| false);
         assert!(d.iter().all(|v| v.is_infinite()));
@@ -151,6 +194,14 @@ mod tests {
             let b = brute(w, h, &feat);
             let d = distance_to_features(w as u32, h as u32, f32::INFINITY, |i| feat[i]);
             let near = distance_to_features(w as u32, h as u32, limit, |i| feat[i]);
+            let sq = squared_distance_to_features(w, h, |i| feat[i]);
+            for (i, &d2) in sq.iter().enumerate() {
+                let want = (0..w * h)
+                    .filter(|&j| feat[j])
+                    .map(|j| ((i % w) as f64 - (j % w) as f64).powi(2) + ((i / w) as f64 - (j / w) as f64).powi(2))
+                    .fold(f64::INFINITY, f64::min);
+                prop_assert_eq!(d2, want, "squared, pixel {}", i);
+            }
             for i in 0..w * h {
                 prop_assert!(d[i] == b[i] || (d[i] - b[i]).abs() < 1e-4, "pixel {} got {} want {}", i, d[i], b[i]);
                 if b[i] < limit {
