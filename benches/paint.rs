@@ -62,7 +62,7 @@ fn main() {
     let rendered = render(&prep, &unpainted, &Progress::silent()).expect("render");
     let facets = rendered.facets.expect("facet map");
     let frame: Frame = rendered.frame;
-    let framed = cubist::camera::frame_camera(&unpainted, &prep.world).expect("camera");
+    let framed = cubist::camera::frame_camera(&unpainted, &prep.world, &prep.accel).expect("camera");
     let rig = LightRig::new(&prep.world, &framed.frame, unpainted.shadows, unpainted.exposure);
     let lighting = Lighting { world: &prep.world, rig: &rig };
 

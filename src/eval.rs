@@ -107,7 +107,7 @@ pub struct Evaluation {
 /// Traces the primary rays of `settings`' camera (no shading) and counts visible faces.
 pub fn evaluate(prep: &Prepared, settings: &Settings) -> Result<Evaluation> {
     settings.validate()?;
-    let framed = frame_camera(settings, &prep.world)?;
+    let framed = frame_camera(settings, &prep.world, &prep.accel)?;
     let mut frame = Frame::new(settings.width, settings.height, settings.spp);
     let tracer =
         Tracer { world: &prep.world, accel: &prep.accel, rig: None, background: glam::Vec3::ZERO, seed: settings.seed };

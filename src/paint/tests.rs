@@ -418,7 +418,7 @@ fn chiaroscuro_relights_facets_and_leaves_the_background() {
     s.height = 72;
     s.spp = 1;
     let rendered = render(&prep, &s, &crate::progress::Progress::silent()).unwrap();
-    let framed = crate::camera::frame_camera(&s, &prep.world).unwrap();
+    let framed = crate::camera::frame_camera(&s, &prep.world, &prep.accel).unwrap();
     let rig = crate::shading::LightRig::new(&prep.world, &framed.frame, s.shadows, s.exposure);
     let lighting = Lighting { world: &prep.world, rig: &rig };
     let facets = voronoi(96, 72, 12, 2);

@@ -64,7 +64,7 @@ pub fn render_map(prep: &Prepared, settings: &Settings, progress: &Progress) -> 
     settings.validate()?;
     let mut timings = Timings::default();
     let mut warnings = prep.scene.warnings.clone();
-    let framed = frame_camera(settings, &prep.world)?;
+    let framed = frame_camera(settings, &prep.world, &prep.accel)?;
     warnings.extend(framed.warnings.iter().cloned());
     let tracer =
         Tracer { world: &prep.world, accel: &prep.accel, rig: None, background: glam::Vec3::ZERO, seed: settings.seed };

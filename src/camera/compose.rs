@@ -1,0 +1,216 @@
+//! Composition (issue 13, ART.md "The subject fills the canvas"): the `compose` framing of the
+//! converging cameras, chosen per scene from its vertices.
+//!
+//! Why not `fit`: with the focal centre C outside the scene, the part of the scene a
+//! converging camera shows depends only on C (the lines through C); the convergence angle
+//! only scales that view onto the canvas. `fit` keeps the angle at 140 deg and moves C back
+//! until the scene spans 80% of it, so a compact subject fills 15-40% of the canvas and a
+//! tall or thin one under 15%, with an empty backdrop around it. The cameras give more
+//! freedom than a pinhole: their horizontal and vertical spans are independent.
+//!
+//! The rule, in order:
+//! 1. C goes as close behind the scene as it can while every vertex stays within
+//!    `margin` x `MAX_HALF_ANGLE` of the view axis: the widest wrap around the subject
+//!    (the cubist "several sides at once") the cameras can show without grazing rays.
+//!    With an explicit ambiguity, C is placed as `fit` places it instead (the scene spans
+//!    `margin` of the given horizontal half-angle).
+//! 2. C slides across the view (right and up) so the scene's angular extent is centred,
+//!    then step 1 runs again from there (twice): an asymmetric subject (a bunny's ears, a
+//!    figure's raised arm) is not pushed off-centre with an empty margin on one side.
+//! 3. The spans are fitted to the vertices: horizontal angle (unless the ambiguity is given)
+//!    and vertical angle (spherical) or band height (cylindrical) = the scene's extent /
+//!    `margin`, so the whole subject is in view with a thin margin.
+//! 4. The two spans are kept within a ratio of the same scale per pixel (the wider one is
+//!    kept and the other widened): a tall or flat subject is stretched at most that much.
+//! 5. Closest is not always fullest: a part of the scene near C (a tail, a raised ear)
+//!    reaches the angle cap first and the bulk beyond it stays small; and a thin subject
+//!    (a fox head on) needs some stretch. So steps 1-4 run for C at a few distances further
+//!    back (`DEPTH_STEPS`) and a few stretch ratios (`ANISOTROPY_STEPS`); each candidate's
+//!    fill is measured by tracing a tiny image. The least stretched, then closest, candidate
+//!    that fills `FILL_GOAL` of the canvas wins; when none does (a figure with outstretched
+//!    arms), the least stretched and closest within `NEAR_BEST` of the best fill.
+//!
+//! No constant depends on a particular scene: the angle cap is the thesis's best ambiguity
+//! range's top (150 deg, section 5), the margin the `fill` setting.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::CameraFrame;
+use super::framing::fit_depth;
+use crate::settings::CameraKind;
+
+/// Largest half-angle a vertex may reach from the view axis: spans stay within the thesis's
+/// best ambiguity range (120-150 deg, section 5).
+pub const MAX_HALF_ANGLE: f64 = 75.0 * std::f64::consts::PI / 180.0;
+/// Default `fill` for `compose`: the scene's extent over the canvas's span, per axis.
+pub const COMPOSE_FILL: f64 = 0.94;
+/// The ratios between the horizontal and vertical scale per pixel (angle or length per pixel)
+/// step 4 may allow, least distortion first (step 5 picks one per scene).
+pub const ANISOTROPY_STEPS: [f64; 4] = [1.0, 1.5, 2.0, 2.5];
+/// The share of the canvas a composition should fill (ART.md: the subject occupies most of
+/// the picture); step 5 takes the least distortion that reaches it.
+pub const FILL_GOAL: f64 = 0.5;
+/// Centring passes of step 2.
+const CENTRING_PASSES: usize = 2;
+/// Candidate distances of C behind its closest place, in scene radii (step 5).
+const DEPTH_STEPS: [f64; 8] = [0.0, 0.0625, 0.125, 0.25, 0.5, 1.0, 2.0, 4.0];
+/// Step 5 takes the closest candidate whose fill is at least this share of the best.
+const NEAR_BEST: f64 = 0.9;
+
+/// What `compose` chose for a spherical or cylindrical camera.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Composition {
+    /// The focal centre C (cylindrical: a point of the focal line at the band's middle).
+    pub centre: DVec3,
+    /// Horizontal convergence angle, radians.
+    pub angle_x: f64,
+    /// Spherical: vertical convergence angle, radians. Cylindrical: unused (0).
+    pub angle_y: f64,
+    /// Cylindrical: the band's height, render units. Spherical: unused (0).
+    pub height: f64,
+}
+
+/// Angular (and, for the cylindrical camera, vertical) extents of `points` seen from `c`:
+/// (min, max) of the horizontal angle and of the vertical angle (spherical) or height above
+/// `c` (cylindrical).
+fn extents(points: &[DVec3], kind: CameraKind, f: &CameraFrame, c: DVec3) -> ((f64, f64), (f64, f64)) {
+    let mut h = (f64::INFINITY, f64::NEG_INFINITY);
+    let mut v = (f64::INFINITY, f64::NEG_INFINITY);
+    for p in points {
+        let w = *p - c;
+        let (x, y, z) = (w.dot(f.right), w.dot(f.up), -w.dot(f.forward));
+        let (a, b) = match kind {
+            CameraKind::Cylindrical => (x.atan2(z), y),
+            _ => ((x / w.length().max(1e-300)).clamp(-1.0, 1.0).asin(), y.atan2(z)),
+        };
+        h = (h.0.min(a), h.1.max(a));
+        v = (v.0.min(b), v.1.max(b));
+    }
+    if !h.0.is_finite() {
+        return ((0.0, 0.0), (0.0, 0.0));
+    }
+    (h, v)
+}
+
+/// The spans that hold `points` seen from `c`, step 3 and 4 of the rule.
+#[allow(clippy::too_many_arguments)]
+fn spans(
+    points: &[DVec3],
+    kind: CameraKind,
+    f: &CameraFrame,
+    c: DVec3,
+    aspect: f64,
+    margin: f64,
+    ambiguity: Option<f64>,
+    anisotropy: f64,
+) -> Composition {
+    let (h, v) = extents(points, kind, f, c);
+    let widest = 2.0 * MAX_HALF_ANGLE / margin;
+    let span_x = (2.0 * h.0.abs().max(h.1.abs()) / margin).clamp(1e-6, widest);
+    let mut angle_x = ambiguity.unwrap_or(span_x);
+    if kind == CameraKind::Cylindrical {
+        // The band is centred on the scene's vertical middle (the focal line's point there).
+        let centre = c + f.up * (0.5 * (v.0 + v.1));
+        let mut height = ((v.1 - v.0) / margin).max(1e-6);
+        // Scale per pixel: angle_x r / width (r = the scene's mean distance from the focal
+        // line) against height / rows, both per image height here.
+        let r = mean_distance_from_line(points, f, centre).max(1e-9);
+        let sx = angle_x * r / aspect;
+        if sx > anisotropy * height {
+            height = sx / anisotropy;
+        } else if height > anisotropy * sx && ambiguity.is_none() {
+            angle_x = ((height / anisotropy) * aspect / r).min(widest);
+        }
+        return Composition { centre, angle_x, angle_y: 0.0, height };
+    }
+    let mut angle_y = (2.0 * v.0.abs().max(v.1.abs()) / margin).clamp(1e-6, widest);
+    // Radians per pixel: angle_x / width against angle_y / height.
+    let sx = angle_x / aspect;
+    if sx > anisotropy * angle_y {
+        angle_y = sx / anisotropy;
+    } else if angle_y > anisotropy * sx && ambiguity.is_none() {
+        angle_x = (angle_y / anisotropy * aspect).min(widest);
+    }
+    Composition { centre: c, angle_x, angle_y, height: 0.0 }
+}
+
+/// The `compose` framing of a spherical or cylindrical camera looking along `f.forward`, with
+/// C on the line through `axis` along the view before centring. `ambiguity`: the horizontal
+/// convergence angle when the user gave one (radians). `margin` in (0, 1]: the scene's extent
+/// over each span. `aspect` = width / height. `fill_of` measures the share of the canvas a
+/// candidate shows geometry on (a tiny trace, see `framing::probe_fill`).
+#[allow(clippy::too_many_arguments)]
+pub fn compose(
+    points: &[DVec3],
+    kind: CameraKind,
+    f: &CameraFrame,
+    axis: DVec3,
+    aspect: f64,
+    radius: f64,
+    margin: f64,
+    ambiguity: Option<f64>,
+    fill_of: &(dyn Fn(&Composition) -> f64 + Sync),
+) -> Composition {
+    let cylindrical = kind == CameraKind::Cylindrical;
+    let cap = MAX_HALF_ANGLE;
+    let half = match ambiguity {
+        Some(a) => ((a / 2.0).min(cap / margin), cap / margin),
+        None => (cap, cap),
+    };
+    let place =
+        |axis: DVec3, back: f64| axis + f.forward * (fit_depth(points, kind, f, axis, half, radius, margin) + back);
+    let centres: Vec<DVec3> = DEPTH_STEPS
+        .par_iter()
+        .map(|&step| {
+            let back = step * radius;
+            let mut axis = axis;
+            let mut c = place(axis, back);
+            for _ in 0..CENTRING_PASSES {
+                let (h, v) = extents(points, kind, f, c);
+                // Typical depth of the scene in front of C: the slide that turns the extent's
+                // middle angle onto the axis.
+                let depth = points.iter().map(|p| -(*p - c).dot(f.forward)).fold(0.0, f64::max).max(1e-9) * 0.5;
+                let dx = depth * (0.5 * (h.0 + h.1)).tan();
+                let dy = if cylindrical { 0.0 } else { depth * (0.5 * (v.0 + v.1)).tan() };
+                if !(dx.is_finite() && dy.is_finite()) {
+                    break;
+                }
+                axis += f.right * dx + f.up * dy;
+                c = place(axis, back);
+            }
+            c
+        })
+        .collect();
+    // Candidates in order of preference: least distortion first, then the closest C.
+    let candidates: Vec<Composition> = ANISOTROPY_STEPS
+        .iter()
+        .flat_map(|&a| centres.iter().map(move |&c| (a, c)))
+        .collect::<Vec<_>>()
+        .par_iter()
+        .map(|&(a, c)| spans(points, kind, f, c, aspect, margin, ambiguity, a))
+        .collect();
+    let fills: Vec<f64> = candidates.par_iter().map(fill_of).collect();
+    let best = fills.iter().copied().fold(0.0, f64::max);
+    let pick = fills
+        .iter()
+        .position(|&v| v >= FILL_GOAL)
+        .or_else(|| fills.iter().position(|&v| v >= NEAR_BEST * best))
+        .unwrap_or(0);
+    candidates[pick]
+}
+
+/// Mean horizontal distance of `points` from the vertical line through `c` along `f.up`.
+fn mean_distance_from_line(points: &[DVec3], f: &CameraFrame, c: DVec3) -> f64 {
+    if points.is_empty() {
+        return 0.0;
+    }
+    let sum: f64 = points
+        .iter()
+        .map(|p| {
+            let w = *p - c;
+            (w - f.up * w.dot(f.up)).length()
+        })
+        .sum();
+    sum / points.len() as f64
+}
