@@ -284,6 +284,15 @@ pub struct SettingsArgs {
     /// Segment: weight of saliency differences [default: 0.5]
     #[arg(long, help_heading = "Facets", allow_negative_numbers = true)]
     pub weight_saliency: Option<f64>,
+    /// Planes: cells the canvas is split into before the subject's outlines cut them [default: 150]
+    #[arg(long, help_heading = "Facets")]
+    pub planes: Option<u32>,
+    /// Planes: how much denser planes are at the most salient parts than far from the subject, >= 1 [default: 5]
+    #[arg(long, help_heading = "Facets", allow_negative_numbers = true)]
+    pub plane_detail: Option<f64>,
+    /// Planes: cut the planes along the subject's outlines (true/false) [default: true]
+    #[arg(long, help_heading = "Facets")]
+    pub plane_outlines: Option<bool>,
 
     /// How facets are re-aimed [default: saliency]
     #[arg(long, value_enum, help_heading = "Spatial imprecision")]
@@ -291,6 +300,9 @@ pub struct SettingsArgs {
     /// Largest facet-centre to saliency-centre shift, pixels at 1000 px; the paper recommends 50-200 [analytic: 200]
     #[arg(long, help_heading = "Spatial imprecision", allow_negative_numbers = true)]
     pub discontinuity: Option<f64>,
+    /// Re-aim a facet only when this share of its pixels showed geometry, 0..1; 0 = every facet, as the thesis [default: 0]
+    #[arg(long, help_heading = "Spatial imprecision", allow_negative_numbers = true)]
+    pub aim_min_coverage: Option<f64>,
     /// Pixels outside a facet that count for its saliency centre, at 1000 px [default: 0]
     #[arg(long, help_heading = "Spatial imprecision", allow_negative_numbers = true)]
     pub neighborhood: Option<f64>,

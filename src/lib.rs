@@ -7,6 +7,7 @@
 //! effects); `eval` counts visible faces; `pipeline` runs the stages the settings need.
 
 pub mod accel;
+pub mod backdrop;
 pub mod camera;
 pub mod cli;
 pub mod distance;

@@ -99,7 +99,7 @@ pub fn render_with(
     settings.validate()?;
     let mut timings = Timings::default();
     let mut warnings = prep.scene.warnings.clone();
-    let framed = frame_camera(settings, &prep.world)?;
+    let framed = frame_camera(settings, &prep.world, &prep.accel)?;
     warnings.extend(framed.warnings.iter().cloned());
     let rig = LightRig::new(&prep.world, &framed.frame, settings.shadows, settings.exposure);
     let background = Vec3::from(settings.background);
@@ -169,6 +169,11 @@ pub fn render_with(
         }
         progress.begin("imprecision", 1);
         aims = timings.time("imprecision", || imprecision::aim_facets(&ctx, &map, frame.saliency.as_deref(), settings));
+        // Background facets keep the backdrop (issue 13: no ghosts; see `backdrop`).
+        if settings.aim_min_coverage > 0.0 {
+            let coverage = crate::backdrop::facet_coverage(&map, |i| frame.color[i].w);
+            crate::backdrop::hold_background(&mut aims, &coverage, settings.aim_min_coverage);
+        }
         let moved: Vec<u32> =
             (0..map.ids.len() as u32).filter(|&i| aims[map.ids[i as usize] as usize].moved()).collect();
         if !moved.is_empty() {

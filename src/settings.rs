@@ -59,6 +59,9 @@ kebab_enum!(
         Fit = "fit",
         /// At the centre of the scene's bounding box (the thesis's literal default).
         Centre = "centre",
+        /// Per scene: C as close behind the scene as the cameras allow, the horizontal and
+        /// vertical spans fitted to it, so the subject fills the canvas (`camera::compose`).
+        Compose = "compose",
     }
 );
 
@@ -75,6 +78,9 @@ kebab_enum!(
         Patch = "patch",
         /// Multiscale normalized-cut segments of the pre-render, selected by saliency.
         Segment = "segment",
+        /// Straight-edged planes tiling the whole canvas, denser at salient parts, cut along
+        /// the subject's outlines (`facets::planes`, issue 13).
+        Planes = "planes",
     }
 );
 
@@ -251,6 +257,19 @@ pub struct Settings {
     /// Segment: weight of saliency differences.
     pub weight_saliency: f64,
 
+    // ---- planes faceting and the backdrop (issue 13; `facets::planes`, `backdrop`)
+    /// Planes: Voronoi cells the canvas is split into before the subject's outlines cut them.
+    pub planes: u32,
+    /// Planes: how much denser the planes are at the most salient parts than far from the
+    /// subject (a ratio of planes per area, >= 1).
+    pub plane_detail: f64,
+    /// Planes: cut the planes along the subject's outlines (silhouettes and object boundaries).
+    pub plane_outlines: bool,
+    /// A facet is re-aimed only when at least this share of its pixels showed geometry in the
+    /// pre-render, in [0, 1]; 0 = every facet (the thesis). Background facets then keep the
+    /// backdrop instead of a magnified copy of the subject (a ghost).
+    pub aim_min_coverage: f64,
+
     // ---- spatial imprecision (SPEC "Spatial imprecision")
     pub imprecision: Imprecision,
     /// Largest distance from facet centre to saliency centre, pixels at 1000 px.
@@ -337,6 +356,10 @@ impl Settings {
             weight_depth: 0.5,
             weight_object: 0.9,
             weight_saliency: 0.5,
+            planes: 150,
+            plane_detail: 5.0,
+            plane_outlines: true,
+            aim_min_coverage: 0.0,
             imprecision: Imprecision::Saliency,
             discontinuity: 0.0,
             neighborhood: 0.0,
@@ -448,7 +471,7 @@ impl Settings {
     pub fn needs_saliency(&self) -> bool {
         let imprecision_uses = self.imprecision == Imprecision::Saliency && self.faceted() && self.discontinuity > 0.0;
         // A loaded layout replaces the segmentation; the facets pass shows saliency centres.
-        let segment_uses = self.faceting == Faceting::Segment && self.facets.is_none();
+        let segment_uses = matches!(self.faceting, Faceting::Segment | Faceting::Planes) && self.facets.is_none();
         imprecision_uses || segment_uses || self.passes.contains(&Pass::Saliency) || self.passes.contains(&Pass::Facets)
     }
 
@@ -607,6 +630,13 @@ impl Settings {
         nonneg("weight_depth", s.weight_depth)?;
         unit("weight_object", s.weight_object)?;
         nonneg("weight_saliency", s.weight_saliency)?;
+        if s.planes == 0 || s.planes > crate::facets::planes::MAX_PLANES {
+            return Err(Error::setting("planes", format!("must be in 1..={}", crate::facets::planes::MAX_PLANES)));
+        }
+        if !(s.plane_detail.is_finite() && (1.0..=100.0).contains(&s.plane_detail)) {
+            return Err(Error::setting("plane_detail", format!("{} must be in [1, 100]", s.plane_detail)));
+        }
+        unit("aim_min_coverage", s.aim_min_coverage)?;
         if s.colors == 1 {
             return Err(Error::setting("colors", "quantising to 1 colour leaves no image; use 0 (off) or >= 2"));
         }

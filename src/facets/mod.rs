@@ -15,6 +15,7 @@
 pub mod constant;
 pub mod io;
 pub mod patch;
+pub mod planes;
 pub mod segment;
 pub mod voronoi;
 
@@ -304,6 +305,20 @@ pub fn layout_for(settings: &Settings, frame: &Frame) -> Result<FacetLayout> {
             settings.seed,
         )?,
         Faceting::Segment => segment::layout(frame, settings)?.0,
+        Faceting::Planes => planes::layout(
+            &planes::PlanesInput {
+                width: frame.width,
+                height: frame.height,
+                hits: &frame.hits,
+                saliency: frame.saliency.as_deref(),
+            },
+            &planes::PlanesParams {
+                planes: settings.planes,
+                detail: settings.plane_detail,
+                outlines: settings.plane_outlines,
+                seed: settings.seed,
+            },
+        ),
     };
     debug_assert!(layout.validate().is_ok());
     Ok(layout)

@@ -1,0 +1,78 @@
+//! What background facets show (issue 13 item 2: no ghosts).
+//!
+//! The thesis re-aims every facet at its saliency centre. A facet that shows mostly backdrop
+//! has its saliency centre on the little geometry it touches (or none), so its rays turn
+//! towards the subject and the whole facet fills with a smooth, unfaceted, magnified copy of it:
+//! a ghost, up to 40% of the canvas with large Segment leftovers. The painters' backgrounds are
+//! planes of the backdrop, each with its own light, meeting the figure in passage; they are not
+//! second, enlarged views of the figure. So a facet is re-aimed only when at least
+//! `aim_min_coverage` of its pixels showed geometry in the pre-render: background facets keep
+//! the backdrop as the pre-render saw it (its planes are read from their borders and, with the
+//! painterly stage, their own light), and the subject's facets are re-aimed as the thesis says.
+//! With the planes faceting, whose facets are cut along the subject's outlines, almost every
+//! facet is all subject or all backdrop, so the rule rarely has to weigh a mixed one.
+
+use crate::facets::FacetMap;
+use crate::imprecision::FacetAim;
+
+/// Each facet's share of pixel coverage (the fraction of samples that hit geometry, averaged
+/// over its pixels) in the pre-render whose per-pixel coverage is `coverage`.
+pub fn facet_coverage(map: &FacetMap, coverage: impl Fn(usize) -> f32) -> Vec<f64> {
+    let n = map.facet_count as usize;
+    let mut sum = vec![(0.0f64, 0u64); n];
+    for (i, &id) in map.ids.iter().enumerate() {
+        let s = &mut sum[id as usize];
+        s.0 += coverage(i).clamp(0.0, 1.0) as f64;
+        s.1 += 1;
+    }
+    sum.iter().map(|&(c, k)| if k > 0 { c / k as f64 } else { 0.0 }).collect()
+}
+
+/// Undoes the re-aim of every facet whose pre-render coverage is below `min_coverage`; returns
+/// how many facets were held. `min_coverage` 0 holds none (the thesis's behaviour).
+pub fn hold_background(aims: &mut [FacetAim], coverage: &[f64], min_coverage: f64) -> usize {
+    if min_coverage <= 0.0 {
+        return 0;
+    }
+    let mut held = 0;
+    for (aim, &c) in aims.iter_mut().zip(coverage) {
+        if c < min_coverage && aim.moved() {
+            aim.reaim = None;
+            aim.linear = None;
+            aim.sc = aim.fc;
+            aim.target = None;
+            held += 1;
+        }
+    }
+    held
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{DVec2, DVec3};
+
+    use crate::imprecision::Reaim;
+
+    #[test]
+    fn background_facets_keep_their_view() {
+        // Facet 0: all background; facet 1: 3 of 4 pixels on geometry.
+        let map = FacetMap { width: 4, height: 2, ids: vec![0, 0, 1, 1, 0, 0, 1, 1], facet_count: 2 };
+        let cov = [0.0, 0.0, 1.0, 1.0, 0.0, 0.2, 1.0, 0.0];
+        let c = facet_coverage(&map, |i| cov[i]);
+        assert!((c[0] - 0.05).abs() < 1e-6 && (c[1] - 0.75).abs() < 1e-6, "{c:?}");
+        let moved = FacetAim {
+            fc: Some(DVec2::ONE),
+            sc_raw: Some(DVec2::ZERO),
+            sc: Some(DVec2::ZERO),
+            target: Some(DVec3::ZERO),
+            reaim: Some(Reaim { turn: DVec3::X * 0.1, focus: 1.0 }),
+            linear: None,
+        };
+        let mut aims = vec![moved, moved];
+        assert_eq!(hold_background(&mut aims.clone(), &c, 0.0), 0);
+        assert_eq!(hold_background(&mut aims, &c, 0.5), 1);
+        assert!(!aims[0].moved() && aims[0].sc == aims[0].fc);
+        assert!(aims[1].moved());
+    }
+}
