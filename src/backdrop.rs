@@ -13,7 +13,7 @@
 //! facet is all subject or all backdrop, so the rule rarely has to weigh a mixed one.
 
 use crate::facets::FacetMap;
-use crate::imprecision::FacetAim;
+use crate::imprecision::{AimContext, FacetAim};
 
 /// Each facet's share of pixel coverage (the fraction of samples that hit geometry, averaged
 /// over its pixels) in the pre-render whose per-pixel coverage is `coverage`.
@@ -45,6 +45,66 @@ pub fn hold_background(aims: &mut [FacetAim], coverage: &[f64], min_coverage: f6
         }
     }
     held
+}
+
+/// Each facet's mean width, pixels: twice its area over its perimeter (pixel edges facing
+/// another facet or the image's edge); 0 for a facet with no pixel.
+pub fn facet_widths(map: &FacetMap) -> Vec<f64> {
+    let (w, h) = (map.width as usize, map.height as usize);
+    let n = map.facet_count as usize;
+    let (mut area, mut perimeter) = (vec![0u64; n], vec![0u64; n]);
+    for y in 0..h {
+        for x in 0..w {
+            let i = y * w + x;
+            let id = map.ids[i] as usize;
+            area[id] += 1;
+            let differs = |j: Option<usize>| j.is_none_or(|j| map.ids[j] as usize != id);
+            perimeter[id] += [
+                differs((x > 0).then(|| i - 1)),
+                differs((x + 1 < w).then(|| i + 1)),
+                differs((y > 0).then(|| i - w)),
+                differs((y + 1 < h).then(|| i + w)),
+            ]
+            .iter()
+            .filter(|&&d| d)
+            .count() as u64;
+        }
+    }
+    area.iter().zip(&perimeter).map(|(&a, &p)| if p > 0 { 2.0 * a as f64 / p as f64 } else { 0.0 }).collect()
+}
+
+/// Keeps each re-aimed facet's view shift within `share` of its mean width: the aim point sc
+/// moves back towards fc until |sc - fc| <= share x width, and the facet is re-aimed again.
+/// Why: a thin plane (an arm, a guitar's neck, a finger) re-aimed by more than its width shows
+/// the ground beside the part instead of the part, and the cue is lost (issue 13 item 5). A
+/// shift within a fraction of the plane keeps what the plane showed recognisably its own.
+pub fn limit_shift(aims: &mut [FacetAim], widths: &[f64], share: f64, ctx: &AimContext) {
+    if share <= 0.0 {
+        return;
+    }
+    for (aim, &width) in aims.iter_mut().zip(widths) {
+        let (Some(fc), Some(sc)) = (aim.fc, aim.sc) else { continue };
+        if aim.reaim.is_none() {
+            continue;
+        }
+        let limit = share * width;
+        let d = (sc - fc).length();
+        if d <= limit {
+            continue;
+        }
+        let sc = fc + (sc - fc) * (limit / d);
+        aim.sc = Some(sc);
+        aim.reaim = None;
+        aim.target = None;
+        if sc != fc
+            && let Some((r, p)) = ctx.reaim(fc, sc)
+        {
+            if r.turn.length() > ctx.negligible_turn(fc) {
+                aim.reaim = Some(r);
+            }
+            aim.target = p;
+        }
+    }
 }
 
 #[cfg(test)]

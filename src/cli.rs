@@ -42,6 +42,43 @@ pub enum Command {
     /// preset's values and the defaults, after the config file and the flags (null = chosen
     /// per scene, see each flag's help). Nothing is rendered.
     Settings(SettingsCmdArgs),
+    /// The look report (ART.md "What we measure"): render each scene, measure straight planes,
+    /// whole-canvas planes, subject fill, ghosts, cues kept and per-plane light, print a
+    /// markdown table (or JSON) and write a contact sheet. Default size 640 x 480.
+    Look(LookArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct LookArgs {
+    /// Scenes (.glb/.gltf) or folders of them (their .glb/.gltf files, not recursive).
+    pub scenes: Vec<PathBuf>,
+    /// Include the built-in still life (always when no scene is given).
+    #[arg(long)]
+    pub still_life: bool,
+    /// Include the built-in odd scenes: very tall, very flat, z-up, several objects, far from
+    /// the origin, huge, tiny.
+    #[arg(long)]
+    pub odd: bool,
+    /// Also render every scene with this preset: measured and shown beside, as "before".
+    #[arg(long, value_enum, value_name = "PRESET")]
+    pub before: Option<Preset>,
+    /// Write a contact sheet here: per scene, the before picture (with --before) and the after one.
+    #[arg(long, value_name = "PNG")]
+    pub sheet: Option<PathBuf>,
+    /// Print JSON rows instead of markdown tables.
+    #[arg(long)]
+    pub json: bool,
+    /// Also time every render at SIZE x SIZE pixels (the median of --time-runs).
+    #[arg(long, value_name = "SIZE")]
+    pub time_size: Option<u32>,
+    /// Renders timed per scene with --time-size.
+    #[arg(long, default_value_t = 3)]
+    pub time_runs: u32,
+    /// JSON file of settings, as for `render`.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    #[command(flatten)]
+    pub settings: SettingsArgs,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -303,6 +340,9 @@ pub struct SettingsArgs {
     /// Re-aim a facet only when this share of its pixels showed geometry, 0..1; 0 = every facet, as the thesis [default: 0]
     #[arg(long, help_heading = "Spatial imprecision", allow_negative_numbers = true)]
     pub aim_min_coverage: Option<f64>,
+    /// Largest view shift of a re-aimed facet, as a share of its mean width; 0 = only --discontinuity limits it [default: 0]
+    #[arg(long, help_heading = "Spatial imprecision", allow_negative_numbers = true)]
+    pub aim_width_share: Option<f64>,
     /// Pixels outside a facet that count for its saliency centre, at 1000 px [default: 0]
     #[arg(long, help_heading = "Spatial imprecision", allow_negative_numbers = true)]
     pub neighborhood: Option<f64>,

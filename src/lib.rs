@@ -16,6 +16,7 @@ pub mod eval;
 pub mod facets;
 pub mod frame;
 pub mod imprecision;
+pub mod look;
 pub mod output;
 pub mod paint;
 pub mod pipeline;

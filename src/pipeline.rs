@@ -174,6 +174,10 @@ pub fn render_with(
             let coverage = crate::backdrop::facet_coverage(&map, |i| frame.color[i].w);
             crate::backdrop::hold_background(&mut aims, &coverage, settings.aim_min_coverage);
         }
+        if settings.aim_width_share > 0.0 && settings.facet_projection == crate::settings::FacetProjection::Converging {
+            let widths = crate::backdrop::facet_widths(&map);
+            crate::backdrop::limit_shift(&mut aims, &widths, settings.aim_width_share, &ctx);
+        }
         let moved: Vec<u32> =
             (0..map.ids.len() as u32).filter(|&i| aims[map.ids[i as usize] as usize].moved()).collect();
         if !moved.is_empty() {

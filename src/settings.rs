@@ -149,6 +149,11 @@ kebab_enum!(
         Grisaille = "grisaille",
         /// The bare cubist camera: no facets, no painterly effects.
         Plain = "plain",
+        /// The thesis's method exactly as the paper has it, for comparisons and evaluations:
+        /// Segment faceting (levels 5, 30, 120), every facet re-aimed, eq 4.8 borders, the
+        /// recommended 140 deg and discontinuity 200, the `fit` framing; no planes, no
+        /// composition, no backdrop rule (the `analytic` look before issue 13).
+        Thesis = "thesis",
     }
 );
 
@@ -269,6 +274,10 @@ pub struct Settings {
     /// pre-render, in [0, 1]; 0 = every facet (the thesis). Background facets then keep the
     /// backdrop instead of a magnified copy of the subject (a ghost).
     pub aim_min_coverage: f64,
+    /// A re-aimed facet's view shifts by at most this share of its mean width (converging
+    /// facets), >= 0; 0 = no limit but `discontinuity` (the thesis). Keeps thin parts (an arm,
+    /// a finger) in their planes.
+    pub aim_width_share: f64,
 
     // ---- spatial imprecision (SPEC "Spatial imprecision")
     pub imprecision: Imprecision,
@@ -360,6 +369,7 @@ impl Settings {
             plane_detail: 5.0,
             plane_outlines: true,
             aim_min_coverage: 0.0,
+            aim_width_share: 0.0,
             imprecision: Imprecision::Saliency,
             discontinuity: 0.0,
             neighborhood: 0.0,
@@ -637,6 +647,7 @@ impl Settings {
             return Err(Error::setting("plane_detail", format!("{} must be in [1, 100]", s.plane_detail)));
         }
         unit("aim_min_coverage", s.aim_min_coverage)?;
+        nonneg("aim_width_share", s.aim_width_share)?;
         if s.colors == 1 {
             return Err(Error::setting("colors", "quantising to 1 colour leaves no image; use 0 (off) or >= 2"));
         }
@@ -662,12 +673,30 @@ impl Preset {
         s.preset = self;
         match self {
             Preset::Plain => {}
-            Preset::Analytic => {
+            Preset::Thesis => {
                 // The thesis's recommendations (Chapter 5): ambiguity 120-150, discontinuity
                 // 50-200 at 1000 px, Segment faceting, bold facet borders, a painter's palette.
                 s.camera = CameraKind::Auto;
                 s.ambiguity = None; // 140 for cubist cameras
+                s.framing = Framing::Fit;
                 s.faceting = Faceting::Segment;
+                s.aim_min_coverage = 0.0;
+                s.aim_width_share = 0.0;
+                s.discontinuity = 200.0;
+                s.border_width = 12.0;
+                s.border_strength = 0.85;
+                s.silhouette_width = 40.0;
+                s.silhouette_strength = 0.5;
+                s.palette = Palette::Ochre;
+                s.gradients = 0.3;
+                s.colors = 0;
+                s.chiaroscuro = 0.0;
+            }
+            Preset::Analytic => {
+                // Our look (issue 13): planes over the whole canvas, the subject composed to
+                // fill it, the backdrop kept still; the thesis's discontinuity 200 at 1000 px,
+                // bold facet borders, a painter's palette.
+                planes_look(s);
                 s.discontinuity = 200.0;
                 s.border_width = 12.0;
                 s.border_strength = 0.85;
@@ -679,9 +708,7 @@ impl Preset {
                 s.chiaroscuro = 0.0;
             }
             Preset::Braque => {
-                s.camera = CameraKind::Auto;
-                s.ambiguity = Some(150.0);
-                s.faceting = Faceting::Segment;
+                planes_look(s);
                 s.discontinuity = 150.0;
                 s.border_width = 16.0;
                 s.border_strength = 1.0;
@@ -693,9 +720,7 @@ impl Preset {
                 s.chiaroscuro = 0.5;
             }
             Preset::BluePeriod => {
-                s.camera = CameraKind::Auto;
-                s.ambiguity = Some(120.0);
-                s.faceting = Faceting::Segment;
+                planes_look(s);
                 s.discontinuity = 100.0;
                 s.border_width = 8.0;
                 s.border_strength = 0.7;
@@ -707,9 +732,7 @@ impl Preset {
                 s.chiaroscuro = 0.25;
             }
             Preset::Grisaille => {
-                s.camera = CameraKind::Auto;
-                s.ambiguity = None;
-                s.faceting = Faceting::Segment;
+                planes_look(s);
                 s.discontinuity = 200.0;
                 s.border_width = 12.0;
                 s.border_strength = 0.9;
@@ -722,4 +745,19 @@ impl Preset {
             }
         }
     }
+}
+
+/// The facet, camera and imprecision values of our presets (issue 13; every preset but
+/// `plain` and `thesis`): planes faceting, the `compose` framing with the angles chosen per
+/// scene, background facets not re-aimed (`backdrop`).
+fn planes_look(s: &mut Settings) {
+    s.camera = CameraKind::Auto;
+    s.ambiguity = None;
+    s.framing = Framing::Compose;
+    s.faceting = Faceting::Planes;
+    s.planes = 150;
+    s.plane_detail = 5.0;
+    s.plane_outlines = true;
+    s.aim_min_coverage = 0.5;
+    s.aim_width_share = 0.5;
 }

@@ -214,3 +214,79 @@ fn mean_distance_from_line(points: &[DVec3], f: &CameraFrame, c: DVec3) -> f64 {
         .sum();
     sum / points.len() as f64
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn frame() -> CameraFrame {
+        CameraFrame::new(DVec3::new(0.0, 0.0, 5.0), DVec3::NEG_Z, DVec3::Y).unwrap().0
+    }
+
+    /// Points on an ellipsoid of the given radii around `c`.
+    fn ellipsoid(r: DVec3, c: DVec3) -> Vec<DVec3> {
+        let mut v = Vec::new();
+        for i in 0..=12 {
+            for j in 0..24 {
+                let (t, p) = (std::f64::consts::PI * i as f64 / 12.0, std::f64::consts::TAU * j as f64 / 24.0);
+                v.push(c + DVec3::new(t.sin() * p.cos(), t.cos(), t.sin() * p.sin()) * r);
+            }
+        }
+        v
+    }
+
+    /// Every point lies in front of C and within the composition's spans.
+    fn in_view(k: &Composition, kind: CameraKind, pts: &[DVec3]) -> bool {
+        let f = frame();
+        let (h, v) = extents(pts, kind, &f, k.centre);
+        let depth_ok = pts.iter().all(|p| (*p - k.centre).dot(f.forward) < 0.0);
+        let hx = h.0.abs().max(h.1.abs()) <= k.angle_x / 2.0 + 1e-9;
+        let vy = match kind {
+            CameraKind::Cylindrical => v.0 >= -k.height / 2.0 - 1e-9 && v.1 <= k.height / 2.0 + 1e-9,
+            _ => v.0.abs().max(v.1.abs()) <= k.angle_y / 2.0 + 1e-9,
+        };
+        depth_ok && hx && vy
+    }
+
+    #[test]
+    fn the_whole_scene_is_in_view_and_centred() {
+        // An off-centre ellipsoid: the centring passes bring its extent onto the axis.
+        let pts = ellipsoid(DVec3::new(0.6, 0.4, 0.5), DVec3::new(0.3, -0.2, 0.0));
+        let k = compose(&pts, CameraKind::Spherical, &frame(), DVec3::ZERO, 4.0 / 3.0, 1.0, 0.94, None, &|_| 0.6);
+        assert!(in_view(&k, CameraKind::Spherical, &pts), "{k:?}");
+        let (h, v) = extents(&pts, CameraKind::Spherical, &frame(), k.centre);
+        assert!((h.0 + h.1).abs() < 0.1 * (h.1 - h.0), "horizontal extent {h:?} not centred");
+        assert!((v.0 + v.1).abs() < 0.1 * (v.1 - v.0), "vertical extent {v:?} not centred");
+        assert!(k.angle_x <= 2.0 * MAX_HALF_ANGLE / 0.94 + 1e-9 && k.angle_y <= 2.0 * MAX_HALF_ANGLE / 0.94 + 1e-9);
+        // Within the stretch bound picked (the first, isotropic, with this fill).
+        let stretch = (k.angle_x / (4.0 / 3.0)) / k.angle_y;
+        assert!((0.99..=1.01).contains(&stretch) || k.angle_x >= 2.0 * MAX_HALF_ANGLE / 0.94 - 1e-9, "{stretch}");
+    }
+
+    #[test]
+    fn the_least_stretched_closest_candidate_that_fills_wins() {
+        let pts = ellipsoid(DVec3::new(0.2, 1.0, 0.2), DVec3::ZERO);
+        let f = frame();
+        // Fill grows with the horizontal span per vertical span (more stretch fills a thin subject).
+        let fill = |k: &Composition| 0.3 * (k.angle_y / k.angle_x).min(2.0);
+        let k = compose(&pts, CameraKind::Spherical, &f, DVec3::ZERO, 4.0 / 3.0, 1.0, 0.94, None, &fill);
+        assert!(fill(&k) >= FILL_GOAL, "{k:?}");
+        assert!(in_view(&k, CameraKind::Spherical, &pts));
+        // With no candidate reaching the goal, the fullest within NEAR_BEST.
+        let k = compose(&pts, CameraKind::Spherical, &f, DVec3::ZERO, 4.0 / 3.0, 1.0, 0.94, None, &|_| 0.2);
+        assert!(in_view(&k, CameraKind::Spherical, &pts));
+    }
+
+    #[test]
+    fn a_given_ambiguity_is_kept_and_cylinders_fit_the_height() {
+        let pts = ellipsoid(DVec3::new(0.3, 1.5, 0.3), DVec3::new(0.0, 2.0, 0.0));
+        let f = frame();
+        let k = compose(&pts, CameraKind::Spherical, &f, DVec3::ZERO, 1.0, 2.0, 0.9, Some(2.0), &|_| 0.6);
+        assert_eq!(k.angle_x, 2.0);
+        assert!(in_view(&k, CameraKind::Spherical, &pts));
+        let k = compose(&pts, CameraKind::Cylindrical, &f, DVec3::ZERO, 4.0 / 3.0, 2.0, 0.9, None, &|_| 0.6);
+        assert!(in_view(&k, CameraKind::Cylindrical, &pts), "{k:?}");
+        assert!(k.height >= 3.0 / 0.9 - 1e-6, "{}", k.height);
+        assert!((k.centre.y - 2.0).abs() < 1e-6);
+    }
+}

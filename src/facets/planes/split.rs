@@ -25,14 +25,16 @@ use super::polygon::{clip_half_plane, signed_area};
 use crate::facets::rand01;
 
 const STREAM: u64 = 0x7370_6c69_74; // "split"
-/// Preferred stroke directions, degrees from the horizontal: the canvases' verticals and
-/// horizontals and their steep and shallow diagonals.
-const DIRECTIONS: [f64; 6] = [90.0, 0.0, 60.0, 120.0, 75.0, 105.0];
+/// Preferred stroke directions, degrees from the horizontal, with their weights: the
+/// canvases' scaffolding is mostly verticals and horizontals, then steep diagonals, a few
+/// shallow ones.
+const DIRECTIONS: [(f64, f64); 7] =
+    [(90.0, 0.3), (0.0, 0.2), (72.0, 0.12), (108.0, 0.12), (55.0, 0.08), (125.0, 0.08), (20.0, 0.1)];
 /// Jitter of a direction, degrees either way.
 const JITTER_DEG: f64 = 8.0;
 /// Seeded direction candidates per split.
 const RANDOM_CANDIDATES: usize = 4;
-/// Score bonus of a line along the subject's outline (the score's other terms are in [0, 2]).
+/// Score bonus of a line along the subject's outline (the score's other terms are in [0, 2.5]).
 const OUTLINE_BONUS: f64 = 0.6;
 
 /// A straight run of the subject's outline (pixel units), from `a` to `b`.
@@ -211,8 +213,16 @@ fn best_cut(leaf: &Leaf, runs: &[Run], min_width: f64, seed: u64, index: u64) ->
     let l = length(poly).max(1e-9);
     for k in 0..RANDOM_CANDIDATES {
         let s = index * 16 + k as u64;
-        let pick = (rand01(seed, STREAM, 4 * s) * DIRECTIONS.len() as f64) as usize % DIRECTIONS.len();
-        let angle = DIRECTIONS[pick] + JITTER_DEG * (2.0 * rand01(seed, STREAM, 4 * s + 1) - 1.0);
+        let mut u = rand01(seed, STREAM, 4 * s) * DIRECTIONS.iter().map(|d| d.1).sum::<f64>();
+        let mut base = DIRECTIONS[0].0;
+        for &(angle, weight) in &DIRECTIONS {
+            base = angle;
+            if u < weight {
+                break;
+            }
+            u -= weight;
+        }
+        let angle = base + JITTER_DEG * (2.0 * rand01(seed, STREAM, 4 * s + 1) - 1.0);
         let d = DVec2::new(angle.to_radians().cos(), -angle.to_radians().sin());
         let n = DVec2::new(-d.y, d.x);
         let offset = 0.15 * l * (2.0 * rand01(seed, STREAM, 4 * s + 2) - 1.0);
@@ -234,7 +244,10 @@ fn best_cut(leaf: &Leaf, runs: &[Run], min_width: f64, seed: u64, index: u64) ->
         let balance = 1.0 - (2.0 * share - 1.0).abs();
         let elong = |q: &[DVec2], wq: f64| (wq / length(q).max(1e-9)).min(1.0);
         let compact = 0.5 * (elong(&a, wa) + elong(&b, wb));
-        let score = balance + compact + bonus * (balance > 0.2) as u8 as f64;
+        // Trapezoids and quadrilaterals over triangles: a field of triangles reads as
+        // shattered glass, not as planes.
+        let sides = 0.25 * ((a.len() >= 4) as u8 + (b.len() >= 4) as u8) as f64;
+        let score = balance + compact + sides + bonus * (balance > 0.2) as u8 as f64;
         if best.as_ref().is_none_or(|(s, _, _)| score > *s) {
             best = Some((score, a, b));
         }
