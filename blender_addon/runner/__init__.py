@@ -16,10 +16,19 @@ The names below are the package's interface: callers write `runner.find_binary(.
 from .binary import (
     ADDON_DIR,
     BINARY_NAME,
+    PREFERENCE,
+    RELEASE_PLATFORMS,
     binary_candidates,
     binary_keys,
     binary_supports,
+    binary_version,
+    bundled_platforms,
+    executable_name,
     find_binary,
+    locate_binary,
+    manifest_field,
+    missing_platform_binary,
+    platform_tag,
     settings_for_binary,
 )
 from .errors import BinaryNotFound, Cancelled, CubistError, RendererError, SettingError
@@ -51,8 +60,9 @@ from .settings import (
 )
 
 __all__ = [
-    "ADDON_DIR", "BINARY_NAME", "binary_candidates", "binary_keys", "binary_supports", "find_binary",
-    "settings_for_binary",
+    "ADDON_DIR", "BINARY_NAME", "PREFERENCE", "RELEASE_PLATFORMS", "binary_candidates", "binary_keys",
+    "binary_supports", "binary_version", "bundled_platforms", "executable_name", "find_binary", "locate_binary",
+    "manifest_field", "missing_platform_binary", "platform_tag", "settings_for_binary",
     "BinaryNotFound", "Cancelled", "CubistError", "RendererError", "SettingError",
     "LAYOUT_KEYS", "PRERENDER_KEYS", "LayoutPlan", "forget_source", "layout_is_current", "layout_key", "layout_path",
     "layout_prepass", "layout_source", "plan_layout", "record_source", "source_path", "uses_layout",

@@ -74,6 +74,8 @@ def run(argv: list[str], on_progress: Callable[[str, float], None] = lambda s, f
         raise BinaryNotFound(f"cubist binary not found: {argv[0]}") from None
     except PermissionError:
         raise BinaryNotFound(f"cubist binary is not executable: {argv[0]}") from None
+    except OSError as e:  # e.g. a binary for another platform: "Exec format error"
+        raise BinaryNotFound(f"cannot run the cubist binary {argv[0]}: {e.strerror}") from None
     on_start(proc)
     lines: "queue.Queue[Optional[str]]" = queue.Queue()
 
