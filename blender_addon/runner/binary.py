@@ -63,7 +63,7 @@ def executable_name(tag: str) -> str:
 
 def manifest_field(addon_dir: Path, key: str):
     """A top-level string or list of strings of the add-on's blender_manifest.toml (None when
-    absent). A regular expression, not tomllib: Blender 3.x (Python 3.10, no tomllib) loads
+    absent). A regular expression, not tomllib: Blender 3.x builds (Python 3.10, no tomllib) load
     the add-on as a legacy add-on too; the build writes these lines itself."""
     try:
         text = (addon_dir / "blender_manifest.toml").read_text(encoding="utf-8")
@@ -87,7 +87,7 @@ def bundled_platforms(addon_dir: Path = ADDON_DIR) -> list:
 def missing_platform_binary(addon_dir: Path = ADDON_DIR, tag: Optional[str] = None) -> Optional[str]:
     """Why this copy of the add-on has no renderer for this platform (None when it has one):
     a zip for other platforms (only a legacy install lets it in: Blender's extension
-    installer refuses it), or a build without a binary (the source folder, the `any` zip)."""
+    installer refuses it), or a build without a binary (the source folder, the no-renderer zip)."""
     tag = tag or platform_tag()
     platforms = bundled_platforms(addon_dir)
     if platforms and tag not in platforms:

@@ -46,3 +46,23 @@ def node() -> str:
         pytest.skip("node is not installed: the Flamenco job type's compileJob is run in node "
                     "(Debian: apt-get install nodejs)")
     return path
+
+
+# Python for the Blender subprocesses of these tests (bpy 5.0.1 or a `blender` executable, 3.4
+# included): prepended to their scripts. A monkey seen by a camera, the Cubist engine, a small
+# frame, one sample.
+SCENE_PY = """
+def cubist_scene(bpy, width=32, height=24):
+    bpy.ops.wm.read_homefile(use_empty=True)
+    scene = bpy.context.scene
+    bpy.ops.mesh.primitive_monkey_add()
+    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    scene.collection.objects.link(cam)
+    cam.location = (0, -5, 0)
+    cam.rotation_euler = (1.5708, 0, 0)
+    scene.camera = cam
+    scene.render.engine = "CUBIST"
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = width, height, 100
+    scene.cubist.spp = 1
+    return scene
+"""

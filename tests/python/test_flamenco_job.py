@@ -22,7 +22,7 @@ from pathlib import Path
 import pytest
 
 from addon_support import ROOT, addon, bpy_module, cubist_binary, new_scene  # noqa: F401 (fixtures)
-from ship_support import node  # noqa: F401 (fixture)
+from ship_support import SCENE_PY, node  # noqa: F401 (fixture)
 
 JOB_SCRIPT = ROOT / "farm" / "flamenco" / "cubist_render.js"
 STANDIN = ROOT / "tests" / "python" / "flamenco_standin.js"
@@ -209,16 +209,7 @@ if spec.get("addon"):
     if spec.get("binary_path") is not None:
         bpy.context.preferences.addons["blender_addon"].preferences.binary_path = spec["binary_path"]
 if spec.get("make_blend"):
-    bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
-    scene = bpy.context.scene
-    bpy.ops.mesh.primitive_monkey_add()
-    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-    scene.collection.objects.link(cam)
-    cam.location = (0, -5, 0); cam.rotation_euler = (1.5708, 0, 0)
-    scene.camera = cam
-    scene.render.engine = "CUBIST"
-    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 40, 30, 100
-    scene.cubist.spp = 1
+    scene = cubist_scene(bpy, 40, 30)
     scene.cubist.faceting = "VORONOI"
     scene.cubist.layout_folder = "//cubist"  # the artist's: the job replaces it
     scene.frame_start, scene.frame_end = 1, 4
@@ -268,7 +259,7 @@ print("RESULT " + json.dumps({"history": history, "layout_folder": bpy.context.s
 
 def worker(tmp_path, **spec):
     script = tmp_path / "worker.py"
-    script.write_text(WORKER)
+    script.write_text(SCENE_PY + WORKER)
     env = dict(os.environ, PATH="/usr/bin:/bin")
     env.pop("BLENDER_USER_RESOURCES", None)
     spec.setdefault("root", str(ROOT))
@@ -335,18 +326,9 @@ def test_workers_with_the_addon_share_one_layout(farm):
 # ---------------------------------------------------------------------------------------------
 # The real command line, where a Blender executable is installed
 
-BLENDER_SAVE = r"""
+BLENDER_SAVE = SCENE_PY + r"""
 import bpy, sys
-bpy.ops.wm.read_homefile(use_empty=True)
-scene = bpy.context.scene
-bpy.ops.mesh.primitive_monkey_add()
-cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-scene.collection.objects.link(cam)
-cam.location = (0, -5, 0); cam.rotation_euler = (1.5708, 0, 0)
-scene.camera = cam
-scene.render.engine = "CUBIST"
-scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 32, 24, 100
-scene.cubist.spp = 1
+cubist_scene(bpy)
 bpy.ops.wm.save_as_mainfile(filepath=sys.argv[-1])
 """
 
