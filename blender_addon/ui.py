@@ -6,7 +6,7 @@ layout)."""
 import bpy
 from bl_operators.presets import AddPresetBase
 
-from . import engine, presets, runner
+from . import engine, preferences, presets, runner
 from .properties import apply_look
 
 PRESET_SUBDIR = "cubist"
@@ -114,7 +114,7 @@ class CUBIST_PT_render(CubistPanel, bpy.types.Panel):
             pref = bpy.path.abspath(prefs.binary_path) if prefs is not None and prefs.binary_path else ""
             runner.find_binary(pref)
         except runner.CubistError as e:
-            layout.label(text=str(e), icon="ERROR")
+            preferences.draw_wrapped(layout, str(e), "ERROR", context)
         err = engine.last_run.get("error")
         if err:
             layout.label(text=f"Last render: {err}", icon="ERROR")
