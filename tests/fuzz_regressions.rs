@@ -60,7 +60,7 @@ fn load_and_render(bytes: Vec<u8>, what: String) -> Result<(), String> {
         s.height = 6;
         s.spp = 1;
         let r = render(&prep, &s, &Progress::silent()).map_err(|e| e.to_string())?;
-        assert!(r.frame.color.iter().all(|c| c.is_finite()), "{what}: NaN pixel");
+        assert!(r.film.color.iter().all(|c| c.is_finite()), "{what}: NaN pixel");
         Ok(())
     })
 }

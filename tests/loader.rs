@@ -242,8 +242,8 @@ fn shared_samples_load_and_render() {
                     ..cubist::Settings::preset(cubist::settings::Preset::Plain)
                 };
                 let r = cubist::render(&prep, &s, &cubist::progress::Progress::silent()).unwrap();
-                assert!(r.frame.color.iter().all(|c| c.is_finite()), "{name}: NaN pixel");
-                assert!(r.frame.hits.iter().any(|h| h.is_hit()), "{name}: nothing visible");
+                assert!(r.film.color.iter().all(|c| c.is_finite()), "{name}: NaN pixel");
+                assert!(r.film.hits.iter().any(|h| h.is_hit()), "{name}: nothing visible");
             }
             Err(Error::Unsupported { message, .. }) => assert!(name.contains("Draco"), "{name}: {message}"),
             Err(Error::EmptyScene(_)) => {

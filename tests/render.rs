@@ -3,7 +3,7 @@
 
 mod common;
 
-use cubist::eval::visible_faces;
+use cubist::pipeline::visible_faces;
 use cubist::progress::Progress;
 use cubist::settings::{CameraKind, Preset};
 use cubist::{Prepared, Settings};
@@ -126,10 +126,10 @@ fn default_framing_shows_the_whole_model() {
             let s = Settings { camera, ..plain(80, 60, 1) };
             let r = cubist::render(&prep, &s, &Progress::silent()).unwrap();
             let (w, h) = (80usize, 60usize);
-            let hit = |x: usize, y: usize| r.frame.hits[y * w + x].is_hit();
+            let hit = |x: usize, y: usize| r.film.hits[y * w + x].is_hit();
             let border_hits = (0..w).filter(|&x| hit(x, 0) || hit(x, h - 1)).count()
                 + (0..h).filter(|&y| hit(0, y) || hit(w - 1, y)).count();
-            let inside = r.frame.hits.iter().filter(|h| h.is_hit()).count();
+            let inside = r.film.hits.iter().filter(|h| h.is_hit()).count();
             assert!(inside > w * h / 20, "{name} {camera}: only {inside} pixels show the model");
             if camera != CameraKind::Cylindrical && camera != CameraKind::Auto {
                 assert_eq!(border_hits, 0, "{name} {camera}: the model touches the image border");

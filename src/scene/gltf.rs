@@ -443,7 +443,7 @@ impl<'a> Loader<'a> {
 
     fn instance(&mut self, node: &gltf::Node<'a>, mesh: gltf::Mesh<'a>, world: DMat4) -> Result<()> {
         let skin_matrices = match node.skin() {
-            Some(skin) => Some(self.skin_matrices(&skin, world)?),
+            Some(skin) => Some(self.skin_matrices(&skin)?),
             None => None,
         };
         // Morph weights: the node's, else the mesh's defaults.
@@ -479,7 +479,7 @@ impl<'a> Loader<'a> {
     }
 
     /// Joint matrices (scene space) for linear blend skinning in the rest pose.
-    fn skin_matrices(&self, skin: &gltf::Skin, _node_world: DMat4) -> Result<Vec<DMat4>> {
+    fn skin_matrices(&self, skin: &gltf::Skin) -> Result<Vec<DMat4>> {
         let joints: Vec<_> = skin.joints().collect();
         let ibms: Vec<[f32; 16]> = match skin.inverse_bind_matrices() {
             Some(acc) => {

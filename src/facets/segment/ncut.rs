@@ -15,7 +15,7 @@ use faer::{Mat, MatRef, Par};
 
 use super::graph::RegionGraph;
 use super::superpixels::Dsu;
-use crate::render::{splitmix64, unit_f64};
+use crate::util::rng::{splitmix64, unit_f64};
 
 /// Graphs up to this many nodes are solved densely (faer's self-adjoint EVD); larger ones by
 /// shift-and-invert subspace iteration (`shift_invert`).
