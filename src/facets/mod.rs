@@ -31,6 +31,9 @@ use segment::SegmentParams;
 
 /// Largest number of facets in a layout: ids fit the 16-bit `facet-ids` pass and PNG layouts.
 pub const MAX_FACETS: u32 = 65536;
+/// Largest base label image a layout file may hold: the largest image a render makes
+/// (`settings::MAX_PIXELS`, checked equal in `pipeline::params`).
+pub const MAX_BASE_PIXELS: u64 = 64 * 1024 * 1024;
 
 /// A label raster, each value a facet id.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

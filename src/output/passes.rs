@@ -5,10 +5,10 @@
 use glam::{DVec2, Vec3};
 use image::{ImageBuffer, Luma, RgbaImage};
 
-use super::Gray16;
 use crate::facets::FacetMap;
 use crate::film::Film;
 use crate::imprecision::FacetAim;
+use crate::util::files::Gray16;
 use crate::util::rng::splitmix64;
 
 /// Extra images written beside the output (`out.<pass>.png`).
@@ -41,6 +41,16 @@ impl Pass {
             Pass::Objects => "objects",
             Pass::Normals => "normals",
             Pass::Depth => "depth",
+        }
+    }
+
+    /// How the pass's image is written: `grey` (8-bit, R = G = B: saliency, depth), `grey16`
+    /// (16-bit grey: facet ids) or `rgb` (8-bit colour).
+    pub fn format(self) -> &'static str {
+        match self {
+            Pass::Saliency | Pass::Depth => "grey",
+            Pass::FacetIds => "grey16",
+            Pass::Facets | Pass::Segments | Pass::Objects | Pass::Normals => "rgb",
         }
     }
 }

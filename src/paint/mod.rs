@@ -323,9 +323,6 @@ pub fn luminance(c: Vec3) -> f32 {
     crate::shading::luminance(c)
 }
 
-#[cfg(test)]
-mod tests;
-
 /// Number of luminance levels the rank-based effects sort into: far finer than the 8-bit
 /// output, and a counting sort over them is linear time.
 pub const KEY_LEVELS: usize = 1 << 16;
@@ -372,3 +369,6 @@ impl LuminanceKeys {
         LuminanceKeys { keys, histogram, total }
     }
 }
+
+#[cfg(test)]
+mod tests;

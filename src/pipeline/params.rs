@@ -12,9 +12,10 @@ use crate::saliency::{SaliencyMethod, SaliencyParams};
 use crate::settings::{self, Settings};
 use crate::trace::TraceParams;
 
-// The settings' facet-count bound is the facets' (16-bit ids); both modules state it, this
-// module knows both.
+// The settings' bounds on facets (16-bit ids) and image size are the facets' own; both modules
+// state them, this module knows both.
 const _: () = assert!(settings::MAX_FACETS == facets::MAX_FACETS);
+const _: () = assert!(settings::MAX_PIXELS == facets::MAX_BASE_PIXELS);
 
 /// Every stage's parameters for one render.
 #[derive(Clone, Debug, PartialEq)]

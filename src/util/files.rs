@@ -6,8 +6,12 @@ use std::path::{Path, PathBuf};
 
 use image::{ImageFormat, RgbaImage};
 
-use super::Gray16;
+use image::{ImageBuffer, Luma};
+
 use crate::error::{Error, Result};
+
+/// A 16-bit grey image (the `facet-ids` pass, PNG facet layouts).
+pub type Gray16 = ImageBuffer<Luma<u16>, Vec<u16>>;
 
 /// A sibling temporary path for atomic writes.
 fn temp_path(path: &Path) -> PathBuf {
