@@ -153,14 +153,12 @@ fn bumpy_sphere(levels: u32) -> Mesh {
     m
 }
 
-fn shared(name: &str) -> Option<PathBuf> {
+/// A model of ../shared (tests using it are `#[ignore = "needs ../shared"]`, run by
+/// `scripts/test.sh` when it is there); absent, the test fails with a message.
+fn shared(name: &str) -> PathBuf {
     let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/models").join(name);
-    if p.exists() {
-        Some(p)
-    } else {
-        eprintln!("skipped: {} not found (../shared is absent)", p.display());
-        None
-    }
+    assert!(p.exists(), "{} is absent: this test needs the shared test data beside the checkout", p.display());
+    p
 }
 
 fn max_abs_diff(a: &[f32], b: &[f32]) -> f32 {
@@ -256,9 +254,6 @@ fn spheres_have_no_saliency() {
         // Lathe-built: each pole is `segments` split vertices, welded by position.
         spheres.push(ellipsoid("uv", Vec3::ONE, rings, segments, 0));
     }
-    if let Some(p) = shared("sphere_1280.glb") {
-        spheres.push(Scene::load(&p).unwrap().meshes.remove(0));
-    }
     for m in &spheres {
         let s = mesh_saliency(m);
         assert!(s.iter().all(|x| x.is_finite()), "{}: NaN", m.name);
@@ -272,32 +267,37 @@ fn spheres_have_no_saliency() {
     }
 }
 
+/// The strongest centre-surround difference of any level, relative to the mean |H|.
+fn level_residue(m: &Mesh) -> f64 {
+    let a = analyse(&m.positions, &m.triangles);
+    let means = cubist::saliency::levels::gaussian_means(&a.surface.positions, &a.h, &SIGMA_SCALES.map(|s| s * a.eps));
+    let mean_abs = a.h.iter().map(|x| x.abs()).sum::<f64>() / a.h.len() as f64;
+    let n = a.h.len();
+    LEVEL_PAIRS
+        .iter()
+        .map(|&(f, c)| (0..n).map(|v| (means[v * 8 + f] - means[v * 8 + c]).abs()).fold(0.0, f64::max) / mean_abs)
+        .fold(0.0, f64::max)
+}
+
 /// The noise floor's margin: on tessellated spheres the centre-surround residue stays below a
-/// third of `NOISE_FLOOR` (so spheres are safely 0), while every real model's strongest level
-/// is over 20 times above it.
+/// third of `NOISE_FLOOR`, so spheres are safely 0 (real models: see the next test).
 #[test]
 fn noise_floor_has_margin() {
-    let residue = |m: &Mesh| -> f64 {
-        let a = analyse(&m.positions, &m.triangles);
-        let means =
-            cubist::saliency::levels::gaussian_means(&a.surface.positions, &a.h, &SIGMA_SCALES.map(|s| s * a.eps));
-        let mean_abs = a.h.iter().map(|x| x.abs()).sum::<f64>() / a.h.len() as f64;
-        let n = a.h.len();
-        LEVEL_PAIRS
-            .iter()
-            .map(|&(f, c)| (0..n).map(|v| (means[v * 8 + f] - means[v * 8 + c]).abs()).fold(0.0, f64::max) / mean_abs)
-            .fold(0.0, f64::max)
-    };
+    let residue = level_residue;
     for m in (1..=5).map(icosphere).chain([8, 16, 32, 64].map(|r| ellipsoid("uv", Vec3::ONE, r, 2 * r, 0))) {
         let r = residue(&m);
         assert!(r < NOISE_FLOOR / 3.0, "{} with {} vertices: residue {r}", m.name, m.positions.len());
     }
+}
+
+/// Every real model's strongest level is over 20 times above `NOISE_FLOOR`.
+#[test]
+#[ignore = "needs ../shared"]
+fn real_models_are_far_above_the_noise_floor() {
     for name in ["bunny_2k.glb", "venus_11k.glb", "spot.glb", "suzanne.glb", "teapot.glb"] {
-        if let Some(p) = shared(name) {
-            let m = Scene::load(&p).unwrap().meshes.remove(0);
-            let r = residue(&m);
-            assert!(r > 20.0 * NOISE_FLOOR, "{name}: residue {r}");
-        }
+        let m = Scene::load(&shared(name)).unwrap().meshes.remove(0);
+        let r = level_residue(&m);
+        assert!(r > 20.0 * NOISE_FLOOR, "{name}: residue {r}");
     }
 }
 
@@ -433,9 +433,10 @@ fn clustered_approximation_stays_close_to_exact() {
 // ---------------------------------------------------------------- real models
 
 #[test]
+#[ignore = "needs ../shared"]
 fn bunny_is_salient_on_its_features_not_its_hole_rims() {
     for name in ["bunny_full.glb", "bunny_2k.glb"] {
-        let Some(p) = shared(name) else { return };
+        let p = shared(name);
         let m = Scene::load(&p).unwrap().meshes.remove(0);
         let s = mesh_saliency(&m);
         assert!(s.iter().all(|x| x.is_finite() && (0.0..=1.0).contains(x)));
@@ -465,9 +466,10 @@ fn bunny_is_salient_on_its_features_not_its_hole_rims() {
 }
 
 #[test]
+#[ignore = "needs ../shared"]
 fn real_models_are_finite_and_spread() {
     for name in ["venus_11k.glb", "bunny_2k.glb", "spot.glb", "teapot.glb", "suzanne.glb", "human.glb"] {
-        let Some(p) = shared(name) else { return };
+        let p = shared(name);
         for m in &Scene::load(&p).unwrap().meshes {
             let s = mesh_saliency(m);
             assert!(s.iter().all(|x| x.is_finite() && (0.0..=1.0).contains(x)), "{name}");

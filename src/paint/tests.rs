@@ -581,8 +581,8 @@ fn colour_transfer_levels_keep_hues_in_runs() {
 // ---- golden image and pipeline
 
 /// The whole chain on a synthetic render with Voronoi facets, against a stored picture
-/// (`CUBIST_BLESS=1 cargo test --release paint_chain_golden` rewrites it after an intended
-/// change; look at it before committing).
+/// (`CUBIST_UPDATE_GOLDEN=1 cargo test --release --lib paint_chain_golden` rewrites it after
+/// an intended change; look at it before committing).
 #[test]
 fn paint_chain_golden() {
     let (w, h) = (96u32, 72u32);
@@ -595,11 +595,12 @@ fn paint_chain_golden() {
     apply_chain(&mut film, Some(&facets), &paint(&s), None).unwrap();
     let img = crate::output::encode(&film, s.background, false);
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden/paint-chain.png");
-    if std::env::var_os("CUBIST_BLESS").is_some() {
+    if std::env::var_os("CUBIST_UPDATE_GOLDEN").is_some() {
         std::fs::create_dir_all(path.parent().unwrap()).unwrap();
         img.save(&path).unwrap();
     }
-    let golden = image::open(&path).expect("tests/golden/paint-chain.png (bless with CUBIST_BLESS=1)").to_rgba8();
+    let golden =
+        image::open(&path).expect("tests/golden/paint-chain.png (rewrite with CUBIST_UPDATE_GOLDEN=1)").to_rgba8();
     assert_eq!(golden.dimensions(), img.dimensions());
     let diffs: Vec<i32> =
         golden.as_raw().iter().zip(img.as_raw()).map(|(a, b)| (*a as i32 - *b as i32).abs()).collect();

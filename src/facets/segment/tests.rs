@@ -252,7 +252,9 @@ fn bad_inputs_are_errors() {
     assert!(layout(&film, &settings(&[3], &[0.0, 0.1])).is_err());
     let mut bad = film.clone();
     bad.saliency = Some(vec![0.0; 3]);
-    assert!(layout(&bad, &settings(&[3], &[0.0])).is_err());
+    // Buffers that disagree are the renderer's failure, not a usage error (exit 1).
+    let e = layout(&bad, &settings(&[3], &[0.0])).unwrap_err();
+    assert!(matches!(e, crate::Error::Internal(_)) && !e.is_usage(), "{e}");
 }
 
 #[test]
