@@ -1,16 +1,18 @@
 //! `cubist settings --schema`: what every setting is, for front ends that build their own
 //! controls (the Blender add-on generates its panel from it). Types, units and ranges come from
 //! `settings::schema`, defaults from `Settings::default()` (the analytic preset), help and
-//! groups from the flags' own help below, stage names from `pipeline::Stage`: nothing here is
-//! a copy. The format is documented in README ("The settings schema").
+//! groups from the flags' own help, stage names from `pipeline::Stage`, the automatic angle
+//! from `camera::framing` and the passes' image formats from `output::Pass`: nothing here is a
+//! copy. The format is documented in README ("The settings schema").
 
-use clap::{Args, Command};
+use clap::{Args, Command, ValueEnum};
 use serde_json::{Map, Value, json};
 
 use super::SettingsArgs;
-use crate::pipeline::Stage;
+use crate::camera::framing::{DEFAULT_ANGLE, DEFAULT_FOV};
+use crate::pipeline::{Stage, params};
 use crate::settings::schema::{FIELDS, Field, Kind, choices};
-use crate::settings::{Preset, Settings};
+use crate::settings::{Pass, Preset, Settings};
 
 /// Bumped when the JSON's shape changes (not when a setting is added).
 pub const SCHEMA_VERSION: u32 = 1;
@@ -18,7 +20,10 @@ pub const SCHEMA_VERSION: u32 = 1;
 /// The whole schema as JSON.
 pub fn schema() -> Value {
     let flags = SettingsArgs::augment_args(Command::new("cubist"));
-    let defaults = match serde_json::to_value(Settings::default()) {
+    // Through text, as `cubist settings` prints them: f32 values as typed (0.62), not widened
+    // to f64 (0.6200000047683716).
+    let text = serde_json::to_string(&Settings::default()).unwrap_or_default();
+    let defaults = match serde_json::from_str(&text) {
         Ok(Value::Object(m)) => m,
         _ => Map::new(),
     };
@@ -82,6 +87,15 @@ fn setting(f: &Field, flags: &Command, defaults: &Map<String, Value>) -> Value {
     }
     if let Some(c) = f.choices {
         out.insert("choices".into(), json!(c()));
+    }
+    // What null gives where it is one value per case (front ends that show a number).
+    if f.key == "ambiguity" {
+        out.insert("automatic".into(), json!({ "perspective": DEFAULT_FOV, "other": DEFAULT_ANGLE }));
+    }
+    if f.key == "passes" {
+        let formats: Map<String, Value> =
+            Pass::value_variants().iter().map(|&p| (p.as_str().to_string(), json!(params::pass(p).format()))).collect();
+        out.insert("formats".into(), Value::Object(formats));
     }
     out.insert("unit".into(), json!(f.unit));
     out.insert("help".into(), json!(help));
