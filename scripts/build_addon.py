@@ -118,16 +118,16 @@ def main(argv=None) -> int:
     if not binary.is_file():
         print(f"error: {binary}: no such binary", file=sys.stderr)
         return 1
-    # The add-on's defaults and presets come from renderer_presets.json: it must be the
-    # bundled binary's (a binary for another platform cannot run here; the tests check the
-    # file against this checkout's build).
+    # The add-on's panel, defaults and presets come from renderer_schema.json and
+    # renderer_presets.json: they must be the bundled binary's (a binary for another platform
+    # cannot run here; the tests check the files against this checkout's build).
     if args.platform is None or args.platform == _this_platform():
         sys.path.insert(0, str(Path(__file__).resolve().parent))
         from sync_addon_presets import check
 
         diff = check(binary)
         if diff:
-            print("error: blender_addon/renderer_presets.json differs from the binary's presets "
+            print("error: blender_addon/renderer_presets.json or renderer_schema.json differs from the binary "
                   "(run python3 scripts/sync_addon_presets.py):\n  " + "\n  ".join(diff), file=sys.stderr)
             return 1
     out = build(binary, tag, args.out)
