@@ -1,9 +1,9 @@
 //! The validated settings: the one contract between the CLI, the JSON config and the add-on.
 //!
 //! A parameter is added here once (field, default, doc, validation, schema entry) and reaches
-//! all three: the CLI's flags serialise into the same keys (`cli.rs`), the add-on's panel is
-//! generated from `cubist settings --schema` and writes this JSON. Layers apply in order:
-//! preset defaults, then the JSON file, then explicit flags (`layers`).
+//! all three: the CLI's flags serialise into the same keys (`cli/settings_args.rs`), the
+//! add-on's panel is generated from `cubist settings --schema` and writes this JSON. Layers
+//! apply in order: preset defaults, then the JSON file, then explicit flags (`layers`).
 //!
 //! This module depends on nothing of the crate but `error`: the stages never see `Settings`;
 //! `pipeline::params` turns the validated settings into each stage's own parameters.
