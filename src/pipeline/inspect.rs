@@ -6,8 +6,8 @@ use image::RgbaImage;
 
 use super::{PreRender, Prepared, Shading, Stage, StageParams, Timings, encode_stage, prerender, saliency_stage};
 use crate::error::Result;
+use crate::facets::FacetLayout;
 use crate::facets::segment::{self, SegmentLevels, inspection};
-use crate::facets::{FacetLayout, FacetMethod};
 use crate::output::Pass;
 use crate::progress::Progress;
 use crate::settings::Settings;
@@ -50,7 +50,6 @@ pub fn inspect_facets(prep: &Prepared, settings: &Settings, progress: &Progress)
     // The pre-render's image and passes as an unfaceted, unpainted render shows them; the
     // passes that need facets are the layout images below.
     let mut shown = params.clone();
-    shown.facets.method = FacetMethod::None;
     let single = FacetLayout::single().rasterize(film.width, film.height);
     let show_levels = params.passes.contains(&Pass::Segments);
     shown.passes.retain(|p| !matches!(p, Pass::Segments | Pass::Facets | Pass::FacetIds));
