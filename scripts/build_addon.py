@@ -147,9 +147,9 @@ def main(argv=None) -> int:
         print(f"error: {binary} is {'a ' + found if found else 'not a'} binary{'' if found else ' Blender runs'}, "
               f"not a {tag} one", file=sys.stderr)
         return 1
-    # The add-on's defaults and presets come from renderer_presets.json: it must be the
-    # bundled binary's (a binary for another platform cannot run here; the tests check the
-    # file against this checkout's build).
+    # The add-on's panel, defaults and presets come from renderer_schema.json and
+    # renderer_presets.json: they must be the bundled binary's (a binary for another platform
+    # cannot run here; the tests check the files against this checkout's build).
     if tag == platform_tag():
         sys.path.insert(0, str(Path(__file__).resolve().parent))
         from sync_addon_presets import check
@@ -160,7 +160,7 @@ def main(argv=None) -> int:
             print(f"error: cannot run {binary} to check its presets: {e.strerror}", file=sys.stderr)
             return 1
         if diff:
-            print("error: blender_addon/renderer_presets.json differs from the binary's presets "
+            print("error: blender_addon/renderer_presets.json or renderer_schema.json differs from the binary "
                   "(run python3 scripts/sync_addon_presets.py):\n  " + "\n  ".join(diff), file=sys.stderr)
             return 1
     print(build(binary, tag, args.out))
