@@ -183,7 +183,9 @@ def draw_notice(layout, scene) -> None:
     altered = alterations(scene)
     if altered:
         box = layout.box()
-        box.label(text=f"{', '.join(altered).capitalize()} change the painting's colours", icon="ERROR")
+        what = ", ".join(altered)
+        verb = "changes" if len(altered) == 1 else "change"
+        box.label(text=f"{what[0].upper()}{what[1:]} {verb} the painting's colours", icon="ERROR")
         box.operator(CUBIST_OT_painting_colours.bl_idname, icon="COLOR")
     elif state is not None and state.switched_from:
         box = layout.box()

@@ -31,8 +31,9 @@ HISTORY_LIMIT = 1000
 _job_sources: dict = {}
 # Tests simulate Blender's cancel (Esc, which test_break() reports) with a callable here.
 cancel_hook = None
-# Tests and benchmarks: a folder where each exported scene is copied (frame_NNNN.glb,
-# layout_NNNN.glb), to render it with the CLI and compare. None: nothing is kept.
+# Tests and benchmarks: a folder where each exported scene and the settings sent with it are
+# copied (frame_NNNN.glb + settings_NNNN.json, layout_NNNN.glb + layout_NNNN.json), to render
+# them with the CLI and compare. None: nothing is kept.
 keep_exports = None
 # Blender's preferences (a pointer to its global preferences, valid for the whole session),
 # taken on the main thread when the add-on registers: the render thread must not read
@@ -128,6 +129,9 @@ class CubistRenderEngine(bpy.types.RenderEngine):
     def _run(self, binary: Path, glb: Path, out: Path, settings: dict, cfg: Path, frame: int, span) -> list:
         runner.write_settings(cfg, settings)
         last_run["settings_json"] = cfg.read_text(encoding="utf-8")
+        if keep_exports is not None:
+            Path(keep_exports).mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(cfg, Path(keep_exports) / f"{cfg.stem}_{frame:04d}.json")
         tracker = runner.ProgressTracker(*span)
 
         def progress(stage, fraction):

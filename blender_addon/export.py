@@ -407,7 +407,7 @@ def material_info(mat) -> MaterialInfo:
     viewport = list(mat.diffuse_color)
     info = MaterialInfo(name=name, base_color=viewport, metallic=float(mat.metallic),
                         roughness=float(mat.roughness))
-    tree = mat.node_tree if (mat.use_nodes or bpy.app.version >= (5, 0, 0)) else None
+    tree = mat.node_tree if (bpy.app.version >= (5, 0, 0) or mat.use_nodes) else None
     if tree is None:
         return info
     shader = _surface_shader(tree)
@@ -460,17 +460,14 @@ def _attribute(me, name: str, domain: str, width: int, prop: str, dtype=np.float
     return _get(a.data, prop, len(a.data), dtype, width)
 
 
-def triangulate(me, npoly: int, nloops: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def triangulate(me, npoly: int, nloops: int, positions: np.ndarray, corner_vert: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(triangles as corner indices (n, 3), polygon of each triangle, corners per polygon),
-    in the order of Blender's `loop_triangles`: triangles and quads here in numpy (a quad is
-    split as Blender splits it, corners 0-1-2 and 0-2-3), n-gons read from `loop_triangles`."""
+    in the order of Blender's `loop_triangles`: triangles and quads here in numpy, split as
+    Blender splits them (`quad_flipped`), n-gons read from `loop_triangles`."""
     sizes = _get(me.polygons, "loop_total", npoly, np.int32)
     ntri = int(nloops - 2 * npoly)
     poly_of = np.repeat(np.arange(npoly, dtype=np.int32), sizes - 2)
-    if (sizes == 4).all():  # all quads (subdivision surfaces): no scattered writes
-        starts = np.arange(0, nloops, 4, dtype=np.int32)
-        tris = (starts[:, None, None] + np.array([[0, 1, 2], [0, 2, 3]], dtype=np.int32)).reshape(-1, 3)
-        return tris, poly_of, sizes
     if (sizes == 3).all():
         return np.arange(nloops, dtype=np.int32).reshape(-1, 3), poly_of, sizes
     starts = (np.cumsum(sizes, dtype=np.int64) - sizes).astype(np.int32)
@@ -478,9 +475,17 @@ def triangulate(me, npoly: int, nloops: int) -> tuple[np.ndarray, np.ndarray, np
     tris = np.empty((ntri, 3), dtype=np.int32)
     t = sizes == 3
     tris[tri_start[t]] = starts[t, None] + np.array([0, 1, 2], dtype=np.int32)
-    q = sizes == 4
-    tris[tri_start[q]] = starts[q, None] + np.array([0, 1, 2], dtype=np.int32)
-    tris[tri_start[q] + 1] = starts[q, None] + np.array([0, 2, 3], dtype=np.int32)
+    quads = np.flatnonzero(sizes == 4)
+    if len(quads):
+        c = starts[quads, None] + np.arange(4, dtype=np.int32)
+        flip = quad_flipped(*(positions[corner_vert[c[:, k]]] for k in range(4)))
+        first = np.where(flip[:, None], c[:, [0, 1, 3]], c[:, [0, 1, 2]])
+        second = np.where(flip[:, None], c[:, [1, 2, 3]], c[:, [0, 2, 3]])
+        if len(quads) == npoly:  # all quads (subdivision surfaces): no scattered writes
+            tris = np.stack([first, second], axis=1).reshape(-1, 3)
+        else:
+            tris[tri_start[quads]] = first
+            tris[tri_start[quads] + 1] = second
     ngons = np.flatnonzero(sizes > 4)
     if len(ngons):
         count = int((sizes[ngons] - 2).sum())
@@ -494,12 +499,20 @@ def triangulate(me, npoly: int, nloops: int) -> tuple[np.ndarray, np.ndarray, np
     return tris, poly_of, sizes
 
 
+def quad_flipped(v1, v2, v3, v4) -> np.ndarray:
+    """Whether Blender splits a quad along its 2-4 diagonal (triangles 1-2-4, 2-3-4) instead of
+    1-3: when corners 2 and 4 lie on the same side of the 1-3 diagonal (a bent or concave quad),
+    as Blender's `is_quad_flip_v3_first_third_fast` decides, in 32-bit floats like it."""
+    d12, d13, d14 = v2 - v1, v3 - v1, v4 - v1
+    return (np.cross(d12, d13) * np.cross(d14, d13)).sum(axis=1, dtype=np.float32) > 0.0
+
+
 def shading_normals(ob, me, nverts: int, npoly: int, nloops: int, corner_vert, poly_of_corner,
                     temporary: bool = False) -> tuple[Optional[np.ndarray], Optional[np.ndarray]]:
     """The shading normals as Blender renders them (smooth/flat faces, sharp edges, custom
     normals): (per vertex, None) when every face is smooth without sharp edges, else (None,
-    per corner). Per-vertex and per-face arrays are read whole when they say it all; Blender's
-    per-corner array (slow to read) only when the mesh needs it. `temporary`: `me` is our own
+    per corner). Per-vertex and per-face arrays (fast to read) when they say it all; Blender's
+    per-corner array (slow to read: one value at a time) only when the mesh needs it. `temporary`: `me` is our own
     copy (`to_mesh`), which may be written to."""
     props = me.bl_rna.properties
     if "normals_domain" in props:  # Blender 4.1+
@@ -508,14 +521,8 @@ def shading_normals(ob, me, nverts: int, npoly: int, nloops: int, corner_vert, p
             return _get(me.vertex_normals, "vector", nverts, np.float32, 3), None
         if domain == "FACE":
             return None, _get(me.polygon_normals, "vector", npoly, np.float32, 3)[poly_of_corner]
-        sharp_edge = _attribute(me, "sharp_edge", "EDGE", 1, "value", bool)
-        if not me.has_custom_normals and (sharp_edge is None or not sharp_edge.any()):
-            sharp = _attribute(me, "sharp_face", "FACE", 1, "value", bool)
-            vn = _get(me.vertex_normals, "vector", nverts, np.float32, 3)
-            if sharp is None or not sharp.any():
-                return vn, None
-            fn = _get(me.polygon_normals, "vector", npoly, np.float32, 3)[poly_of_corner]
-            return None, np.where(sharp[poly_of_corner][:, None], fn, vn[corner_vert])
+        # Sharp faces or edges split the fans around a vertex: only Blender's corner normals
+        # have the averages over each fan.
         return None, _get(me.corner_normals, "vector", nloops, np.float32, 3)
     # Blender 3.x / 4.0: split normals only with Auto Smooth or custom normals, and computing
     # them writes to the mesh: on a temporary copy.
@@ -782,21 +789,27 @@ class Exporter:
         t0 = time.perf_counter()
         glb = self.glb
         roots = glb.json["scenes"][0]["nodes"]
+        # Curves, text, surfaces and metaballs evaluate to a mesh that the depsgraph lists as an
+        # instance of their own (Blender 3.0+): that mesh is exported, the object itself only
+        # (converted with to_mesh) when no such mesh came.
+        mesh_parents: set = set()
+        converted: list = []
         for inst in self.depsgraph.object_instances:
             if self.should_cancel():
                 raise ExportCancelled()
             ob = inst.object
             kind = ob.type
-            if kind in GEOMETRY_TYPES:
+            if kind == "MESH":
                 if not inst.show_self:
                     continue  # an emitter or instancer whose own geometry is not rendered
-                mesh = self.mesh(ob)
-                if mesh is None:
-                    continue
-                name = ob.name if not inst.is_instance or inst.parent is None else f"{inst.parent.name}/{ob.name}"
-                roots.append(glb.add("nodes", {"name": name, "mesh": mesh, "matrix": gltf_matrix(inst.matrix_world)}))
-                self.stats.instances += 1
-                self.stats.triangles += self.triangles_of(mesh)
+                parent = inst.parent if inst.is_instance else None
+                if parent is not None:
+                    mesh_parents.add(parent.original.as_pointer())
+                name = ob.name if parent is None or parent.name == ob.name else f"{parent.name}/{ob.name}"
+                self.place(self.mesh(ob), name, inst.matrix_world)
+            elif kind in GEOMETRY_TYPES:
+                if inst.show_self and not inst.is_instance:
+                    converted.append(ob)
             elif kind == "LIGHT":
                 light = self.light(ob.data, inst.matrix_world)
                 if light is not None:
@@ -804,6 +817,9 @@ class Exporter:
                         "name": ob.name, "matrix": gltf_matrix(without_scale(inst.matrix_world)),
                         "extensions": {"KHR_lights_punctual": {"light": light}}}))
                     self.stats.lights += 1
+        for ob in converted:
+            if ob.original.as_pointer() not in mesh_parents:
+                self.place(self.mesh(ob), ob.name, ob.matrix_world)
         cam = scene_camera(self.depsgraph, self.camera_override)
         if cam is not None:
             camera = glb.add("cameras", self.camera(cam))
@@ -812,6 +828,14 @@ class Exporter:
                                               "matrix": gltf_matrix(without_scale(cam.matrix_world))}))
         self.stats.seconds = time.perf_counter() - t0
         return self.stats
+
+    def place(self, mesh: Optional[int], name: str, matrix) -> None:
+        if mesh is None:
+            return
+        self.glb.json["scenes"][0]["nodes"].append(
+            self.glb.add("nodes", {"name": name, "mesh": mesh, "matrix": gltf_matrix(matrix)}))
+        self.stats.instances += 1
+        self.stats.triangles += self.triangles_of(mesh)
 
     def triangles_of(self, mesh: int) -> int:
         total = 0
@@ -884,7 +908,7 @@ def mesh_primitives(ob, me, infos: list, temporary: bool = False) -> list:
     corner_vert = _attribute(me, ".corner_vert", "CORNER", 1, "value", np.int32)
     if corner_vert is None:
         corner_vert = _get(me.loops, "vertex_index", nloops, np.int32)
-    tris, tri_poly, sizes = triangulate(me, npoly, nloops)
+    tris, tri_poly, sizes = triangulate(me, npoly, nloops, positions, corner_vert)
     if not len(tris):
         return []
     poly_of_corner = np.repeat(np.arange(npoly, dtype=np.int32), sizes)
