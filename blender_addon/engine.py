@@ -10,6 +10,7 @@ frame (the facet layout's) is evaluated with `RenderEngine.frame_set`, which re-
 render's own depsgraph, as Cycles does for motion blur. Images are read with pngio."""
 
 import shutil
+import time
 import traceback
 from pathlib import Path
 
@@ -124,7 +125,10 @@ class CubistRenderEngine(bpy.types.RenderEngine):
     # -----------------------------------------------------------------------------------------
 
     def _cancelled(self) -> bool:
-        return bool(self.test_break()) or (cancel_hook is not None and bool(cancel_hook()))
+        if bool(self.test_break()) or (cancel_hook is not None and bool(cancel_hook())):
+            last_run.setdefault("cancel_seen", time.monotonic())  # when (diagnostics, UI test)
+            return True
+        return False
 
     def _run(self, binary: Path, glb: Path, out: Path, settings: dict, cfg: Path, frame: int, span) -> list:
         runner.write_settings(cfg, settings)
