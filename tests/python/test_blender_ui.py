@@ -30,6 +30,8 @@ def ui(cubist_binary, tmp_path_factory):
     if missing:
         message = (f"windowed Blender test skipped: {', '.join(missing)} not installed "
                    f"(apt-get install blender xvfb xauth xdotool python3-numpy; .ci/run does it)")
+        if os.environ.get("CUBIST_REQUIRE_UI_TEST") == "1":
+            pytest.fail(message.replace("skipped", "required (CUBIST_REQUIRE_UI_TEST=1)"))
         print(f"\nSKIP: {message}", file=sys.stderr)
         pytest.skip(message)
     base = tmp_path_factory.mktemp("blender_ui")
