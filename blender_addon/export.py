@@ -478,7 +478,8 @@ def triangulate(me, npoly: int, nloops: int, positions: np.ndarray, corner_vert:
     quads = np.flatnonzero(sizes == 4)
     if len(quads):
         c = starts[quads, None] + np.arange(4, dtype=np.int32)
-        flip = quad_flipped(*(positions[corner_vert[c[:, k]]] for k in range(4)))
+        corners_xyz = positions[corner_vert[c]]  # (quads, 4, 3)
+        flip = quad_flipped(*(corners_xyz[:, k] for k in range(4)))
         first = np.where(flip[:, None], c[:, [0, 1, 3]], c[:, [0, 1, 2]])
         second = np.where(flip[:, None], c[:, [1, 2, 3]], c[:, [0, 2, 3]])
         if len(quads) == npoly:  # all quads (subdivision surfaces): no scattered writes
@@ -503,8 +504,12 @@ def quad_flipped(v1, v2, v3, v4) -> np.ndarray:
     """Whether Blender splits a quad along its 2-4 diagonal (triangles 1-2-4, 2-3-4) instead of
     1-3: when corners 2 and 4 lie on the same side of the 1-3 diagonal (a bent or concave quad),
     as Blender's `is_quad_flip_v3_first_third_fast` decides, in 32-bit floats like it."""
-    d12, d13, d14 = v2 - v1, v3 - v1, v4 - v1
-    return (np.cross(d12, d13) * np.cross(d14, d13)).sum(axis=1, dtype=np.float32) > 0.0
+    a, b, c = (v2 - v1).T, (v3 - v1).T, (v4 - v1).T
+    # cross(a, b) . cross(c, b), component by component (fewer temporaries than np.cross).
+    x = (a[1] * b[2] - a[2] * b[1]) * (c[1] * b[2] - c[2] * b[1])
+    x += (a[2] * b[0] - a[0] * b[2]) * (c[2] * b[0] - c[0] * b[2])
+    x += (a[0] * b[1] - a[1] * b[0]) * (c[0] * b[1] - c[1] * b[0])
+    return x > 0.0
 
 
 def shading_normals(ob, me, nverts: int, npoly: int, nloops: int, corner_vert, poly_of_corner,
@@ -585,30 +590,46 @@ def weld(corner_vert: np.ndarray, attrs: np.ndarray) -> tuple[np.ndarray, np.nda
     taken from, the glTF vertex of each corner).
 
     Why not one np.unique over all rows: sorting millions of rows costs seconds. Instead each
-    round takes one corner per vertex as representative and settles every corner equal to it;
-    a smooth mesh without seams is done in one round, a flat-shaded one in about as many rounds
-    as faces meet at a vertex; anything left after WELD_ROUNDS is sorted."""
+    round takes one corner per vertex as representative and settles every corner whose
+    attributes hash equal to it; a smooth mesh's seams take a round or two. Hash matches are
+    then checked bit by bit once, and whatever is left after WELD_ROUNDS (or failed the check)
+    is sorted."""
     n = len(corner_vert)
     bits = np.ascontiguousarray(attrs, dtype=np.float32).view(np.uint32)
-    index = np.empty(n, dtype=np.int32)
+    # A 64-bit hash of each corner's attributes (odd multipliers, wrapping arithmetic).
+    key = np.zeros(n, dtype=np.uint64)
+    for j in range(bits.shape[1]):
+        key = key * np.uint64(0x9E3779B97F4A7C15) + bits[:, j].astype(np.uint64)
+    key ^= key >> np.uint64(29)
+    index = np.full(n, -1, dtype=np.int32)
     new_id = np.empty(n, dtype=np.int32)
+    rep_of = np.empty(n, dtype=np.int32)  # the representative each settled corner matched
     slot = np.empty(int(corner_vert.max()) + 1 if n else 0, dtype=np.int32)
     reps = []
     remaining = np.arange(n, dtype=np.int32)
     next_id = 0
-    for _ in range(WELD_ROUNDS):
-        if not len(remaining):
-            break
-        v = corner_vert[remaining]
-        slot[v] = remaining  # one representative corner per vertex (numpy: the last written)
-        rep = slot[v]
-        same = (bits[remaining] == bits[rep]).all(axis=1)
-        rep_corners = remaining[rep == remaining]
-        new_id[rep_corners] = np.arange(next_id, next_id + len(rep_corners), dtype=np.int32)
-        next_id += len(rep_corners)
-        reps.append(rep_corners)
-        index[remaining[same]] = new_id[rep[same]]
-        remaining = remaining[~same]
+    with np.errstate(over="ignore"):
+        for _ in range(WELD_ROUNDS):
+            if not len(remaining):
+                break
+            v = corner_vert[remaining]
+            slot[v] = remaining  # one representative corner per vertex (numpy: the last written)
+            rep = slot[v]
+            same = key[remaining] == key[rep]
+            rep_corners = remaining[rep == remaining]
+            new_id[rep_corners] = np.arange(next_id, next_id + len(rep_corners), dtype=np.int32)
+            next_id += len(rep_corners)
+            reps.append(rep_corners)
+            settled = remaining[same]
+            index[settled] = new_id[rep[same]]
+            rep_of[settled] = rep[same]
+            remaining = remaining[~same]
+    # Bit-exact check of the hash matches: a collision goes to the sorted remainder.
+    matched = np.flatnonzero(index >= 0)
+    wrong = matched[(bits[matched] != bits[rep_of[matched]]).any(axis=1)]
+    if len(wrong):
+        index[wrong] = -1
+        remaining = np.union1d(remaining, wrong).astype(np.int32)
     if len(remaining):
         rows = np.concatenate([corner_vert[remaining, None].astype(np.uint32), bits[remaining]], axis=1)
         _, first, inverse = np.unique(rows, axis=0, return_index=True, return_inverse=True)
@@ -913,6 +934,10 @@ def mesh_primitives(ob, me, infos: list, temporary: bool = False) -> list:
         return []
     poly_of_corner = np.repeat(np.arange(npoly, dtype=np.int32), sizes)
     vertex_normals, normals = shading_normals(ob, me, nverts, npoly, nloops, corner_vert, poly_of_corner, temporary)
+    # Flat faces: a vertex appears once per face, so every corner is a glTF vertex of its own
+    # (the renderer welds by position where it needs connectivity, for mesh saliency).
+    flat = normals is not None and (me.normals_domain == "FACE" if "normals_domain" in me.bl_rna.properties
+                                    else not _get(me.polygons, "use_smooth", npoly, bool).any())
     mat_index = _attribute(me, "material_index", "FACE", 1, "value", np.int32)
     if mat_index is None and len(infos) > 1:
         mat_index = _get(me.polygons, "material_index", npoly, np.int32)
@@ -946,7 +971,12 @@ def mesh_primitives(ob, me, infos: list, temporary: bool = False) -> list:
         # Attributes that vary per corner decide which corners share a glTF vertex.
         columns = [a for a in (normals, uvs, None if per_vertex_colors else colors) if a is not None]
         cv = pick(corner_vert)
-        if columns:
+        if flat:
+            rep = np.arange(len(cv), dtype=np.int32)
+            local = rep
+            src = rep if corners is None else corners
+            verts = corner_vert[src]
+        elif columns:
             rep, local = weld(cv, np.concatenate([pick(a) for a in columns], axis=1))
             src = rep if corners is None else corners[rep]
             verts = corner_vert[src]
