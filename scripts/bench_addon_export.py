@@ -60,6 +60,8 @@ def build(kind: str):
         ob.modifiers.new("Array", "ARRAY").count = 4
     if kind == "textured":
         mat = bpy.data.materials.new("Textured")
+        if bpy.app.version < (5, 0, 0):
+            mat.use_nodes = True  # always on from 5.0
         tex = mat.node_tree.nodes.new("ShaderNodeTexImage")
         tex.image = bpy.data.images.new("Grid", 1024, 1024)
         tex.image.generated_type = "COLOR_GRID"

@@ -139,6 +139,8 @@ def test_corners_carry_blenders_normals_uvs_and_colours(bpy, export, tmp_path, s
     col.data.foreach_set("color", rng.random(len(me.loops) * 4).astype(np.float32))
     # The material asks for both: an image texture times the colour attribute.
     mat = bpy.data.materials.new("Textured")
+    if bpy.app.version < (5, 0, 0):
+        mat.use_nodes = True  # always on from 5.0
     tree = mat.node_tree
     bsdf = tree.nodes["Principled BSDF"]
     tex = tree.nodes.new("ShaderNodeTexImage")
@@ -203,6 +205,8 @@ def test_materials_split_a_mesh_into_primitives(bpy, export, tmp_path):
     colours = {"Red": (0.8, 0.05, 0.05, 1.0), "Blue": (0.05, 0.1, 0.8, 1.0)}
     for name, rgba in colours.items():
         m = bpy.data.materials.new(name)
+        if bpy.app.version < (5, 0, 0):
+            m.use_nodes = True  # always on from 5.0
         m.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = rgba
         m.node_tree.nodes["Principled BSDF"].inputs["Roughness"].default_value = 0.25
         cube.data.materials.append(m)
