@@ -37,12 +37,15 @@ def ui(cubist_binary, tmp_path_factory):
     base = tmp_path_factory.mktemp("blender_ui")
     out, tmp = base / "out", base / "tmp"
     tmp.mkdir()
-    env = dict(os.environ, TMPDIR=str(tmp))
+    env = dict(os.environ)
     env.pop("BLENDER_USER_RESOURCES", None)
     env["BLENDER_USER_CONFIG"] = str(base / "config")  # not the machine's own preferences
     t0 = time.monotonic()
-    proc = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 1280x1024x24", "blender", "--factory-startup",
-                           "--python", str(DRIVER), "--", str(ROOT), str(out), str(cubist_binary)],
+    # Blender's temporary directory is the test's own (to check nothing is left there); xvfb-run
+    # keeps its own in the system's.
+    proc = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 1280x1024x24", "env", f"TMPDIR={tmp}", "blender",
+                           "--factory-startup", "--python", str(DRIVER), "--", str(ROOT), str(out),
+                           str(cubist_binary)],
                           capture_output=True, text=True, env=env, timeout=1200)
     seconds = time.monotonic() - t0
     log = proc.stdout + proc.stderr
