@@ -17,9 +17,9 @@ bl_info = {
 
 
 def _modules():
-    from . import engine, preferences, properties, ui
+    from . import colour, engine, preferences, properties, ui
 
-    return (preferences, properties, engine, ui)
+    return (preferences, properties, colour, engine, ui)
 
 
 def register():

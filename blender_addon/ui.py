@@ -6,7 +6,7 @@ layout)."""
 import bpy
 from bl_operators.presets import AddPresetBase
 
-from . import engine, preferences, presets, runner
+from . import colour, engine, preferences, presets, runner
 from .properties import apply_look
 
 PRESET_SUBDIR = "cubist"
@@ -109,6 +109,7 @@ class CUBIST_PT_render(CubistPanel, bpy.types.Panel):
         layout = self.layout
         layout.use_property_split = True
         layout.prop(context.scene.cubist, "preset")
+        colour.draw_notice(layout, context.scene)
         prefs = engine.addon_preferences(context)
         try:
             pref = bpy.path.abspath(prefs.binary_path) if prefs is not None and prefs.binary_path else ""
@@ -287,7 +288,8 @@ class CUBIST_PT_output(CubistPanel, bpy.types.Panel):
         row.prop(c, "background")
         layout.prop(c, "shadows")
         layout.prop(c, "exposure")
-        # The scene is exported from the render thread: a locked interface keeps edits out of it.
+        # The render thread reads the scene Blender evaluated for the render; Lock Interface
+        # also keeps the interface from editing the scene while a frame renders.
         layout.prop(context.scene.render, "use_lock_interface")
 
 
