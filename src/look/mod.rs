@@ -1,8 +1,8 @@
-//! The look report (issue 13 item 8; ART.md "What we measure"): one render per scene with
-//! the given settings, measured from the render and its passes, a row per scene, and contact
-//! sheets to look at side by side. `cubist look` runs it; `scripts/look-report.sh` runs it
-//! over the shared scenes, before (the `thesis` preset, the look of the paper) and after (the
-//! default), into docs/look/.
+//! The look report (issue 13 item 8; ART.md "What we measure"): one render per scene,
+//! measured from the render and its buffers, a row per scene, and contact sheets to look at
+//! side by side. `pipeline::look` renders and calls `measure`; `cubist look` runs it;
+//! `scripts/look-report.sh` runs it over the shared scenes, before (the `thesis` preset, the
+//! look of the paper) and after (the default), into docs/look/.
 //!
 //! The measures, defined once here (see `measures` for the exact computations):
 //! - straight: the share of facet-boundary length on straight runs at least 1% of the image
@@ -29,18 +29,14 @@ pub mod measures;
 pub mod odd;
 
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
-use std::time::Instant;
+use std::sync::Arc;
 
 use image::RgbaImage;
 use serde::Serialize;
 
-use crate::error::Result;
-use crate::facets::{self, FacetLayout};
-use crate::frame::Frame;
-use crate::pipeline::{Prepared, render_with};
-use crate::progress::Progress;
-use crate::settings::Settings;
+use crate::facets::{FacetLayout, FacetMap};
+use crate::film::Film;
+use crate::scene::{Scene, World};
 
 /// Minimum straight run, as a share of the image diagonal (ART.md).
 pub const RUN_SHARE: f64 = 0.01;
@@ -80,50 +76,52 @@ pub struct LookRow {
     pub time_big_ms: Option<f64>,
 }
 
-/// A measured render: its row and its picture.
-pub struct Look {
-    pub row: LookRow,
-    pub image: RgbaImage,
+/// What `measure` reads of one render.
+pub struct Render<'a> {
+    pub scene_name: &'a str,
+    /// The camera used, in words.
+    pub camera: &'a str,
+    pub width: u32,
+    pub height: u32,
+    /// The pre-render (the unfaceted render of the same camera) and the final film.
+    pub pre: &'a Film,
+    pub fin: &'a Film,
+    /// The final image, as written.
+    pub image: &'a RgbaImage,
+    pub layout: &'a FacetLayout,
+    pub map: &'a FacetMap,
+    /// Whether each facet's view was re-aimed.
+    pub moved: &'a [bool],
+    /// The scene and its per-mesh vertex saliency (`MeshSaliency::per_mesh`).
+    pub scene: &'a Scene,
+    pub world: &'a World,
+    pub vertex_saliency: &'a [Option<Arc<Vec<f32>>>],
+    pub time_ms: f64,
 }
 
-/// Renders `prep` with `settings` and measures the result.
-pub fn measure(prep: &Prepared, settings: &Settings, scene: &str) -> Result<Look> {
-    let pre: Mutex<Option<Frame>> = Mutex::new(None);
-    let t = Instant::now();
-    let rendered = render_with(prep, settings, &Progress::silent(), &|_, frame| {
-        *pre.lock().unwrap_or_else(|e| e.into_inner()) = Some(frame.clone());
-    })?;
-    let time_ms = t.elapsed().as_secs_f64() * 1e3;
-    let pre = pre.into_inner().unwrap_or_else(|e| e.into_inner()).unwrap_or_else(|| rendered.frame.clone());
-    let (w, h) = (settings.width, settings.height);
+/// The measures of one render (see the module doc).
+pub fn measure(r: &Render) -> LookRow {
+    let (w, h) = (r.width, r.height);
     let diag = ((w as f64).powi(2) + (h as f64).powi(2)).sqrt();
-    let map = rendered.facets.clone().unwrap_or_else(|| FacetLayout::single().rasterize(w, h));
-    // The layout again from the same pre-render (deterministic), for the polygon coverage.
-    let layout = if settings.faceted() { facets::layout_for(settings, &pre)? } else { FacetLayout::single() };
-    let (straight, _) = measures::straight_share(&map, SIMPLIFY_PX, RUN_SHARE * diag);
-    let planes = measures::plane_coverage(&layout, w, h);
-    let largest = measures::largest_facet(&map);
-    let pre_cov: Vec<f32> = pre.color.iter().map(|c| c.w).collect();
-    let fin_cov: Vec<f32> = rendered.frame.color.iter().map(|c| c.w).collect();
+    let (straight, _) = measures::straight_share(r.map, SIMPLIFY_PX, RUN_SHARE * diag);
+    let planes = measures::plane_coverage(r.layout, w, h);
+    let largest = measures::largest_facet(r.map);
+    let pre_cov: Vec<f32> = r.pre.color.iter().map(|c| c.w).collect();
+    let fin_cov: Vec<f32> = r.fin.color.iter().map(|c| c.w).collect();
     let (fill, bbox) = measures::subject_fill(&pre_cov, w, h);
-    let moved: Vec<bool> = if rendered.aims.is_empty() {
-        vec![false; map.facet_count as usize]
-    } else {
-        rendered.aims.iter().map(|a| a.moved()).collect()
-    };
-    let ghost = measures::ghost_share(&map, &moved, &pre_cov, &fin_cov);
-    let (cues_pre, cues_final) = cues(prep, settings, &pre, &rendered.frame)?;
-    let lum: Vec<f32> = rendered
+    let ghost = measures::ghost_share(r.map, r.moved, &pre_cov, &fin_cov);
+    let (cues_pre, cues_final) = cues(r.scene, r.world, r.vertex_saliency, r.pre, r.fin);
+    let lum: Vec<f32> = r
         .image
         .pixels()
         .map(|p| (0.2126 * p.0[0] as f32 + 0.7152 * p.0[1] as f32 + 0.0722 * p.0[2] as f32) / 255.0)
         .collect();
     let min_px = ((LIGHT_MIN_SHARE * (w as f64) * (h as f64)) as usize).max(16);
-    let (light, _) = measures::plane_light(&map, &lum, min_px, LIGHT_RANGE, LIGHT_R2);
-    let row = LookRow {
-        scene: scene.to_string(),
-        camera: rendered.camera.clone(),
-        facets: map.used_facets(),
+    let (light, _) = measures::plane_light(r.map, &lum, min_px, LIGHT_RANGE, LIGHT_R2);
+    LookRow {
+        scene: r.scene_name.to_string(),
+        camera: r.camera.to_string(),
+        facets: r.map.used_facets(),
         straight,
         planes,
         largest,
@@ -134,27 +132,30 @@ pub fn measure(prep: &Prepared, settings: &Settings, scene: &str) -> Result<Look
         cues_final,
         cues_kept: if cues_pre == 0 { 1.0 } else { cues_final as f64 / cues_pre as f64 },
         light,
-        time_ms,
+        time_ms: r.time_ms,
         time_big_ms: None,
-    };
-    Ok(Look { row, image: rendered.image })
+    }
 }
 
 /// (top-salient vertices shown by `pre`, by `fin`): see the module doc.
-fn cues(prep: &Prepared, settings: &Settings, pre: &Frame, fin: &Frame) -> Result<(usize, usize)> {
-    let sal = crate::saliency::for_frame_with(prep, pre, settings.saliency_cache.as_deref(), settings.saliency_method)?;
-    let world = &prep.world;
+pub fn cues(
+    scene: &Scene,
+    world: &World,
+    saliency: &[Option<Arc<Vec<f32>>>],
+    pre: &Film,
+    fin: &Film,
+) -> (usize, usize) {
     // Vertex slots per object instance.
     let mut base = Vec::with_capacity(world.objects.len() + 1);
     let mut total = 0usize;
     for o in &world.objects {
         base.push(total);
-        total += prep.scene.meshes[o.mesh].positions.len();
+        total += scene.meshes[o.mesh].positions.len();
     }
     let mut values: Vec<f32> = Vec::new();
     let mut score = vec![-1.0f32; total];
     for (k, o) in world.objects.iter().enumerate() {
-        if let Some(Some(s)) = sal.per_mesh.get(o.mesh) {
+        if let Some(Some(s)) = saliency.get(o.mesh) {
             for (v, &x) in s.iter().enumerate() {
                 score[base[k] + v] = x;
                 values.push(x);
@@ -162,15 +163,15 @@ fn cues(prep: &Prepared, settings: &Settings, pre: &Frame, fin: &Frame) -> Resul
         }
     }
     if values.is_empty() {
-        return Ok((0, 0));
+        return (0, 0);
     }
     values.sort_by(f32::total_cmp);
     let threshold = values[((values.len() - 1) as f64 * (1.0 - CUE_SHARE)) as usize].max(f32::MIN_POSITIVE);
-    let shown = |frame: &Frame| -> usize {
+    let shown = |film: &Film| -> usize {
         let mut seen = vec![false; total];
-        for s in frame.samples.iter().filter(|s| s.is_hit()) {
+        for s in film.samples.iter().filter(|s| s.is_hit()) {
             let (o, local) = world.local_triangle(s.tri);
-            let mesh = &prep.scene.meshes[world.objects[o as usize].mesh];
+            let mesh = &scene.meshes[world.objects[o as usize].mesh];
             if let Some(t) = mesh.triangles.get(local as usize) {
                 for &v in t {
                     let slot = base[o as usize] + v as usize;
@@ -182,7 +183,7 @@ fn cues(prep: &Prepared, settings: &Settings, pre: &Frame, fin: &Frame) -> Resul
         }
         seen.iter().filter(|&&s| s).count()
     };
-    Ok((shown(pre), shown(fin)))
+    (shown(pre), shown(fin))
 }
 
 /// The scene files under `paths`: files as given, directories' `.glb`/`.gltf` files (not

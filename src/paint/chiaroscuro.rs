@@ -15,10 +15,10 @@
 use glam::{Quat, Vec3};
 use rayon::prelude::*;
 
-use super::{Canvas, Effect, PaintContext, effect_seed};
+use super::{Canvas, Effect, PaintContext};
 use crate::error::{Error, Result};
-use crate::render::{splitmix64, unit_f64};
 use crate::shading::RigLight;
+use crate::util::rng::{splitmix64, sub_seed, unit_f64};
 
 const SALT: u64 = 0x6368_6961_726f_7363; // "chiarosc"
 /// Largest rotation of a facet's lights at amount 1, degrees.
@@ -41,7 +41,7 @@ impl Chiaroscuro {
     /// The rotation and gain of facet `f`'s lights: a uniform random axis, an angle in
     /// [1/2, 1] x amount x MAX_ANGLE_DEG, a gain in 1 +- amount x MAX_GAIN.
     pub fn facet_light(&self, f: u32) -> (Quat, f32) {
-        let h = splitmix64(effect_seed(self.seed, SALT) ^ splitmix64(f as u64));
+        let h = splitmix64(sub_seed(self.seed, SALT) ^ splitmix64(f as u64));
         let u: [f32; 4] = std::array::from_fn(|k| unit_f64(splitmix64(h.wrapping_add(k as u64))) as f32);
         let z = 2.0 * u[0] - 1.0;
         let r = (1.0 - z * z).max(0.0).sqrt();
@@ -82,7 +82,7 @@ impl Effect for Chiaroscuro {
 
     fn apply(&self, canvas: &mut Canvas<'_>, ctx: &PaintContext) -> Result<()> {
         let Some(lighting) = ctx.lighting else {
-            return Err(Error::setting("chiaroscuro", "relighting needs the scene's lights; none were given"));
+            return Err(Error::Internal("chiaroscuro: relighting needs the scene's lights; none were given".into()));
         };
         let (world, rig) = (lighting.world, lighting.rig);
         // Per facet: the rotation, the gain and the rotated directions of directional lights

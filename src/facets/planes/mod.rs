@@ -28,7 +28,7 @@ pub mod split;
 use glam::DVec2;
 
 use crate::facets::{FacetLayout, FacetPolygon, MAX_FACETS};
-use crate::frame::PixelHit;
+use crate::film::PixelHit;
 
 /// The planes faceting's parameters (settings `planes`, `plane_detail`, `plane_outlines`, `seed`).
 #[derive(Clone, Copy, Debug, PartialEq)]

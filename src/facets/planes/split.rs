@@ -22,7 +22,7 @@ use std::collections::BinaryHeap;
 use glam::DVec2;
 
 use super::polygon::{clip_half_plane, signed_area};
-use crate::facets::rand01;
+use crate::util::rng::rand01;
 
 const STREAM: u64 = 0x7370_6c69_74; // "split"
 /// Preferred stroke directions, degrees from the horizontal, with their weights: the

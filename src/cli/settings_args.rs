@@ -1,11 +1,11 @@
-//! Command-line definitions (clap) and their conversion into validated `Settings`.
+//! Every setting as an optional flag, and the layer the flags given make.
 //!
 //! `SettingsArgs` mirrors `Settings`: each flag serialises under the same key as the JSON
 //! config, so flags, config file and presets merge in one place (`Settings::from_layers`).
 
 use std::path::PathBuf;
 
-use clap::{Args, Parser, Subcommand, ValueEnum};
+use clap::Args;
 use serde::Serialize;
 use serde_json::{Map, Value};
 
@@ -13,181 +13,6 @@ use crate::error::Result;
 use crate::settings::{
     CameraKind, FacetProjection, Faceting, Framing, Imprecision, Palette, Pass, Preset, SaliencyMethod, Settings,
 };
-
-#[derive(Parser, Debug)]
-#[command(
-    name = "cubist",
-    version,
-    about = "Renders 3D scenes in the manner of Analytical Cubism: cubist cameras, facets, mesh saliency, painterly effects",
-    after_help = "Pixel-valued settings (discontinuity, neighborhood, border and silhouette widths) are given at 1000 px and scale with sqrt(width x height) / 1000.\nExit codes: 0 success, 1 bad input or failure, 2 bad usage (flags, settings)."
-)]
-pub struct Cli {
-    #[command(subcommand)]
-    pub command: Command,
-}
-
-#[derive(Subcommand, Debug)]
-pub enum Command {
-    /// Render a scene (the built-in still life when none is given) to a PNG.
-    Render(RenderArgs),
-    /// Count the faces visible through one or more cameras (the thesis's Table 4.1 measure).
-    Faces(FacesArgs),
-    /// Write the saliency map seen through the camera (grey PNG) and/or print per-vertex mesh saliency as JSON.
-    Saliency(SaliencyArgs),
-    /// Compute a scene's Segment facet layout and write it as images: <stem>.png the
-    /// pre-render, <stem>.layout.png the facets; with --pass segments also the superpixels and
-    /// each level (<stem>.level1.png...), as in the thesis's Fig. 4.5.
-    Facets(FacetsArgs),
-    /// Print the fully resolved, validated settings as JSON on stdout: every key, with the
-    /// preset's values and the defaults, after the config file and the flags (null = chosen
-    /// per scene, see each flag's help). Nothing is rendered.
-    Settings(SettingsCmdArgs),
-    /// The look report (ART.md "What we measure"): render each scene, measure straight planes,
-    /// whole-canvas planes, subject fill, ghosts, cues kept and per-plane light, print a
-    /// markdown table (or JSON) and write a contact sheet. Default size 640 x 480.
-    Look(LookArgs),
-}
-
-#[derive(Args, Debug)]
-pub struct LookArgs {
-    /// Scenes (.glb/.gltf) or folders of them (their .glb/.gltf files, not recursive).
-    pub scenes: Vec<PathBuf>,
-    /// Include the built-in still life (always when no scene is given).
-    #[arg(long)]
-    pub still_life: bool,
-    /// Include the built-in odd scenes: very tall, very flat, z-up, several objects, far from
-    /// the origin, huge, tiny.
-    #[arg(long)]
-    pub odd: bool,
-    /// Also render every scene with this preset: measured and shown beside, as "before".
-    #[arg(long, value_enum, value_name = "PRESET")]
-    pub before: Option<Preset>,
-    /// Write a contact sheet here: per scene, the before picture (with --before) and the after one.
-    #[arg(long, value_name = "PNG")]
-    pub sheet: Option<PathBuf>,
-    /// Print JSON rows instead of markdown tables.
-    #[arg(long)]
-    pub json: bool,
-    /// Also time every render at SIZE x SIZE pixels (the median of --time-runs).
-    #[arg(long, value_name = "SIZE")]
-    pub time_size: Option<u32>,
-    /// Renders timed per scene with --time-size.
-    #[arg(long, default_value_t = 3)]
-    pub time_runs: u32,
-    /// JSON file of settings, as for `render`.
-    #[arg(long, value_name = "FILE")]
-    pub config: Option<PathBuf>,
-    #[command(flatten)]
-    pub settings: SettingsArgs,
-}
-
-#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ProgressMode {
-    /// A progress bar when stderr is a terminal, nothing otherwise.
-    Auto,
-    /// Always a progress bar.
-    Bar,
-    /// Machine-readable lines on stderr: `PROGRESS <fraction 0..1> <stage>` (the Blender add-on reads these).
-    Lines,
-    /// Nothing.
-    None,
-}
-
-#[derive(Args, Debug)]
-pub struct RenderArgs {
-    /// Scene to render (.gltf or .glb). Without one, the built-in still life.
-    pub scene: Option<PathBuf>,
-    /// Output image (.png). Passes go beside it as <stem>.<pass>.png.
-    #[arg(short, long, default_value = "cubist.png")]
-    pub output: PathBuf,
-    /// JSON file of settings (the keys of the options below, in snake_case); flags override it.
-    #[arg(long, value_name = "FILE")]
-    pub config: Option<PathBuf>,
-    /// Print the camera used and each stage's time.
-    #[arg(short, long)]
-    pub verbose: bool,
-    #[arg(long, value_enum, default_value = "auto")]
-    pub progress: ProgressMode,
-    #[command(flatten)]
-    pub settings: SettingsArgs,
-}
-
-#[derive(Args, Debug)]
-pub struct SaliencyArgs {
-    /// Scene (.gltf or .glb). Without one, the built-in still life.
-    pub scene: Option<PathBuf>,
-    /// Saliency map image (.png, grey, white = most salient) [default: saliency.png, none with --json]
-    #[arg(short, long)]
-    pub output: Option<PathBuf>,
-    /// Print every mesh's per-vertex saliency, in the glTF's vertex order, as JSON on stdout:
-    /// {"meshes": [{"name": ..., "vertex_saliency": [...]}, ...]}
-    #[arg(long)]
-    pub json: bool,
-    /// JSON settings file, as for `render`.
-    #[arg(long, value_name = "FILE")]
-    pub config: Option<PathBuf>,
-    /// Print the camera used and each stage's time.
-    #[arg(short, long)]
-    pub verbose: bool,
-    #[arg(long, value_enum, default_value = "auto")]
-    pub progress: ProgressMode,
-    #[command(flatten)]
-    pub settings: SettingsArgs,
-}
-
-#[derive(Args, Debug)]
-pub struct FacesArgs {
-    /// Scenes to evaluate (.gltf or .glb); one row per scene and view.
-    #[arg(required = true)]
-    pub scenes: Vec<PathBuf>,
-    /// A camera setting to evaluate, as KIND or KIND:DEGREES (e.g. planar:90, spherical:360,
-    /// perspective:60, orthographic). Repeat for a whole table row. Without any, the camera
-    /// and angles of --camera and --ambiguity.
-    #[arg(long = "view", value_name = "KIND[:DEG]")]
-    pub views: Vec<String>,
-    /// Several angles for --camera, degrees, comma-separated (e.g. 90,120,150).
-    #[arg(long, value_delimiter = ',', value_name = "DEG,...")]
-    pub angles: Vec<f64>,
-    /// Print JSON instead of a table (with each view's camera in scene units).
-    #[arg(long)]
-    pub json: bool,
-    /// With --json, also list the visible triangle ids of each view.
-    #[arg(long, requires = "json")]
-    pub ids: bool,
-    /// JSON settings file, as for `render`.
-    #[arg(long, value_name = "FILE")]
-    pub config: Option<PathBuf>,
-    #[command(flatten)]
-    pub settings: SettingsArgs,
-}
-
-#[derive(Args, Debug)]
-pub struct FacetsArgs {
-    /// Scene (.gltf or .glb). Without one, the built-in still life.
-    pub scene: Option<PathBuf>,
-    /// Output image (.png): the pre-render; the layout and levels go beside it.
-    #[arg(short, long, default_value = "facets.png")]
-    pub output: PathBuf,
-    /// JSON file of settings, as for `render`.
-    #[arg(long, value_name = "FILE")]
-    pub config: Option<PathBuf>,
-    /// Print each step's time and each level's segment count.
-    #[arg(short, long)]
-    pub verbose: bool,
-    #[arg(long, value_enum, default_value = "auto")]
-    pub progress: ProgressMode,
-    #[command(flatten)]
-    pub settings: SettingsArgs,
-}
-
-#[derive(Args, Debug)]
-pub struct SettingsCmdArgs {
-    /// JSON file of settings, as for `render`; flags override it.
-    #[arg(long, value_name = "FILE")]
-    pub config: Option<PathBuf>,
-    #[command(flatten)]
-    pub settings: SettingsArgs,
-}
 
 /// Every setting as an optional flag. Keys (after serde) are those of `Settings`; flags not
 /// given are left out of the layer, so the config file's or the preset's value stands.
@@ -214,10 +39,10 @@ pub struct SettingsArgs {
     /// Camera model [default: auto = spherical, or cylindrical for tall scenes]
     #[arg(long, value_enum, help_heading = "Camera")]
     pub camera: Option<CameraKind>,
-    /// Convergence angle of cubist cameras, degrees (spherical/cylindrical 0..360, planar 0..<180); vertical field of view of the perspective camera [default: 140; perspective: the glTF camera's or 60]
+    /// Convergence angle of cubist cameras, degrees (spherical/cylindrical 0..360, planar 0..<180); vertical field of view of the perspective camera [default: chosen per scene by --framing compose (at most 160), 140 under fit and centre; perspective: the glTF camera's or 60]
     #[arg(long, help_heading = "Camera", allow_negative_numbers = true)]
     pub ambiguity: Option<f64>,
-    /// Where the focal centre goes without --focus-distance: fit = behind the scene so all of it is in view, centre = the bounding box's centre [default: fit]
+    /// Where the focal centre goes without --focus-distance: compose = as close behind the scene as the cameras allow, with the horizontal and vertical spans fitted so the subject fills the canvas; fit = behind the scene so all of it spans --fill of 140 deg; centre = the bounding box's centre [default: compose]
     #[arg(long, value_enum, help_heading = "Camera")]
     pub framing: Option<Framing>,
     /// Distance from the camera position to the focal centre along the view, scene units [default: chosen by --framing]
@@ -256,7 +81,7 @@ pub struct SettingsArgs {
     /// Planar plane height / orthographic view height / cylindrical band height, scene units [default: fits the scene]
     #[arg(long, help_heading = "Camera", allow_negative_numbers = true)]
     pub camera_size: Option<f64>,
-    /// Fraction of the view the scene fills under automatic framing, (0, 1]: of the convergence half-angles for cubist cameras, of the smaller image side for perspective/orthographic [default: 0.8 cubist, 0.9 others]
+    /// Fraction of the view the scene fills under automatic framing, (0, 1]: of each span under compose, of the convergence half-angles under fit, of the smaller image side for perspective/orthographic [default: 0.94 compose, 0.8 fit, 0.9 others]
     #[arg(long, help_heading = "Camera")]
     pub fill: Option<f64>,
 
@@ -273,7 +98,7 @@ pub struct SettingsArgs {
     #[arg(long, help_heading = "Shading")]
     pub exposure: Option<f32>,
 
-    /// Faceting method; segment follows the picture's forms (needs saliency) [analytic: segment]
+    /// Faceting method; planes tile the canvas with straight-edged planes cut along the subject's outlines, segment is the thesis's (both need saliency) [analytic: planes]
     #[arg(long, value_enum, help_heading = "Facets")]
     pub faceting: Option<Faceting>,
     /// Facet map image for constant faceting, each distinct colour a facet
@@ -321,10 +146,10 @@ pub struct SettingsArgs {
     /// Segment: weight of saliency differences [default: 0.5]
     #[arg(long, help_heading = "Facets", allow_negative_numbers = true)]
     pub weight_saliency: Option<f64>,
-    /// Planes: cells the canvas is split into before the subject's outlines cut them [default: 150]
+    /// Planes: how many planes the canvas is split into before the subject's outlines cut them [default: 150]
     #[arg(long, help_heading = "Facets")]
     pub planes: Option<u32>,
-    /// Planes: how much denser planes are at the most salient parts than far from the subject, >= 1 [default: 5]
+    /// Planes: how much denser planes are at the most salient parts than far from the subject, 1..100 [default: 5]
     #[arg(long, help_heading = "Facets", allow_negative_numbers = true)]
     pub plane_detail: Option<f64>,
     /// Planes: cut the planes along the subject's outlines (true/false) [default: true]
@@ -337,10 +162,10 @@ pub struct SettingsArgs {
     /// Largest facet-centre to saliency-centre shift, pixels at 1000 px; the paper recommends 50-200 [analytic: 200]
     #[arg(long, help_heading = "Spatial imprecision", allow_negative_numbers = true)]
     pub discontinuity: Option<f64>,
-    /// Re-aim a facet only when this share of its pixels showed geometry, 0..1; 0 = every facet, as the thesis [default: 0]
+    /// Re-aim a facet only when this share of its pixels showed geometry, 0..1; 0 = every facet, as the thesis [analytic: 0.5]
     #[arg(long, help_heading = "Spatial imprecision", allow_negative_numbers = true)]
     pub aim_min_coverage: Option<f64>,
-    /// Largest view shift of a re-aimed facet, as a share of its mean width; 0 = only --discontinuity limits it [default: 0]
+    /// Largest view shift of a re-aimed facet, as a share of its mean width; 0 = only --discontinuity limits it [analytic: 0.3]
     #[arg(long, help_heading = "Spatial imprecision", allow_negative_numbers = true)]
     pub aim_width_share: Option<f64>,
     /// Pixels outside a facet that count for its saliency centre, at 1000 px [default: 0]
@@ -410,32 +235,5 @@ impl SettingsArgs {
             None => None,
         };
         Settings::from_layers(json.as_ref().map(|(p, v)| (*p, v.clone())), self.to_layer())
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Regression: `--camera-position -2,1,2.5` was refused as an unknown flag `-2`.
-    #[test]
-    fn vectors_may_start_with_a_minus_sign() {
-        let cli = Cli::try_parse_from([
-            "cubist",
-            "faces",
-            "a.glb",
-            "--camera-position",
-            "-2,1,2.5",
-            "--camera-target",
-            "-0.5,-1,0",
-            "--camera-up",
-            "-1,0,0",
-        ])
-        .unwrap();
-        let Command::Faces(args) = cli.command else { panic!("not faces") };
-        let s = args.settings.resolve(None).unwrap();
-        assert_eq!(s.camera_position, Some([-2.0, 1.0, 2.5]));
-        assert_eq!(s.camera_target, Some([-0.5, -1.0, 0.0]));
-        assert_eq!(s.camera_up, Some([-1.0, 0.0, 0.0]));
     }
 }

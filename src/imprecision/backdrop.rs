@@ -1,4 +1,5 @@
-//! What background facets show (issue 13 item 2: no ghosts).
+//! What a facet may show (issue 13): background facets keep the backdrop (item 2, no ghosts),
+//! and a re-aimed facet's view shift stays within its own width (item 5, cues kept).
 //!
 //! The thesis re-aims every facet at its saliency centre. A facet that shows mostly backdrop
 //! has its saliency centre on the little geometry it touches (or none), so its rays turn
@@ -12,8 +13,8 @@
 //! With the planes faceting, whose facets are cut along the subject's outlines, almost every
 //! facet is all subject or all backdrop, so the rule rarely has to weigh a mixed one.
 
+use super::{AimContext, AimParams, FacetAim, FacetProjection};
 use crate::facets::FacetMap;
-use crate::imprecision::{AimContext, FacetAim};
 
 /// Each facet's share of pixel coverage (the fraction of samples that hit geometry, averaged
 /// over its pixels) in the pre-render whose per-pixel coverage is `coverage`.
@@ -104,6 +105,24 @@ pub fn limit_shift(aims: &mut [FacetAim], widths: &[f64], share: f64, ctx: &AimC
             }
             aim.target = p;
         }
+    }
+}
+
+/// Both rules, as `params` set them, on the aims `aim_facets` decided; `coverage(i)` is pixel
+/// i's pre-render coverage (the share of its samples that hit geometry).
+pub fn apply(
+    aims: &mut [FacetAim],
+    ctx: &AimContext,
+    map: &FacetMap,
+    coverage: impl Fn(usize) -> f32,
+    params: &AimParams,
+) {
+    if params.min_coverage > 0.0 {
+        let c = facet_coverage(map, coverage);
+        hold_background(aims, &c, params.min_coverage);
+    }
+    if params.width_share > 0.0 && params.projection == FacetProjection::Converging {
+        limit_shift(aims, &facet_widths(map), params.width_share, ctx);
     }
 }
 

@@ -1,0 +1,178 @@
+//! The values before any preset (the bare cubist camera) and what each preset sets. The
+//! defaults of `Settings` are the `analytic` preset's.
+
+use super::{CameraKind, FacetProjection, Faceting, Framing, Imprecision, Palette, Preset, SaliencyMethod, Settings};
+
+impl Default for Settings {
+    fn default() -> Self {
+        let mut s = Settings::base();
+        Preset::Analytic.apply(&mut s);
+        s
+    }
+}
+
+impl Settings {
+    /// Values before any preset: the bare cubist camera.
+    pub(super) fn base() -> Self {
+        Settings {
+            preset: Preset::Plain,
+            width: 800,
+            height: 600,
+            spp: 4,
+            seed: 0,
+            camera: CameraKind::Auto,
+            ambiguity: None,
+            framing: Framing::Fit,
+            focus_distance: None,
+            camera_position: None,
+            camera_target: None,
+            camera_up: None,
+            camera_size: None,
+            fill: None,
+            shadows: true,
+            background: [0.62, 0.56, 0.46],
+            transparent: false,
+            exposure: 1.0,
+            faceting: Faceting::None,
+            facet_map: None,
+            facets: None,
+            save_facets: None,
+            facet_count: 150,
+            grid_cells: 15,
+            patch_count: 80,
+            occlusion: 3.0,
+            segments: vec![5, 30, 120],
+            thresholds: vec![0.0, 0.05, 0.08],
+            superpixels: 0,
+            weight_colour: 1.0,
+            weight_normal: 1.0,
+            weight_depth: 0.5,
+            weight_object: 0.9,
+            weight_saliency: 0.5,
+            planes: 150,
+            plane_detail: 5.0,
+            plane_outlines: true,
+            aim_min_coverage: 0.0,
+            aim_width_share: 0.0,
+            imprecision: Imprecision::Saliency,
+            discontinuity: 0.0,
+            neighborhood: 0.0,
+            facet_projection: FacetProjection::Converging,
+            facet_fov: 0.0,
+            border_width: 0.0,
+            border_strength: 1.0,
+            silhouette_width: 0.0,
+            silhouette_strength: 1.0,
+            palette: Palette::None,
+            palette_image: None,
+            colors: 0,
+            gradients: 0.0,
+            chiaroscuro: 0.0,
+            saliency_method: SaliencyMethod::Auto,
+            saliency_cache: None,
+            passes: Vec::new(),
+        }
+    }
+
+    /// The settings of a preset, before any override.
+    pub fn preset(preset: Preset) -> Self {
+        let mut s = Settings::base();
+        preset.apply(&mut s);
+        s
+    }
+}
+
+impl Preset {
+    /// Sets the values this preset bundles.
+    pub fn apply(self, s: &mut Settings) {
+        s.preset = self;
+        match self {
+            Preset::Plain => {}
+            Preset::Thesis => {
+                // The thesis's recommendations (Chapter 5): ambiguity 120-150, discontinuity
+                // 50-200 at 1000 px, Segment faceting, bold facet borders, a painter's palette.
+                s.camera = CameraKind::Auto;
+                s.ambiguity = None; // 140 for cubist cameras
+                s.framing = Framing::Fit;
+                s.faceting = Faceting::Segment;
+                s.aim_min_coverage = 0.0;
+                s.aim_width_share = 0.0;
+                s.discontinuity = 200.0;
+                s.border_width = 12.0;
+                s.border_strength = 0.85;
+                s.silhouette_width = 40.0;
+                s.silhouette_strength = 0.5;
+                s.palette = Palette::Ochre;
+                s.gradients = 0.3;
+                s.colors = 0;
+                s.chiaroscuro = 0.0;
+            }
+            Preset::Analytic => {
+                // Our look (issue 13): planes, composition, the backdrop kept still; the
+                // thesis's discontinuity 200 at 1000 px, bold borders, a painter's palette.
+                planes_look(s);
+                s.discontinuity = 200.0;
+                s.border_width = 12.0;
+                s.border_strength = 0.85;
+                s.silhouette_width = 40.0;
+                s.silhouette_strength = 0.5;
+                s.palette = Palette::Ochre;
+                s.gradients = 0.3;
+                s.colors = 0;
+                s.chiaroscuro = 0.0;
+            }
+            Preset::Braque => {
+                planes_look(s);
+                s.discontinuity = 150.0;
+                s.border_width = 16.0;
+                s.border_strength = 1.0;
+                s.silhouette_width = 20.0;
+                s.silhouette_strength = 0.5;
+                s.palette = Palette::Olive;
+                s.gradients = 0.5;
+                s.colors = 8;
+                s.chiaroscuro = 0.5;
+            }
+            Preset::BluePeriod => {
+                planes_look(s);
+                s.discontinuity = 100.0;
+                s.border_width = 8.0;
+                s.border_strength = 0.7;
+                s.silhouette_width = 40.0;
+                s.silhouette_strength = 0.5;
+                s.palette = Palette::BluePeriod;
+                s.gradients = 0.2;
+                s.colors = 0;
+                s.chiaroscuro = 0.25;
+            }
+            Preset::Grisaille => {
+                planes_look(s);
+                s.discontinuity = 200.0;
+                s.border_width = 12.0;
+                s.border_strength = 0.9;
+                s.silhouette_width = 25.0;
+                s.silhouette_strength = 0.4;
+                s.palette = Palette::Grey;
+                s.gradients = 0.35;
+                s.colors = 6;
+                s.chiaroscuro = 0.3;
+            }
+        }
+    }
+}
+
+/// The facet, camera and imprecision values of our presets (issue 13; every preset but
+/// `plain` and `thesis`): planes faceting, the `compose` framing with the angles chosen per
+/// scene, background facets not re-aimed and view shifts within a share of each facet's width
+/// (`imprecision::backdrop`).
+fn planes_look(s: &mut Settings) {
+    s.camera = CameraKind::Auto;
+    s.ambiguity = None;
+    s.framing = Framing::Compose;
+    s.faceting = Faceting::Planes;
+    s.planes = 150;
+    s.plane_detail = 5.0;
+    s.plane_outlines = true;
+    s.aim_min_coverage = 0.5;
+    s.aim_width_share = 0.3;
+}
