@@ -361,7 +361,7 @@ fn run_look(mut args: LookArgs) -> anyhow::Result<()> {
     if let Some(sheet) = &args.sheet {
         let rows: Vec<Vec<&image::RgbaImage>> = pictures.iter().map(|p| p.iter().collect()).collect();
         let columns = if before.is_some() { 2 } else { 4 };
-        write_png(sheet, &cubist::look::contact_sheet(&rows, 320, columns))?;
+        write_png(sheet, &cubist::look::contact_sheet(&rows, 240, columns))?;
     }
     if args.json {
         emit(&serde_json::to_string_pretty(

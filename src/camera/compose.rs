@@ -12,14 +12,13 @@
 //! 1. C goes as close behind the scene as it can while every vertex stays within
 //!    `margin` x `MAX_HALF_ANGLE` of the view axis: the widest wrap around the subject
 //!    (the cubist "several sides at once") the cameras can show without grazing rays.
-//!    With an explicit ambiguity, C is placed as `fit` places it instead (the scene spans
-//!    `margin` of the given horizontal half-angle).
+//!    (A user's ambiguity fixes the angle: such a camera is framed by `fit`.)
 //! 2. C slides across the view (right and up) so the scene's angular extent is centred,
 //!    then step 1 runs again from there (twice): an asymmetric subject (a bunny's ears, a
 //!    figure's raised arm) is not pushed off-centre with an empty margin on one side.
-//! 3. The spans are fitted to the vertices: horizontal angle (unless the ambiguity is given)
-//!    and vertical angle (spherical) or band height (cylindrical) = the scene's extent /
-//!    `margin`, so the whole subject is in view with a thin margin.
+//! 3. The spans are fitted to the vertices: horizontal angle and vertical angle (spherical)
+//!    or band height (cylindrical) = the scene's extent / `margin`, so the whole subject is in
+//!    view with a thin margin.
 //! 4. The two spans are kept within a ratio of the same scale per pixel (the wider one is
 //!    kept and the other widened): a tall or flat subject is stretched at most that much.
 //! 5. Closest is not always fullest: a part of the scene near C (a tail, a raised ear)
@@ -102,13 +101,12 @@ fn spans(
     c: DVec3,
     aspect: f64,
     margin: f64,
-    ambiguity: Option<f64>,
     anisotropy: f64,
 ) -> Composition {
     let (h, v) = extents(points, kind, f, c);
     let widest = 2.0 * MAX_HALF_ANGLE / margin;
     let span_x = (2.0 * h.0.abs().max(h.1.abs()) / margin).clamp(1e-6, widest);
-    let mut angle_x = ambiguity.unwrap_or(span_x);
+    let mut angle_x = span_x;
     if kind == CameraKind::Cylindrical {
         // The band is centred on the scene's vertical middle (the focal line's point there).
         let centre = c + f.up * (0.5 * (v.0 + v.1));
@@ -119,7 +117,7 @@ fn spans(
         let sx = angle_x * r / aspect;
         if sx > anisotropy * height {
             height = sx / anisotropy;
-        } else if height > anisotropy * sx && ambiguity.is_none() {
+        } else if height > anisotropy * sx {
             angle_x = ((height / anisotropy) * aspect / r).min(widest);
         }
         return Composition { centre, angle_x, angle_y: 0.0, height };
@@ -129,16 +127,15 @@ fn spans(
     let sx = angle_x / aspect;
     if sx > anisotropy * angle_y {
         angle_y = sx / anisotropy;
-    } else if angle_y > anisotropy * sx && ambiguity.is_none() {
+    } else if angle_y > anisotropy * sx {
         angle_x = (angle_y / anisotropy * aspect).min(widest);
     }
     Composition { centre: c, angle_x, angle_y, height: 0.0 }
 }
 
 /// The `compose` framing of a spherical or cylindrical camera looking along `f.forward`, with
-/// C on the line through `axis` along the view before centring. `ambiguity`: the horizontal
-/// convergence angle when the user gave one (radians). `margin` in (0, 1]: the scene's extent
-/// over each span. `aspect` = width / height. `fill_of` measures the share of the canvas a
+/// C on the line through `axis` along the view before centring. `margin` in (0, 1]: the
+/// scene's extent over each span. `aspect` = width / height. `fill_of` measures the share of the canvas a
 /// candidate shows geometry on (a tiny trace, see `framing::probe_fill`).
 #[allow(clippy::too_many_arguments)]
 pub fn compose(
@@ -149,15 +146,10 @@ pub fn compose(
     aspect: f64,
     radius: f64,
     margin: f64,
-    ambiguity: Option<f64>,
     fill_of: &(dyn Fn(&Composition) -> f64 + Sync),
 ) -> Composition {
     let cylindrical = kind == CameraKind::Cylindrical;
-    let cap = MAX_HALF_ANGLE;
-    let half = match ambiguity {
-        Some(a) => ((a / 2.0).min(cap / margin), cap / margin),
-        None => (cap, cap),
-    };
+    let half = (MAX_HALF_ANGLE, MAX_HALF_ANGLE);
     let place =
         |axis: DVec3, back: f64| axis + f.forward * (fit_depth(points, kind, f, axis, half, radius, margin) + back);
     let centres: Vec<DVec3> = DEPTH_STEPS
@@ -188,7 +180,7 @@ pub fn compose(
         .flat_map(|&a| centres.iter().map(move |&c| (a, c)))
         .collect::<Vec<_>>()
         .par_iter()
-        .map(|&(a, c)| spans(points, kind, f, c, aspect, margin, ambiguity, a))
+        .map(|&(a, c)| spans(points, kind, f, c, aspect, margin, a))
         .collect();
     let fills: Vec<f64> = candidates.par_iter().map(fill_of).collect();
     let best = fills.iter().copied().fold(0.0, f64::max);
@@ -252,7 +244,7 @@ mod tests {
     fn the_whole_scene_is_in_view_and_centred() {
         // An off-centre ellipsoid: the centring passes bring its extent onto the axis.
         let pts = ellipsoid(DVec3::new(0.6, 0.4, 0.5), DVec3::new(0.3, -0.2, 0.0));
-        let k = compose(&pts, CameraKind::Spherical, &frame(), DVec3::ZERO, 4.0 / 3.0, 1.0, 0.94, None, &|_| 0.6);
+        let k = compose(&pts, CameraKind::Spherical, &frame(), DVec3::ZERO, 4.0 / 3.0, 1.0, 0.94, &|_| 0.6);
         assert!(in_view(&k, CameraKind::Spherical, &pts), "{k:?}");
         let (h, v) = extents(&pts, CameraKind::Spherical, &frame(), k.centre);
         assert!((h.0 + h.1).abs() < 0.1 * (h.1 - h.0), "horizontal extent {h:?} not centred");
@@ -269,22 +261,19 @@ mod tests {
         let f = frame();
         // Fill grows with the horizontal span per vertical span (more stretch fills a thin subject).
         let fill = |k: &Composition| 0.3 * (k.angle_y / k.angle_x).min(2.0);
-        let k = compose(&pts, CameraKind::Spherical, &f, DVec3::ZERO, 4.0 / 3.0, 1.0, 0.94, None, &fill);
+        let k = compose(&pts, CameraKind::Spherical, &f, DVec3::ZERO, 4.0 / 3.0, 1.0, 0.94, &fill);
         assert!(fill(&k) >= FILL_GOAL, "{k:?}");
         assert!(in_view(&k, CameraKind::Spherical, &pts));
         // With no candidate reaching the goal, the fullest within NEAR_BEST.
-        let k = compose(&pts, CameraKind::Spherical, &f, DVec3::ZERO, 4.0 / 3.0, 1.0, 0.94, None, &|_| 0.2);
+        let k = compose(&pts, CameraKind::Spherical, &f, DVec3::ZERO, 4.0 / 3.0, 1.0, 0.94, &|_| 0.2);
         assert!(in_view(&k, CameraKind::Spherical, &pts));
     }
 
     #[test]
-    fn a_given_ambiguity_is_kept_and_cylinders_fit_the_height() {
+    fn cylinders_fit_the_height() {
         let pts = ellipsoid(DVec3::new(0.3, 1.5, 0.3), DVec3::new(0.0, 2.0, 0.0));
         let f = frame();
-        let k = compose(&pts, CameraKind::Spherical, &f, DVec3::ZERO, 1.0, 2.0, 0.9, Some(2.0), &|_| 0.6);
-        assert_eq!(k.angle_x, 2.0);
-        assert!(in_view(&k, CameraKind::Spherical, &pts));
-        let k = compose(&pts, CameraKind::Cylindrical, &f, DVec3::ZERO, 4.0 / 3.0, 2.0, 0.9, None, &|_| 0.6);
+        let k = compose(&pts, CameraKind::Cylindrical, &f, DVec3::ZERO, 4.0 / 3.0, 2.0, 0.9, &|_| 0.6);
         assert!(in_view(&k, CameraKind::Cylindrical, &pts), "{k:?}");
         assert!(k.height >= 3.0 / 0.9 - 1e-6, "{}", k.height);
         assert!((k.centre.y - 2.0).abs() < 1e-6);

@@ -270,12 +270,15 @@ pub fn frame_camera(params: &FramingParams, world: &World, accel: &Accel) -> Res
                 // Rays start on a sphere enclosing the scene.
                 (None, None) => c.length() + 1.5 * radius,
             };
-            // `compose` fits C and the spans together; a user's focus from a user's camera
-            // keeps its own C (and the fixed angles).
+            // `compose` fits C and the spans together when the angle is the renderer's to
+            // choose; a given ambiguity, or a user's focus from a user's camera, is framed as
+            // `fit` frames it.
+            let composing = params.framing == Framing::Compose
+                && params.ambiguity.is_none()
+                && !(focus.is_some() && given_position.is_some());
             let composed =
-                (params.framing == Framing::Compose && !(focus.is_some() && given_position.is_some())).then(|| {
+                composing.then(|| {
                     let margin = params.fill.unwrap_or(compose::COMPOSE_FILL);
-                    let ambiguity = params.ambiguity.map(f64::to_radians);
                     let fill_of = |k: &compose::Composition| {
                         let distance = distance_for(k.centre);
                         let frame = CameraFrame { position: k.centre - fwd * distance, ..frame };
@@ -300,7 +303,7 @@ pub fn frame_camera(params: &FramingParams, world: &World, accel: &Accel) -> Res
                         };
                         probe_fill(camera.as_ref(), accel, aspect)
                     };
-                    compose::compose(&points, kind, &frame, axis, aspect, radius, margin, ambiguity, &fill_of)
+                    compose::compose(&points, kind, &frame, axis, aspect, radius, margin, &fill_of)
                 });
             let framed_c = || match (params.framing, composed) {
                 (_, Some(k)) => k.centre,

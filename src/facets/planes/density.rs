@@ -51,6 +51,8 @@ fn blur(v: &mut [f64], cols: usize, rows: usize, r: usize) {
 const W_SALIENCY: f64 = 0.55;
 const W_SUBJECT: f64 = 0.25;
 const W_CENTRE: f64 = 0.20;
+/// Steps of the density between 1 and `detail` (see `Density::new`).
+const LEVELS: f64 = 32.0;
 
 impl Density {
     /// The density of a `width` x `height` pre-render: `covered(i)` whether pixel i shows
@@ -127,7 +129,10 @@ impl Density {
                 let (x, y) = ((k % columns) as f64 + 0.5, (k / columns) as f64 + 0.5);
                 let r = (((x - centre.0).powi(2) + (y - centre.1).powi(2)).sqrt() / half_diag).min(1.0);
                 let d = W_SALIENCY * sal[k] + W_SUBJECT * cov[k] + W_CENTRE * (1.0 - r * r);
-                1.0 + (detail - 1.0).max(0.0) * d.clamp(0.0, 1.0)
+                // Quantised to `LEVELS` steps: the split compares planes' weights, and a
+                // pre-render that differs by a few ulps (a scene moved or scaled) must give the
+                // same planes, not a cascade of different choices.
+                1.0 + (detail - 1.0).max(0.0) * (d.clamp(0.0, 1.0) * LEVELS).round() / LEVELS
             })
             .collect();
         Density { columns, rows, values }
