@@ -184,7 +184,12 @@ pub fn render_with(
     if !painter.is_empty() {
         // An unfaceted image has no facet borders or corners: no facet map for the painter.
         progress.begin("paint", 1);
-        let lighting = Lighting { world: &prep.world, rig: &rig };
+        let view = crate::paint::chiaroscuro::ViewAxes {
+            right: framed.frame.right.as_vec3(),
+            up: framed.frame.up.as_vec3(),
+            forward: framed.frame.forward.as_vec3(),
+        };
+        let lighting = Lighting { world: &prep.world, rig: &rig, view };
         timings.time("paint", || painter.apply(&mut frame, faceted.then_some(&map), Some(&lighting)))?;
     }
 

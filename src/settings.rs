@@ -116,6 +116,17 @@ kebab_enum!(
 );
 
 kebab_enum!(
+    /// How facet borders are drawn (`border_width`, `border_strength`).
+    BorderStyle {
+        /// Eq 4.8 on both sides of every facet border, as the thesis prints it.
+        Symmetric = "symmetric",
+        /// Facet borders and object silhouettes darkened on one side only, the darker one,
+        /// with a hard edge; lines come and go, and where they go the planes blend (passage).
+        Passage = "passage",
+    }
+);
+
+kebab_enum!(
     /// How mesh saliency's Gaussian means are evaluated (SPEC "Mesh saliency").
     SaliencyMethod {
         /// Exact while the neighbour sums stay affordable (~5e8 pairs, a few seconds), clustered above.
@@ -280,6 +291,21 @@ pub struct Settings {
     /// Per-facet variation of light direction and intensity, in [0, 1]; 0 = off.
     pub chiaroscuro: f64,
 
+    // ---- per-plane light, passage and brushwork (issue 13; `paint::plane_light`,
+    // `paint::passage`, `paint::brushwork`, `paint::canvas`)
+    /// Light-to-dark ramp across each facet (each plane lit on its own), in [0, 1]; 0 = off.
+    pub plane_light: f64,
+    /// How facet borders are drawn: `symmetric` (eq 4.8) or `passage`.
+    pub border_style: BorderStyle,
+    /// Opacity of the brush-stroke layer, in [0, 1]; 0 = off.
+    pub brushwork: f64,
+    /// Brush stroke length, pixels at 1000 px.
+    pub stroke_length: f64,
+    /// Brush stroke width, pixels at 1000 px.
+    pub stroke_width: f64,
+    /// Canvas weave showing through the paint, in [0, 1]; 0 = off.
+    pub canvas_grain: f64,
+
     // ---- saliency (SPEC "Mesh saliency")
     pub saliency_method: SaliencyMethod,
     /// Directory keeping per-mesh saliency across runs, keyed by mesh content (animation
@@ -351,6 +377,12 @@ impl Settings {
             colors: 0,
             gradients: 0.0,
             chiaroscuro: 0.0,
+            plane_light: 0.0,
+            border_style: BorderStyle::Symmetric,
+            brushwork: 0.0,
+            stroke_length: 26.0,
+            stroke_width: 7.0,
+            canvas_grain: 0.0,
             saliency_method: SaliencyMethod::Auto,
             saliency_cache: None,
             passes: Vec::new(),
@@ -572,6 +604,14 @@ impl Settings {
         unit("silhouette_strength", s.silhouette_strength)?;
         unit("gradients", s.gradients)?;
         unit("chiaroscuro", s.chiaroscuro)?;
+        unit("plane_light", s.plane_light)?;
+        unit("brushwork", s.brushwork)?;
+        unit("canvas_grain", s.canvas_grain)?;
+        for (key, v) in [("stroke_length", s.stroke_length), ("stroke_width", s.stroke_width)] {
+            if !(v.is_finite() && v > 0.0 && v <= 1000.0) {
+                return Err(Error::setting(key, format!("{v} must be in (0, 1000] pixels at 1000 px")));
+            }
+        }
         if !(s.facet_fov.is_finite() && (0.0..180.0).contains(&s.facet_fov)) {
             return Err(Error::setting("facet_fov", format!("{} must be in [0, 180) degrees", s.facet_fov)));
         }
@@ -647,6 +687,14 @@ impl Preset {
                 s.gradients = 0.3;
                 s.colors = 0;
                 s.chiaroscuro = 0.0;
+                // Each plane lit on its own, passage, brushwork (issue 13).
+                s.silhouette_width = 0.0;
+                s.gradients = 0.0;
+                s.chiaroscuro = 0.3;
+                s.plane_light = 0.7;
+                s.border_style = BorderStyle::Passage;
+                s.brushwork = 0.8;
+                s.canvas_grain = 0.5;
             }
             Preset::Braque => {
                 s.camera = CameraKind::Auto;

@@ -3,10 +3,13 @@
 //! `Effect` trait and left out of the chain when its setting is off.
 //!
 //! Order (fixed): chiaroscuro (relights the shading, so it must see the unmodified render) ->
-//! silhouettes -> facet borders -> gradient overlays (the geometric darkenings and
-//! lightenings) -> colour transfer / palette (maps the final luminance onto the painter's
-//! colours, so borders and gradients come out in palette colours too) -> quantisation (last,
-//! so the image really has at most K colours).
+//! silhouettes -> facet borders, symmetric or passage -> gradient overlays (the geometric
+//! darkenings and lightenings) -> colour transfer / palette (maps the final luminance onto the
+//! painter's colours, so borders and gradients come out in palette colours too) ->
+//! quantisation (so the paint has at most K colours) -> per-plane light (the ramp across each
+//! plane, after the palette: the palette ranks luminance, and ramps spread over a large
+//! backdrop would push a small subject's values to the ends of the ramp) -> brushwork (strokes
+//! of the finished colours) -> canvas grain (last: the weave shows through the paint).
 //!
 //! Background and alpha. An opaque image's background is part of the canvas: every effect
 //! paints it (borders cross it, the palette colours it). A transparent image has no background
@@ -22,6 +25,14 @@ pub mod gradients;
 pub mod palette;
 pub mod quantise;
 pub mod silhouettes;
+// Issue 13: per-plane light, passage, brushwork, canvas grain, and their measure.
+pub mod brushwork;
+pub mod canvas;
+pub mod measure;
+pub mod noise;
+pub mod passage;
+pub mod plane_light;
+pub mod planes;
 
 use glam::{Vec3, Vec4};
 use rayon::prelude::*;
@@ -31,7 +42,7 @@ use crate::facets::FacetMap;
 use crate::frame::{Frame, PixelHit};
 use crate::render::splitmix64;
 use crate::scene::World;
-use crate::settings::Settings;
+use crate::settings::{BorderStyle, Settings};
 use crate::shading::LightRig;
 
 /// The image the effects work on, in place on the frame's colour buffer (row 0 at the top).
@@ -139,6 +150,8 @@ pub fn darken_background(p: &mut Vec4, coverage: f32, f: f32, bg: Vec3, transpar
 pub struct Lighting<'a> {
     pub world: &'a World,
     pub rig: &'a LightRig,
+    /// The camera's axes: chiaroscuro turns each facet's lights about the view axis.
+    pub view: chiaroscuro::ViewAxes,
 }
 
 /// What the effects read besides the canvas.
@@ -198,10 +211,16 @@ impl Painter {
             }));
         }
         if settings.border_width > 0.0 && settings.border_strength > 0.0 {
-            effects.push(Box::new(borders::Borders {
-                width: (settings.border_width * scale) as f32,
-                strength: settings.border_strength as f32,
-            }));
+            let (width, strength) = ((settings.border_width * scale) as f32, settings.border_strength as f32);
+            effects.push(match settings.border_style {
+                BorderStyle::Symmetric => Box::new(borders::Borders { width, strength }),
+                BorderStyle::Passage => Box::new(passage::Passage {
+                    width,
+                    strength,
+                    seed: settings.seed,
+                    plane_light: settings.plane_light as f32,
+                }),
+            });
         }
         if settings.gradients > 0.0 {
             effects.push(Box::new(gradients::Gradients { fraction: settings.gradients, seed: settings.seed }));
@@ -213,6 +232,25 @@ impl Painter {
         }
         if settings.colors > 0 {
             effects.push(Box::new(quantise::Quantise { colors: settings.colors }));
+        }
+        if settings.plane_light > 0.0 {
+            effects
+                .push(Box::new(plane_light::PlaneLight { amount: settings.plane_light as f32, seed: settings.seed }));
+        }
+        if settings.brushwork > 0.0 {
+            effects.push(Box::new(brushwork::Brushwork {
+                opacity: settings.brushwork as f32,
+                length: (settings.stroke_length * scale) as f32,
+                width: (settings.stroke_width * scale) as f32,
+                seed: settings.seed,
+            }));
+        }
+        if settings.canvas_grain > 0.0 {
+            effects.push(Box::new(canvas::CanvasGrain {
+                amount: settings.canvas_grain as f32,
+                period: (canvas::PERIOD as f64 * scale) as f32,
+                seed: settings.seed,
+            }));
         }
         Ok(Painter { effects, background: settings.background, transparent: settings.transparent })
     }
@@ -277,6 +315,8 @@ pub fn luminance(c: Vec3) -> f32 {
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_plane;
 
 /// Number of luminance levels the rank-based effects sort into: far finer than the 8-bit
 /// output, and a counting sort over them is linear time.
