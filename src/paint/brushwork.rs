@@ -41,9 +41,9 @@ pub const PLANE_TURN_DEG: f32 = 20.0;
 /// Largest turn of one stroke off its plane's direction, degrees.
 pub const STROKE_TURN_DEG: f32 = 6.0;
 /// Largest relative change of a stroke's value.
-pub const VALUE_JITTER: f32 = 0.09;
+pub const VALUE_JITTER: f32 = 0.16;
 /// Value change across the bristle streaks (peak to peak).
-pub const BRISTLE_VALUE: f32 = 0.1;
+pub const BRISTLE_VALUE: f32 = 0.14;
 /// Bristle streaks across a stroke (lattice cells of the 1-D noise).
 pub const BRISTLES: usize = 4;
 /// The fine layer paints where the coarse layer strays from the picture by more than this

@@ -16,9 +16,9 @@ use super::{Canvas, Effect, PaintContext};
 use crate::error::Result;
 
 /// At amount 1, the light end is brightened by this fraction ...
-pub const LIGHT: f32 = 0.3;
+pub const LIGHT: f32 = 0.25;
 /// ... and the dark end darkened by this one.
-pub const DARK: f32 = 0.7;
+pub const DARK: f32 = 0.85;
 
 /// A light-to-dark ramp across every facet.
 pub struct PlaneLight {
