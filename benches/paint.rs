@@ -12,16 +12,16 @@ mod common;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use cubist::frame::Frame;
+use cubist::film::Film;
 use cubist::output::{encode, write_png};
 use cubist::paint::chiaroscuro::ViewAxes;
 use cubist::paint::{Lighting, Painter};
-use cubist::pipeline::{Prepared, render};
+use cubist::pipeline::{Prepared, params, render};
 use cubist::progress::Progress;
-use cubist::render::{splitmix64, unit_f64};
 use cubist::scene::Scene;
 use cubist::settings::{BorderStyle, Palette, Preset, Settings};
 use cubist::shading::LightRig;
+use cubist::util::rng::{splitmix64, unit_f64};
 
 const SIDE: u32 = 1000;
 const RUNS: usize = 9;
@@ -64,9 +64,9 @@ fn main() {
     (unpainted.palette, unpainted.colors, unpainted.chiaroscuro) = (Palette::None, 0, 0.0);
     (unpainted.plane_light, unpainted.brushwork, unpainted.canvas_grain) = (0.0, 0.0, 0.0);
     let rendered = render(&prep, &unpainted, &Progress::silent()).expect("render");
-    let facets = rendered.facets.expect("facet map");
-    let frame: Frame = rendered.frame;
-    let framed = cubist::camera::frame_camera(&unpainted, &prep.world).expect("camera");
+    let facets = rendered.facets;
+    let film: Film = rendered.film;
+    let framed = cubist::camera::frame_camera(&params::framing(&unpainted), &prep.world).expect("camera");
     let rig = LightRig::new(&prep.world, &framed.frame, unpainted.shadows, unpainted.exposure);
     let f = &framed.frame;
     let view = ViewAxes { right: f.right.as_vec3(), up: f.up.as_vec3(), forward: f.forward.as_vec3() };
@@ -148,19 +148,19 @@ fn main() {
             continue;
         }
         let t = Instant::now();
-        let painter = if s.preset == Preset::Plain && Painter::new(s).expect("painter").is_empty() {
+        let painter = if s.preset == Preset::Plain && Painter::new(&params::paint(s)).expect("painter").is_empty() {
             // The chain's fixed cost: turning the frame into a canvas and back.
             Painter::from_effects(vec![Box::new(Nothing)], s.background, s.transparent)
         } else {
-            Painter::new(s).expect("painter")
+            Painter::new(&params::paint(s)).expect("painter")
         };
         let setup = t.elapsed().as_secs_f64() * 1e3;
         let mut times = Vec::with_capacity(RUNS);
-        let mut out = frame.clone();
+        let mut out = film.clone();
         let cpu0 = cpu_ms();
         for _ in 0..RUNS {
             // The effects change only the colour: restore it, keep the other buffers.
-            out.color.copy_from_slice(&frame.color);
+            out.color.copy_from_slice(&film.color);
             let t = Instant::now();
             painter.apply(&mut out, Some(&facets), Some(&lighting)).expect("paint");
             times.push(t.elapsed().as_secs_f64() * 1e3);
@@ -194,7 +194,7 @@ fn main() {
         }
     }
     if let Some(dir) = &save {
-        write_png(&dir.join("unpainted.png"), &encode(&frame, base.background, false)).expect("save");
+        write_png(&dir.join("unpainted.png"), &encode(&film, base.background, false)).expect("save");
     }
     let _ = std::fs::remove_dir_all(&dir);
 }

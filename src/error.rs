@@ -34,6 +34,12 @@ pub enum Error {
     #[error("cannot write {path}: {message}")]
     Output { path: PathBuf, message: String },
 
+    /// A failure of the renderer, not of the user's input: buffers whose sizes disagree, a
+    /// solver that did not converge. Exits with 1, like any runtime failure, never with the
+    /// usage code.
+    #[error("internal error: {0}")]
+    Internal(String),
+
     /// The render was cancelled from outside (the add-on's cancel button).
     #[error("cancelled")]
     Cancelled,

@@ -7,8 +7,8 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::Parser;
 use cubist::cli::{Cli, Command, FacesArgs, FacetsArgs, ProgressMode, RenderArgs, SaliencyArgs, SettingsCmdArgs};
-use cubist::eval::evaluate;
 use cubist::output::{pass_path, write_png, write_png16};
+use cubist::pipeline::{self, Plan, Stage, StageParams, evaluate};
 use cubist::progress::Progress;
 use cubist::settings::CameraKind;
 use cubist::{Error, Prepared};
@@ -55,7 +55,7 @@ fn progress_for(mode: ProgressMode) -> Progress {
             Progress::new(Box::new(move |stage, f| {
                 bar.set_message(stage.to_string());
                 bar.set_position((f * 1000.0) as u64);
-                if f >= 1.0 && stage == "done" {
+                if f >= 1.0 && stage == Stage::Done.name() {
                     bar.finish_and_clear();
                 }
             }))
@@ -73,10 +73,10 @@ fn run_render(args: RenderArgs) -> anyhow::Result<()> {
     let settings = args.settings.resolve(args.config.as_deref())?;
     cubist::output::check_png_path(&args.output)?;
     let progress = progress_for(args.progress);
-    progress.begin("loading", 1);
+    progress.begin(Stage::Loading.name(), 1);
     let prep = Prepared::load(args.scene.as_deref())?;
     let rendered = cubist::render(&prep, &settings, &progress)?;
-    progress.begin("writing", 1);
+    progress.begin(Stage::Writing.name(), 1);
     write_png(&args.output, &rendered.image)?;
     for (pass, img) in &rendered.passes {
         write_png(&pass_path(&args.output, pass.as_str()), img)?;
@@ -84,7 +84,7 @@ fn run_render(args: RenderArgs) -> anyhow::Result<()> {
     for (pass, img) in &rendered.passes16 {
         write_png16(&pass_path(&args.output, pass.as_str()), img)?;
     }
-    progress.begin("done", 1);
+    progress.begin(Stage::Done.name(), 1);
     progress.finish();
     for w in &rendered.warnings {
         eprintln!("warning: {w}");
@@ -116,11 +116,11 @@ fn run_saliency(args: SaliencyArgs) -> anyhow::Result<()> {
         cubist::output::check_png_path(o)?;
     }
     let progress = progress_for(args.progress);
-    progress.begin("loading", 1);
+    progress.begin(Stage::Loading.name(), 1);
     let prep = Prepared::load(args.scene.as_deref())?;
     let mut stages = Vec::new();
     if let Some(o) = &output {
-        let r = cubist::saliency::render_map(&prep, &settings, &progress)?;
+        let r = pipeline::saliency_map(&prep, &settings, &progress)?;
         write_png(o, &r.image)?;
         for w in &r.warnings {
             eprintln!("warning: {w}");
@@ -132,11 +132,11 @@ fn run_saliency(args: SaliencyArgs) -> anyhow::Result<()> {
     }
     if args.json {
         let t = std::time::Instant::now();
-        let json = cubist::saliency::vertex_json(&prep, settings.saliency_cache.as_deref(), settings.saliency_method)?;
+        let json = cubist::saliency::vertex_json(&prep.scene, &prep.saliency, &pipeline::params::saliency(&settings))?;
         stages.push(("vertex saliency", t.elapsed()));
         emit(&serde_json::to_string(&json)?)?;
     }
-    progress.begin("done", 1);
+    progress.begin(Stage::Done.name(), 1);
     progress.finish();
     if args.verbose {
         eprintln!(
@@ -233,7 +233,15 @@ fn run_faces(args: FacesArgs) -> anyhow::Result<()> {
 }
 
 fn run_settings(args: SettingsCmdArgs) -> anyhow::Result<()> {
+    if args.schema {
+        return emit(&serde_json::to_string_pretty(&cubist::cli::schema())?);
+    }
     let settings = args.settings.resolve(args.config.as_deref())?;
+    if args.stages {
+        let plan = Plan::new(&StageParams::new(&settings));
+        let names: Vec<&str> = plan.stages().iter().map(|s| s.name()).collect();
+        return emit(&serde_json::to_string(&names)?);
+    }
     emit(&serde_json::to_string_pretty(&settings)?)
 }
 
@@ -252,10 +260,10 @@ fn run_facets(args: FacetsArgs) -> anyhow::Result<()> {
     let settings = args.settings.resolve(args.config.as_deref())?;
     cubist::output::check_png_path(&args.output)?;
     let progress = progress_for(args.progress);
-    progress.begin("loading", 1);
+    progress.begin(Stage::Loading.name(), 1);
     let prep = Prepared::load(args.scene.as_deref())?;
-    let out = cubist::facets::segment::inspect(&prep, &settings, &progress)?;
-    progress.begin("writing", 1);
+    let out = pipeline::inspect_facets(&prep, &settings, &progress)?;
+    progress.begin(Stage::Writing.name(), 1);
     write_png(&args.output, &out.view)?;
     for (name, img) in &out.images {
         write_png(&pass_path(&args.output, name), img)?;
@@ -264,7 +272,7 @@ fn run_facets(args: FacetsArgs) -> anyhow::Result<()> {
         let map = out.layout.rasterize(settings.width, settings.height);
         cubist::facets::io::save(path, &out.layout, &map)?;
     }
-    progress.begin("done", 1);
+    progress.begin(Stage::Done.name(), 1);
     progress.finish();
     for w in &out.warnings {
         eprintln!("warning: {w}");
@@ -278,7 +286,8 @@ fn run_facets(args: FacetsArgs) -> anyhow::Result<()> {
             );
         }
         eprintln!("superpixels: {}, facets: {}", out.levels.superpixel_count, out.layout.facet_count);
-        for (stage, t) in out.timings.iter().chain(&out.levels.timings) {
+        let steps = out.timings.0.iter().map(|(s, t)| (s.to_string(), *t));
+        for (stage, t) in steps.chain(out.levels.timings.iter().cloned()) {
             eprintln!("{stage:>14}: {:>9.1} ms", t.as_secs_f64() * 1e3);
         }
     }

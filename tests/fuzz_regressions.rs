@@ -1,8 +1,8 @@
 //! Malformed input that once crashed, hung or exhausted memory, kept as regression tests
 //! (issue 8, item 5). Files found by the fuzzers (scripts/fuzz.sh) live in
-//! tests/fuzz_regressions/<target>/; inputs too large to keep as files are generated here.
-//! Each must give a clean one-line `Err` or a scene every later stage takes, within a
-//! watchdog's time, never a panic.
+//! tests/fuzz_regressions/<target>/, and every fuzz seed (fuzz/seeds/<target>/) runs too;
+//! inputs too large to keep as files are generated here. Each must give a clean one-line
+//! `Err` or a scene every later stage takes, within a watchdog's time, never a panic.
 
 use std::path::{Path, PathBuf};
 use std::sync::mpsc;
@@ -32,12 +32,19 @@ fn within<T: Send + 'static>(secs: u64, what: &str, f: impl FnOnce() -> T + Send
     }
 }
 
+/// The inputs of a fuzz target kept in the repository: its crashes (tests/fuzz_regressions/
+/// <target>, when it has any) and its seeds (fuzz/seeds/<target>). Never empty: a test over
+/// no input would pass without running.
 fn regression_files(target: &str) -> Vec<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fuzz_regressions").join(target);
-    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
-        .map(|d| d.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.is_file()).collect())
-        .unwrap_or_default();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut files: Vec<PathBuf> = Vec::new();
+    for dir in [root.join("tests/fuzz_regressions").join(target), root.join("fuzz/seeds").join(target)] {
+        if let Ok(entries) = std::fs::read_dir(&dir) {
+            files.extend(entries.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.is_file()));
+        }
+    }
     files.sort();
+    assert!(!files.is_empty(), "no input for the {target} fuzz target: the test would run zero cases");
     files
 }
 
@@ -60,27 +67,36 @@ fn load_and_render(bytes: Vec<u8>, what: String) -> Result<(), String> {
         s.height = 6;
         s.spp = 1;
         let r = render(&prep, &s, &Progress::silent()).map_err(|e| e.to_string())?;
-        assert!(r.frame.color.iter().all(|c| c.is_finite()), "{what}: NaN pixel");
+        assert!(r.film.color.iter().all(|c| c.is_finite()), "{what}: NaN pixel");
         Ok(())
     })
 }
 
 #[test]
 fn gltf_loader_regressions() {
-    for f in regression_files("gltf_loader") {
-        let bytes = std::fs::read(&f).unwrap();
+    let files = regression_files("gltf_loader");
+    let mut loaded = 0;
+    for f in &files {
+        let bytes = std::fs::read(f).unwrap();
         let r = load_and_render(bytes, f.display().to_string());
         eprintln!("{}: {r:?}", f.display());
+        loaded += r.is_ok() as usize;
     }
+    // The seeds are valid scenes: most of them must load and render.
+    assert!(files.len() > 10 && loaded * 2 > files.len(), "{loaded} of {} inputs rendered", files.len());
 }
 
 #[test]
 fn settings_json_regressions() {
-    for f in regression_files("settings_json") {
-        let bytes = std::fs::read(&f).unwrap();
+    let files = regression_files("settings_json");
+    let mut cases = 0;
+    for f in &files {
+        let bytes = std::fs::read(f).unwrap();
         let what = f.display().to_string();
+        // Not JSON at all: refused before the settings see it, as the fuzz target does.
+        let Ok(value) = serde_json::from_slice::<Value>(&bytes) else { continue };
+        cases += 1;
         within(30, &what.clone(), move || {
-            let Ok(value) = serde_json::from_slice::<Value>(&bytes) else { return };
             for layer in [Some(value.clone()), None] {
                 let r = match (&layer, &value) {
                     (Some(v), _) => Settings::from_layers(Some((Path::new("fuzz.json"), v.clone())), Map::new()),
@@ -94,6 +110,7 @@ fn settings_json_regressions() {
             }
         });
     }
+    assert!(cases > 5, "only {cases} of {} settings inputs are JSON", files.len());
 }
 
 /// Found by the fuzzer (12 bytes: "glTF", version 0, length 0): the gltf crate computed

@@ -16,7 +16,7 @@ use serde::{Deserialize, Serialize};
 use super::constant::{labels_from_image, read_image};
 use super::{FacetLayout, FacetMap, FacetPolygon, LabelImage};
 use crate::error::{Error, Result};
-use crate::output::{write_png16, write_text};
+use crate::util::files::{write_png16, write_text};
 
 /// Names our JSON layouts, so another JSON file given by mistake gets a clear error.
 pub const FORMAT: &str = "cubist-facet-layout";
@@ -56,7 +56,7 @@ fn encode_runs(labels: &[u32]) -> Vec<[u32; 2]> {
 
 fn decode_runs(rle: &RleLabels) -> std::result::Result<LabelImage, String> {
     let n = rle.width as u64 * rle.height as u64;
-    if n == 0 || n > crate::settings::MAX_PIXELS {
+    if n == 0 || n > super::MAX_BASE_PIXELS {
         return Err(format!("base label image {}x{} is empty or too large", rle.width, rle.height));
     }
     let total: u64 = rle.runs.iter().map(|r| r[1] as u64).sum();

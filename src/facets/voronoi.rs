@@ -5,7 +5,8 @@
 
 use rayon::prelude::*;
 
-use super::{FacetLayout, rand01};
+use super::FacetLayout;
+use crate::util::rng::rand01;
 
 const STREAM: u64 = 0x0076_6f72_6f6e_6f69; // "voronoi"
 

@@ -28,10 +28,10 @@ use rayon::prelude::*;
 
 use super::noise::lattice1;
 use super::planes::{Plane, planes, smoothstep};
-use super::{Canvas, Coverage, Effect, PaintContext, effect_seed, luminance};
+use super::{Canvas, Coverage, Effect, PaintContext, luminance};
 use crate::error::Result;
-use crate::frame::PixelHit;
-use crate::render::{splitmix64, unit_f64};
+use crate::film::PixelHit;
+use crate::util::rng::{splitmix64, sub_seed, unit_f64};
 
 const SALT: u64 = 0x6272_7573_6877_6f72; // "brushwor"
 /// Grid spacing of stroke anchors, in stroke widths (strokes side by side, overlapping).
@@ -223,7 +223,7 @@ impl Brushwork {
     /// the plane's iso-value lines, as hatching follows a plane), turned by a seeded angle of
     /// at most `PLANE_TURN_DEG`.
     pub fn directions(&self, planes: &[Plane]) -> Vec<Vec2> {
-        let seed = effect_seed(self.seed, SALT);
+        let seed = sub_seed(self.seed, SALT);
         planes
             .iter()
             .enumerate()
@@ -252,7 +252,7 @@ impl Brushwork {
         let (w, h) = (surface.w, surface.h);
         let cell = width * SPACING;
         let (nx, ny) = ((w as f32 / cell).ceil() as usize, (h as f32 / cell).ceil() as usize);
-        let seed = splitmix64(effect_seed(self.seed, SALT) ^ layer);
+        let seed = splitmix64(sub_seed(self.seed, SALT) ^ layer);
         (0..ny)
             .into_par_iter()
             .flat_map_iter(|cy| {

@@ -11,8 +11,9 @@
 use rayon::prelude::*;
 
 use super::noise::{lattice1, value2};
-use super::{Canvas, Effect, PaintContext, effect_seed};
+use super::{Canvas, Effect, PaintContext};
 use crate::error::Result;
+use crate::util::rng::sub_seed;
 
 const SALT: u64 = 0x6361_6e76_6173_3031; // "canvas01"
 /// Value change of the weave at amount 1 (peak to peak).
@@ -78,7 +79,7 @@ impl Effect for CanvasGrain {
             return Ok(());
         }
         let (w, h) = (canvas.width as usize, canvas.height as usize);
-        let seed = effect_seed(self.seed, SALT);
+        let seed = sub_seed(self.seed, SALT);
         let (columns, rows) = (self.threads(seed, w), self.threads(seed ^ 0xfeed, h));
         // The weave's mean (half the crossings show a column thread, half a row thread):
         // subtracted, so the painting's value is kept on average.

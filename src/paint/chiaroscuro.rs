@@ -19,10 +19,10 @@ use glam::{Quat, Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::planes::{KEY, Plane, planes};
-use super::{Canvas, Effect, PaintContext, effect_seed};
+use super::{Canvas, Effect, PaintContext};
 use crate::error::{Error, Result};
-use crate::render::{splitmix64, unit_f64};
 use crate::shading::RigLight;
+use crate::util::rng::{splitmix64, sub_seed, unit_f64};
 
 const SALT: u64 = 0x6368_6961_726f_7363; // "chiarosc"
 /// Largest relative change of a facet's light intensity at amount 1.
@@ -69,7 +69,7 @@ impl Chiaroscuro {
             let axis = from.cross(to).try_normalize().unwrap_or(view.forward.normalize_or(Vec3::Z));
             Quat::from_axis_angle(axis, self.amount * from.angle_between(to))
         };
-        let h = splitmix64(effect_seed(self.seed, SALT) ^ splitmix64(f as u64));
+        let h = splitmix64(sub_seed(self.seed, SALT) ^ splitmix64(f as u64));
         let gain = 1.0 + self.amount * MAX_GAIN * (2.0 * unit_f64(h) as f32 - 1.0);
         (turn, gain)
     }
@@ -104,7 +104,7 @@ impl Effect for Chiaroscuro {
 
     fn apply(&self, canvas: &mut Canvas<'_>, ctx: &PaintContext) -> Result<()> {
         let Some(lighting) = ctx.lighting else {
-            return Err(Error::setting("chiaroscuro", "relighting needs the scene's lights; none were given"));
+            return Err(Error::Internal("chiaroscuro: relighting needs the scene's lights; none were given".into()));
         };
         let (world, rig) = (lighting.world, lighting.rig);
         // The planes the per-plane light ramps (one plane without a facet map).

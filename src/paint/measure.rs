@@ -135,7 +135,7 @@ fn percentile_range(values: &[f32]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::render::{splitmix64, unit_f64};
+    use crate::util::rng::{splitmix64, unit_f64};
 
     fn noise(i: usize) -> f32 {
         unit_f64(splitmix64(i as u64)) as f32

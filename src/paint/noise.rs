@@ -2,7 +2,7 @@
 //! canvas weave): value noise on an integer lattice, hashed with splitmix64, so every value
 //! depends only on (seed, position), never on evaluation order or thread count.
 
-use crate::render::{splitmix64, unit_f64};
+use crate::util::rng::{splitmix64, unit_f64};
 
 /// A uniform number in [0, 1) for lattice point (i, j) of stream `seed` (one splitmix64 of
 /// the point's coordinates spread by odd constants: plenty for textures, and cheap).

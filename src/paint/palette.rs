@@ -11,7 +11,20 @@ use rayon::prelude::*;
 use super::{Canvas, Effect, LuminanceKeys, PaintContext, UNPAINTED, luminance};
 use crate::error::{Error, Result};
 use crate::scene::texture::srgb_to_linear;
-use crate::settings::Palette;
+
+/// The built-in palettes: luminance-ordered colour ramps written for this project.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Palette {
+    None,
+    /// Picasso and Braque, 1910: umber, ochre, lead white.
+    Ochre,
+    /// Grisaille, 1911: warm blacks, brownish and cool greys.
+    Grey,
+    /// Picasso's blue period: Prussian blue to pale blue-grey.
+    BluePeriod,
+    /// Braque, 1908-09: olive and earth greens to pale ochre.
+    Olive,
+}
 
 /// Number of quantile levels a reference is reduced to.
 pub const LEVELS: usize = 1024;

@@ -28,9 +28,10 @@ use super::borders::border_factor;
 use super::noise::value2;
 use super::plane_light::PlaneLight;
 use super::planes::{planes, smoothstep};
-use super::{Canvas, Effect, PaintContext, darken, effect_seed, luminance};
+use super::{Canvas, Effect, PaintContext, darken, luminance};
 use crate::distance::{NO_FEATURE, nearest_features};
 use crate::error::Result;
+use crate::util::rng::sub_seed;
 
 const SALT: u64 = 0x7061_7373_6167_6531; // "passage1"
 /// Share of a line's strength kept where both sides have the same value.
@@ -43,6 +44,15 @@ pub const LOST: f32 = 0.25;
 pub const LOST_PERIOD: f32 = 0.05;
 /// Largest share of the other side's colour a pixel takes on an edge whose line is lost.
 pub const BLEND: f32 = 0.5;
+
+/// How facet borders are drawn (`PaintParams::border_style`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BorderStyle {
+    /// Eq 4.8 on both sides of every facet border (`borders::Borders`), as the thesis prints it.
+    Symmetric,
+    /// One side, lost and found, with passage; object silhouettes too (`Passage`).
+    Passage,
+}
 
 /// One-sided, lost-and-found borders with passage.
 pub struct Passage {
@@ -124,7 +134,7 @@ impl Effect for Passage {
             }
             _ => 1.0,
         };
-        let seed = effect_seed(self.seed, SALT);
+        let seed = sub_seed(self.seed, SALT);
         let period = (LOST_PERIOD * ((w * h) as f32).sqrt()).max(4.0);
         let transparent = canvas.transparent;
         let (coverage, px) = canvas.coverage_and_pixels();

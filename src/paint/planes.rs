@@ -15,8 +15,7 @@
 use glam::{DVec2, Vec2};
 use rayon::prelude::*;
 
-use super::effect_seed;
-use crate::render::{splitmix64, unit_f64};
+use crate::util::rng::{splitmix64, sub_seed, unit_f64};
 
 const SALT: u64 = 0x706c_616e_6573_3031; // "planes01"
 /// Where the light comes from, image coordinates (x right, y down): the upper left, as the
@@ -114,7 +113,7 @@ pub fn planes(width: u32, ids: &[u32], count: usize, seed: u64) -> Vec<Plane> {
         e[4] += sx * y;
         e[5] += n * y * y;
     }
-    let seed = effect_seed(seed, SALT);
+    let seed = sub_seed(seed, SALT);
     let mut planes: Vec<Plane> = m
         .iter()
         .enumerate()

@@ -14,12 +14,13 @@ use super::planes::planes;
 use super::tests::voronoi;
 use super::*;
 use crate::facets::FacetMap;
-use crate::frame::Frame;
-use crate::settings::{BorderStyle, Preset, Settings};
+use crate::film::Film;
+use crate::pipeline::params::paint;
+use crate::settings::{self, Preset, Settings};
 
 /// A flat, fully covered frame of one colour (object 0 everywhere).
-fn flat(w: u32, h: u32, c: Vec3) -> Frame {
-    let mut f = Frame::new(w, h, 1);
+fn flat(w: u32, h: u32, c: Vec3) -> Film {
+    let mut f = Film::new(w, h, 1);
     for (p, hit) in f.color.iter_mut().zip(f.hits.iter_mut()) {
         *p = c.extend(1.0);
         hit.tri = 0;
@@ -29,11 +30,11 @@ fn flat(w: u32, h: u32, c: Vec3) -> Frame {
     f
 }
 
-fn run(effect: Box<dyn Effect>, frame: &mut Frame, facets: Option<&FacetMap>) {
+fn run(effect: Box<dyn Effect>, frame: &mut Film, facets: Option<&FacetMap>) {
     Painter::from_effects(vec![effect], [0.62, 0.56, 0.46], false).apply(frame, facets, None).unwrap();
 }
 
-fn bits(f: &Frame) -> Vec<[u32; 4]> {
+fn bits(f: &Film) -> Vec<[u32; 4]> {
     f.color.iter().map(|c| c.to_array().map(f32::to_bits)).collect()
 }
 
@@ -105,7 +106,7 @@ fn passage_darkens_one_side_only_with_a_hard_edge() {
     let mut symmetric = frame.clone();
     run(Box::new(Borders { width: md, strength: 1.0 }), &mut symmetric, Some(&facets));
     for y in 0..h {
-        let at = |f: &Frame, x: u32| f.color[(y * w + x) as usize].x;
+        let at = |f: &Film, x: u32| f.color[(y * w + x) as usize].x;
         // The darker side, past the blend band (md / 2) and within md: darkened by eq 4.8's
         // profile times the line's strength, which never drops to nothing.
         let d = 7.0;
@@ -165,7 +166,7 @@ fn passage_draws_object_silhouettes_without_a_facet_map() {
 // ---- brushwork
 
 /// A picture with texture at every scale, so strokes have something to sample.
-fn textured(w: u32, h: u32) -> Frame {
+fn textured(w: u32, h: u32) -> Film {
     let mut f = flat(w, h, Vec3::ZERO);
     for (i, c) in f.color.iter_mut().enumerate() {
         let (x, y) = ((i as u32 % w) as f32, (i as u32 / w) as f32);
@@ -231,7 +232,7 @@ fn strokes_paint_only_their_own_plane_and_object() {
 
 /// The dominant direction of the luminance texture over the pixels where `inside` holds:
 /// the structure tensor's minor eigenvector (along the strokes), and its coherence in [0, 1].
-fn texture_direction(f: &Frame, inside: impl Fn(u32, u32) -> bool) -> (Vec2, f32) {
+fn texture_direction(f: &Film, inside: impl Fn(u32, u32) -> bool) -> (Vec2, f32) {
     let (w, h) = (f.width, f.height);
     let l = |x: u32, y: u32| luminance(f.color[(y * w + x) as usize].truncate()) as f64;
     let (mut jxx, mut jxy, mut jyy) = (0f64, 0f64, 0f64);
@@ -337,11 +338,11 @@ fn the_default_chain_is_identical_on_any_thread_count() {
     let out = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
         let mut f = frame0.clone();
-        pool.install(|| apply_chain(&mut f, Some(&facets), &s, None)).unwrap();
+        pool.install(|| apply_chain(&mut f, Some(&facets), &paint(&s), None)).unwrap();
         bits(&f)
     };
     assert_eq!(
-        Painter::new(&s).unwrap().names(),
+        Painter::new(&paint(&s)).unwrap().names(),
         ["passage", "palette", "plane light", "brushwork", "canvas grain"],
         "fixed chain order"
     );
@@ -351,13 +352,13 @@ fn the_default_chain_is_identical_on_any_thread_count() {
 #[test]
 fn the_thesis_borders_stay_reachable() {
     let mut s = Settings::default();
-    assert_eq!(s.border_style, BorderStyle::Passage);
-    s.border_style = BorderStyle::Symmetric;
-    assert!(Painter::new(&s).unwrap().names().contains(&"borders"));
+    assert_eq!(s.border_style, settings::BorderStyle::Passage);
+    s.border_style = settings::BorderStyle::Symmetric;
+    assert!(Painter::new(&paint(&s)).unwrap().names().contains(&"borders"));
     // A preset without issue 13's paint has none of it.
     let plain = Settings::preset(Preset::Plain);
     assert_eq!((plain.plane_light, plain.brushwork, plain.canvas_grain), (0.0, 0.0, 0.0));
-    assert_eq!(plain.border_style, BorderStyle::Symmetric);
+    assert_eq!(plain.border_style, settings::BorderStyle::Symmetric);
 }
 
 #[test]
@@ -370,11 +371,11 @@ fn the_default_render_lights_most_planes_on_their_own() {
     let mut s = Settings::default();
     (s.width, s.height, s.spp) = (320, 240, 1);
     let on = render(&prep, &s, &progress).unwrap();
-    let facets = on.facets.as_ref().unwrap();
+    let facets = &on.facets;
     let with = per_plane_light(&luma(&on.image), &facets.ids, s.width);
     s.plane_light = 0.0;
     let off = render(&prep, &s, &progress).unwrap();
-    let without = per_plane_light(&luma(&off.image), &off.facets.as_ref().unwrap().ids, s.width);
+    let without = per_plane_light(&luma(&off.image), &off.facets.ids, s.width);
     assert!(with.facets >= 10, "{with:?}");
     assert!(with.share >= 0.7, "per-plane light {:.2} of {} facets", with.share, with.facets);
     assert!(with.share > without.share, "{} vs {}", with.share, without.share);

@@ -7,7 +7,7 @@
 use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
-use crate::output::write_atomic;
+use crate::util::files::write_atomic;
 
 const MAGIC: &[u8; 8] = b"CUBSAL1\n";
 

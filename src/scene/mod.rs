@@ -1,10 +1,9 @@
 //! The scene as loaded: meshes in their own coordinates, objects placing them, materials,
 //! textures, lights and the scene's camera, all in the file's units (f64 transforms).
 //!
-//! `gltf.rs` is the only user of the gltf crate; `default.rs` builds the built-in still life;
+//! `gltf/` is the only user of the gltf crate; `default.rs` builds the built-in still life;
 //! `world.rs` flattens a scene into render space for tracing.
 
-mod accessor;
 pub mod default;
 mod gltf;
 pub mod texture;

@@ -6,7 +6,8 @@ use image::{Rgba, RgbaImage};
 
 use super::SegmentLevels;
 use crate::facets::{FacetLayout, FacetMap};
-use crate::render::splitmix64;
+use crate::util::grid::Grid;
+use crate::util::rng::splitmix64;
 
 /// A distinct, light colour per id.
 pub fn id_colour(id: u32, salt: u64) -> [u8; 3] {
@@ -18,13 +19,10 @@ const EDGE: [u8; 4] = [20, 20, 24, 255];
 
 /// Darkens pixels whose right or lower neighbour has another id.
 fn draw_edges(img: &mut RgbaImage, ids: &[u32]) {
-    let (w, h) = (img.width() as usize, img.height() as usize);
-    for y in 0..h {
-        for x in 0..w {
-            let p = y * w + x;
-            if (x + 1 < w && ids[p + 1] != ids[p]) || (y + 1 < h && ids[p + w] != ids[p]) {
-                img.put_pixel(x as u32, y as u32, Rgba(EDGE));
-            }
+    let grid = Grid::new(img.width(), img.height());
+    for p in 0..ids.len() {
+        if grid.on_border_forward(ids, p) {
+            img.put_pixel((p % grid.width) as u32, (p / grid.width) as u32, Rgba(EDGE));
         }
     }
 }

@@ -1,34 +1,17 @@
-//! Turning buffers into 8-bit sRGB images, and writing files atomically: a temporary file in
-//! the same directory, renamed over the target once complete, so a failed or cancelled render
-//! never leaves a partial output.
+//! Writing files atomically: a temporary file in the same directory, renamed over the target
+//! once complete, so a failed or cancelled render never leaves a partial output.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use image::{ImageFormat, RgbaImage};
 
-use crate::error::{Error, Result};
-use crate::frame::Frame;
-use crate::scene::texture::linear_to_srgb;
+use image::{ImageBuffer, Luma};
 
-/// Encodes a frame's colour. Opaque: the background is already blended in. Transparent: the
-/// background is un-blended using the coverage alpha, so edges composite correctly.
-pub fn encode(frame: &Frame, background: [f32; 3], transparent: bool) -> RgbaImage {
-    let bg = glam::Vec3::from(background);
-    let mut img = RgbaImage::new(frame.width, frame.height);
-    for (px, c) in img.pixels_mut().zip(&frame.color) {
-        let (rgb, a) = if transparent {
-            let a = c.w;
-            let rgb = if a > 0.0 { (c.truncate() - bg * (1.0 - a)) / a } else { glam::Vec3::ZERO };
-            (rgb, a)
-        } else {
-            (c.truncate(), 1.0)
-        };
-        let q = |v: f32| (linear_to_srgb(v) * 255.0 + 0.5) as u8;
-        px.0 = [q(rgb.x), q(rgb.y), q(rgb.z), (a.clamp(0.0, 1.0) * 255.0 + 0.5) as u8];
-    }
-    img
-}
+use crate::error::{Error, Result};
+
+/// A 16-bit grey image (the `facet-ids` pass, PNG facet layouts).
+pub type Gray16 = ImageBuffer<Luma<u16>, Vec<u16>>;
 
 /// A sibling temporary path for atomic writes.
 fn temp_path(path: &Path) -> PathBuf {
@@ -66,7 +49,7 @@ pub fn write_png(path: &Path, img: &RgbaImage) -> Result<()> {
 }
 
 /// Writes 16-bit grey PNGs (facet ids) atomically.
-pub fn write_png16(path: &Path, img: &image::ImageBuffer<image::Luma<u16>, Vec<u16>>) -> Result<()> {
+pub fn write_png16(path: &Path, img: &Gray16) -> Result<()> {
     check_png_path(path)?;
     write_atomic(path, |tmp| img.save_with_format(tmp, ImageFormat::Png).map_err(|e| e.to_string()))
 }

@@ -8,23 +8,11 @@ use rayon::prelude::*;
 
 use crate::accel::Accel;
 use crate::camera::CameraRay;
-use crate::frame::{Frame, NO_HIT, PixelHit, SampleHit};
+use crate::film::{Film, NO_HIT, PixelHit, SampleHit};
 use crate::progress::Progress;
 use crate::scene::World;
 use crate::shading::{LightRig, shade, surface};
-
-/// SplitMix64: a tiny, well-mixed hash used as a counter-based RNG.
-pub fn splitmix64(mut x: u64) -> u64 {
-    x = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    x ^ (x >> 31)
-}
-
-/// A uniform number in [0, 1) from a hash.
-pub fn unit_f64(h: u64) -> f64 {
-    (h >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
-}
+use crate::util::rng::{splitmix64, unit_f64};
 
 /// Strata of `spp` samples: a `nx x ny` grid with nx * ny = spp, as square as spp allows.
 fn strata(spp: u32) -> (u32, u32) {
@@ -57,6 +45,23 @@ pub fn screen_point(x: u32, y: u32, offset: DVec2, width: u32, height: u32) -> D
 
 /// One chunk of a pixel-subset re-trace: each pixel's colour and hit, then its samples' hits.
 type SubsetChunk = (Vec<(Vec4, PixelHit)>, Vec<SampleHit>);
+
+/// What a trace needs from the settings: the film's size and samples, the seed, the lights'
+/// options and the background.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TraceParams {
+    pub width: u32,
+    pub height: u32,
+    /// Samples per pixel (stratified, see `sample_offset`).
+    pub spp: u32,
+    pub seed: u64,
+    /// Cast one shadow ray per light per hit.
+    pub shadows: bool,
+    /// Multiplier on the automatically exposed lights.
+    pub exposure: f32,
+    /// Linear RGB of rays that hit nothing.
+    pub background: [f32; 3],
+}
 
 /// Everything a trace needs besides the rays.
 pub struct Tracer<'a> {
@@ -124,16 +129,15 @@ impl Tracer<'_> {
 
     /// Traces `pixels` (all when None) of `frame` with `rays`, overwriting their colour, hit
     /// and sample buffers.
-    pub fn render(&self, frame: &mut Frame, rays: &Rays, pixels: Option<&[u32]>, progress: &Progress) {
-        let (w, h, spp) = (frame.width, frame.height, frame.spp as usize);
+    pub fn render(&self, film: &mut Film, rays: &Rays, pixels: Option<&[u32]>, progress: &Progress) {
+        let (w, h, spp) = (film.width, film.height, film.spp as usize);
         match pixels {
             None => {
                 let wu = w as usize;
-                frame
-                    .color
+                film.color
                     .par_chunks_mut(wu)
-                    .zip(frame.hits.par_chunks_mut(wu))
-                    .zip(frame.samples.par_chunks_mut(wu * spp))
+                    .zip(film.hits.par_chunks_mut(wu))
+                    .zip(film.samples.par_chunks_mut(wu * spp))
                     .enumerate()
                     .for_each(|(y, ((c, hrow), srow))| {
                         for x in 0..wu {
@@ -164,9 +168,9 @@ impl Tracer<'_> {
                 for (chunk, (out, samples)) in list.chunks(256).zip(chunks) {
                     for (k, &i) in chunk.iter().enumerate() {
                         let i = i as usize;
-                        frame.color[i] = out[k].0;
-                        frame.hits[i] = out[k].1;
-                        frame.samples[i * spp..(i + 1) * spp].copy_from_slice(&samples[k * spp..(k + 1) * spp]);
+                        film.color[i] = out[k].0;
+                        film.hits[i] = out[k].1;
+                        film.samples[i * spp..(i + 1) * spp].copy_from_slice(&samples[k * spp..(k + 1) * spp]);
                     }
                 }
             }

@@ -49,7 +49,7 @@ impl PixelHit {
 
 /// A rendered image and its buffers. Pixel index = y * width + x, row 0 at the top.
 #[derive(Clone, Debug)]
-pub struct Frame {
+pub struct Film {
     pub width: u32,
     pub height: u32,
     pub spp: u32,
@@ -63,10 +63,10 @@ pub struct Frame {
     pub saliency: Option<Vec<f32>>,
 }
 
-impl Frame {
-    pub fn new(width: u32, height: u32, spp: u32) -> Frame {
+impl Film {
+    pub fn new(width: u32, height: u32, spp: u32) -> Film {
         let n = width as usize * height as usize;
-        Frame {
+        Film {
             width,
             height,
             spp,
