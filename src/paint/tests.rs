@@ -701,3 +701,60 @@ proptest! {
         }
     }
 }
+
+// ---- issue 13: the default look (the effects themselves: tests_plane.rs)
+
+#[test]
+fn the_default_chain_is_identical_on_any_thread_count() {
+    let (w, h) = (240u32, 180u32);
+    let facets = voronoi(w, h, 30, 5);
+    let frame0 = super::tests_plane::textured(w, h);
+    let mut s = Settings::default();
+    (s.width, s.height) = (w, h);
+    s.chiaroscuro = 0.0; // needs a scene: covered by the pipeline test below
+    let out = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let mut f = frame0.clone();
+        pool.install(|| apply_chain(&mut f, Some(&facets), &paint(&s), None)).unwrap();
+        super::tests_plane::bits(&f)
+    };
+    assert_eq!(
+        Painter::new(&paint(&s)).unwrap().names(),
+        ["passage", "palette", "plane light", "brushwork", "canvas grain"],
+        "fixed chain order"
+    );
+    assert_eq!(out(1), out(3));
+}
+
+#[test]
+fn the_thesis_borders_stay_reachable() {
+    let mut s = Settings::default();
+    assert_eq!(s.border_style, crate::settings::BorderStyle::Passage);
+    s.border_style = crate::settings::BorderStyle::Symmetric;
+    assert!(Painter::new(&paint(&s)).unwrap().names().contains(&"borders"));
+    // A preset without issue 13's paint has none of it.
+    let plain = Settings::preset(Preset::Plain);
+    assert_eq!((plain.plane_light, plain.brushwork, plain.canvas_grain), (0.0, 0.0, 0.0));
+    assert_eq!(plain.border_style, crate::settings::BorderStyle::Symmetric);
+}
+
+#[test]
+fn the_default_render_lights_most_planes_on_their_own() {
+    // ART.md's per-plane light measure on the built-in still life: most facets carry a
+    // gradient of at least 15% of the image's range; without the per-plane light fewer do.
+    use crate::pipeline::{Prepared, render};
+    let prep = Prepared::new(crate::scene::Scene::default_scene());
+    let progress = crate::progress::Progress::silent();
+    let mut s = Settings::default();
+    (s.width, s.height, s.spp) = (320, 240, 1);
+    let on = render(&prep, &s, &progress).unwrap();
+    let facets = &on.facets;
+    let with = super::measure::per_plane_light(&super::measure::luma(&on.image), &facets.ids, s.width);
+    s.plane_light = 0.0;
+    let off = render(&prep, &s, &progress).unwrap();
+    let without = super::measure::per_plane_light(&super::measure::luma(&off.image), &off.facets.ids, s.width);
+    assert!(with.facets >= 10, "{with:?}");
+    assert!(with.share >= 0.7, "per-plane light {:.2} of {} facets", with.share, with.facets);
+    assert!(with.share > without.share, "{} vs {}", with.share, without.share);
+    assert_eq!(super::measure::PLANE_LIGHT_SHARE, 0.15);
+}

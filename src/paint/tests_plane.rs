@@ -1,13 +1,13 @@
 //! Tests of issue 13's paint: per-plane light, passage, brushwork, canvas grain, on synthetic
-//! canvases and facet maps (any facet map: Voronoi cells here), and the default look's
-//! per-plane light measure on a real render.
+//! canvases and facet maps (any facet map: Voronoi cells here). The default look's chain and
+//! its per-plane light measure on a real render are in `tests.rs`.
 
 use glam::{Vec2, Vec3, Vec4};
 
 use super::borders::{Borders, border_factor};
 use super::brushwork::Brushwork;
 use super::canvas::CanvasGrain;
-use super::measure::{MIN_PIXELS, PLANE_LIGHT_SHARE, luma, per_plane_light};
+use super::measure::{luma, per_plane_light};
 use super::passage::Passage;
 use super::plane_light::{DARK, LIGHT, PlaneLight};
 use super::planes::planes;
@@ -15,8 +15,6 @@ use super::tests::voronoi;
 use super::*;
 use crate::facets::FacetMap;
 use crate::film::Film;
-use crate::pipeline::params::paint;
-use crate::settings::{self, Preset, Settings};
 
 /// A flat, fully covered frame of one colour (object 0 everywhere).
 fn flat(w: u32, h: u32, c: Vec3) -> Film {
@@ -34,7 +32,7 @@ fn run(effect: Box<dyn Effect>, frame: &mut Film, facets: Option<&FacetMap>) {
     Painter::from_effects(vec![effect], [0.62, 0.56, 0.46], false).apply(frame, facets, None).unwrap();
 }
 
-fn bits(f: &Film) -> Vec<[u32; 4]> {
+pub(super) fn bits(f: &Film) -> Vec<[u32; 4]> {
     f.color.iter().map(|c| c.to_array().map(f32::to_bits)).collect()
 }
 
@@ -166,7 +164,7 @@ fn passage_draws_object_silhouettes_without_a_facet_map() {
 // ---- brushwork
 
 /// A picture with texture at every scale, so strokes have something to sample.
-fn textured(w: u32, h: u32) -> Film {
+pub(super) fn textured(w: u32, h: u32) -> Film {
     let mut f = flat(w, h, Vec3::ZERO);
     for (i, c) in f.color.iter_mut().enumerate() {
         let (x, y) = ((i as u32 % w) as f32, (i as u32 / w) as f32);
@@ -326,58 +324,3 @@ fn canvas_grain_keeps_the_value_and_fades_when_too_fine() {
 }
 
 // ---- the default look
-
-#[test]
-fn the_default_chain_is_identical_on_any_thread_count() {
-    let (w, h) = (240u32, 180u32);
-    let facets = voronoi(w, h, 30, 5);
-    let frame0 = textured(w, h);
-    let mut s = Settings::default();
-    (s.width, s.height) = (w, h);
-    s.chiaroscuro = 0.0; // needs a scene: covered by the pipeline test below
-    let out = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-        let mut f = frame0.clone();
-        pool.install(|| apply_chain(&mut f, Some(&facets), &paint(&s), None)).unwrap();
-        bits(&f)
-    };
-    assert_eq!(
-        Painter::new(&paint(&s)).unwrap().names(),
-        ["passage", "palette", "plane light", "brushwork", "canvas grain"],
-        "fixed chain order"
-    );
-    assert_eq!(out(1), out(3));
-}
-
-#[test]
-fn the_thesis_borders_stay_reachable() {
-    let mut s = Settings::default();
-    assert_eq!(s.border_style, settings::BorderStyle::Passage);
-    s.border_style = settings::BorderStyle::Symmetric;
-    assert!(Painter::new(&paint(&s)).unwrap().names().contains(&"borders"));
-    // A preset without issue 13's paint has none of it.
-    let plain = Settings::preset(Preset::Plain);
-    assert_eq!((plain.plane_light, plain.brushwork, plain.canvas_grain), (0.0, 0.0, 0.0));
-    assert_eq!(plain.border_style, settings::BorderStyle::Symmetric);
-}
-
-#[test]
-fn the_default_render_lights_most_planes_on_their_own() {
-    // ART.md's per-plane light measure on the built-in still life: most facets carry a
-    // gradient of at least 15% of the image's range; without the per-plane light fewer do.
-    use crate::pipeline::{Prepared, render};
-    let prep = Prepared::new(crate::scene::Scene::default_scene());
-    let progress = crate::progress::Progress::silent();
-    let mut s = Settings::default();
-    (s.width, s.height, s.spp) = (320, 240, 1);
-    let on = render(&prep, &s, &progress).unwrap();
-    let facets = &on.facets;
-    let with = per_plane_light(&luma(&on.image), &facets.ids, s.width);
-    s.plane_light = 0.0;
-    let off = render(&prep, &s, &progress).unwrap();
-    let without = per_plane_light(&luma(&off.image), &off.facets.ids, s.width);
-    assert!(with.facets >= 10, "{with:?}");
-    assert!(with.share >= 0.7, "per-plane light {:.2} of {} facets", with.share, with.facets);
-    assert!(with.share > without.share, "{} vs {}", with.share, without.share);
-    assert!(MIN_PIXELS > 0 && PLANE_LIGHT_SHARE == 0.15);
-}
