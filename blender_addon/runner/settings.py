@@ -20,7 +20,8 @@ SETTINGS_KEYS = frozenset(
     thresholds superpixels weight_colour weight_normal weight_depth weight_object weight_saliency
     imprecision discontinuity neighborhood facet_projection facet_fov border_width
     border_strength silhouette_width silhouette_strength palette palette_image colors gradients
-    chiaroscuro saliency_method saliency_cache passes""".split()
+    chiaroscuro plane_light border_style brushwork stroke_length stroke_width canvas_grain
+    saliency_method saliency_cache passes""".split()
 )
 # Keys that only save time (the picture is the same without them): left out, rather than
 # refused, for a binary that does not know them (`binary.settings_for_binary`).
