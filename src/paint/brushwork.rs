@@ -35,7 +35,7 @@ use crate::util::rng::{splitmix64, sub_seed, unit_f64};
 
 const SALT: u64 = 0x6272_7573_6877_6f72; // "brushwor"
 /// Grid spacing of stroke anchors, in stroke widths (strokes side by side, overlapping).
-pub const SPACING: f32 = 1.35;
+pub const SPACING: f32 = 1.5;
 /// Largest seeded turn of a plane's strokes off the direction across its ramp, degrees.
 pub const PLANE_TURN_DEG: f32 = 20.0;
 /// Largest turn of one stroke off its plane's direction, degrees.
@@ -48,7 +48,7 @@ pub const BRISTLE_VALUE: f32 = 0.14;
 pub const BRISTLES: usize = 4;
 /// The fine layer paints where the coarse layer strays from the picture by more than this
 /// (mean difference of the square root of luminance, roughly perceptual).
-pub const FINE_THRESHOLD: f32 = 0.035;
+pub const FINE_THRESHOLD: f32 = 0.025;
 /// A pixel darker than the first share of a stroke's luminance keeps its paint; the stroke
 /// covers it fully from the second share on.
 pub const DARK_KEPT: (f32, f32) = (0.45, 0.8);
@@ -76,7 +76,11 @@ struct Stroke {
     half_wid: f32,
     /// The plane and object it paints (see `Region`).
     region: Region,
+    inv_half_len: f32,
+    inv_half_wid: f32,
     colour: Vec3,
+    /// 1 / luminance of `colour` (0 for black).
+    inv_value: f32,
     /// Luminance of `colour`.
     value: f32,
     /// The bristles' loads across the stroke: 1-D value noise lattice values.
@@ -170,28 +174,33 @@ fn paint(s: &Stroke, p: Vec2, region: Region, value: f32, c: Vec3, opacity: f32)
     if u.abs() >= s.half_len {
         return c;
     }
-    let v = d.perp_dot(s.dir);
-    if v.abs() >= s.half_wid + 0.5 || s.region != region {
+    let v = d.perp_dot(s.dir).abs();
+    if v >= s.half_wid + 0.5 || s.region != region {
         return c;
     }
-    let un = u / s.half_len;
-    // Rounded ends: the half width narrows as sqrt(1 - un^4).
-    let hw = s.half_wid * (1.0 - un * un * un * un).max(0.0).sqrt();
-    let edge = (hw - v.abs() + 0.5).clamp(0.0, 1.0);
+    let un = u * s.inv_half_len;
+    // Rounded ends: the half width narrows as 1 - un^6.
+    let un2 = un * un;
+    let hw = s.half_wid * (1.0 - un2 * un2 * un2);
+    let edge = (hw - v + 0.5).clamp(0.0, 1.0);
     if edge <= 0.0 {
         return c;
     }
-    // The bristle under this point: 1-D value noise across the stroke.
-    let x = ((v / s.half_wid + 1.0) * 0.5 * BRISTLES as f32).clamp(0.0, BRISTLES as f32 - 1e-3);
+    // The bristle under this point: 1-D value noise across the stroke (its two sides alike).
+    let x = ((v * s.inv_half_wid) * BRISTLES as f32).min(BRISTLES as f32 - 1e-3);
     let k = x as usize;
     let b = s.bristles[k] + (s.bristles[k + 1] - s.bristles[k]) * fade(x - k as f32);
+    let mut alpha = edge * opacity;
     // Dry-brush tail: over the last half of the length only the loaded bristles paint.
-    let dry = ((un - 0.5) * 2.0).max(0.0);
-    let t = dry * 0.7 - 0.2;
+    if un > 0.5 {
+        let t = (un - 0.5) * 1.4 - 0.2;
+        alpha *= smoothstep(t, t + 0.2, b);
+    }
     // Dark accents (lines, deep shadows, small dark cues) under a much lighter stroke show
     // through: the painter's drawing stays on top.
-    let guard = smoothstep(DARK_KEPT.0, DARK_KEPT.1, value / s.value.max(1e-6));
-    let alpha = edge * smoothstep(t, t + 0.2, b) * opacity * guard;
+    if value < DARK_KEPT.1 * s.value {
+        alpha *= smoothstep(DARK_KEPT.0, DARK_KEPT.1, value * s.inv_value);
+    }
     let shade = 1.0 + BRISTLE_VALUE * (b - 0.5);
     c.lerp(s.colour * shade, alpha)
 }
@@ -293,7 +302,10 @@ impl Brushwork {
                         half_len,
                         half_wid: 0.5 * width,
                         colour,
+                        inv_value: if luminance(colour) > 0.0 { 1.0 / luminance(colour) } else { 0.0 },
                         value: luminance(colour),
+                        inv_half_len: 1.0 / half_len,
+                        inv_half_wid: 2.0 / width,
                         region,
                         bristles: std::array::from_fn(|k| lattice1(bristle_seed, k as i64)),
                         key: splitmix64(hsh ^ 7),
