@@ -46,7 +46,7 @@ def settings_rs_keys():
 
 def test_settings_keys_match_settings_rs():
     """Every key the renderer accepts is known to the add-on and vice versa (a renamed or
-    added setting must reach the panel)."""
+    added setting must reach the panel): the schema the add-on reads lists the struct's fields."""
     assert runner.SETTINGS_KEYS == settings_rs_keys()
 
 
@@ -668,19 +668,6 @@ def test_progress_stages_are_the_binarys(cubist_binary, tmp_path):
 # ---------------------------------------------------------------------------------------------
 # Facet layouts across frames
 
-
-def test_saliency_is_needed_exactly_when_the_renderer_computes_it():
-    base = {"faceting": "none", "imprecision": "saliency", "discontinuity": 0.0, "passes": []}
-    assert not runner.needs_saliency(base)
-    assert not runner.needs_saliency(dict(base, discontinuity=100.0))  # no facets to re-aim
-    assert runner.needs_saliency(dict(base, faceting="voronoi", discontinuity=100.0))
-    assert not runner.needs_saliency(dict(base, faceting="voronoi", discontinuity=100.0, imprecision="random"))
-    assert runner.needs_saliency(dict(base, faceting="segment"))
-    assert runner.needs_saliency(dict(base, passes=["saliency"]))
-    assert runner.needs_saliency(dict(base, passes=["facets"]))
-    # A loaded layout replaces the segmentation; re-aiming still needs saliency.
-    assert not runner.needs_saliency(dict(base, faceting="segment", facets="/l.json"))
-    assert runner.needs_saliency(dict(base, faceting="none", facets="/l.json", discontinuity=50.0))
 
 
 def test_layout_plan(tmp_path):
