@@ -11,7 +11,8 @@ use serde_json::{Map, Value};
 
 use crate::error::Result;
 use crate::settings::{
-    CameraKind, FacetProjection, Faceting, Framing, Imprecision, Palette, Pass, Preset, SaliencyMethod, Settings,
+    BorderStyle, CameraKind, FacetProjection, Faceting, Framing, Imprecision, Palette, Pass, Preset, SaliencyMethod,
+    Settings,
 };
 
 /// Every setting as an optional flag. Keys (after serde) are those of `Settings`; flags not
@@ -169,7 +170,7 @@ pub struct SettingsArgs {
     /// Facet border darkening strength, 0..1; 1 = eq 4.8 as printed [analytic: 0.85]
     #[arg(long, help_heading = "Painterly effects")]
     pub border_strength: Option<f64>,
-    /// Background darkening distance around the objects, pixels at 1000 px; 0 = off [analytic: 40]
+    /// Background darkening distance around the objects, pixels at 1000 px; 0 = off [analytic: 0]
     #[arg(long, help_heading = "Painterly effects")]
     pub silhouette_width: Option<f64>,
     /// Silhouette darkening strength, 0..1 [analytic: 0.5]
@@ -184,12 +185,30 @@ pub struct SettingsArgs {
     /// Quantise to K colours by luminance; 0 = off [analytic: 0]
     #[arg(long, value_name = "K", help_heading = "Painterly effects")]
     pub colors: Option<u32>,
-    /// Fraction of facets with a gradient overlay on a corner, 0..1 [analytic: 0.3]
+    /// Fraction of facets with a gradient overlay on a corner, 0..1 [analytic: 0]
     #[arg(long, value_name = "FRACTION", help_heading = "Painterly effects")]
     pub gradients: Option<f64>,
-    /// Per-facet variation of light direction and intensity, 0..1; 0 = off [analytic: 0]
+    /// Per-facet relighting, its lights turned towards the plane's lit side, 0..1; 0 = off [analytic: 0.3]
     #[arg(long, help_heading = "Painterly effects")]
     pub chiaroscuro: Option<f64>,
+    /// Light-to-dark ramp across each facet, each plane lit on its own, 0..1; 0 = off [analytic: 0.7]
+    #[arg(long, help_heading = "Painterly effects")]
+    pub plane_light: Option<f64>,
+    /// Facet borders: symmetric (eq 4.8 on both sides) or passage (one side, lost and found, silhouettes too) [analytic: passage]
+    #[arg(long, value_enum, help_heading = "Painterly effects")]
+    pub border_style: Option<BorderStyle>,
+    /// Opacity of the brush-stroke layer, 0..1; 0 = off [analytic: 0.8]
+    #[arg(long, help_heading = "Painterly effects")]
+    pub brushwork: Option<f64>,
+    /// Brush stroke length, pixels at 1000 px [default: 26]
+    #[arg(long, value_name = "PX", help_heading = "Painterly effects")]
+    pub stroke_length: Option<f64>,
+    /// Brush stroke width, pixels at 1000 px [default: 7]
+    #[arg(long, value_name = "PX", help_heading = "Painterly effects")]
+    pub stroke_width: Option<f64>,
+    /// Canvas weave showing through the paint, 0..1; 0 = off [analytic: 0.5]
+    #[arg(long, help_heading = "Painterly effects")]
+    pub canvas_grain: Option<f64>,
 
     /// How mesh saliency's Gaussian means are evaluated [default: auto]
     #[arg(long, value_enum, help_heading = "Saliency")]

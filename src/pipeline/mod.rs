@@ -37,6 +37,7 @@ use crate::film::Film;
 use crate::imprecision::{self, AimContext, AimParams, FacetAim};
 use crate::output::passes::{facet_ids_pass, facets_pass, geometry_pass};
 use crate::output::{Gray16, Pass, encode};
+use crate::paint::chiaroscuro::ViewAxes;
 use crate::paint::{Lighting, Painter};
 use crate::progress::Progress;
 use crate::saliency::{MeshSaliency, SaliencyParams};
@@ -120,7 +121,9 @@ pub fn render_with(
 
     if plan.paint {
         // An unfaceted image has no facet borders or corners: no facet map for the painter.
-        let lighting = view.rig.as_ref().map(|rig| Lighting { world: &prep.world, rig });
+        let f = &view.framed.frame;
+        let axes = ViewAxes { right: f.right.as_vec3(), up: f.up.as_vec3(), forward: f.forward.as_vec3() };
+        let lighting = view.rig.as_ref().map(|rig| Lighting { world: &prep.world, rig, view: axes });
         progress.begin(Stage::Paint.name(), 1);
         timings.time(Stage::Paint.name(), || painter.apply(&mut film, faceted.then_some(&map), lighting.as_ref()))?;
     }

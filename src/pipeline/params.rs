@@ -7,7 +7,7 @@ use crate::facets::segment::{SegmentParams, SegmentWeights};
 use crate::facets::{self, FacetMethod, FacetParams};
 use crate::imprecision::{AimMode, AimParams, FacetProjection};
 use crate::output::Pass;
-use crate::paint::{PaintParams, Palette};
+use crate::paint::{BorderStyle, PaintParams, Palette};
 use crate::saliency::{SaliencyMethod, SaliencyParams};
 use crate::settings::{self, Settings};
 use crate::trace::TraceParams;
@@ -185,6 +185,15 @@ pub fn paint(s: &Settings) -> PaintParams {
         },
         palette_image: s.palette_image.clone(),
         colors: s.colors,
+        plane_light: s.plane_light,
+        border_style: match s.border_style {
+            settings::BorderStyle::Symmetric => BorderStyle::Symmetric,
+            settings::BorderStyle::Passage => BorderStyle::Passage,
+        },
+        brushwork: s.brushwork,
+        stroke_length: s.stroke_length,
+        stroke_width: s.stroke_width,
+        canvas_grain: s.canvas_grain,
         scale: s.pixel_scale(),
         seed: s.seed,
         background: s.background,

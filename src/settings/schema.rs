@@ -8,7 +8,9 @@
 use clap::ValueEnum;
 use serde::Serialize;
 
-use super::{CameraKind, FacetProjection, Faceting, Framing, Imprecision, Palette, Pass, Preset, SaliencyMethod};
+use super::{
+    BorderStyle, CameraKind, FacetProjection, Faceting, Framing, Imprecision, Palette, Pass, Preset, SaliencyMethod,
+};
 use super::{MAX_FACETS, MAX_SIDE};
 
 /// The JSON type of a key's value.
@@ -188,6 +190,12 @@ pub const FIELDS: &[Field] = &[
     field("colors", Integer).range(Range::closed(0.0, 4096.0)),
     field("gradients", Number).range(UNIT),
     field("chiaroscuro", Number).range(UNIT),
+    field("plane_light", Number).range(UNIT),
+    field("border_style", Enum).choices(choices::<BorderStyle>),
+    field("brushwork", Number).range(UNIT),
+    field("stroke_length", Number).unit(PX_AT_1000).range(Range::closed(0.0, 1000.0).open_min()),
+    field("stroke_width", Number).unit(PX_AT_1000).range(Range::closed(0.0, 1000.0).open_min()),
+    field("canvas_grain", Number).range(UNIT),
     field("saliency_method", Enum).choices(choices::<SaliencyMethod>),
     field("saliency_cache", Path).nullable(),
     field("passes", Array).of(Enum).choices(choices::<Pass>),

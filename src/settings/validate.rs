@@ -132,6 +132,14 @@ impl Settings {
         unit("silhouette_strength", s.silhouette_strength)?;
         unit("gradients", s.gradients)?;
         unit("chiaroscuro", s.chiaroscuro)?;
+        unit("plane_light", s.plane_light)?;
+        unit("brushwork", s.brushwork)?;
+        unit("canvas_grain", s.canvas_grain)?;
+        for (key, v) in [("stroke_length", s.stroke_length), ("stroke_width", s.stroke_width)] {
+            if !(v.is_finite() && v > 0.0 && v <= 1000.0) {
+                return Err(Error::setting(key, format!("{v} must be in (0, 1000] pixels at 1000 px")));
+            }
+        }
         if !(s.facet_fov.is_finite() && (0.0..180.0).contains(&s.facet_fov)) {
             return Err(Error::setting("facet_fov", format!("{} must be in [0, 180) degrees", s.facet_fov)));
         }
