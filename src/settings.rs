@@ -187,6 +187,11 @@ pub struct Settings {
     // ---- outputs
     /// Extra passes written beside the output as `<stem>.<pass>.png`.
     pub passes: Vec<Pass>,
+
+    // ---- inputs (README "Security")
+    /// Let the scene's image and buffer URIs name files outside its folder (absolute paths,
+    /// `../`). Off: a scene rendered on a farm reads nothing but its own folder.
+    pub allow_external_files: bool,
 }
 
 impl Settings {

@@ -60,6 +60,8 @@ pub struct Rendered {
     pub passes16: Vec<(Pass, Gray16)>,
     /// The facet id of every pixel (a single facet when unfaceted); painterly effects read it.
     pub facets: FacetMap,
+    /// The facet layout `facets` was rasterised from (what `save_facets` saves).
+    pub layout: FacetLayout,
     /// Each facet's centres and re-aim, when the imprecision stage ran (else empty).
     pub aims: Vec<FacetAim>,
     pub timings: Timings,
@@ -134,6 +136,7 @@ pub fn render_with(
         passes,
         passes16,
         facets: map,
+        layout,
         aims,
         timings,
         warnings,
