@@ -43,7 +43,10 @@ pub mod schema;
 mod validate;
 
 pub use enums::{CameraKind, FacetProjection, Faceting, Framing, Imprecision, Palette, Pass, SaliencyMethod};
-pub use validate::{MAX_FACETS, MAX_PIXELS, MAX_SAMPLES, MAX_SIDE};
+pub use validate::{
+    MAX_EXPOSURE, MAX_FACETS, MAX_GRID_CELLS, MAX_JOB_MEMORY, MAX_OCCLUSION, MAX_PIXEL_DISTANCE, MAX_PIXELS,
+    MAX_SAMPLES, MAX_SCENE_VALUE, MAX_SEGMENT_LEVELS, MAX_SEGMENTS, MAX_SIDE, MAX_SUPERPIXELS, MAX_WEIGHT,
+};
 
 kebab_enum!(
     /// Bundles of settings; explicit flags and JSON keys override them.

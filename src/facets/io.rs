@@ -162,6 +162,24 @@ fn check_work(file: &LayoutFile) -> std::result::Result<(), String> {
     Ok(())
 }
 
+/// A layout from a decoded PNG: 16-bit grey values are facet ids, any other image a facet map
+/// (one facet per distinct colour). Errors name `path`.
+pub fn from_image(img: &image::DynamicImage, path: &Path) -> Result<FacetLayout> {
+    let base = match img {
+        image::DynamicImage::ImageLuma16(g) => {
+            LabelImage { width: g.width(), height: g.height(), labels: g.pixels().map(|p| p.0[0] as u32).collect() }
+        }
+        _ => labels_from_image(img, path)?,
+    };
+    if base.width == 0 || base.height == 0 {
+        return Err(Error::input(path, "the facet layout image is empty"));
+    }
+    let facet_count = base.labels.iter().max().map_or(1, |m| m + 1);
+    let layout = FacetLayout { facet_count, base: Some(base), sites: Vec::new(), polygons: Vec::new() };
+    layout.validate().map_err(|m| Error::input(path, format!("bad facet layout: {m}")))?;
+    Ok(layout)
+}
+
 fn extension(path: &Path) -> Option<String> {
     path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase)
 }
@@ -199,24 +217,7 @@ pub fn load(path: &Path) -> Result<FacetLayout> {
                 .map_err(|e| Error::input(path, format!("cannot read facet layout: {e}")))?;
             from_json(&text).map_err(|m| Error::input(path, format!("bad facet layout: {m}")))
         }
-        Some("png") => {
-            let img = read_image(path)?;
-            let base = match &img {
-                image::DynamicImage::ImageLuma16(g) => LabelImage {
-                    width: g.width(),
-                    height: g.height(),
-                    labels: g.pixels().map(|p| p.0[0] as u32).collect(),
-                },
-                _ => labels_from_image(&img, path)?,
-            };
-            if base.width == 0 || base.height == 0 {
-                return Err(Error::input(path, "the facet layout image is empty"));
-            }
-            let facet_count = base.labels.iter().max().map_or(1, |m| m + 1);
-            let layout = FacetLayout { facet_count, base: Some(base), sites: Vec::new(), polygons: Vec::new() };
-            layout.validate().map_err(|m| Error::input(path, format!("bad facet layout: {m}")))?;
-            Ok(layout)
-        }
+        Some("png") => from_image(&read_image(path)?, path),
         _ => Err(Error::setting("facets", format!("{}: a facet layout is a .json or .png file", short_path(path)))),
     }
 }

@@ -85,6 +85,7 @@ pub fn render_with(
 ) -> Result<Rendered> {
     settings.validate()?;
     let params = StageParams::new(settings);
+    check_work(&params)?;
     let plan = Plan::new(&params);
     let mut timings = Timings::default();
 
@@ -143,6 +144,15 @@ pub fn render_with(
         camera: view.describe_camera(prep),
         film,
     })
+}
+
+/// Work that would take hours, refused before anything runs (issue 18): the Segment
+/// faceting's eigenvectors. (The lights' work depends on the scene: `prerender` checks it.)
+pub fn check_work(params: &StageParams) -> Result<()> {
+    if params.facets.method == facets::FacetMethod::Segment && params.facets.layout_file.is_none() {
+        facets::segment::check_work(params.facets.width, params.facets.height, &params.facets.segment)?;
+    }
+    Ok(())
 }
 
 /// Mesh saliency (SPEC "Mesh saliency") of the meshes the pre-render hit, and the saliency

@@ -459,7 +459,7 @@ mod tests {
         assert!(e.contains("c.txt") && e.contains("disk full"), "{e}");
         assert_eq!(names(dir.path()), ["b.txt"]);
         assert_eq!(std::fs::read_to_string(&b).unwrap(), "old b");
-        // A rename that fails (the target is a non-empty directory) after others succeeded.
+        // A target that is a directory: refused before anything is written.
         std::fs::create_dir(&c).unwrap();
         std::fs::write(c.join("keep"), "").unwrap();
         let mut o = Outputs::new();
