@@ -45,7 +45,10 @@ mod validate;
 pub use enums::{
     BorderStyle, CameraKind, FacetProjection, Faceting, Framing, Imprecision, Palette, Pass, SaliencyMethod,
 };
-pub use validate::{MAX_FACETS, MAX_PIXELS, MAX_SAMPLES, MAX_SIDE};
+pub use validate::{
+    MAX_EXPOSURE, MAX_FACETS, MAX_GRID_CELLS, MAX_JOB_MEMORY, MAX_OCCLUSION, MAX_PIXEL_DISTANCE, MAX_PIXELS,
+    MAX_SAMPLES, MAX_SCENE_VALUE, MAX_SEGMENT_LEVELS, MAX_SEGMENTS, MAX_SIDE, MAX_SUPERPIXELS, MAX_WEIGHT,
+};
 
 kebab_enum!(
     /// Bundles of settings; explicit flags and JSON keys override them.
@@ -205,6 +208,11 @@ pub struct Settings {
     // ---- outputs
     /// Extra passes written beside the output as `<stem>.<pass>.png`.
     pub passes: Vec<Pass>,
+
+    // ---- inputs (README "Security")
+    /// Let the scene's image and buffer URIs name files outside its folder (absolute paths,
+    /// `../`). Off: a scene rendered on a farm reads nothing but its own folder.
+    pub allow_external_files: bool,
 }
 
 impl Settings {

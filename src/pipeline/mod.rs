@@ -61,6 +61,8 @@ pub struct Rendered {
     pub passes16: Vec<(Pass, Gray16)>,
     /// The facet id of every pixel (a single facet when unfaceted); painterly effects read it.
     pub facets: FacetMap,
+    /// The facet layout `facets` was rasterised from (what `save_facets` saves).
+    pub layout: FacetLayout,
     /// Each facet's centres and re-aim, when the imprecision stage ran (else empty).
     pub aims: Vec<FacetAim>,
     pub timings: Timings,
@@ -84,6 +86,7 @@ pub fn render_with(
 ) -> Result<Rendered> {
     settings.validate()?;
     let params = StageParams::new(settings);
+    check_work(&params)?;
     let plan = Plan::new(&params);
     let mut timings = Timings::default();
 
@@ -137,12 +140,22 @@ pub fn render_with(
         passes,
         passes16,
         facets: map,
+        layout,
         aims,
         timings,
         warnings,
         camera: view.describe_camera(prep),
         film,
     })
+}
+
+/// Work that would take hours, refused before anything runs (issue 18): the Segment
+/// faceting's eigenvectors. (The lights' work depends on the scene: `prerender` checks it.)
+pub fn check_work(params: &StageParams) -> Result<()> {
+    if params.facets.method == facets::FacetMethod::Segment && params.facets.layout_file.is_none() {
+        facets::segment::check_work(params.facets.width, params.facets.height, &params.facets.segment)?;
+    }
+    Ok(())
 }
 
 /// Mesh saliency (SPEC "Mesh saliency") of the meshes the pre-render hit, and the saliency

@@ -201,6 +201,11 @@ pub fn paint(s: &Settings) -> PaintParams {
     }
 }
 
+/// How the scene file may reach other files (README "Security").
+pub fn load_options(s: &Settings) -> crate::scene::LoadOptions {
+    crate::scene::LoadOptions { allow_external_files: s.allow_external_files }
+}
+
 pub fn pass(p: settings::Pass) -> Pass {
     match p {
         settings::Pass::Saliency => Pass::Saliency,

@@ -74,6 +74,7 @@ impl Settings {
             saliency_method: SaliencyMethod::Auto,
             saliency_cache: None,
             passes: Vec::new(),
+            allow_external_files: false,
         }
     }
 
