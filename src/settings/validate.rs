@@ -247,7 +247,7 @@ impl Settings {
             return Err(Error::setting("plane_detail", format!("{} must be in [1, 100]", s.plane_detail)));
         }
         unit("aim_min_coverage", s.aim_min_coverage)?;
-        nonneg("aim_width_share", s.aim_width_share)?;
+        within("aim_width_share", s.aim_width_share, 100.0)?;
         if s.colors == 1 {
             return Err(Error::setting("colors", "quantising to 1 colour leaves no image; use 0 (off) or >= 2"));
         }
