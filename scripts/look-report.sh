@@ -42,7 +42,11 @@ tables=$(target/release/cubist look "${scenes[@]}" --still-life --odd --before t
     echo "  of the same camera (seen: a sample hits a triangle they are a corner of); target >= 1;"
     echo "- **light**: share of facets whose luminance varies by a gradient of >= 15% of the image's"
     echo "  range (a plane fit spanning that much, explaining >= 30% of the facet's variance);"
-    echo "- **ms**: this render's wall time; **ms (timing size)**: one render at ${TIME_SIZE} x ${TIME_SIZE}."
+    if [ "$TIME_SIZE" != 0 ]; then
+        echo "- **ms**: this render's wall time; **ms (timing size)**: one render at ${TIME_SIZE} x ${TIME_SIZE}."
+    else
+        echo "- **ms**: this render's wall time (one process on a shared machine: rough; not timed at a larger size)."
+    fi
     echo
     echo "Contact sheet (per scene: before | after, in the tables' order): [contact-sheet.png](contact-sheet.png)."
     echo
