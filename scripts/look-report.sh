@@ -49,6 +49,7 @@ tables=$(target/release/cubist look "${scenes[@]}" --still-life --odd --before t
     fi
     echo
     echo "Contact sheet (per scene: before | after, in the tables' order): [contact-sheet.png](contact-sheet.png)."
+    echo "The medians and misses are summed up in the project's README (\"The look report\")."
     echo
     echo "$tables"
 } > "$out/README.md"

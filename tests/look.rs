@@ -110,7 +110,8 @@ fn check_golden(img: &image::RgbaImage, name: &str, max_mean: f64, max_big: usiz
     if std::env::var_os("CUBIST_UPDATE_GOLDEN").is_some() {
         img.save(&path).unwrap();
     }
-    let want = image::open(&path).unwrap_or_else(|e| panic!("{name}: {e} (CUBIST_UPDATE_GOLDEN=1 writes it)")).to_rgba8();
+    let want =
+        image::open(&path).unwrap_or_else(|e| panic!("{name}: {e} (CUBIST_UPDATE_GOLDEN=1 writes it)")).to_rgba8();
     assert_eq!(want.dimensions(), img.dimensions(), "{name}");
     let (mut total, mut big) = (0u64, 0usize);
     for (a, b) in want.pixels().zip(img.pixels()) {

@@ -276,35 +276,34 @@ pub fn frame_camera(params: &FramingParams, world: &World, accel: &Accel) -> Res
             let composing = params.framing == Framing::Compose
                 && params.ambiguity.is_none()
                 && !(focus.is_some() && given_position.is_some());
-            let composed =
-                composing.then(|| {
-                    let margin = params.fill.unwrap_or(compose::COMPOSE_FILL);
-                    let fill_of = |k: &compose::Composition| {
-                        let distance = distance_for(k.centre);
-                        let frame = CameraFrame { position: k.centre - fwd * distance, ..frame };
-                        let camera: Box<dyn Camera> = if kind == CameraKind::Cylindrical {
-                            Box::new(Cylindrical {
-                                frame,
-                                centre: k.centre,
-                                distance,
-                                angle_x: k.angle_x,
-                                height: k.height,
-                                clip_radius: clip,
-                            })
-                        } else {
-                            Box::new(Spherical {
-                                frame,
-                                centre: k.centre,
-                                distance,
-                                angle_x: k.angle_x,
-                                angle_y: k.angle_y,
-                                clip_radius: clip,
-                            })
-                        };
-                        probe_fill(camera.as_ref(), accel, aspect)
+            let composed = composing.then(|| {
+                let margin = params.fill.unwrap_or(compose::COMPOSE_FILL);
+                let fill_of = |k: &compose::Composition| {
+                    let distance = distance_for(k.centre);
+                    let frame = CameraFrame { position: k.centre - fwd * distance, ..frame };
+                    let camera: Box<dyn Camera> = if kind == CameraKind::Cylindrical {
+                        Box::new(Cylindrical {
+                            frame,
+                            centre: k.centre,
+                            distance,
+                            angle_x: k.angle_x,
+                            height: k.height,
+                            clip_radius: clip,
+                        })
+                    } else {
+                        Box::new(Spherical {
+                            frame,
+                            centre: k.centre,
+                            distance,
+                            angle_x: k.angle_x,
+                            angle_y: k.angle_y,
+                            clip_radius: clip,
+                        })
                     };
-                    compose::compose(&points, kind, &frame, axis, aspect, radius, margin, &fill_of)
-                });
+                    probe_fill(camera.as_ref(), accel, aspect)
+                };
+                compose::compose(&points, kind, &frame, axis, aspect, radius, margin, &fill_of)
+            });
             let framed_c = || match (params.framing, composed) {
                 (_, Some(k)) => k.centre,
                 (Framing::Centre, _) => axis,

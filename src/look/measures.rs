@@ -63,7 +63,8 @@ pub fn straight_share(map: &FacetMap, tolerance: f64, min_run: f64) -> (f64, f64
     let mut used = vec![false; 2 * vw * (h + 1)];
     let slot = |k: (usize, usize, bool)| 2 * (k.1 * vw + k.0) + k.2 as usize;
     // The edges at a vertex: (edge key, other end).
-    let edges_at = |x: usize, y: usize| -> Vec<((usize, usize, bool), (usize, usize))> {
+    type Edge = ((usize, usize, bool), (usize, usize));
+    let edges_at = |x: usize, y: usize| -> Vec<Edge> {
         let mut v = Vec::with_capacity(4);
         if x < w && hor(x, y) {
             v.push(((x, y, false), (x + 1, y)));
@@ -276,7 +277,9 @@ pub fn plane_light(map: &FacetMap, lum: &[f32], min_pixels: usize, min_range: f6
         t.ll += l * l;
     }
     // Slopes (b, c) per facet from the centred normal equations.
-    let fits: Vec<Option<(f64, f64, f64, f64, f64)>> = s
+    // (slope b, slope c, mean x, mean y, r²), or None for too few pixels.
+    type Fit = (f64, f64, f64, f64, f64);
+    let fits: Vec<Option<Fit>> = s
         .iter()
         .map(|t| {
             if (t.n as usize) < min_pixels.max(3) {

@@ -24,7 +24,7 @@ use glam::DVec2;
 use super::polygon::{clip_half_plane, signed_area};
 use crate::util::rng::rand01;
 
-const STREAM: u64 = 0x7370_6c69_74; // "split"
+const STREAM: u64 = 0x0073_706c_6974; // "split"
 /// Preferred stroke directions, degrees from the horizontal, with their weights: the
 /// canvases' scaffolding is mostly verticals and horizontals, then steep diagonals, a few
 /// shallow ones.
