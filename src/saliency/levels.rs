@@ -113,6 +113,13 @@ pub fn gaussian_means(points: &[DVec3], h: &[f64], sigmas: &[f64]) -> Vec<f64> {
     means
 }
 
+/// Candidate pairs `gaussian_means` visits when its largest sigma is `sigma_max`: the same
+/// grid, counted without computing a distance.
+pub fn exact_work(points: &[DVec3], sigma_max: f64) -> u64 {
+    let rmax = 2.0 * sigma_max;
+    Grid::new(points, rmax / 3.0).candidate_pairs(rmax)
+}
+
 /// A cell's candidates copied into contiguous arrays.
 #[derive(Default)]
 struct Buffers {
