@@ -8,7 +8,9 @@
 //! costs fewer candidate evaluations, counted before doing either:
 //! - exactly: each target vertex against every vertex of the blocks within reach (the
 //!   definition's sum, hard cut-off at 2 sigma);
-//! - clustered: target vertices in groups of `GROUP`^3 cells, each group against every source
+//! - clustered: target vertices in groups of `GROUP`^3 cells (single cells when the sigma's
+//!   evaluation stays under `FINE_BUDGET` that way; and a sigma whose exact evaluation stays
+//!   under it is exact everywhere), each group against every source
 //!   cluster within reach, evaluated once at the group's centroid with its gradient, and
 //!   carried to each vertex by a first-order step (`kernels::Expansion`). A cluster
 //!   straddling the cut-off counts in proportion (a ramp one cell wide).
@@ -34,8 +36,13 @@ use super::neighbourhood::bucket_order;
 pub const BETA: f64 = 4.0;
 
 /// Target groups are GROUP^3 cells: fewer evaluations (about 4x on a surface) for a small loss
-/// of accuracy (mean error 0.0004 -> 0.0007 on a uniform 62K mesh; docs/saliency.md).
+/// of accuracy (mean error 0.0003 -> 0.0006 on a uniform 62K mesh; docs/saliency.md), taken
+/// only where single cells would cost more than `FINE_BUDGET`.
 pub const GROUP: i64 = 2;
+
+/// A sigma whose evaluation with single-cell groups costs at most this many candidate
+/// evaluations (a few hundredths of a second) uses single cells: accuracy where it is cheap.
+const FINE_BUDGET: f64 = 1.5e7;
 
 /// Relative cost of one clustered candidate evaluation (f32, eight lanes) against one exact one
 /// (f64, four lanes), measured: about the same.
@@ -55,7 +62,8 @@ pub struct Work {
 }
 
 /// `clustered_means` with explicit cell size (sigma / `beta`, blocks of round(beta) cells) and
-/// target groups of `group`^3 cells; also returns the work done per sigma.
+/// target groups of `group`^3 cells (single cells where those cost at most `FINE_BUDGET`);
+/// also returns the work done per sigma.
 pub fn clustered_means_with(
     points: &[DVec3],
     h: &[f64],
@@ -130,9 +138,9 @@ impl Blocked {
             .collect();
         // Sorted by block with a counting sort, then within each (small) block.
         let shift = 32 + 3 * lb;
-        let block: Vec<u32> = keyed.iter().map(|k| (k >> shift) as u32).collect();
+        let block: Vec<u32> = keyed.par_iter().map(|k| (k >> shift) as u32).collect();
         let blocks = (dims[0] * dims[1] * dims[2]) as usize;
-        let mut keys: Vec<u64> = bucket_order(&block, blocks).into_iter().map(|i| keyed[i as usize]).collect();
+        let mut keys: Vec<u64> = bucket_order(&block, blocks).into_par_iter().map(|i| keyed[i as usize]).collect();
         keys.par_chunk_by_mut(|a, b| a >> shift == b >> shift).for_each(|c| c.sort_unstable());
         let ids: Vec<u32> = keys.par_iter().map(|k| *k as u32).collect();
         let mut grid = Blocked {
@@ -273,13 +281,10 @@ fn one_sigma(
     let centre = (bounds.0 + bounds.1) * 0.5;
     // Points in grid order (f64, for exact blocks), clusters in f32 (for clustered ones).
     let sorted: Vec<(DVec3, f64)> = grid.ids.par_iter().map(|&i| (points[i as usize], h[i as usize])).collect();
-    let (mut vx, mut vy, mut vz, mut vh) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-    for (p, hv) in &sorted {
-        vx.push(p.x);
-        vy.push(p.y);
-        vz.push(p.z);
-        vh.push(*hv);
-    }
+    let vx: Vec<f64> = sorted.par_iter().map(|s| s.0.x).collect();
+    let vy: Vec<f64> = sorted.par_iter().map(|s| s.0.y).collect();
+    let vz: Vec<f64> = sorted.par_iter().map(|s| s.0.z).collect();
+    let vh: Vec<f64> = sorted.par_iter().map(|s| s.1).collect();
     // Source clusters: count, summed curvature, centroid.
     let clusters: Vec<(f64, f64, DVec3)> = (0..grid.cell_coords.len())
         .into_par_iter()
@@ -289,22 +294,38 @@ fn one_sigma(
             (pts.len() as f64, hs, ps / pts.len() as f64)
         })
         .collect();
-    let (mut cx, mut cy, mut cz, mut cn, mut ch) = (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
-    for (count, hs, m) in &clusters {
-        let r = rel(*m, centre);
-        cx.push(r[0]);
-        cy.push(r[1]);
-        cz.push(r[2]);
-        cn.push(*count as f32);
-        ch.push(*hs as f32);
-    }
+    let rels: Vec<[f32; 3]> = clusters.par_iter().map(|c| rel(c.2, centre)).collect();
+    let cx: Vec<f32> = rels.par_iter().map(|r| r[0]).collect();
+    let cy: Vec<f32> = rels.par_iter().map(|r| r[1]).collect();
+    let cz: Vec<f32> = rels.par_iter().map(|r| r[2]).collect();
+    let cn: Vec<f32> = clusters.par_iter().map(|c| c.0 as f32).collect();
+    let ch: Vec<f32> = clusters.par_iter().map(|c| c.1 as f32).collect();
     let kernel = Kernel::new(sigma, cell);
     // As `levels::gaussian_means` has them, so exact blocks make the same decisions.
     let (cut2, inv) = (4.0 * sigma * sigma, 1.0 / (2.0 * sigma * sigma));
     // Clusters weigh up to half a cell beyond 2 sigma (a little more: the ramp's expansion).
     let offsets = grid.offsets(2.0 * sigma + 0.55 * cell);
     let per = grid.per;
-    let group = group.clamp(1, per);
+    // Costs counted before evaluating: every block exact, and each block's cheaper way with
+    // single-cell groups. Within `FINE_BUDGET`, accuracy is bought: the whole sigma exact, or
+    // single cells.
+    let (all_exact, fine): (f64, f64) = (0..grid.block_coords.len())
+        .into_par_iter()
+        .map(|b| {
+            let bc = grid.block_coords[b];
+            let (mut points, mut cells) = (0usize, 0usize);
+            for o in &offsets {
+                if let Some(q) = grid.block_at([bc[0] + o[0], bc[1] + o[1], bc[2] + o[2]]) {
+                    points += grid.points_of_block(q).len();
+                    cells += grid.cells_of_block(q).len();
+                }
+            }
+            let exact = grid.points_of_block(b).len() as f64 * points as f64;
+            (exact, exact.min(CLUSTER_COST * grid.cells_of_block(b).len() as f64 * cells as f64))
+        })
+        .reduce(|| (0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
+    let exact_everywhere = all_exact <= FINE_BUDGET;
+    let group = if fine <= FINE_BUDGET { 1 } else { group.clamp(1, per) };
     let groups_per_side = (per + group - 1) / group;
     let per_block: Vec<(Vec<f64>, Work)> = (0..grid.block_coords.len())
         .into_par_iter()
@@ -333,7 +354,7 @@ fn one_sigma(
             let clustered_cost = CLUSTER_COST * n_groups as f64 * near_cells as f64;
             let mut out = vec![0.0; targets.len()];
             s.clear();
-            if exact_cost <= clustered_cost {
+            if exact_everywhere || exact_cost <= clustered_cost {
                 for v in [&mut s.px, &mut s.py, &mut s.pz, &mut s.ph] {
                     v.clear();
                 }
