@@ -26,13 +26,13 @@ mod common;
 
 use std::time::Duration;
 
-use cubist::eval::{count_visible, visible_faces};
-use cubist::frame::Frame;
-use cubist::pipeline::{Prepared, Rendered, render};
+use cubist::eval::count_visible;
+use cubist::film::Film;
+use cubist::pipeline::{Prepared, Rendered, render, visible_faces};
 use cubist::progress::Progress;
-use cubist::saliency::{MeshSaliency, cached_mesh_saliency};
+use cubist::saliency::{MeshSaliency, SaliencyMethod, cached_mesh_saliency};
 use cubist::scene::Scene;
-use cubist::settings::{Faceting, Imprecision, Palette, SaliencyMethod, Settings};
+use cubist::settings::{Faceting, Imprecision, Palette, Settings};
 
 /// The default (`analytic`) settings without painterly effects: the rendered colours, facets
 /// and re-aims of the default pipeline.
@@ -56,10 +56,10 @@ fn total(r: &Rendered) -> Duration {
 /// that lie in different facets, and between those in the same facet; only pairs where at least
 /// one pixel shows geometry count (the background is the same colour in every facet).
 fn neighbour_differences(r: &Rendered) -> (f64, f64) {
-    let m = r.facets.as_ref().expect("facet map");
+    let m = &r.facets;
     let (w, h) = (m.width as usize, m.height as usize);
     let img = r.image.as_raw();
-    let covered = |i: usize| r.frame.color[i].w > 0.0;
+    let covered = |i: usize| r.film.color[i].w > 0.0;
     let (mut across, mut within) = ((0.0, 0u64), (0.0, 0u64));
     for y in 0..h {
         for x in 0..w {
@@ -91,9 +91,9 @@ fn all_mesh_saliency(prep: &Prepared) -> MeshSaliency {
 
 /// Mean mesh saliency at the frame's hit points (every sample that hit), interpolated from the
 /// hit triangle's corners by the barycentrics, as the saliency map does.
-fn mean_hit_saliency(prep: &Prepared, sal: &MeshSaliency, frame: &Frame) -> f64 {
+fn mean_hit_saliency(prep: &Prepared, sal: &MeshSaliency, film: &Film) -> f64 {
     let (mut sum, mut n) = (0.0f64, 0u64);
-    for s in frame.samples.iter().filter(|s| s.is_hit()) {
+    for s in film.samples.iter().filter(|s| s.is_hit()) {
         let (o, local) = prep.world.local_triangle(s.tri);
         let mesh = prep.world.objects[o as usize].mesh;
         let c = sal.corners[mesh].as_ref().expect("every mesh computed")[local as usize];
@@ -165,7 +165,7 @@ fn main() {
             }
             let cpu = common::cpu_time().zip(c0).map(|(a, b)| (a - b) / runs as u32);
             let r = best.unwrap();
-            let m = r.facets.as_ref().unwrap();
+            let m = &r.facets;
             let moved = m.ids.iter().filter(|&&id| r.aims.get(id as usize).is_some_and(|a| a.moved())).count();
             let f = |name: &str| format!("{:.0}", common::ms(stage(&r, name)));
             println!(
@@ -222,7 +222,7 @@ fn main() {
                 s.discontinuity = d;
                 let r = render(prep, &s, &Progress::silent()).expect("render");
                 let (across, within) = neighbour_differences(&r);
-                facets = r.facets.as_ref().unwrap().used_facets();
+                facets = r.facets.used_facets();
                 values.push(across);
                 cells.push(format!("{across:.2} ({:.1}x)", across / within.max(1e-9)));
             }
@@ -267,7 +267,7 @@ fn main() {
                     s.faceting = faceting;
                     s.imprecision = mode;
                     let r = render(prep, &s, &Progress::silent()).expect("render");
-                    per_mode[k].push(mean_hit_saliency(prep, &sal, &r.frame));
+                    per_mode[k].push(mean_hit_saliency(prep, &sal, &r.film));
                 }
             }
             let wins = |a: usize, b: usize| (0..seeds.len()).filter(|&i| per_mode[a][i] > per_mode[b][i]).count();
@@ -329,7 +329,7 @@ fn main() {
                 s.seed = seed;
                 let r = render(prep, &s, &Progress::silent()).expect("render");
                 camera = r.camera.split(',').next().unwrap_or("").replace(" camera", "");
-                sum += count_visible(&r.frame, total_faces).visible as f64;
+                sum += count_visible(&r.film, total_faces).visible as f64;
             }
             on.push(sum / seeds.len() as f64);
             s.faceting = Faceting::None;

@@ -26,12 +26,12 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use cubist::camera::frame_camera;
-use cubist::frame::Frame;
-use cubist::pipeline::{Prepared, Rendered, render};
+use cubist::film::Film;
+use cubist::pipeline::{Prepared, Rendered, params, render};
 use cubist::progress::Progress;
-use cubist::render::{Tracer, screen_point};
 use cubist::scene::Scene;
 use cubist::settings::{CameraKind, Framing, Preset, Settings};
+use cubist::trace::{Tracer, screen_point};
 use glam::DVec2;
 use rayon::prelude::*;
 
@@ -160,7 +160,7 @@ impl Timed {
 /// Times tracing one ray through each pixel centre: the render loop without shading against
 /// a bare traversal of the same rays, alternating the two. Returns (bare, loop, hit fraction).
 fn primary_rays(prep: &Prepared, s: &Settings, repeat: usize) -> (Timed, Timed, f64) {
-    let framed = frame_camera(s, &prep.world).expect("camera");
+    let framed = frame_camera(&params::framing(s), &prep.world).expect("camera");
     let (w, h) = (s.width, s.height);
     let centre = DVec2::splat(0.5);
     let bare = || -> usize {
@@ -178,10 +178,10 @@ fn primary_rays(prep: &Prepared, s: &Settings, repeat: usize) -> (Timed, Timed, 
     };
     let tracer =
         Tracer { world: &prep.world, accel: &prep.accel, rig: None, background: glam::Vec3::ZERO, seed: s.seed };
-    let mut frame = Frame::new(w, h, 1);
+    let mut film = Film::new(w, h, 1);
     // Warm up (page in the buffers, spin up rayon's threads), then alternate the two.
     let mut hits = bare();
-    tracer.render(&mut frame, &|_, p| framed.camera.ray(p), None, &Progress::silent());
+    tracer.render(&mut film, &|_, p| framed.camera.ray(p), None, &Progress::silent());
     let (mut bw, mut lw) = (Vec::new(), Vec::new());
     let (mut bc, mut lc) = (Some(Duration::ZERO), Some(Duration::ZERO));
     for _ in 0..repeat {
@@ -189,11 +189,11 @@ fn primary_rays(prep: &Prepared, s: &Settings, repeat: usize) -> (Timed, Timed, 
         bw.push(wall);
         bc = bc.zip(cpu).map(|(a, b)| a + b);
         let (wall, cpu) =
-            measure(1, || tracer.render(&mut frame, &|_, p| framed.camera.ray(p), None, &Progress::silent()));
+            measure(1, || tracer.render(&mut film, &|_, p| framed.camera.ray(p), None, &Progress::silent()));
         lw.push(wall);
         lc = lc.zip(cpu).map(|(a, b)| a + b);
     }
-    let loop_hits = frame.hits.iter().filter(|h| h.is_hit()).count();
+    let loop_hits = film.hits.iter().filter(|h| h.is_hit()).count();
     assert_eq!(hits, loop_hits, "the bare traversal and the render loop disagree on which rays hit");
     let n = repeat as u32;
     (
@@ -257,7 +257,7 @@ fn main() {
         worst_overhead = worst_overhead.max(overhead);
         println!(
             "| {kind} ({:.0} deg{what}) | {:.1}% | {:.1} | {} | {:.2} | {:.1} | {} | {:.2} | {:+.1}% |",
-            s.angle_deg(kind, None),
+            params::framing(&s).angle_deg(params::camera_kind(kind), None),
             hit * 100.0,
             ms(bare.wall),
             cpu(&bare),
@@ -277,27 +277,24 @@ fn main() {
     );
     // What part of the loop's fixed cost per pixel is only memory: writing the buffers it
     // must fill (colour, pixel hit, sample hit) with no tracing at all.
-    let mut frame = Frame::new(size, size, 1);
+    let mut film = Film::new(size, size, 1);
     let wu = size as usize;
-    let fill = |frame: &mut Frame| {
-        frame
-            .color
-            .par_chunks_mut(wu)
-            .zip(frame.hits.par_chunks_mut(wu))
-            .zip(frame.samples.par_chunks_mut(wu))
-            .for_each(|((c, h), s)| {
+    let fill = |film: &mut Film| {
+        film.color.par_chunks_mut(wu).zip(film.hits.par_chunks_mut(wu)).zip(film.samples.par_chunks_mut(wu)).for_each(
+            |((c, h), s)| {
                 for x in 0..wu {
                     c[x] = glam::Vec4::new(x as f32, 0.0, 0.0, 1.0);
-                    h[x] = cubist::frame::PixelHit { tri: x as u32, ..cubist::frame::PixelHit::MISS };
-                    s[x] = cubist::frame::SampleHit { tri: x as u32, u: 0.0, v: 0.0 };
+                    h[x] = cubist::film::PixelHit { tri: x as u32, ..cubist::film::PixelHit::MISS };
+                    s[x] = cubist::film::SampleHit { tri: x as u32, u: 0.0, v: 0.0 };
                 }
-            })
+            },
+        )
     };
-    fill(&mut frame);
-    let (wall, cpu) = measure(args.repeat, || fill(&mut frame));
+    fill(&mut film);
+    let (wall, cpu) = measure(args.repeat, || fill(&mut film));
     let per_pixel = std::mem::size_of::<glam::Vec4>()
-        + std::mem::size_of::<cubist::frame::PixelHit>()
-        + std::mem::size_of::<cubist::frame::SampleHit>();
+        + std::mem::size_of::<cubist::film::PixelHit>()
+        + std::mem::size_of::<cubist::film::SampleHit>();
     println!(
         "\nWriting the loop's buffers alone ({per_pixel} bytes per pixel, no tracing): {:.1} ms wall (best), {} ms CPU.",
         ms(wall),
@@ -311,7 +308,7 @@ fn main() {
     let reference_time = t.elapsed();
     println!("Reference: {} spp, rendered once in {:.0} ms.\n", args.reference_spp, ms(reference_time));
     // Pixels any reference sample saw geometry in: the background is exact at any spp.
-    let covered: Vec<bool> = reference.frame.color.iter().map(|c| c.w > 0.0).collect();
+    let covered: Vec<bool> = reference.film.color.iter().map(|c| c.w > 0.0).collect();
     println!(
         "{:.1}% of the pixels show geometry; PSNR is given over the whole image and over those pixels.\n",
         100.0 * covered.iter().filter(|c| **c).count() as f64 / covered.len() as f64
@@ -406,7 +403,7 @@ fn main() {
     );
     println!();
     for ((name, _), (r, _)) in scenes.iter().zip(&runs) {
-        let m = r.rendered.facets.as_ref().expect("facet map");
+        let m = &r.rendered.facets;
         let moved = m.ids.iter().filter(|&&id| r.rendered.aims.get(id as usize).is_some_and(|a| a.moved())).count();
         println!(
             "- {name}: {}; {} facets, {:.0}% of the pixels re-traced.",

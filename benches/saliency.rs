@@ -164,7 +164,7 @@ fn sampled_error(a: &Analysed, means: &[f64]) -> (f64, f64) {
     let sigmas = levels::SIGMA_SCALES.map(|s| s * a.eps);
     let approx_s = levels::combine(pts, &a.adjacency, &a.h, means, a.eps);
     let samples: Vec<usize> =
-        (0..SAMPLES.min(n)).map(|i| (cubist::render::splitmix64(i as u64 + 12345) % n as u64) as usize).collect();
+        (0..SAMPLES.min(n)).map(|i| (cubist::util::rng::splitmix64(i as u64 + 12345) % n as u64) as usize).collect();
     let rmax = 2.0 * sigmas[7];
     let grid = Grid::new(pts, rmax / 3.0);
     // The cell of each sampled vertex, and its candidates.

@@ -27,9 +27,9 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use cubist::facets::segment::{self, SegmentLevels, prerender_settings, quality::boundary_f_measure};
-use cubist::frame::Frame;
-use cubist::pipeline::{Prepared, render};
+use cubist::facets::segment::{self, SegmentLevels, SegmentParams, quality::boundary_f_measure};
+use cubist::film::Film;
+use cubist::pipeline::{Prepared, StageParams, Timings, faceting_input};
 use cubist::progress::Progress;
 use cubist::settings::Settings;
 
@@ -39,10 +39,11 @@ fn models() -> Option<PathBuf> {
 }
 
 /// The pre-render the Segment faceting sees, with the pipeline's saliency map.
-fn prerender(prep: &Prepared, settings: &Settings) -> Frame {
-    let r = render(prep, &prerender_settings(settings), &Progress::silent()).expect("pre-render");
-    assert!(r.frame.saliency.is_some(), "the pre-render computes the saliency map");
-    r.frame
+fn prerender(prep: &Prepared, settings: &Settings) -> Film {
+    let params = StageParams::new(settings);
+    let pre = faceting_input(prep, &params, &Progress::silent(), &mut Timings::default()).expect("pre-render");
+    assert!(pre.film.saliency.is_some(), "the pre-render computes the saliency map");
+    pre.film
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -51,14 +52,14 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 /// Runs the faceting `reps` times: (median step times in ms, median total ms, CPU ms per run, last levels).
-fn time_layout(frame: &Frame, s: &Settings, reps: usize) -> (Vec<(String, f64)>, f64, Option<f64>, SegmentLevels) {
+fn time_layout(film: &Film, s: &SegmentParams, reps: usize) -> (Vec<(String, f64)>, f64, Option<f64>, SegmentLevels) {
     let mut steps: Vec<(String, Vec<f64>)> = Vec::new();
     let mut totals = Vec::new();
     let mut last = None;
     let c0 = common::cpu_time();
     for _ in 0..reps {
         let t = Instant::now();
-        let (_, levels) = segment::layout(frame, s).expect("layout");
+        let (_, levels) = segment::layout(film, s).expect("layout");
         totals.push(t.elapsed().as_secs_f64() * 1e3);
         if steps.is_empty() {
             steps = levels.timings.iter().map(|(n, _)| (n.clone(), Vec::new())).collect();
@@ -93,6 +94,7 @@ fn main() {
     }
     let mut settings = Settings::default();
     (settings.width, settings.height) = (size, size);
+    let params = StageParams::new(&settings).facets.segment;
 
     let mut frames = Vec::new();
     for (name, path) in &scenes {
@@ -107,12 +109,12 @@ fn main() {
     println!("rayon threads: {}, load average before: {}\n", rayon::current_num_threads(), common::load_average());
     let mut header = false;
     let mut worst_wall: f64 = 0.0;
-    for (name, frame) in &frames {
+    for (name, film) in &frames {
         for threads in [0usize, 1] {
             let (steps, total, cpu, levels) = if threads == 1 {
-                one_thread(|| time_layout(frame, &settings, reps))
+                one_thread(|| time_layout(film, &params, reps))
             } else {
-                time_layout(frame, &settings, reps)
+                time_layout(film, &params, reps)
             };
             if !header {
                 let names: Vec<&str> = steps.iter().map(|(n, _)| n.as_str()).collect();
@@ -144,8 +146,8 @@ fn main() {
         &format!("{:.3} s", worst_wall / 1e3),
         Some(worst_wall < 500.0),
     );
-    for (name, frame) in &frames {
-        let (_, levels) = segment::layout(frame, &settings).expect("layout");
+    for (name, film) in &frames {
+        let (_, levels) = segment::layout(film, &params).expect("layout");
         let sel: Vec<String> = levels
             .levels
             .iter()
@@ -171,11 +173,11 @@ fn main() {
     );
     println!("|---|---|---|---|---|---|---|");
     let counts: &[u32] = if quick { &[500, 1667, 4000] } else { &[250, 500, 1000, 1667, 2500, 4000] };
-    for (name, frame) in &frames {
-        let mut fine = settings.clone();
+    for (name, film) in &frames {
+        let mut fine = params.clone();
         fine.superpixels = 8000;
         let t = Instant::now();
-        let (_, reference) = segment::layout(frame, &fine).expect("reference");
+        let (_, reference) = segment::layout(film, &fine).expect("reference");
         let ref_ms = t.elapsed().as_secs_f64() * 1e3;
         let agreement = |levels: &SegmentLevels| -> Vec<String> {
             levels
@@ -186,9 +188,9 @@ fn main() {
                 .collect()
         };
         for &count in counts {
-            let mut s = settings.clone();
+            let mut s = params.clone();
             s.superpixels = count;
-            let (_, total, _, levels) = time_layout(frame, &s, reps.min(3));
+            let (_, total, _, levels) = time_layout(film, &s, reps.min(3));
             let auto = if count as usize == segment::auto_superpixels(size, size, 120) { " (auto)" } else { "" };
             println!(
                 "| {name} | {count}{auto} | {} | {total:.0} | {} |",
@@ -198,7 +200,7 @@ fn main() {
         }
         let mut other = fine.clone();
         other.seed = 1;
-        let (_, reseeded) = segment::layout(frame, &other).expect("reference, seed 1");
+        let (_, reseeded) = segment::layout(film, &other).expect("reference, seed 1");
         println!(
             "| {name} | 8000, seed 1 (ceiling) | {} | {ref_ms:.0} (seed 0) | {} |",
             reseeded.superpixel_count,

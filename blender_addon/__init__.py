@@ -1,8 +1,9 @@
 """Cubist render engine for Blender: press F12 with the engine set to Cubist to paint the
 scene in the manner of Analytical Cubism with the `cubist` renderer (see docs/blender.md).
 
-The Blender-facing modules are imported in register() only, so `runner`, `mapping` and
-`presets` (no bpy) can be imported and tested in plain Python."""
+The Blender-facing modules are imported in register() only, so `runner`, `mapping`,
+`presets` and `schema` (no bpy) can be imported and tested in plain Python. The panel's
+properties are built from `renderer_schema.json` (`cubist settings --schema`) when it registers."""
 
 bl_info = {
     "name": "Cubist",
@@ -16,9 +17,9 @@ bl_info = {
 
 
 def _modules():
-    from . import engine, preferences, properties, ui
+    from . import colour, engine, preferences, properties, ui
 
-    return (preferences, properties, engine, ui)
+    return (preferences, properties, colour, engine, ui)
 
 
 def register():

@@ -1,12 +1,22 @@
 """The Cubist render engine: F12 and Render Animation export the scene, run the `cubist`
-binary (runner.py), stream its progress, and hand its picture and passes back to Blender."""
+binary (runner.py), stream its progress, and hand its picture and passes back to Blender.
 
+The render thread. In Blender's interface F12 and Render Animation call `render()` on the
+render-job thread while the interface keeps running on the main thread (TOOLCHAIN.md), so
+everything reached from `render()` reads only the depsgraph it receives and the engine's own
+API: no `bpy.ops`, no `bpy.context` (it belongs to the main thread's window), no
+`temp_override`, no `scene.frame_set`, nothing added to or removed from `bpy.data`. Another
+frame (the facet layout's) is evaluated with `RenderEngine.frame_set`, which re-evaluates this
+render's own depsgraph, as Cycles does for motion blur. Images are read with pngio."""
+
+import shutil
+import time
 import traceback
 from pathlib import Path
 
 import bpy
 
-from . import export, mapping, runner
+from . import export, mapping, pngio, runner
 from .properties import panel_values
 
 ENGINE_ID = "CUBIST"
@@ -22,12 +32,22 @@ HISTORY_LIMIT = 1000
 _job_sources: dict = {}
 # Tests simulate Blender's cancel (Esc, which test_break() reports) with a callable here.
 cancel_hook = None
+# Tests and benchmarks: a folder where each exported scene and the settings sent with it are
+# copied (frame_NNNN.glb + settings_NNNN.json, layout_NNNN.glb + layout_NNNN.json), to render
+# them with the CLI and compare. None: nothing is kept.
+keep_exports = None
+# Blender's preferences (a pointer to its global preferences, valid for the whole session),
+# taken on the main thread when the add-on registers: the render thread must not read
+# `bpy.context`.
+_preferences = None
 
 
 def addon_preferences(context=None):
-    context = context or bpy.context
+    prefs = context.preferences if context is not None else _preferences
+    if prefs is None:
+        return None
     for name in (__package__, __package__.rsplit(".", 1)[-1]):
-        addon = context.preferences.addons.get(name)
+        addon = prefs.addons.get(name)
         if addon is not None:
             return addon.preferences
     return None
@@ -82,12 +102,12 @@ class CubistRenderEngine(bpy.types.RenderEngine):
                 self.register_pass(scene, renderlayer, bname, channels, chan_id, kind)
 
     def render(self, depsgraph):
-        scene = depsgraph.scene
+        scene = depsgraph.scene_eval
         last_run.clear()
         last_run["frame"] = scene.frame_current
         try:
             self._render(depsgraph, scene)
-        except runner.Cancelled:
+        except (runner.Cancelled, export.ExportCancelled):
             last_run["cancelled"] = True
         except runner.CubistError as e:
             last_run["error"] = str(e)
@@ -105,11 +125,17 @@ class CubistRenderEngine(bpy.types.RenderEngine):
     # -----------------------------------------------------------------------------------------
 
     def _cancelled(self) -> bool:
-        return bool(self.test_break()) or (cancel_hook is not None and bool(cancel_hook()))
+        if bool(self.test_break()) or (cancel_hook is not None and bool(cancel_hook())):
+            last_run.setdefault("cancel_seen", time.monotonic())  # when (diagnostics, UI test)
+            return True
+        return False
 
     def _run(self, binary: Path, glb: Path, out: Path, settings: dict, cfg: Path, frame: int, span) -> list:
         runner.write_settings(cfg, settings)
         last_run["settings_json"] = cfg.read_text(encoding="utf-8")
+        if keep_exports is not None:
+            Path(keep_exports).mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(cfg, Path(keep_exports) / f"{cfg.stem}_{frame:04d}.json")
         tracker = runner.ProgressTracker(*span)
 
         def progress(stage, fraction):
@@ -141,13 +167,34 @@ class CubistRenderEngine(bpy.types.RenderEngine):
             raise runner.CubistError("the renderer finished without writing an image")
         return result.warnings
 
+    def _export(self, depsgraph, path: Path, frame: int, warnings: list):
+        """Writes the depsgraph's scene as it is now evaluated; returns its settings facts."""
+        stats = export.export_glb(depsgraph, path, self._cancelled, self.camera_override)
+        warnings += stats.warnings
+        last_run.setdefault("exports", []).append({"frame": frame, "seconds": stats.seconds,
+                                                   "triangles": stats.triangles, "meshes": stats.meshes,
+                                                   "instances": stats.instances})
+        if keep_exports is not None:
+            Path(keep_exports).mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(path, Path(keep_exports) / f"{path.stem}_{frame:04d}.glb")
+        return export.scene_facts(depsgraph, self.camera_override)
+
+    def _export_frame(self, depsgraph, frame: int, back_to: int, path: Path, warnings: list):
+        """Exports another frame of the scene: this render's depsgraph is evaluated there
+        (RenderEngine.frame_set, safe on the render thread) and then back at `back_to`."""
+        self.frame_set(frame, 0.0)
+        try:
+            return self._export(depsgraph, path, frame, warnings)
+        finally:
+            self.frame_set(back_to, 0.0)
+
     def _render(self, depsgraph, scene):
         props = scene.cubist
         frame = scene.frame_current
         prefs = addon_preferences()
         pref_path = bpy.path.abspath(prefs.binary_path) if prefs is not None and prefs.binary_path else ""
         binary = runner.find_binary(pref_path)
-        if scene.camera is None:
+        if export.scene_camera(depsgraph, self.camera_override) is None:
             raise runner.CubistError("the scene has no active camera")
         if not export.has_geometry(depsgraph):
             raise runner.CubistError(f"scene '{scene.name}' has nothing to render: add a mesh")
@@ -159,8 +206,8 @@ class CubistRenderEngine(bpy.types.RenderEngine):
         self.update_stats("Cubist", f"Frame {frame} | exporting")
         with runner.Workspace() as tmp:
             last_run["workspace"] = tmp
-            glb = export.export_glb(scene, view_layer, frame, tmp / "scene.glb")
-            facts = export.scene_facts(scene, frame)
+            glb = tmp / "frame.glb"
+            facts = self._export(depsgraph, glb, frame, warnings)
             settings = mapping.settings_from_panel(panel, facts)
             warnings += facts.warnings
             if self._cancelled():
@@ -172,15 +219,14 @@ class CubistRenderEngine(bpy.types.RenderEngine):
                 layout = runner.layout_path(folder, scene.name, {**settings, "seed": panel["seed"]},
                                             props.layout_frame)
             cache = Path(panel["saliency_cache"]) if panel["saliency_cache"] else folder / "saliency"
-            if props.use_saliency_cache and runner.needs_saliency(settings):
+            # The renderer uses (and creates) the cache only when it computes mesh saliency.
+            if props.use_saliency_cache:
                 settings["saliency_cache"] = str(cache)
             # A binary set in the preferences may be older than the add-on.
             settings = runner.settings_for_binary(binary, settings)
             try:
                 if layout is not None:
                     folder.mkdir(parents=True, exist_ok=True)
-                if "saliency_cache" in settings:
-                    cache.mkdir(parents=True, exist_ok=True)
             except OSError as e:
                 where = folder if layout is not None and not folder.is_dir() else cache
                 raise runner.CubistError(f"cannot create the folder {where}: {e.strerror}") from None
@@ -194,10 +240,9 @@ class CubistRenderEngine(bpy.types.RenderEngine):
                     source = runner.layout_source(glb, settings)
                     _job_sources[(scene.name, frame, str(layout))] = source
                 else:
-                    source, pre_glb, pre_settings = self._layout_frame_source(scene, view_layer, panel,
-                                                                              props.layout_frame, layout, tmp)
-                    if pre_glb is not None:
-                        scene.frame_set(frame)  # back from the layout frame
+                    source, pre_glb, pre_settings = self._layout_frame_source(depsgraph, scene, panel,
+                                                                              props.layout_frame, layout, tmp,
+                                                                              warnings)
             current = runner.layout_is_current(layout, source) if layout is not None else None
             plan = runner.plan_layout(settings, layout, frame, props.layout_frame, current)
             if layout is not None and not current:
@@ -209,8 +254,9 @@ class CubistRenderEngine(bpy.types.RenderEngine):
                 # process and machine (farm chunks) gets the same one.
                 self.update_stats("Cubist", f"Frame {frame} | facet layout from frame {plan.prepass_frame}")
                 if pre_glb is None:
-                    pre_glb = export.export_glb(scene, view_layer, plan.prepass_frame, tmp / "layout.glb")
-                    pre_settings = mapping.settings_from_panel(panel, export.scene_facts(scene, plan.prepass_frame))
+                    pre_glb = tmp / "layout.glb"
+                    pre_facts = self._export_frame(depsgraph, plan.prepass_frame, frame, pre_glb, warnings)
+                    pre_settings = mapping.settings_from_panel(panel, pre_facts)
                 pre = dict(pre_settings)
                 if "saliency_cache" in settings:
                     pre["saliency_cache"] = settings["saliency_cache"]
@@ -220,8 +266,6 @@ class CubistRenderEngine(bpy.types.RenderEngine):
                 if source is not None and layout.is_file():
                     runner.record_source(layout, source)
                 span = (0.5, 1.0)
-                # Back to the frame being rendered (its scene.glb is already written).
-                scene.frame_set(frame)
             if "facets" in plan.settings and not Path(plan.settings["facets"]).is_file():
                 warnings.append("the renderer did not save a facet layout: facets are computed for this frame")
                 del plan.settings["facets"]
@@ -240,7 +284,8 @@ class CubistRenderEngine(bpy.types.RenderEngine):
         for w in dict.fromkeys(warnings):
             self.report({"WARNING"}, f"Cubist: {w}")
 
-    def _layout_frame_source(self, scene, view_layer, panel, layout_frame: int, layout: Path, tmp: Path):
+    def _layout_frame_source(self, depsgraph, scene, panel, layout_frame: int, layout: Path, tmp: Path,
+                             warnings: list):
         """(source, exported scene, settings) of the layout frame, seen from another frame; the
         scene and settings are None when the source is known already. The layout frame is
         exported once per render job (F12, or a whole Render Animation) and its source kept:
@@ -249,8 +294,9 @@ class CubistRenderEngine(bpy.types.RenderEngine):
         if key in _job_sources:
             return _job_sources[key], None, None
         self.update_stats("Cubist", f"Frame {scene.frame_current} | checking the facet layout of frame {layout_frame}")
-        glb = export.export_glb(scene, view_layer, layout_frame, tmp / "layout.glb")
-        settings = mapping.settings_from_panel(panel, export.scene_facts(scene, layout_frame))
+        glb = tmp / "layout.glb"
+        facts = self._export_frame(depsgraph, layout_frame, scene.frame_current, glb, warnings)
+        settings = mapping.settings_from_panel(panel, facts)
         _job_sources[key] = runner.layout_source(glb, settings)
         return _job_sources[key], glb, settings
 
@@ -280,7 +326,10 @@ class CubistRenderEngine(bpy.types.RenderEngine):
                 p = layer.passes.find_by_name(bname, "") if hasattr(layer.passes, "find_by_name") else None
                 p = p or layer.passes.get(bname)
                 if p is not None:
-                    p.rect = rect
+                    if hasattr(p.rect, "foreach_set"):
+                        p.rect.foreach_set(rect.reshape(-1))  # whole array at once
+                    else:
+                        p.rect = rect
         except Exception:
             self.end_result(result, cancel=True)
             raise
@@ -301,21 +350,22 @@ def region(render, w: int, h: int) -> tuple:
 
 def _read_pass(path: Path, w: int, h: int, channels: int, integer: bool):
     """A pass PNG as a (w*h, channels) float array, rows bottom-up as Blender stores them.
-    Read as Non-Color: no colour management on data. Facet ids (16-bit) become integers."""
+    Data, not colour: the stored values, 0-1 (8-bit) or, for facet ids (16-bit), integers.
+    Read with pngio: the render thread must not add images to bpy.data."""
     import numpy as np
 
-    img = bpy.data.images.load(str(path), check_existing=False)
     try:
-        img.colorspace_settings.name = "Non-Color"
-        if tuple(img.size) != (w, h):
-            raise runner.CubistError(f"pass {path.name} is {img.size[0]}x{img.size[1]}, expected {w}x{h}")
-        px = np.empty(w * h * 4, dtype=np.float32)
-        img.pixels.foreach_get(px)
-    finally:
-        bpy.data.images.remove(img)
-    px = px.reshape(w * h, 4)[:, :channels]
-    if integer:
-        px = np.round(px * 65535.0)
+        px = pngio.read(path)
+    except (OSError, ValueError) as e:
+        raise runner.CubistError(f"cannot read the renderer's pass {path.name}: {e}") from None
+    if px.shape[:2] != (h, w):
+        raise runner.CubistError(f"pass {path.name} is {px.shape[1]}x{px.shape[0]}, expected {w}x{h}")
+    if px.shape[2] < channels:  # a grey PNG for a colour pass
+        px = np.repeat(px[..., :1], channels, axis=2)
+    scale = 65535.0 if px.dtype == np.uint16 else 255.0
+    px = px[::-1, :, :channels].reshape(w * h, channels).astype(np.float32)
+    if not integer:
+        px /= scale
     return np.ascontiguousarray(px, dtype=np.float32)
 
 
@@ -345,6 +395,8 @@ def _render_job_starts(*_args):
 
 
 def register():
+    global _preferences
+    _preferences = bpy.context.preferences
     bpy.utils.register_class(CubistRenderEngine)
     bpy.app.handlers.render_init.append(_render_job_starts)
     for panel in get_panels():

@@ -15,28 +15,35 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Mapping, Optional, Sequence
 
-from . import presets, runner
+from . import presets, runner, schema
 
 # Panel enum properties: identifier (BLUE_PERIOD) -> settings value (blue-period).
 ENUM_KEYS = presets.ENUM_KEYS
 
 # Panel properties copied to the settings key of the same name (floats as typed, see
-# runner.f32_decimal).
-PLAIN_KEYS = ("spp", "shadows", "exposure", "facet_count", "grid_cells", "patch_count", "occlusion",
-              "superpixels", "weight_colour", "weight_normal", "weight_depth", "weight_object", "weight_saliency",
-              "discontinuity", "neighborhood", "facet_fov", "border_width", "border_strength",
-              "silhouette_width", "silhouette_strength", "colors", "gradients", "chiaroscuro")
+# runner.f32_decimal): every plain value the renderer takes (booleans and numbers that are
+# never null) but those Blender decides and the seed (animated below).
+PLAIN_KEYS = tuple(
+    k for k, f in schema.SETTINGS.items()
+    if f["type"] in ("boolean", "integer", "number") and not f["nullable"] and k not in presets.BLENDER_KEYS
+    and k != "seed"
+)
+
+# The render passes' names in Blender (the compositor's sockets); the renderer's names, and
+# whether a pass is grey (one channel) or colour, come from the schema.
+BLENDER_PASS_NAMES = {"saliency": "Saliency", "facet-ids": "Facet Index", "facets": "Facets",
+                      "segments": "Segments", "objects": "Object Colors", "normals": "Cubist Normal",
+                      "depth": "Cubist Depth"}
+
+
+def _pass(toggle: str, name: str) -> tuple:
+    grey = schema.pass_format(name).startswith("grey")
+    return (toggle, name, BLENDER_PASS_NAMES[name], 1 if grey else 3, "X" if grey else "RGB",
+            "VALUE" if grey else "COLOR")
+
 
 # Render passes: panel toggle -> (renderer pass name, Blender pass name, channels, chan_id, type).
-PASSES = (
-    ("pass_saliency", "saliency", "Saliency", 1, "X", "VALUE"),
-    ("pass_facet_ids", "facet-ids", "Facet Index", 1, "X", "VALUE"),
-    ("pass_facets", "facets", "Facets", 3, "RGB", "COLOR"),
-    ("pass_segments", "segments", "Segments", 3, "RGB", "COLOR"),
-    ("pass_objects", "objects", "Object Colors", 3, "RGB", "COLOR"),
-    ("pass_normals", "normals", "Cubist Normal", 3, "RGB", "COLOR"),
-    ("pass_depth", "depth", "Cubist Depth", 1, "X", "VALUE"),
-)
+PASSES = tuple(_pass(toggle, name) for toggle, name in presets.PASS_TOGGLES.items())
 
 
 def to_gltf(v: Sequence[float]) -> list[float]:

@@ -1,4 +1,7 @@
-"""Add-on preferences: where the `cubist` binary is (found automatically when empty)."""
+"""Add-on preferences: a `cubist` binary of the user's own (used first when set), and what the
+add-on will run, or why it has nothing to run (e.g. a zip without a renderer for this platform)."""
+
+import textwrap
 
 import bpy
 
@@ -10,13 +13,28 @@ def _package():
     return __package__
 
 
+def draw_wrapped(layout, text: str, icon: str = "NONE", context=None) -> None:
+    """A long message as several labels, so a panel as narrow as the Properties editor shows
+    all of it (one label is cut off with an ellipsis)."""
+    width = 60
+    region = getattr(context, "region", None) if context is not None else None
+    if region is not None and getattr(region, "width", 0) > 0:
+        scale = getattr(getattr(context, "preferences", None), "system", None)
+        px = 7.0 * (getattr(scale, "ui_scale", 1.0) or 1.0)
+        width = max(24, int((region.width - 40) / px))
+    col = layout.column(align=True)
+    for i, line in enumerate(textwrap.wrap(text, width) or [""]):
+        col.label(text=line, icon=icon if i == 0 else "BLANK1")
+
+
 class CubistPreferences(bpy.types.AddonPreferences):
     bl_idname = _package()
 
     binary_path: bpy.props.StringProperty(
         name="Cubist Binary",
-        description="Path to the cubist executable (or its folder). Empty: found on PATH, bundled with the "
-                    "add-on, or in the project's target/release",
+        description="A cubist renderer you built (`cargo build --release`), or its folder: used first when set, "
+                    "and checked with `cubist --version`. Empty: the renderer bundled with the add-on, else "
+                    "cubist on PATH, else the project's target/release",
         subtype="FILE_PATH",
         default="",
     )
@@ -24,11 +42,17 @@ class CubistPreferences(bpy.types.AddonPreferences):
     def draw(self, context):
         layout = self.layout
         layout.prop(self, "binary_path")
+        pref = bpy.path.abspath(self.binary_path) if self.binary_path else ""
         try:
-            found = runner.find_binary(bpy.path.abspath(self.binary_path) if self.binary_path else "")
-            layout.label(text=f"Using {found}", icon="CHECKMARK")
+            source, found = runner.locate_binary(pref)
+            version = runner.binary_version(found)
+            layout.label(text=f"Using {found} ({version}, {source})", icon="CHECKMARK")
         except runner.CubistError as e:
-            layout.label(text=str(e), icon="ERROR")
+            draw_wrapped(layout, str(e), "ERROR", context)
+            return
+        missing = runner.missing_platform_binary()
+        if missing and not pref:
+            draw_wrapped(layout, f"Note: {missing}.", "INFO", context)
 
 
 classes = (CubistPreferences,)

@@ -1,11 +1,12 @@
 """Panel defaults and presets, taken from the renderer itself (no bpy).
 
 `renderer_presets.json` is what `cubist settings --preset NAME` prints for every preset of
-the bundled binary (written by `scripts/sync_addon_presets.py`; a test and the extension build
-refuse a copy that differs from the binary's). The panel's defaults are the `analytic`
-preset's values read from it, so an untouched panel sends exactly the settings `cubist render`
-uses, and applying a preset in Blender gives exactly `cubist render --preset NAME`:
-the defaults cannot drift from the renderer by hand.
+the bundled binary, and `renderer_schema.json` what `cubist settings --schema` prints (both
+written by `scripts/sync_addon_presets.py`; a test and the extension build refuse copies that
+differ from the binary's). The panel's defaults are the `analytic` preset's values, so an
+untouched panel sends exactly the settings `cubist render` uses, and applying a preset in
+Blender gives exactly `cubist render --preset NAME`; the keys, their types, the presets'
+names and descriptions come from the schema: nothing here copies the renderer by hand.
 
 `panel_from_settings` is the inverse of `mapping.settings_from_panel`: settings JSON -> the
 panel's values. Values the settings leave to the scene (null) are the panel's "automatic" 0.
@@ -17,13 +18,12 @@ import json
 from pathlib import Path
 from typing import Mapping
 
-from . import runner
+from . import runner, schema
 
 PRESETS_FILE = Path(__file__).resolve().parent / "renderer_presets.json"
 
 # Settings enum values <-> panel enum identifiers (Blender identifiers: upper case, `_`).
-ENUM_KEYS = ("preset", "camera", "framing", "faceting", "imprecision", "facet_projection", "palette",
-             "saliency_method")
+ENUM_KEYS = schema.ENUM_KEYS
 
 
 def enum_id(value: str) -> str:
@@ -45,18 +45,8 @@ def load_renderer_presets(path: Path = PRESETS_FILE) -> dict:
 
 RENDERER_PRESETS = load_renderer_presets()
 
-# Preset name -> (menu label, description). Order = menu order. A test checks these are the
-# renderer's presets (src/settings.rs `Preset`).
-PRESET_LABELS = {
-    "analytic": ("Analytic", "The paper's recommended look (the renderer's default): convergence 140 deg, "
-                 "Segment facets, discontinuity 200, bold borders, ochre palette, some gradients"),
-    "braque": ("Braque", "Braque's earthy 1909-10 canvases: olive palette, 8 colours, heavy borders, many "
-               "gradients, light manipulated facet by facet"),
-    "blue-period": ("Blue Period", "Picasso's blue period: blue palette, softer borders, strong silhouettes, "
-                    "gentler discontinuity"),
-    "grisaille": ("Grisaille", "The grey canvases of 1911: grey palette quantised to 6 tones, relit facets"),
-    "plain": ("Plain", "The bare cubist camera: no facets, no painterly effects"),
-}
+# Preset name -> (menu label, description), the renderer's presets in its order (menu order).
+PRESET_LABELS = {name: (schema.label(name), help) for name, help in schema.PRESETS.items()}
 
 # Settings keys Blender decides, not the panel: the render size, Film > Transparent, the
 # active camera and its focus, the per-frame layout files (static facets), the saliency
@@ -79,14 +69,23 @@ ADDON_DEFAULTS = {
     "saliency_cache": "",
 }
 
-# Render passes: panel toggle -> the renderer's pass name.
-PASS_TOGGLES = {"pass_saliency": "saliency", "pass_facet_ids": "facet-ids", "pass_facets": "facets",
-                "pass_segments": "segments", "pass_objects": "objects", "pass_normals": "normals",
-                "pass_depth": "depth"}
+# Render passes: panel toggle -> the renderer's pass name (`pass_facet_ids` for `facet-ids`).
+PASS_TOGGLES = {"pass_" + name.replace("-", "_"): name for name, _help in schema.choices("passes")}
 
-# The convergence angle the renderer uses when `ambiguity` is null (Settings::angle_deg).
-DEFAULT_ANGLE = {"perspective": 60.0}
-DEFAULT_CUBIST_ANGLE = 140.0
+# Panel properties with no settings key of their own, placed after the settings key whose
+# panel they belong to (the order of the panel's values, and of saved preset files).
+ADDON_AFTER = {
+    "animate_seed": "seed",
+    "use_camera_lens": "ambiguity",
+    "use_camera_focus": "framing",
+    "use_world_background": "exposure",
+    "static_facets": "weight_saliency",
+    "layout_folder": "weight_saliency",
+    "layout_frame": "weight_saliency",
+    "layout_file": "weight_saliency",
+    "use_saliency_cache": "saliency_method",
+    "saliency_cache": "saliency_method",
+}
 
 
 def format_number_list(values) -> str:
@@ -100,56 +99,58 @@ def format_number_list(values) -> str:
 
 
 def panel_from_settings(settings: Mapping[str, object]) -> dict:
-    """The panel's values for a settings object (every key of `cubist settings`). Raises
-    CubistError on a key the add-on does not know, so a new renderer setting cannot be
-    silently missing from the panel."""
+    """The panel's values for a settings object (every key of `cubist settings`), by each
+    key's type in the schema. Raises CubistError on a key the add-on does not know, so a new
+    renderer setting cannot be silently missing from the panel."""
     s = dict(settings)
-    unknown = sorted(set(s) - runner.SETTINGS_KEYS)
+    unknown = sorted(set(s) - schema.SETTINGS_KEYS)
     if unknown:
         raise runner.CubistError(f"settings the add-on does not know: {', '.join(unknown)}")
-    missing = sorted(runner.SETTINGS_KEYS - set(s))
+    missing = sorted(schema.SETTINGS_KEYS - set(s))
     if missing:
         raise runner.CubistError(f"settings missing: {', '.join(missing)}")
     p: dict = {}
-    for k in ENUM_KEYS:
-        p[k] = enum_id(str(s[k]))
-    for k in ("spp", "seed", "facet_count", "grid_cells", "patch_count", "superpixels", "colors"):
-        p[k] = int(s[k])
-    for k in ("occlusion", "weight_colour", "weight_normal", "weight_depth", "weight_object", "weight_saliency",
-              "discontinuity", "neighborhood", "facet_fov", "border_width", "border_strength", "silhouette_width",
-              "silhouette_strength", "gradients", "chiaroscuro", "exposure"):
-        p[k] = float(s[k])
-    p["shadows"] = bool(s["shadows"])
-    a = s["ambiguity"]
-    p["ambiguity"] = float(a) if a is not None else DEFAULT_ANGLE.get(str(s["camera"]), DEFAULT_CUBIST_ANGLE)
-    # null = automatic, shown as 0 (out of the settings' valid range, so unambiguous).
-    p["camera_size"] = float(s["camera_size"] or 0.0)
-    p["fill"] = float(s["fill"] or 0.0)
-    p["background"] = tuple(float(c) for c in s["background"])
-    p["segments"] = format_number_list(s["segments"])
-    p["thresholds"] = format_number_list([float(t) for t in s["thresholds"]])
-    p["facet_map"] = str(s["facet_map"] or "")
-    p["palette_image"] = str(s["palette_image"] or "")
-    passes = list(s["passes"])
-    for toggle, name in PASS_TOGGLES.items():
-        p[toggle] = name in passes
+    for key, field in schema.SETTINGS.items():
+        if key in BLENDER_KEYS:
+            continue
+        v, kind, items = s[key], field["type"], field.get("items")
+        if kind == "enum":
+            p[key] = enum_id(str(v))
+        elif kind == "boolean":
+            p[key] = bool(v)
+        elif kind == "integer":
+            p[key] = int(v)
+        elif kind == "number" and v is None:
+            # null = chosen by the renderer: its value where the schema states one (the
+            # convergence angle), else the panel's "automatic" 0 (out of the settings' range).
+            auto = schema.automatic(key, str(s.get("camera")))
+            p[key] = float(auto) if auto is not None else 0.0
+        elif kind == "number":
+            p[key] = float(v)
+        elif kind == "path":
+            p[key] = str(v or "")
+        elif kind == "array" and items == "enum":
+            for toggle, name in PASS_TOGGLES.items():
+                p[toggle] = name in list(v)
+        elif kind == "array" and field.get("length"):
+            p[key] = tuple(float(c) for c in v)
+        elif kind == "array":
+            p[key] = format_number_list([int(x) if items == "integer" else float(x) for x in v])
+        else:
+            raise runner.CubistError(f"setting {key}: type {kind} is not one the add-on reads")
     return p
 
 
 def _ordered_defaults() -> dict:
-    """Every panel property's default, in the panel's order (the preset files' order too)."""
+    """Every panel property's default, in the renderer's order of its settings keys, each
+    add-on property after the key it belongs with (the preset files' order too)."""
     base = panel_from_settings(RENDERER_PRESETS["analytic"])
-    order = ("preset", "spp", "seed", "animate_seed",
-             "camera", "ambiguity", "use_camera_lens", "framing", "use_camera_focus", "camera_size", "fill",
-             "shadows", "exposure", "use_world_background", "background",
-             "faceting", "facet_map", "facet_count", "grid_cells", "patch_count", "occlusion", "segments",
-             "thresholds", "superpixels", "weight_colour", "weight_normal", "weight_depth", "weight_object",
-             "weight_saliency", "static_facets", "layout_folder", "layout_frame", "layout_file",
-             "imprecision", "discontinuity", "neighborhood", "facet_projection", "facet_fov",
-             "saliency_method", "use_saliency_cache", "saliency_cache",
-             "border_width", "border_strength", "silhouette_width", "silhouette_strength", "palette",
-             "palette_image", "colors", "gradients", "chiaroscuro") + tuple(PASS_TOGGLES)
     values = {**base, **ADDON_DEFAULTS}
+    assert set(ADDON_AFTER) == set(ADDON_DEFAULTS), sorted(set(ADDON_AFTER) ^ set(ADDON_DEFAULTS))
+    order = []
+    for key in base:
+        order.append(key)
+        order.extend(k for k, after in ADDON_AFTER.items() if after == key)
     assert set(order) == set(values), sorted(set(order) ^ set(values))
     return {k: values[k] for k in order}
 
@@ -167,8 +168,10 @@ LOOK_KEYS = tuple(k for k in DEFAULTS if k not in NOT_IN_PRESETS)
 
 # Variations on a renderer preset: the thesis's other methods. (base preset, panel values.)
 VARIANTS = {
-    "Voronoi Facets": ("analytic", {"faceting": "VORONOI", "facet_count": 150, "grid_cells": 15}),
-    "Patch Facets": ("analytic", {"faceting": "PATCH", "patch_count": 80, "occlusion": 3.0}),
+    "Voronoi Facets": ("analytic", {"faceting": "VORONOI", "facet_count": schema.default("facet_count"),
+                                    "grid_cells": schema.default("grid_cells")}),
+    "Patch Facets": ("analytic", {"faceting": "PATCH", "patch_count": schema.default("patch_count"),
+                                  "occlusion": float(schema.default("occlusion"))}),
     "Random Imprecision (study baseline)": ("analytic", {"imprecision": "RANDOM"}),
     "Linear Facets": ("analytic", {"facet_projection": "LINEAR", "facet_fov": 0.0}),
 }

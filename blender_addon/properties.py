@@ -1,15 +1,40 @@
-"""The Cubist settings of a scene (`scene.cubist`): one property per renderer setting, with
-units and the thesis's recommended values in the tooltips. Defaults come from presets.DEFAULTS
-(the renderer's own `analytic` values, read from renderer_presets.json);
-mapping.settings_from_panel turns the properties into the settings JSON."""
+"""The Cubist settings of a scene (`scene.cubist`): one property per renderer setting, built
+when the add-on registers from what the renderer says of its settings (schema.py,
+`cubist settings --schema`): type, default, range, choices and tooltip. This module adds only
+what is Blender's business: the properties that map Blender's scene onto settings (camera
+lens and focus, world colour, layouts across frames, the saliency cache folder), labels,
+slider ranges and display units. mapping.settings_from_panel turns the properties into the
+settings JSON."""
 
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, FloatVectorProperty, IntProperty, StringProperty
 
-from . import presets
+from . import presets, schema
 from .presets import DEFAULTS
 
 D = DEFAULTS
+
+# Labels where the key's words are not the panel's.
+LABELS = {
+    "spp": "Samples", "facet_count": "Facets", "patch_count": "Patches", "weight_colour": "Colour",
+    "weight_normal": "Normal", "weight_depth": "Depth", "weight_object": "Object", "weight_saliency": "Saliency",
+    "neighborhood": "Neighbourhood", "facet_projection": "Facet Rays", "facet_fov": "Facet FOV", "colors": "Colours",
+    "pass_facet_ids": "Facet Index",
+}
+# Slider ranges (the renderer's hard limits are the properties' min and max).
+SOFT = {
+    "spp": (None, 64), "ambiguity": (60.0, None), "exposure": (None, 4.0), "facet_count": (None, 2000),
+    "grid_cells": (None, 400), "patch_count": (None, 1000), "occlusion": (None, 10.0), "superpixels": (None, 5000),
+    "weight_colour": (None, 4.0), "weight_normal": (None, 4.0), "weight_depth": (None, 4.0),
+    "weight_saliency": (None, 4.0), "discontinuity": (None, 400.0), "neighborhood": (None, 200.0),
+    "border_width": (None, 50.0), "silhouette_width": (None, 50.0), "colors": (None, 64),
+    "stroke_length": (2.0, 80.0), "stroke_width": (1.0, 30.0),
+    "background": (None, 1.0),
+}
+# An open bound (the renderer refuses the bound itself) is kept this far inside it.
+OPEN_BOUND_STEP = 0.01
+# Blender's integer properties are 32-bit.
+INT_MAX = 2**31 - 1
 
 
 def _update_passes(self, context):
@@ -36,220 +61,141 @@ def _update_preset(self, context):
             setattr(self, k, v)
 
 
-class CubistSettings(bpy.types.PropertyGroup):
-    preset: EnumProperty(
-        name="Preset",
-        description="The renderer's preset (`cubist render --preset`). Choosing one sets the camera, facets, "
-                    "imprecision and painterly values to the preset's; sampling, passes and files stay",
-        items=[(presets.enum_id(name), label, desc) for name, (label, desc) in presets.PRESET_LABELS.items()],
-        default=D["preset"], update=_update_preset)
+def _label(key: str) -> str:
+    return LABELS.get(key) or schema.label(key.removeprefix("pass_"))
 
-    # ---- Sampling
-    spp: IntProperty(name="Samples", description="Samples per pixel, stratified and seeded. 1 for previews, "
-                     "4 (default) for finals, 16 for very clean facet edges", default=D["spp"], min=1,
-                     soft_max=64, max=4096)
-    seed: IntProperty(name="Seed", description="Seed of every random choice (sampling, facets, gradients): "
-                      "same seed, same picture on any machine", default=D["seed"], min=0)
-    animate_seed: BoolProperty(name="Animated Seed", description="Add the frame number to the seed. Off "
-                               "(recommended for animation): what does not move stays identical between frames",
-                               default=D["animate_seed"])
 
-    # ---- Camera
-    camera: EnumProperty(
-        name="Camera",
-        description="The camera model (thesis 4.2). The Blender camera gives position and direction",
-        items=[("AUTO", "Auto", "Spherical, or cylindrical for tall scenes (height >= 1.6 x width)"),
-               ("SPHERICAL", "Spherical", "Rays start on a sphere and converge on the focal centre (eq 4.2); "
-                "the paper's preferred camera"),
-               ("CYLINDRICAL", "Cylindrical", "Rays converge on a vertical focal line: standing figures"),
-               ("PLANAR", "Planar", "Rays start on a plane and converge on a focal point (eq 4.1)"),
-               ("PERSPECTIVE", "Perspective", "An ordinary pinhole camera (baseline)"),
-               ("ORTHOGRAPHIC", "Orthographic", "Parallel rays (baseline)")],
-        default=D["camera"])
-    ambiguity: FloatProperty(
-        name="Ambiguity", description="Convergence angle of the cubist camera, degrees: how far around the "
-        "object one picture sees. The paper recommends 120-150 (default 140); 360 surrounds the object. "
-        "Planar: below 180", default=D["ambiguity"], min=0.0, max=360.0, soft_min=60.0, precision=1)
-    use_camera_lens: BoolProperty(
-        name="Use Camera Lens", description="Perspective: the Blender camera's field of view instead of "
-        "Ambiguity. Orthographic: its Orthographic Scale", default=D["use_camera_lens"])
-    framing: EnumProperty(
-        name="Framing", description="Where the focal centre goes when the camera gives no focus",
-        items=[("FIT", "Fit", "Behind the scene's centre, so the whole scene fits the convergence angle"),
-               ("CENTRE", "Centre", "At the centre of the scene's bounding box (the thesis's literal choice)")],
-        default=D["framing"])
-    use_camera_focus: BoolProperty(
-        name="Use Camera Focus", description="The focal centre is the camera's depth-of-field focus: its Focus "
-        "Object, else its Focus Distance when Depth of Field is enabled. Off, or neither set: Framing decides",
-        default=D["use_camera_focus"])
-    camera_size: FloatProperty(
-        name="Camera Size", description="Planar camera plane height / orthographic view height / cylindrical "
-        "band height, scene units. 0 = fit the scene", default=D["camera_size"], min=0.0, unit="LENGTH")
-    fill: FloatProperty(
-        name="Fill", description="Fraction of the view the scene fills when the focal centre is placed by Fit "
-        "framing: of the convergence half-angles for cubist cameras, of the smaller image side otherwise. "
-        "0 = automatic (0.8 for cubist cameras, 0.9 for the others)", default=D["fill"], min=0.0, max=1.0,
-        subtype="FACTOR")
+def _tooltip(field: dict) -> str:
+    text = field["help"]
+    if field["nullable"] and field["type"] == "number" and field.get("null_means") and not field.get("automatic"):
+        text += f". 0 = automatic ({field['null_means']})"
+    return text
 
-    # ---- Shading
-    shadows: BoolProperty(name="Shadows", description="Cast one shadow ray per light per hit",
-                          default=D["shadows"])
-    exposure: FloatProperty(name="Exposure", description="Multiplier on the lights, after the automatic "
-                            "exposure that makes any light units work. 1 = as exposed", default=D["exposure"],
-                            min=0.0, soft_max=4.0)
-    use_world_background: BoolProperty(
-        name="World Background", description="The World's colour (its Background node, times strength) as the "
-        "background; off: the colour below", default=D["use_world_background"])
-    background: FloatVectorProperty(
-        name="Background", description="Background colour, linear RGB (default: a warm canvas)",
-        subtype="COLOR", size=3, min=0.0, soft_max=1.0, default=D["background"])
 
-    # ---- Facets
-    faceting: EnumProperty(
-        name="Faceting", description="How the image is split into facets (thesis 4.3.1)",
-        items=[("NONE", "None", "One facet: the unfaceted cubist view"),
-               ("CONSTANT", "Constant", "A facet map image, each distinct colour a facet"),
-               ("VORONOI", "Voronoi", "Nearest of k stratified random points"),
-               ("PATCH", "Patch", "Random quadrilaterals painted until every pixel is covered"),
-               ("SEGMENT", "Segment", "Normalized-cut segments of the pre-render selected by saliency "
-                "(the paper's preferred method)")],
-        default=D["faceting"])
-    facet_map: StringProperty(name="Facet Map", description="Constant faceting: an image whose distinct colours "
-                              "are the facets, scaled to the output", subtype="FILE_PATH", default=D["facet_map"])
-    facet_count: IntProperty(name="Facets", description="Voronoi: number of facets k (paper: 150)",
-                             default=D["facet_count"], min=1, soft_max=2000)
-    grid_cells: IntProperty(name="Grid Cells", description="Voronoi: grid cells m the k points are stratified "
-                            "over (paper: 15)", default=D["grid_cells"], min=1, soft_max=400)
-    patch_count: IntProperty(name="Patches", description="Patch: number of quadrilaterals n_p of eq 4.3 "
-                             "(paper: 80; more are added until every pixel is covered)",
-                             default=D["patch_count"], min=1, soft_max=1000)
-    occlusion: FloatProperty(name="Occlusion", description="Patch: occlusion ratio r_occ of eq 4.3 (paper: 3); "
-                             "larger = larger, more overlapping patches", default=D["occlusion"], min=0.01,
-                             soft_max=10.0)
-    segments: StringProperty(name="Segments", description="Segment: segments per level, comma-separated "
-                             "(paper: 5, 30, 120)", default=D["segments"])
-    thresholds: StringProperty(name="Thresholds", description="Segment: mean-saliency threshold per level, 0-1, "
-                               "one per level (paper: 0, 0.05, 0.08)", default=D["thresholds"])
-    superpixels: IntProperty(name="Superpixels", description="Segment: superpixels the normalized cut groups "
-                             "into segments; 0 = automatic (from the image size and the finest level)",
-                             default=D["superpixels"], min=0, max=1000000, soft_max=5000)
-    weight_colour: FloatProperty(name="Colour", description="Segment: weight of colour (CIELAB) differences "
-                                 "in the affinity between superpixels", default=D["weight_colour"], min=0.0,
-                                 soft_max=4.0)
-    weight_normal: FloatProperty(name="Normal", description="Segment: weight of surface normal differences",
-                                 default=D["weight_normal"], min=0.0, soft_max=4.0)
-    weight_depth: FloatProperty(name="Depth", description="Segment: weight of relative depth differences",
-                                default=D["weight_depth"], min=0.0, soft_max=4.0)
-    weight_object: FloatProperty(name="Object", description="Segment: how far object boundaries cut the "
-                                 "affinity, 0-1; 1 = segments never cross an object boundary (a level may then "
-                                 "get more segments than asked)", default=D["weight_object"], min=0.0, max=1.0,
-                                 subtype="FACTOR")
-    weight_saliency: FloatProperty(name="Saliency", description="Segment: weight of saliency differences",
-                                   default=D["weight_saliency"], min=0.0, soft_max=4.0)
-    static_facets: BoolProperty(
-        name="Static Facets", description="Compute the facet layout once, on the Layout Frame, save it in the "
-        "layout folder and reuse it for every frame: camera and objects move, facets stay (thesis Ch. 6). "
-        "A Segment layout is computed again when what the Layout Frame shows changes. Frame chunks rendered "
-        "by separate processes or farm machines then match one run. Off: a new layout for every render",
-        default=D["static_facets"])
-    layout_frame: IntProperty(
-        name="Layout Frame", description="The frame whose view computes the static facet layout. Every frame, "
-        "and every farm chunk whatever its frame range, reuses this frame's layout", default=D["layout_frame"])
-    layout_folder: StringProperty(
-        name="Layout Folder", description="Where the facet layout and the saliency cache are kept. Empty: a "
-        "'cubist' folder beside the .blend (share it with the render farm)", subtype="DIR_PATH",
-        default=D["layout_folder"])
-    layout_file: StringProperty(
-        name="Layout File", description="Load this facet layout (.json or .png, e.g. saved by `cubist render "
-        "--save-facets` or `cubist facets`) for every frame instead of computing one. Empty: computed "
-        "(once, with Static Facets)", subtype="FILE_PATH", default=D["layout_file"])
+def _bounds(field: dict, kind: str) -> dict:
+    """min/max (and soft limits) of a numeric property from the schema's range."""
+    out: dict = {}
+    key = field["key"]
+    if "min" in field:
+        lo = field["min"]
+        # A nullable number's 0 is the panel's "automatic" (sent as null).
+        if field["min_exclusive"] and not field["nullable"]:
+            lo = lo + (1 if kind == "int" else OPEN_BOUND_STEP)
+        out["min"] = lo
+        hi = field.get("max")
+        if hi is not None:
+            if field["max_exclusive"]:
+                hi = hi - (1 if kind == "int" else OPEN_BOUND_STEP)
+            out["max"] = hi
+    if kind == "int":
+        out = {k: max(-INT_MAX, min(INT_MAX, int(v))) for k, v in out.items()}
+    soft_lo, soft_hi = SOFT.get(key, (None, None))
+    if soft_lo is not None:
+        out["soft_min"] = soft_lo
+    if soft_hi is not None:
+        out["soft_max"] = soft_hi
+    return out
 
-    # ---- Spatial imprecision
-    imprecision: EnumProperty(
-        name="Imprecision", description="How each facet's view is re-aimed (thesis 4.3.2)",
-        items=[("SALIENCY", "Saliency", "Towards the facet's saliency centre (eq 4.5; the paper's method)"),
-               ("RANDOM", "Random", "Towards a random point within the discontinuity radius (user study "
-                "baseline)"),
-               ("NONE", "None", "Not re-aimed")],
-        default=D["imprecision"])
-    discontinuity: FloatProperty(
-        name="Discontinuity", description="Largest shift from a facet's centre to its saliency centre, pixels at "
-        "1000 px (scaled with the image). The paper recommends 50-200; 0 = facets not re-aimed",
-        default=D["discontinuity"], min=0.0, soft_max=400.0)
-    neighborhood: FloatProperty(
-        name="Neighbourhood", description="Pixels outside a facet that still count for its saliency centre, "
-        "pixels at 1000 px (paper: 0)", default=D["neighborhood"], min=0.0, soft_max=200.0)
-    facet_projection: EnumProperty(
-        name="Facet Rays", description="The rays of a re-aimed facet",
-        items=[("CONVERGING", "Converging", "Keep converging on the facet's new focal point (discontinuity 0 = "
-                "the unfaceted view)"),
-               ("LINEAR", "Linear", "Size-keeping linear facets of eq 4.6, less warped (thesis 5.3)")],
-        default=D["facet_projection"])
-    facet_fov: FloatProperty(name="Facet FOV", description="Linear facets: field of view, degrees (eq 4.7); "
-                             "0 = orthographic facets (paper's default)", default=D["facet_fov"], min=0.0,
-                             max=179.0)
 
-    # ---- Mesh saliency
-    saliency_method: EnumProperty(
-        name="Saliency Method", description="How mesh saliency's Gaussian means are evaluated",
-        items=[("AUTO", "Auto", "Exact while the sums stay affordable (a few seconds), clustered above"),
-               ("EXACT", "Exact", "The definition's exact sums, whatever the mesh's size"),
-               ("CLUSTERED", "Clustered", "Clustered sums: fast on huge meshes, approximate")],
-        default=D["saliency_method"])
-    use_saliency_cache: BoolProperty(
-        name="Saliency Cache", description="Keep each mesh's saliency on disk, keyed by its content: frames and "
-        "farm machines compute a mesh's saliency once (the picture is the same either way)",
-        default=D["use_saliency_cache"])
-    saliency_cache: StringProperty(
-        name="Cache Folder", description="Where the saliency cache is kept. Empty: 'saliency' in the Layout "
-        "Folder", subtype="DIR_PATH", default=D["saliency_cache"])
+def _setting_property(key: str):
+    """The property of settings key `key`, from its schema entry and the panel's default."""
+    f = schema.SETTINGS[key]
+    kind, common = f["type"], {"name": _label(key), "description": _tooltip(f), "default": D[key]}
+    if key == "preset":
+        items = [(presets.enum_id(name), label, desc) for name, (label, desc) in presets.PRESET_LABELS.items()]
+        return EnumProperty(items=items, update=_update_preset, **common)
+    if kind == "enum":
+        items = [(presets.enum_id(v), schema.label(v), h) for v, h in schema.choices(key)]
+        return EnumProperty(items=items, **common)
+    if kind == "boolean":
+        return BoolProperty(**common)
+    if kind == "integer":
+        return IntProperty(**common, **_bounds(f, "int"))
+    if kind == "number":
+        extra = _bounds(f, "float")
+        if f["unit"] == "scene units":
+            extra["unit"] = "LENGTH"
+        if extra.get("min") == 0.0 and extra.get("max") == 1.0:
+            extra["subtype"] = "FACTOR"
+        if f["unit"] == "deg":
+            extra["precision"] = 1
+        return FloatProperty(**common, **extra)
+    if kind == "path":
+        return StringProperty(subtype="FILE_PATH", **common)
+    if kind == "array" and f.get("length") == 3:
+        return FloatVectorProperty(subtype="COLOR", size=3, **common, **_bounds(f, "float"))
+    if kind == "array":
+        # Lists are typed as text, "5, 30, 120" (mapping parses them).
+        return StringProperty(**common)
+    raise TypeError(f"setting {key}: type {kind} has no panel property")
 
-    # ---- Painterly
-    border_width: FloatProperty(
-        name="Border Width", description="Facet border darkening distance md of eq 4.8, pixels at 1000 px; 0 = off",
-        default=D["border_width"], min=0.0, soft_max=50.0)
-    border_strength: FloatProperty(name="Border Strength", description="0 = no darkening, 1 = eq 4.8 as "
-                                   "printed", default=D["border_strength"], min=0.0, max=1.0, subtype="FACTOR")
-    silhouette_width: FloatProperty(
-        name="Silhouette Width", description="Darkening of the background near objects, pixels at 1000 px; 0 = off",
-        default=D["silhouette_width"], min=0.0, soft_max=50.0)
-    silhouette_strength: FloatProperty(name="Silhouette Strength", description="0 = none, 1 = full",
-                                       default=D["silhouette_strength"], min=0.0, max=1.0, subtype="FACTOR")
-    palette: EnumProperty(
-        name="Palette", description="A built-in palette mapped onto the picture's luminance (colour transfer, "
-        "thesis 4.4)",
-        items=[("NONE", "None", "Keep the rendered colours"),
-               ("OCHRE", "Ochre", "Browns and ochres of Braque and Picasso, 1910"),
-               ("GREY", "Grey", "Grisaille, 1911: warm blacks, brownish and cool greys"),
-               ("BLUE_PERIOD", "Blue Period", "Picasso's blue period: Prussian blue to pale blue-grey"),
-               ("OLIVE", "Olive", "Braque, 1908-09: olive and earth greens to pale ochre")],
-        default=D["palette"])
-    palette_image: StringProperty(name="Palette Image", description="A painting whose colours are mapped onto "
-                                  "the luminance (overrides Palette)", subtype="FILE_PATH",
-                                  default=D["palette_image"])
-    colors: IntProperty(name="Colours", description="Quantise to this many colours; 0 = off, else 2-4096",
-                        default=D["colors"], min=0, max=4096, soft_max=64)
-    gradients: FloatProperty(name="Gradients", description="Fraction of facets that get a gradient overlay on "
-                             "a corner, 0-1", default=D["gradients"], min=0.0, max=1.0, subtype="FACTOR")
-    chiaroscuro: FloatProperty(name="Chiaroscuro", description="Per-facet variation of light direction and "
-                               "intensity, 0-1; 0 = off", default=D["chiaroscuro"], min=0.0, max=1.0,
-                               subtype="FACTOR")
 
-    # ---- Passes
-    pass_saliency: BoolProperty(name="Saliency", description="Per-pixel mesh saliency, 0-1 (pass 'Saliency')",
-                                default=False, update=_update_passes)
-    pass_facet_ids: BoolProperty(name="Facet Index", description="Facet id of each pixel, an integer (pass "
-                                 "'Facet Index', for ID masks in the compositor)", default=False, update=_update_passes)
-    pass_facets: BoolProperty(name="Facets", description="Facets as colours with facet and saliency centres "
-                              "marked (pass 'Facets')", default=False, update=_update_passes)
-    pass_segments: BoolProperty(name="Segments", description="Segment faceting's final layout as colours (pass "
-                                "'Segments')", default=False, update=_update_passes)
-    pass_objects: BoolProperty(name="Objects", description="Object ids as colours (pass 'Object Colors')",
-                               default=False, update=_update_passes)
-    pass_normals: BoolProperty(name="Normals", description="Shading normals as colours (pass 'Cubist Normal')",
-                               default=False, update=_update_passes)
-    pass_depth: BoolProperty(name="Depth", description="Hit distance, near = white (pass 'Cubist Depth')",
-                             default=False, update=_update_passes)
+def _addon_properties() -> dict:
+    """Properties of the add-on's own: how Blender's scene maps onto settings."""
+    return {
+        "animate_seed": BoolProperty(
+            name="Animated Seed", description="Add the frame number to the seed. Off (recommended for animation): "
+            "what does not move stays identical between frames", default=D["animate_seed"]),
+        "use_camera_lens": BoolProperty(
+            name="Use Camera Lens", description="Perspective: the Blender camera's field of view instead of "
+            "Ambiguity. Orthographic: its Orthographic Scale", default=D["use_camera_lens"]),
+        "use_camera_focus": BoolProperty(
+            name="Use Camera Focus", description="The focal centre is the camera's depth-of-field focus: its "
+            "Focus Object, else its Focus Distance when Depth of Field is enabled. Off, or neither set: Framing "
+            "decides", default=D["use_camera_focus"]),
+        "use_world_background": BoolProperty(
+            name="World Background", description="The World's colour (its Background node, times strength) as "
+            "the background; off: the colour below", default=D["use_world_background"]),
+        "static_facets": BoolProperty(
+            name="Static Facets", description="Compute the facet layout once, on the Layout Frame, save it in the "
+            "layout folder and reuse it for every frame: camera and objects move, facets stay (thesis Ch. 6). "
+            "A Segment layout is computed again when what the Layout Frame shows changes. Frame chunks rendered "
+            "by separate processes or farm machines then match one run. Off: a new layout for every render",
+            default=D["static_facets"]),
+        "layout_frame": IntProperty(
+            name="Layout Frame", description="The frame whose view computes the static facet layout. Every frame, "
+            "and every farm chunk whatever its frame range, reuses this frame's layout", default=D["layout_frame"]),
+        "layout_folder": StringProperty(
+            name="Layout Folder", description="Where the facet layout and the saliency cache are kept. Empty: a "
+            "'cubist' folder beside the .blend (share it with the render farm)", subtype="DIR_PATH",
+            default=D["layout_folder"]),
+        "layout_file": StringProperty(
+            name="Layout File", description="Load this facet layout (.json or .png, e.g. saved by `cubist render "
+            "--save-facets` or `cubist facets`) for every frame instead of computing one. Empty: computed "
+            "(once, with Static Facets)", subtype="FILE_PATH", default=D["layout_file"]),
+        "use_saliency_cache": BoolProperty(
+            name="Saliency Cache", description="Keep each mesh's saliency on disk, keyed by its content: frames and "
+            "farm machines compute a mesh's saliency once (the picture is the same either way)",
+            default=D["use_saliency_cache"]),
+        "saliency_cache": StringProperty(
+            name="Cache Folder", description="Where the saliency cache is kept. Empty: 'saliency' in the Layout "
+            "Folder", subtype="DIR_PATH", default=D["saliency_cache"]),
+    }
+
+
+def _pass_properties() -> dict:
+    """One toggle per render pass the renderer offers."""
+    out = {}
+    for toggle, name in presets.PASS_TOGGLES.items():
+        help_ = dict(schema.choices("passes"))[name]
+        out[toggle] = BoolProperty(name=_label(toggle), description=f"{help_} (pass '{name}')", default=D[toggle],
+                                   update=_update_passes)
+    return out
+
+
+def settings_class():
+    """The PropertyGroup of every panel value, in the panel's order (presets.DEFAULTS)."""
+    addon, passes = _addon_properties(), _pass_properties()
+    annotations = {}
+    for key in DEFAULTS:
+        if key in addon:
+            annotations[key] = addon[key]
+        elif key in passes:
+            annotations[key] = passes[key]
+        else:
+            annotations[key] = _setting_property(key)
+    namespace = {"__annotations__": annotations, "__module__": __name__, "__doc__": "The Cubist settings of a scene"}
+    return type("CubistSettings", (bpy.types.PropertyGroup,), namespace)
 
 
 PANEL_KEYS = tuple(DEFAULTS)
@@ -266,13 +212,15 @@ def panel_values(props) -> dict:
     return out
 
 
-classes = (CubistSettings,)
+classes: tuple = ()
 
 
 def register():
+    global classes
+    classes = (settings_class(),)
     for c in classes:
         bpy.utils.register_class(c)
-    bpy.types.Scene.cubist = bpy.props.PointerProperty(type=CubistSettings, name="Cubist")
+    bpy.types.Scene.cubist = bpy.props.PointerProperty(type=classes[0], name="Cubist")
 
 
 def unregister():

@@ -6,7 +6,7 @@ layout)."""
 import bpy
 from bl_operators.presets import AddPresetBase
 
-from . import engine, presets, runner
+from . import colour, engine, preferences, presets, runner
 from .properties import apply_look
 
 PRESET_SUBDIR = "cubist"
@@ -109,12 +109,13 @@ class CUBIST_PT_render(CubistPanel, bpy.types.Panel):
         layout = self.layout
         layout.use_property_split = True
         layout.prop(context.scene.cubist, "preset")
+        colour.draw_notice(layout, context.scene)
         prefs = engine.addon_preferences(context)
         try:
             pref = bpy.path.abspath(prefs.binary_path) if prefs is not None and prefs.binary_path else ""
             runner.find_binary(pref)
         except runner.CubistError as e:
-            layout.label(text=str(e), icon="ERROR")
+            preferences.draw_wrapped(layout, str(e), "ERROR", context)
         err = engine.last_run.get("error")
         if err:
             layout.label(text=f"Last render: {err}", icon="ERROR")
@@ -232,6 +233,7 @@ class CUBIST_PT_painterly(CubistPanel, bpy.types.Panel):
         layout = self.layout
         layout.use_property_split = True
         col = layout.column(align=True)
+        col.prop(c, "border_style")
         col.prop(c, "border_width")
         col.prop(c, "border_strength")
         col = layout.column(align=True)
@@ -241,7 +243,13 @@ class CUBIST_PT_painterly(CubistPanel, bpy.types.Panel):
         layout.prop(c, "palette_image")
         layout.prop(c, "colors")
         layout.prop(c, "gradients")
+        layout.prop(c, "plane_light")
         layout.prop(c, "chiaroscuro")
+        col = layout.column(align=True)
+        col.prop(c, "brushwork")
+        col.prop(c, "stroke_length")
+        col.prop(c, "stroke_width")
+        layout.prop(c, "canvas_grain")
 
 
 class CUBIST_PT_sampling(CubistPanel, bpy.types.Panel):
@@ -287,7 +295,8 @@ class CUBIST_PT_output(CubistPanel, bpy.types.Panel):
         row.prop(c, "background")
         layout.prop(c, "shadows")
         layout.prop(c, "exposure")
-        # The scene is exported from the render thread: a locked interface keeps edits out of it.
+        # The render thread reads the scene Blender evaluated for the render; Lock Interface
+        # also keeps the interface from editing the scene while a frame renders.
         layout.prop(context.scene.render, "use_lock_interface")
 
 

@@ -108,6 +108,12 @@ tmp=BENCHMARKS.md.tmp
     echo "## Issue 6: painterly effects (\`benches/paint.rs\`)"
     echo
     body paint
+    # Kept from the current file: sections written by other scripts (issue 12's table comes
+    # from scripts/bench_addon_export.py --write, which needs headless Blender).
+    if grep -q '^## Issue 12: ' BENCHMARKS.md 2>/dev/null; then
+        echo
+        sed -n '/^## Issue 12: /,$p' BENCHMARKS.md
+    fi
 } >"$tmp"
 mv "$tmp" BENCHMARKS.md
 echo "wrote BENCHMARKS.md ($seconds s)" >&2

@@ -3,14 +3,9 @@
 
 use serde::Serialize;
 
-use crate::camera::{Framed, frame_camera};
-use crate::error::Result;
-use crate::frame::Frame;
-use crate::pipeline::Prepared;
-use crate::progress::Progress;
-use crate::render::Tracer;
+use crate::camera::{CameraKind, Framed};
+use crate::film::Film;
 use crate::scene::World;
-use crate::settings::{CameraKind, Settings};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 pub struct VisibleFaces {
@@ -27,10 +22,10 @@ impl VisibleFaces {
 }
 
 /// Counts the distinct triangles among every sample of a traced frame.
-pub fn count_visible(frame: &Frame, total: usize) -> VisibleFaces {
+pub fn count_visible(film: &Film, total: usize) -> VisibleFaces {
     let mut seen = vec![false; total];
     let mut visible = 0;
-    for s in &frame.samples {
+    for s in &film.samples {
         if let Some(slot) = seen.get_mut(s.tri as usize)
             && !*slot
         {
@@ -41,10 +36,10 @@ pub fn count_visible(frame: &Frame, total: usize) -> VisibleFaces {
     VisibleFaces { visible, total }
 }
 
-/// The distinct triangle ids among every sample of a traced frame, ascending.
-pub fn visible_ids(frame: &Frame, total: usize) -> Vec<u32> {
+/// The distinct triangle ids among every sample of a traced film, ascending.
+pub fn visible_ids(film: &Film, total: usize) -> Vec<u32> {
     let mut seen = vec![false; total];
-    for s in &frame.samples {
+    for s in &film.samples {
         if let Some(slot) = seen.get_mut(s.tri as usize) {
             *slot = true;
         }
@@ -76,7 +71,8 @@ pub struct CameraParams {
 }
 
 impl CameraParams {
-    pub fn new(framed: &Framed, world: &World, settings: &Settings) -> CameraParams {
+    /// The camera of `framed` in `world`'s scene units, for a `width` x `height` image.
+    pub fn new(framed: &Framed, world: &World, width: u32, height: u32) -> CameraParams {
         let sim = world.to_render;
         let point = |p: glam::DVec3| (p / sim.scale + sim.centre).to_array();
         let f = &framed.frame;
@@ -89,8 +85,8 @@ impl CameraParams {
             right: f.right.to_array(),
             view_height: framed.view_height.map(|h| h / sim.scale),
             focal_centre: framed.focal_centre.map(point),
-            width: settings.width,
-            height: settings.height,
+            width,
+            height,
         }
     }
 }
@@ -102,26 +98,4 @@ pub struct Evaluation {
     pub camera: CameraParams,
     /// The visible triangle ids (world ids: file order within each object, objects in order).
     pub ids: Vec<u32>,
-}
-
-/// Traces the primary rays of `settings`' camera (no shading) and counts visible faces.
-pub fn evaluate(prep: &Prepared, settings: &Settings) -> Result<Evaluation> {
-    settings.validate()?;
-    let framed = frame_camera(settings, &prep.world)?;
-    let mut frame = Frame::new(settings.width, settings.height, settings.spp);
-    let tracer =
-        Tracer { world: &prep.world, accel: &prep.accel, rig: None, background: glam::Vec3::ZERO, seed: settings.seed };
-    tracer.render(&mut frame, &|_, p| framed.camera.ray(p), None, &Progress::silent());
-    let total = prep.world.triangle_count();
-    let ids = visible_ids(&frame, total);
-    Ok(Evaluation {
-        faces: VisibleFaces { visible: ids.len(), total },
-        camera: CameraParams::new(&framed, &prep.world, settings),
-        ids,
-    })
-}
-
-/// Traces the primary rays of `settings`' camera (no shading) and counts visible faces.
-pub fn visible_faces(prep: &Prepared, settings: &Settings) -> Result<VisibleFaces> {
-    Ok(evaluate(prep, settings)?.faces)
 }

@@ -1,10 +1,12 @@
 //! cubist: renders 3D scenes in the manner of Analytical Cubism, after Arpa, Bulbul, Capin and
 //! Ozguc, "Perceptual 3D rendering based on principles of analytical cubism" (2012).
 //!
-//! The pipeline (SPEC Fig. 4.1) is one module per stage: `scene` (glTF loading) ->
-//! `accel` (BVH) -> `camera` (cubist cameras) -> `render` (the trace, into `frame` buffers)
-//! -> `shading`; `facets` (layouts) -> `imprecision` (per-facet re-aim) -> `paint` (painterly
-//! effects); `eval` counts visible faces; `pipeline` runs the stages the settings need.
+//! Data flows one way: `cli` (flags) -> `settings` (validated) -> `pipeline` (each stage's
+//! parameters, the stages in order) -> the stages: `camera` (cubist cameras) and `trace` (the
+//! trace into `film` buffers, `shading`), `saliency` (mesh saliency), `facets` (layouts),
+//! `imprecision` (per-facet re-aim), `paint` (painterly effects), `output` (images, files),
+//! `eval` (visible faces). Below them: `scene` (glTF loading), `accel` (BVH), `distance`,
+//! `util`, `progress`, `error`. ARCHITECTURE.md draws the map.
 
 pub mod accel;
 pub mod camera;
@@ -13,17 +15,18 @@ pub mod distance;
 pub mod error;
 pub mod eval;
 pub mod facets;
-pub mod frame;
+pub mod film;
 pub mod imprecision;
 pub mod output;
 pub mod paint;
 pub mod pipeline;
 pub mod progress;
-pub mod render;
 pub mod saliency;
 pub mod scene;
 pub mod settings;
 pub mod shading;
+pub mod trace;
+pub mod util;
 
 pub use error::{Error, Result};
 pub use pipeline::{Prepared, Rendered, render};

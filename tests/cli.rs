@@ -94,8 +94,8 @@ fn bad_input_files_fail_with_one_line_and_no_output() {
 
 #[test]
 fn faces_prints_a_table_row_in_one_call() {
-    let Some(sphere) = common::model("sphere_1280.glb") else { return };
     let dir = tempfile::tempdir().unwrap();
+    let sphere = common::icosphere_gltf(dir.path(), 3);
     let s = sphere.to_str().unwrap();
     let (code, out, err) = run(
         dir.path(),
@@ -204,6 +204,93 @@ fn settings_prints_every_resolved_key_as_json() {
         assert_eq!(code, 2, "{args:?}: {err}");
         assert!(out.is_empty() && err.trim().lines().count() == 1, "{args:?}: {out} {err}");
     }
+}
+
+/// `cubist settings --schema`: every key with its type, default, range or choices, unit, help
+/// and group; the stages in the order the progress output names them; the presets.
+#[test]
+fn settings_schema_describes_every_key_the_stages_and_the_presets() {
+    let dir = tempfile::tempdir().unwrap();
+    let (code, out, err) = run(dir.path(), &["settings", "--schema"]);
+    assert_eq!(code, 0, "{err}");
+    let schema: serde_json::Value = serde_json::from_str(&out).expect("stdout is JSON");
+    assert_eq!(schema["version"], 1);
+    let settings = schema["settings"].as_array().unwrap();
+    let field = |key: &str| settings.iter().find(|f| f["key"] == key).unwrap_or_else(|| panic!("no {key}"));
+    // The defaults are what `cubist settings` prints (f32 values as typed: 0.62).
+    let (_, out, _) = run(dir.path(), &["settings"]);
+    let defaults: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(settings.len(), defaults.as_object().unwrap().len());
+    assert_eq!(field("background")["default"], serde_json::json!([0.62, 0.56, 0.46]));
+    for f in settings {
+        assert_eq!(f["default"], defaults[f["key"].as_str().unwrap()], "{f}");
+    }
+    let w = field("weight_saliency");
+    assert_eq!(
+        (w["type"].as_str(), w["min"].as_f64(), w["group"].as_str()),
+        (Some("number"), Some(0.0), Some("Facets"))
+    );
+    assert!(w["help"].as_str().unwrap().contains("saliency"), "{w}");
+    let fill = field("fill");
+    assert_eq!((fill["nullable"].as_bool(), fill["min_exclusive"].as_bool()), (Some(true), Some(true)));
+    assert!(fill["null_means"].as_str().unwrap().contains("0.8"), "{fill}");
+    let d = field("discontinuity");
+    assert_eq!((d["unit"].as_str(), d["flag"].as_str()), (Some("px at 1000 px"), Some("--discontinuity")));
+    let camera = field("camera");
+    let choices: Vec<&str> =
+        camera["choices"].as_array().unwrap().iter().map(|c| c["value"].as_str().unwrap()).collect();
+    assert_eq!(choices, ["auto", "spherical", "cylindrical", "planar", "perspective", "orthographic"]);
+    let passes = field("passes");
+    assert_eq!((passes["type"].as_str(), passes["items"].as_str()), (Some("array"), Some("enum")));
+    assert_eq!(
+        (passes["formats"]["facet-ids"].as_str(), passes["formats"]["depth"].as_str()),
+        (Some("grey16"), Some("grey"))
+    );
+    let ambiguity = field("ambiguity");
+    assert_eq!(
+        (ambiguity["automatic"]["other"].as_f64(), ambiguity["automatic"]["perspective"].as_f64()),
+        (Some(140.0), Some(60.0))
+    );
+    let stages: Vec<&str> = schema["stages"].as_array().unwrap().iter().map(|s| s["name"].as_str().unwrap()).collect();
+    assert_eq!(
+        stages,
+        ["loading", "pre-render", "saliency", "faceting", "imprecision", "re-trace", "paint", "writing", "done"]
+    );
+    let presets: Vec<&str> =
+        schema["presets"].as_array().unwrap().iter().map(|p| p["name"].as_str().unwrap()).collect();
+    assert_eq!(presets, ["analytic", "braque", "blue-period", "grisaille", "plain"]);
+}
+
+/// `cubist settings --stages` names the stages a render of those settings runs, and a render
+/// reports exactly those (re-trace: when some facet moved).
+#[test]
+fn settings_stages_are_the_stages_a_render_reports() {
+    let dir = tempfile::tempdir().unwrap();
+    let stages = |args: &[&str]| -> Vec<String> {
+        let (code, out, err) = run(dir.path(), &[&["settings", "--stages"][..], args].concat());
+        assert_eq!(code, 0, "{err}");
+        serde_json::from_str(&out).unwrap()
+    };
+    assert_eq!(stages(&["--preset", "plain"]), ["loading", "pre-render", "writing", "done"]);
+    let analytic = stages(&[]);
+    assert_eq!(
+        analytic,
+        ["loading", "pre-render", "saliency", "faceting", "imprecision", "re-trace", "paint", "writing", "done"]
+    );
+    assert!(!stages(&["--faceting", "voronoi", "--imprecision", "random"]).contains(&"saliency".to_string()));
+    assert!(stages(&["--preset", "plain", "--pass", "saliency"]).contains(&"saliency".to_string()));
+    // A render reports exactly those stages, in that order.
+    let (code, _, err) =
+        run(dir.path(), &["render", "--width", "48", "--height", "36", "--spp", "1", "--progress", "lines"]);
+    assert_eq!(code, 0, "{err}");
+    let mut reported: Vec<String> = Vec::new();
+    for l in err.lines().filter_map(|l| l.strip_prefix("PROGRESS ")) {
+        let stage = l.split_once(' ').unwrap().1.to_string();
+        if reported.last() != Some(&stage) {
+            reported.push(stage);
+        }
+    }
+    assert_eq!(reported, analytic);
 }
 
 /// Every `[default: X]` / `[analytic: X]` written in a flag's help is the value the settings

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use cubist::camera::frame_camera;
 use cubist::facets::{FacetLayout, FacetPolygon, LabelImage};
-use cubist::frame::Frame;
+use cubist::film::Film;
 use cubist::imprecision::AimContext;
 use cubist::pipeline::{Prepared, Rendered, render_with};
 use cubist::progress::Progress;
@@ -32,7 +32,7 @@ fn base_settings() -> Settings {
 
 /// The hit point of a sample, render space.
 fn hit_point(prep: &Prepared, tri: u32, u: f32, v: f32) -> Vec3 {
-    let p = prep.world.positions[tri as usize];
+    let p = prep.world.triangle(tri);
     p[0] * (1.0 - u - v) + p[1] * u + p[2] * v
 }
 
@@ -40,18 +40,18 @@ fn hit_point(prep: &Prepared, tri: u32, u: f32, v: f32) -> Vec3 {
 /// zero elsewhere (so facets away from it have no saliency at all).
 fn bump(prep: &Prepared, object: usize) -> impl Fn(Vec3) -> f32 + '_ {
     let o = &prep.world.objects[object];
-    let tris = o.first_triangle as usize..(o.first_triangle + o.triangle_count) as usize;
+    let tris = o.first_triangle..o.first_triangle + o.triangle_count;
     let n = (tris.len() * 3) as f32;
-    let centre = prep.world.positions[tris].iter().flatten().fold(Vec3::ZERO, |a, p| a + *p) / n;
+    let centre = tris.flat_map(|t| prep.world.triangle(t)).fold(Vec3::ZERO, |a, p| a + p) / n;
     move |p: Vec3| (1.0 - (p - centre).length_squared() / (0.35 * 0.35)).max(0.0)
 }
 
 /// The per-pixel saliency map of SPEC "Mesh saliency" for a saliency function of the hit point:
 /// the average over the pixel's samples, 0 for background.
-fn saliency_map(prep: &Prepared, frame: &Frame, s: &dyn Fn(Vec3) -> f32) -> Vec<f32> {
-    (0..frame.pixel_count())
+fn saliency_map(prep: &Prepared, film: &Film, s: &dyn Fn(Vec3) -> f32) -> Vec<f32> {
+    (0..film.pixel_count())
         .map(|i| {
-            let smp = frame.pixel_samples(i);
+            let smp = film.pixel_samples(i);
             smp.iter().filter(|h| h.is_hit()).map(|h| s(hit_point(prep, h.tri, h.u, h.v))).sum::<f32>()
                 / smp.len() as f32
         })
@@ -73,7 +73,7 @@ fn stages(r: &Rendered) -> Vec<&'static str> {
 
 /// Mean over adjacent pixel pairs in different facets of the L1 colour difference.
 fn border_difference(r: &Rendered) -> f64 {
-    let m = r.facets.as_ref().unwrap();
+    let m = &r.facets;
     let (w, h) = (m.width as usize, m.height as usize);
     let (mut sum, mut n) = (0.0, 0usize);
     for y in 0..h {
@@ -81,7 +81,7 @@ fn border_difference(r: &Rendered) -> f64 {
             let i = y * w + x;
             for j in [(x + 1 < w).then(|| i + 1), (y + 1 < h).then(|| i + w)].into_iter().flatten() {
                 if m.ids[i] != m.ids[j] {
-                    let d = (r.frame.color[i] - r.frame.color[j]).truncate().abs();
+                    let d = (r.film.color[i] - r.film.color[j]).truncate().abs();
                     sum += (d.x + d.y + d.z) as f64;
                     n += 1;
                 }
@@ -94,7 +94,7 @@ fn border_difference(r: &Rendered) -> f64 {
 /// Mean saliency of the final image's hit samples.
 fn mean_saliency(prep: &Prepared, r: &Rendered, s: &dyn Fn(Vec3) -> f32) -> f64 {
     let hits: Vec<f64> =
-        r.frame.samples.iter().filter(|h| h.is_hit()).map(|h| s(hit_point(prep, h.tri, h.u, h.v)) as f64).collect();
+        r.film.samples.iter().filter(|h| h.is_hit()).map(|h| s(hit_point(prep, h.tri, h.u, h.v)) as f64).collect();
     hits.iter().sum::<f64>() / hits.len() as f64
 }
 
@@ -114,7 +114,7 @@ fn discontinuity_zero_with_converging_facets_is_the_unfaceted_render_and_skips_t
             f.imprecision = imprecision;
             f.discontinuity = 0.0;
             let r = render_sal(&prep, &f, SALIENT);
-            assert_eq!(r.frame.color, plain.frame.color, "{faceting} {imprecision}");
+            assert_eq!(r.film.color, plain.film.color, "{faceting} {imprecision}");
             assert_eq!(r.image, plain.image);
             assert!(!stages(&r).contains(&"re-trace") && !stages(&r).contains(&"imprecision"), "{:?}", stages(&r));
             assert!(stages(&r).contains(&"faceting"));
@@ -133,7 +133,7 @@ fn only_moved_facets_are_retraced_and_zero_saliency_facets_stay() {
     f.discontinuity = 150.0;
     let r = render_sal(&prep, &f, SALIENT);
     assert!(stages(&r).contains(&"re-trace"));
-    let m = r.facets.as_ref().unwrap();
+    let m = &r.facets;
     let moved = r.aims.iter().filter(|a| a.moved()).count();
     let still = r.aims.iter().filter(|a| a.fc.is_some() && !a.moved()).count();
     assert!(moved >= 3 && still >= 10, "moved {moved}, still {still}");
@@ -141,10 +141,10 @@ fn only_moved_facets_are_retraced_and_zero_saliency_facets_stay() {
     for (i, &id) in m.ids.iter().enumerate() {
         let a = &r.aims[id as usize];
         if !a.moved() {
-            assert_eq!(r.frame.color[i], plain.frame.color[i], "pixel {i} of unmoved facet {id}");
+            assert_eq!(r.film.color[i], plain.film.color[i], "pixel {i} of unmoved facet {id}");
             // A facet that did not move had no saliency: its saliency centre is its centre.
             assert_eq!(a.sc_raw, a.fc);
-        } else if r.frame.color[i] != plain.frame.color[i] {
+        } else if r.film.color[i] != plain.film.color[i] {
             changed += 1;
         }
     }
@@ -216,7 +216,7 @@ fn visible_faces_rise_with_ambiguity() {
             s.imprecision = Imprecision::Random;
             let r = render_plain(&prep, &s);
             assert!(stages(&r).contains(&"re-trace"));
-            cubist::eval::count_visible(&r.frame, prep.world.triangle_count()).visible
+            cubist::eval::count_visible(&r.film, prep.world.triangle_count()).visible
         })
         .collect();
     eprintln!("visible faces of 1536 at ambiguity 60/140/240/360 (faceted, re-aimed): {counts:?}");
@@ -235,7 +235,7 @@ fn same_seed_same_image_on_any_thread_count() {
         let a = render_sal(&prep, &s, SALIENT);
         let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
         let b = pool.install(|| render_sal(&prep, &s, SALIENT));
-        assert_eq!(a.frame.color, b.frame.color, "{faceting}");
+        assert_eq!(a.film.color, b.film.color, "{faceting}");
         assert_eq!(a.facets, b.facets);
         s.seed += 1;
         let c = render_sal(&prep, &s, SALIENT);
@@ -266,7 +266,7 @@ fn saved_then_loaded_layouts_give_the_identical_image() {
                 t.facet_count = 7;
                 let again = render_sal(&prep, &t, SALIENT);
                 assert_eq!(first.facets, again.facets, "{faceting} {ext}");
-                assert_eq!(first.frame.color, again.frame.color, "{faceting} {ext} {imprecision}");
+                assert_eq!(first.film.color, again.film.color, "{faceting} {ext} {imprecision}");
             }
         }
     }
@@ -286,7 +286,7 @@ fn json_layouts_rasterise_at_any_resolution() {
     t.height *= 2;
     t.facets = Some(path);
     let big = render_plain(&prep, &t);
-    let (ms, mb) = (small.facets.unwrap(), big.facets.unwrap());
+    let (ms, mb) = (small.facets, big.facets);
     let mut same = 0;
     for y in 0..ms.height {
         for x in 0..ms.width {
@@ -323,9 +323,9 @@ fn constant_facet_maps_with_one_pixel_facets_and_background_facets() {
     s.imprecision = Imprecision::Random;
     s.facet_projection = FacetProjection::Linear;
     let r = render_sal(&prep, &s, SALIENT);
-    let m = r.facets.as_ref().unwrap();
+    let m = &r.facets;
     assert_eq!(m.facet_count, 1 + 4 + 64);
-    assert!(r.frame.color.iter().all(|c| c.is_finite()));
+    assert!(r.film.color.iter().all(|c| c.is_finite()));
     // Facet 0 (the background block) is hit by none of its rays: its linear facet is left
     // as it is, but the random re-aim still turns it.
     assert!(r.aims[0].linear.is_none());
@@ -375,7 +375,7 @@ fn a_facet_whose_centre_lies_outside_it_is_re_aimed_as_a_whole() {
     s.discontinuity = 200.0;
     s.imprecision = Imprecision::Saliency;
     let r = render_sal(&prep, &s, SALIENT);
-    let m = r.facets.as_ref().unwrap();
+    let m = &r.facets;
     let fc = r.aims[1].fc.unwrap();
     assert_eq!(m.ids[fc.y as usize * 160 + fc.x as usize], 0, "the ring's centre lies in its hole");
     assert!(r.aims[1].moved() && r.aims[1].target.is_some());
@@ -384,18 +384,18 @@ fn a_facet_whose_centre_lies_outside_it_is_re_aimed_as_a_whole() {
     let changed = |x0: u32, x1: u32| {
         (0..120u32)
             .flat_map(|y| (x0..x1).map(move |x| (y * 160 + x) as usize))
-            .filter(|&i| m.ids[i] == 1 && r.frame.color[i] != plain.frame.color[i])
+            .filter(|&i| m.ids[i] == 1 && r.film.color[i] != plain.film.color[i])
             .count()
     };
     assert!(changed(32, 56) > 50 && changed(104, 128) > 50, "{} {}", changed(32, 56), changed(104, 128));
-    assert!(r.frame.color.iter().all(|c| c.is_finite()));
+    assert!(r.film.color.iter().all(|c| c.is_finite()));
 }
 
 #[test]
 fn a_saliency_centre_on_the_background_aims_at_the_focal_point_of_its_ray() {
     let prep = still_life();
     let s = base_settings();
-    let framed = frame_camera(&s, &prep.world).unwrap();
+    let framed = frame_camera(&cubist::pipeline::params::framing(&s), &prep.world).unwrap();
     let ctx = AimContext {
         camera: framed.camera.as_ref(),
         accel: &prep.accel,
@@ -439,7 +439,7 @@ fn a_facet_aimed_at_its_own_focal_point_is_not_re_traced() {
     s.camera = CameraKind::Spherical;
     s.faceting = Faceting::None;
     let plain = render_plain(&prep, &s);
-    assert!(!plain.frame.hits[2 * 160 + 2].is_hit(), "pixel (2, 2) must be background");
+    assert!(!plain.film.hits[2 * 160 + 2].is_hit(), "pixel (2, 2) must be background");
     s.facets = Some(path);
     s.discontinuity = 200.0;
     s.imprecision = Imprecision::Saliency;
@@ -454,11 +454,11 @@ fn a_facet_aimed_at_its_own_focal_point_is_not_re_traced() {
     assert_eq!(a.sc_raw, Some(DVec2::new(2.5, 2.5)));
     // The discontinuity limit (27.7 px here) keeps the aim point on the background.
     let sc = a.sc.unwrap();
-    assert!(!plain.frame.hits[sc.y as usize * 160 + sc.x as usize].is_hit(), "{sc:?} is not background");
+    assert!(!plain.film.hits[sc.y as usize * 160 + sc.x as usize].is_hit(), "{sc:?} is not background");
     assert!(a.sc != a.fc && a.target.is_some(), "{a:?}");
     assert!(!a.moved(), "a turn of {:?} re-aims nothing", a.reaim.map(|r| r.turn.length()));
     assert!(!stages(&r).contains(&"re-trace"), "{:?}", stages(&r));
-    assert_eq!(r.frame.color, plain.frame.color);
+    assert_eq!(r.film.color, plain.film.color);
     // The cylindrical camera's rays meet on a line, not a point: there the same aim turns the facet.
     s.camera = CameraKind::Cylindrical;
     let r = render_with(&prep, &s, &Progress::silent(), &|_, f| {
@@ -489,8 +489,8 @@ fn every_camera_reaims_without_nan_and_is_exact_at_discontinuity_zero() {
             s.discontinuity = 150.0;
             s.imprecision = Imprecision::Random;
             let r = render_plain(&prep, &s);
-            assert!(r.frame.color.iter().all(|c| c.is_finite()), "{camera} {ambiguity:?} {projection}");
-            assert!(r.frame.hits.iter().filter(|h| h.is_hit()).count() > 500, "{camera} {ambiguity:?} {projection}");
+            assert!(r.film.color.iter().all(|c| c.is_finite()), "{camera} {ambiguity:?} {projection}");
+            assert!(r.film.hits.iter().filter(|h| h.is_hit()).count() > 500, "{camera} {ambiguity:?} {projection}");
         }
         let mut s = base_settings();
         s.camera = camera;
@@ -498,7 +498,7 @@ fn every_camera_reaims_without_nan_and_is_exact_at_discontinuity_zero() {
         s.discontinuity = 0.0;
         let mut plain = s.clone();
         plain.faceting = Faceting::None;
-        assert_eq!(render_plain(&prep, &s).frame.color, render_plain(&prep, &plain).frame.color, "{camera}");
+        assert_eq!(render_plain(&prep, &s).film.color, render_plain(&prep, &plain).film.color, "{camera}");
     }
 }
 
@@ -509,12 +509,12 @@ fn facet_passes() {
     s.discontinuity = 100.0;
     s.passes = vec![Pass::Facets, Pass::FacetIds];
     let r = render_sal(&prep, &s, SALIENT);
-    let facets = &r.passes.iter().find(|(p, _)| *p == Pass::Facets).unwrap().1;
+    let facets = &r.passes.iter().find(|(p, _)| p.as_str() == "facets").unwrap().1;
     assert_eq!(facets.dimensions(), (160, 120));
     // Facet centres are marked yellow, saliency centres red.
     assert!(facets.pixels().any(|p| p.0 == [255, 215, 0, 255]));
     assert!(facets.pixels().any(|p| p.0 == [230, 30, 30, 255]));
-    let ids = &r.passes16.iter().find(|(p, _)| *p == Pass::FacetIds).unwrap().1;
-    let m = r.facets.as_ref().unwrap();
+    let ids = &r.passes16.iter().find(|(p, _)| p.as_str() == "facet-ids").unwrap().1;
+    let m = &r.facets;
     assert!(ids.pixels().zip(&m.ids).all(|(p, &id)| p.0[0] as u32 == id));
 }

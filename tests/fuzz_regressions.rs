@@ -1,8 +1,8 @@
 //! Malformed input that once crashed, hung or exhausted memory, kept as regression tests
 //! (issue 8, item 5). Files found by the fuzzers (scripts/fuzz.sh) live in
-//! tests/fuzz_regressions/<target>/; inputs too large to keep as files are generated here.
-//! Each must give a clean one-line `Err` or a scene every later stage takes, within a
-//! watchdog's time, never a panic.
+//! tests/fuzz_regressions/<target>/, and every fuzz seed (fuzz/seeds/<target>/) runs too;
+//! inputs too large to keep as files are generated here. Each must give a clean one-line
+//! `Err` or a scene every later stage takes, within a watchdog's time, never a panic.
 
 use std::path::{Path, PathBuf};
 use std::sync::mpsc;
@@ -32,12 +32,19 @@ fn within<T: Send + 'static>(secs: u64, what: &str, f: impl FnOnce() -> T + Send
     }
 }
 
+/// The inputs of a fuzz target kept in the repository: its crashes (tests/fuzz_regressions/
+/// <target>, when it has any) and its seeds (fuzz/seeds/<target>). Never empty: a test over
+/// no input would pass without running.
 fn regression_files(target: &str) -> Vec<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fuzz_regressions").join(target);
-    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
-        .map(|d| d.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.is_file()).collect())
-        .unwrap_or_default();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut files: Vec<PathBuf> = Vec::new();
+    for dir in [root.join("tests/fuzz_regressions").join(target), root.join("fuzz/seeds").join(target)] {
+        if let Ok(entries) = std::fs::read_dir(&dir) {
+            files.extend(entries.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.is_file()));
+        }
+    }
     files.sort();
+    assert!(!files.is_empty(), "no input for the {target} fuzz target: the test would run zero cases");
     files
 }
 
@@ -60,27 +67,36 @@ fn load_and_render(bytes: Vec<u8>, what: String) -> Result<(), String> {
         s.height = 6;
         s.spp = 1;
         let r = render(&prep, &s, &Progress::silent()).map_err(|e| e.to_string())?;
-        assert!(r.frame.color.iter().all(|c| c.is_finite()), "{what}: NaN pixel");
+        assert!(r.film.color.iter().all(|c| c.is_finite()), "{what}: NaN pixel");
         Ok(())
     })
 }
 
 #[test]
 fn gltf_loader_regressions() {
-    for f in regression_files("gltf_loader") {
-        let bytes = std::fs::read(&f).unwrap();
+    let files = regression_files("gltf_loader");
+    let mut loaded = 0;
+    for f in &files {
+        let bytes = std::fs::read(f).unwrap();
         let r = load_and_render(bytes, f.display().to_string());
         eprintln!("{}: {r:?}", f.display());
+        loaded += r.is_ok() as usize;
     }
+    // The seeds are valid scenes: most of them must load and render.
+    assert!(files.len() > 10 && loaded * 2 > files.len(), "{loaded} of {} inputs rendered", files.len());
 }
 
 #[test]
 fn settings_json_regressions() {
-    for f in regression_files("settings_json") {
-        let bytes = std::fs::read(&f).unwrap();
+    let files = regression_files("settings_json");
+    let mut cases = 0;
+    for f in &files {
+        let bytes = std::fs::read(f).unwrap();
         let what = f.display().to_string();
+        // Not JSON at all: refused before the settings see it, as the fuzz target does.
+        let Ok(value) = serde_json::from_slice::<Value>(&bytes) else { continue };
+        cases += 1;
         within(30, &what.clone(), move || {
-            let Ok(value) = serde_json::from_slice::<Value>(&bytes) else { return };
             for layer in [Some(value.clone()), None] {
                 let r = match (&layer, &value) {
                     (Some(v), _) => Settings::from_layers(Some((Path::new("fuzz.json"), v.clone())), Map::new()),
@@ -94,6 +110,89 @@ fn settings_json_regressions() {
             }
         });
     }
+    assert!(cases > 5, "only {cases} of {} settings inputs are JSON", files.len());
+}
+
+/// The settings_scene target's inputs (issue 18): settings JSON, a NUL, a glTF document; what
+/// the target does, with a watchdog.
+#[test]
+fn settings_scene_regressions() {
+    let files = regression_files("settings_scene");
+    let mut rendered = 0;
+    for f in &files {
+        let bytes = std::fs::read(f).unwrap();
+        let what = f.display().to_string();
+        rendered += within(120, &what.clone(), move || {
+            let (settings, scene) = match bytes.iter().position(|&b| b == 0) {
+                Some(i) => (bytes[..i].to_vec(), bytes[i + 1..].to_vec()),
+                None => (bytes.clone(), Vec::new()),
+            };
+            let Ok(Value::Object(mut map)) = serde_json::from_slice::<Value>(&settings) else { return 0 };
+            for (k, max) in [("width", 24u64), ("height", 24), ("spp", 2)] {
+                if map.get(k).and_then(Value::as_u64).is_none_or(|v| v > max) {
+                    map.insert(k.into(), Value::from(max.min(16)));
+                }
+            }
+            for k in ["facets", "save_facets", "facet_map", "palette_image", "saliency_cache"] {
+                map.remove(k);
+            }
+            let s = match Settings::from_layers(Some((Path::new("fuzz.json"), Value::Object(map))), Map::new()) {
+                Ok(s) => s,
+                Err(e) => {
+                    assert!(!e.to_string().contains('\n'), "{what}: {e}");
+                    return 0;
+                }
+            };
+            let prep = if scene.is_empty() {
+                Prepared::new(Scene::default_scene())
+            } else {
+                match Scene::from_slice(&scene) {
+                    Ok(sc) => Prepared::new(sc),
+                    Err(e) => {
+                        assert!(!e.to_string().contains("the parser failed") && !e.to_string().contains('\n'));
+                        return 0;
+                    }
+                }
+            };
+            match render(&prep, &s, &Progress::silent()) {
+                Ok(r) => {
+                    assert!(r.film.color.iter().all(|c| c.is_finite()), "{what}: NaN pixel");
+                    1
+                }
+                Err(e) => {
+                    assert!(!e.to_string().contains('\n'), "{what}: {e}");
+                    0
+                }
+            }
+        });
+    }
+    assert!(rendered * 2 > files.len(), "{rendered} of {} inputs rendered", files.len());
+}
+
+/// The layout_file target's inputs (issue 18): JSON and PNG layouts, rasterised.
+#[test]
+fn layout_file_regressions() {
+    let files = regression_files("layout_file");
+    let mut loaded = 0;
+    for f in &files {
+        let bytes = std::fs::read(f).unwrap();
+        let what = f.display().to_string();
+        loaded += within(60, &what.clone(), move || {
+            let layout = if bytes.starts_with(b"\x89PNG") {
+                let img = cubist::util::files::decode_image(&bytes, cubist::util::limits::MAX_IMAGE_PIXELS).ok()?;
+                cubist::facets::io::from_image(&img, Path::new(&what)).ok()?
+            } else {
+                cubist::facets::io::from_json(std::str::from_utf8(&bytes).ok()?).ok()?
+            };
+            for (w, h) in [(17, 11), (64, 48)] {
+                let map = layout.rasterize(w, h);
+                assert!(map.ids.iter().all(|&id| id < layout.facet_count), "{what}");
+            }
+            Some(())
+        })
+        .is_some() as usize;
+    }
+    assert!(loaded * 2 > files.len(), "{loaded} of {} layouts loaded", files.len());
 }
 
 /// Found by the fuzzer (12 bytes: "glTF", version 0, length 0): the gltf crate computed

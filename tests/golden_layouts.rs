@@ -1,7 +1,7 @@
 //! Golden facet layouts: a seed's Voronoi and Patch layouts must not change between versions
 //! or machines (an animation rendered on a farm, or resumed after an upgrade, relies on it).
-//! The ids are compared exactly. `CUBIST_BLESS=1 cargo test --release --test golden_layouts`
-//! rewrites the goldens after an intended change.
+//! The ids are compared exactly. `CUBIST_UPDATE_GOLDEN=1 cargo test --release --test
+//! golden_layouts` rewrites the goldens after an intended change.
 
 use std::path::PathBuf;
 
@@ -16,14 +16,18 @@ fn check(name: &str, map: &FacetMap) {
     let path = golden(name);
     let img: ImageBuffer<Luma<u16>, Vec<u16>> =
         ImageBuffer::from_fn(map.width, map.height, |x, y| Luma([map.ids[(y * map.width + x) as usize] as u16]));
-    if std::env::var_os("CUBIST_BLESS").is_some() {
+    if std::env::var_os("CUBIST_UPDATE_GOLDEN").is_some() {
         img.save(&path).unwrap();
         return;
     }
     let want = match image::open(&path) {
         Ok(image::DynamicImage::ImageLuma16(g)) => g,
         other => {
-            panic!("{}: missing or not 16-bit grey ({:?}); bless with CUBIST_BLESS=1", path.display(), other.err())
+            panic!(
+                "{}: missing or not 16-bit grey ({:?}); rewrite with CUBIST_UPDATE_GOLDEN=1",
+                path.display(),
+                other.err()
+            )
         }
     };
     assert_eq!(want.dimensions(), img.dimensions(), "{name}");

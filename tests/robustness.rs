@@ -11,9 +11,9 @@
 use std::sync::mpsc;
 use std::time::Duration;
 
-use cubist::eval::{evaluate, visible_faces};
-use cubist::frame::Frame;
+use cubist::film::Film;
 use cubist::pipeline::{Prepared, render};
+use cubist::pipeline::{evaluate, visible_faces};
 use cubist::progress::Progress;
 use cubist::scene::default::{cuboid, ellipsoid};
 use cubist::scene::{Light, LightKind, Material, Mesh, Object, Projection, Scene, compute_normals};
@@ -114,12 +114,12 @@ fn settings(kind: CameraKind, ambiguity: Option<f64>, w: u32, h: u32, spp: u32) 
     s
 }
 
-fn assert_clean(frame: &Frame, what: &str) {
-    for (i, c) in frame.color.iter().enumerate() {
+fn assert_clean(film: &Film, what: &str) {
+    for (i, c) in film.color.iter().enumerate() {
         assert!(c.is_finite(), "{what}: pixel {i} is {c:?}");
         assert!(c.min_element() >= 0.0, "{what}: pixel {i} is negative {c:?}");
     }
-    for h in &frame.hits {
+    for h in &film.hits {
         assert!(h.normal.is_finite() && !h.t.is_nan() && h.u.is_finite() && h.v.is_finite(), "{what}: {h:?}");
     }
 }
@@ -127,7 +127,7 @@ fn assert_clean(frame: &Frame, what: &str) {
 /// Renders through the whole pipeline and checks every pixel is a number.
 fn render_clean(prep: &Prepared, s: &Settings, what: &str) -> cubist::Rendered {
     let r = render(prep, s, &Progress::silent()).unwrap_or_else(|e| panic!("{what}: {e}"));
-    assert_clean(&r.frame, what);
+    assert_clean(&r.film, what);
     r
 }
 
@@ -154,7 +154,7 @@ const KINDS: [(CameraKind, Option<f64>); 6] = [
 ];
 
 /// Pixels whose visible triangle differs between two renders, as a fraction.
-fn hit_mismatch(a: &Frame, b: &Frame) -> f64 {
+fn hit_mismatch(a: &Film, b: &Film) -> f64 {
     let n = a.hits.iter().zip(&b.hits).filter(|(p, q)| p.tri != q.tri).count();
     n as f64 / a.hits.len() as f64
 }
@@ -185,7 +185,7 @@ fn scaled_and_translated_scenes_look_the_same() {
                 // an edge: a few faces, a few pixels, never a different picture.
                 let dv = f.visible.abs_diff(f0.visible);
                 assert!(dv <= 2 + f0.visible / 200, "{what}: {} visible faces vs {}", f.visible, f0.visible);
-                let mm = hit_mismatch(&r.frame, &r0.frame);
+                let mm = hit_mismatch(&r.film, &r0.film);
                 assert!(mm < 0.005, "{what}: {:.3}% of pixels see another triangle", mm * 100.0);
                 let (mean, _max) = image_diff(&r.image, &r0.image);
                 assert!(mean < 0.5, "{what}: mean difference {mean:.3} / 255");
@@ -207,7 +207,7 @@ fn a_scene_camera_scales_with_its_scene() {
             for (scale, offset) in [(1e-6, DVec3::ZERO), (1e6, DVec3::splat(1e6))] {
                 let prep = Prepared::new(transformed(&base, scale, offset));
                 let r = render_clean(&prep, &s, "still life scaled");
-                assert!(hit_mismatch(&r.frame, &r0.frame) < 0.005, "{kind} x{scale}");
+                assert!(hit_mismatch(&r.film, &r0.film) < 0.005, "{kind} x{scale}");
                 assert!(image_diff(&r.image, &r0.image).0 < 0.5, "{kind} x{scale}");
             }
         }
@@ -245,7 +245,7 @@ fn ambiguity_limits() {
                 let s = settings(kind, Some(a), 40, 30, 2);
                 let r = render_clean(&prep, &s, &format!("{kind} {a}"));
                 if a >= 179.0 {
-                    assert!(r.frame.hits.iter().any(|h| h.is_hit()), "{kind} {a}: sees nothing");
+                    assert!(r.film.hits.iter().any(|h| h.is_hit()), "{kind} {a}: sees nothing");
                 }
             }
             for a in [720.0, -1.0, 360.001, f64::NAN, f64::INFINITY] {
@@ -259,7 +259,7 @@ fn ambiguity_limits() {
             // Near 180 deg the plane is ~1e5 times wider than the part showing the scene
             // (tan 89.9995 deg against tan 80 deg): at 40 px it may show only background.
             if a < 179.0 {
-                assert!(r.frame.hits.iter().any(|h| h.is_hit()), "planar {a}: sees nothing");
+                assert!(r.film.hits.iter().any(|h| h.is_hit()), "planar {a}: sees nothing");
             }
         }
         for a in [180.0, 360.0, 720.0] {
@@ -329,7 +329,7 @@ fn degenerate_coincident_and_sliver_triangles() {
                 for tri in [4, 5, 6] {
                     assert!(!e.ids.contains(&tri), "{kind}: zero-area triangle {tri} was hit");
                 }
-                for hit in &r.frame.hits {
+                for hit in &r.film.hits {
                     assert!(hit.tri != 2 && hit.tri != 3);
                 }
             }
@@ -354,7 +354,7 @@ fn non_finite_vertices_do_not_poison_the_scene() {
         for (kind, angle) in KINDS {
             let s = settings(kind, angle, 32, 24, 1);
             let r = render_clean(&prep, &s, &format!("{kind} nan"));
-            assert!(r.frame.hits.iter().any(|h| h.is_hit()), "{kind}: the finite quad vanished");
+            assert!(r.film.hits.iter().any(|h| h.is_hit()), "{kind}: the finite quad vanished");
         }
     });
 }
@@ -399,9 +399,9 @@ fn rays_starting_on_a_surface_do_not_self_intersect() {
             s.camera_target = Some(offset.to_array());
             s.camera_size = Some(1.6 * scale);
             let r = render_clean(&prep, &s, "floor");
-            let lum: Vec<f32> = r.frame.color.iter().map(|c| c.x).collect();
+            let lum: Vec<f32> = r.film.color.iter().map(|c| c.x).collect();
             let (lo, hi) = lum.iter().fold((f32::MAX, f32::MIN), |(a, b), v| (a.min(*v), b.max(*v)));
-            assert!(r.frame.hits.iter().all(|h| h.is_hit()));
+            assert!(r.film.hits.iter().all(|h| h.is_hit()));
             assert!(hi - lo < 1e-3 * hi.max(1e-6), "x{scale}: shadow acne, floor radiance {lo}..{hi}");
             assert!(lo > 0.14 * 0.7 * 1.01, "x{scale}: the floor is in shadow ({lo})");
         }
@@ -445,7 +445,7 @@ fn empty_and_pointlike_scenes() {
             for (kind, angle) in KINDS {
                 let s = settings(kind, angle, 16, 12, 2);
                 if let Ok(r) = render(prep, &s, &Progress::silent()) {
-                    assert_clean(&r.frame, &format!("{kind} empty"));
+                    assert_clean(&r.film, &format!("{kind} empty"));
                 }
                 if let Ok(e) = evaluate(prep, &s) {
                     assert_eq!(e.faces.visible, 0);
@@ -482,8 +482,8 @@ fn faceted(w: u32, h: u32, faceting: Faceting, imprecision: Imprecision, discont
 
 /// Every pixel belongs to a facet below the facet count, and the aims are finite.
 fn assert_facets_clean(r: &cubist::Rendered, what: &str) {
-    let m = r.facets.as_ref().unwrap_or_else(|| panic!("{what}: no facet map"));
-    assert_eq!(m.ids.len(), r.frame.pixel_count(), "{what}");
+    let m = &r.facets;
+    assert_eq!(m.ids.len(), r.film.pixel_count(), "{what}");
     assert!(m.ids.iter().all(|&id| id < m.facet_count), "{what}: facet id out of range");
     for a in &r.aims {
         for p in [a.fc, a.sc_raw, a.sc].into_iter().flatten() {
@@ -491,7 +491,7 @@ fn assert_facets_clean(r: &cubist::Rendered, what: &str) {
         }
         assert!(a.reaim.is_none_or(|r| r.turn.is_finite() && !r.focus.is_nan()), "{what}: {a:?}");
     }
-    if let Some(s) = &r.frame.saliency {
+    if let Some(s) = &r.film.saliency {
         assert!(s.iter().all(|v| (0.0..=1.0).contains(v)), "{what}: saliency map out of [0, 1]");
     }
 }
@@ -512,7 +512,7 @@ fn one_pixel_facets() {
                     let what = format!("voronoi {w}x{h} facets {imprecision} {projection} {fov} d={d}");
                     let r = render_clean(&prep, &s, &what);
                     assert_facets_clean(&r, &what);
-                    let m = r.facets.as_ref().unwrap();
+                    let m = &r.facets;
                     assert!(m.used_facets() > (w * h) as usize / 2, "{what}: {} facets used", m.used_facets());
                     if !r.aims.is_empty() {
                         let empty = r.aims.iter().filter(|a| a.fc.is_none()).count();
@@ -558,7 +558,7 @@ fn zero_saliency_scenes_keep_saliency_centres_on_facet_centres() {
                 let what = format!("icosphere {kind} {faceting}");
                 let r = render_clean(&prep, &s, &what);
                 assert_facets_clean(&r, &what);
-                let map = r.frame.saliency.as_ref().unwrap_or_else(|| panic!("{what}: no saliency map"));
+                let map = r.film.saliency.as_ref().unwrap_or_else(|| panic!("{what}: no saliency map"));
                 assert!(map.iter().all(|&v| v == 0.0), "{what}: saliency map not zero");
                 assert!(!r.aims.is_empty(), "{what}: the imprecision stage did not run");
                 for (f, a) in r.aims.iter().enumerate() {
@@ -567,7 +567,7 @@ fn zero_saliency_scenes_keep_saliency_centres_on_facet_centres() {
                     assert!(!a.moved(), "{what}: facet {f} moved");
                 }
                 assert!(!r.timings.0.iter().any(|(n, _)| *n == "re-trace"), "{what}");
-                assert_eq!(r.frame.color, plain.frame.color, "{what}: not the unfaceted picture");
+                assert_eq!(r.film.color, plain.film.color, "{what}: not the unfaceted picture");
                 // Linear facets change the rays even without a re-aim; still no NaN.
                 s.facet_projection = FacetProjection::Linear;
                 let r = render_clean(&prep, &s, &format!("{what} linear"));
@@ -617,7 +617,7 @@ fn painterly_effects_on_tiny_and_extreme_images() {
                         let what = format!("{name} {w}x{h} {faceting} transparent {transparent}");
                         let r = render_clean(&prep, &s, &what);
                         assert_eq!(r.image.dimensions(), (w, h), "{what}");
-                        assert!(r.frame.color.iter().all(|c| (0.0..=1.0).contains(&c.w)), "{what}: alpha");
+                        assert!(r.film.color.iter().all(|c| (0.0..=1.0).contains(&c.w)), "{what}: alpha");
                         assert!(r.timings.0.iter().any(|(n, _)| *n == "paint"), "{what}: nothing painted");
                     }
                 }
@@ -680,7 +680,7 @@ fn the_analytic_preset_does_not_depend_on_units_or_placement() {
         ] {
             let prep = Prepared::new(transformed(&base, scale, offset));
             let r = render_clean(&prep, &s, &format!("analytic {name}"));
-            let (m0, m) = (r0.facets.as_ref().unwrap(), r.facets.as_ref().unwrap());
+            let (m0, m) = (&r0.facets, &r.facets);
             let same_facet = m.ids.iter().zip(&m0.ids).filter(|(a, b)| a == b).count() as f64 / m.ids.len() as f64;
             let (mean, _) = image_diff(&r.image, &r0.image);
             eprintln!(

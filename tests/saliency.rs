@@ -157,14 +157,12 @@ fn bumpy_sphere(levels: u32) -> Mesh {
     m
 }
 
-fn shared(name: &str) -> Option<PathBuf> {
+/// A model of ../shared (tests using it are `#[ignore = "needs ../shared"]`, run by
+/// `scripts/test.sh` when it is there); absent, the test fails with a message.
+fn shared(name: &str) -> PathBuf {
     let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/models").join(name);
-    if p.exists() {
-        Some(p)
-    } else {
-        eprintln!("skipped: {} not found (../shared is absent)", p.display());
-        None
-    }
+    assert!(p.exists(), "{} is absent: this test needs the shared test data beside the checkout", p.display());
+    p
 }
 
 fn max_abs_diff(a: &[f32], b: &[f32]) -> f32 {
@@ -192,7 +190,7 @@ proptest! {
         offset in -50.0f32..50.0,
         holes in 0.0f64..0.3,
     ) {
-        let rnd = |i: u64| cubist::render::unit_f64(cubist::render::splitmix64(seed ^ cubist::render::splitmix64(i))) as f32;
+        let rnd = |i: u64| cubist::util::rng::unit_f64(cubist::util::rng::splitmix64(seed ^ cubist::util::rng::splitmix64(i))) as f32;
         let mut m = height_grid(n, |x, y| 0.3 * (x * 3.0 + y).sin() + 0.1 * rnd((x.to_bits() as u64) << 32 | y.to_bits() as u64));
         for (i, p) in m.positions.iter_mut().enumerate() {
             *p = (*p + Vec3::new(rnd(i as u64 * 3 + 1), rnd(i as u64 * 3 + 2), 0.0) * 0.05) * scale + Vec3::splat(offset);
@@ -214,14 +212,14 @@ proptest! {
         let m = bumpy_sphere(2);
         let n = m.positions.len();
         let mut perm: Vec<usize> = (0..n).collect();
-        perm.sort_by_key(|&i| cubist::render::splitmix64(seed ^ i as u64));
+        perm.sort_by_key(|&i| cubist::util::rng::splitmix64(seed ^ i as u64));
         let mut inv = vec![0u32; n];
         for (new, &old) in perm.iter().enumerate() {
             inv[old] = new as u32;
         }
         let positions: Vec<Vec3> = perm.iter().map(|&o| m.positions[o]).collect();
         let mut triangles: Vec<[u32; 3]> = m.triangles.iter().map(|t| t.map(|i| inv[i as usize])).collect();
-        triangles.sort_by_key(|t| cubist::render::splitmix64(seed.wrapping_add(t[0] as u64 * 7919 + t[1] as u64)));
+        triangles.sort_by_key(|t| cubist::util::rng::splitmix64(seed.wrapping_add(t[0] as u64 * 7919 + t[1] as u64)));
         let shuffled = Mesh { positions, triangles, ..m.clone() };
         let a = mesh_saliency(&m);
         let b = mesh_saliency(&shuffled);
@@ -260,9 +258,6 @@ fn spheres_have_no_saliency() {
         // Lathe-built: each pole is `segments` split vertices, welded by position.
         spheres.push(ellipsoid("uv", Vec3::ONE, rings, segments, 0));
     }
-    if let Some(p) = shared("sphere_1280.glb") {
-        spheres.push(Scene::load(&p).unwrap().meshes.remove(0));
-    }
     for m in &spheres {
         let s = mesh_saliency(m);
         assert!(s.iter().all(|x| x.is_finite()), "{}: NaN", m.name);
@@ -276,32 +271,37 @@ fn spheres_have_no_saliency() {
     }
 }
 
+/// The strongest centre-surround difference of any level, relative to the mean |H|.
+fn level_residue(m: &Mesh) -> f64 {
+    let a = analyse(&m.positions, &m.triangles);
+    let means = cubist::saliency::levels::gaussian_means(&a.surface.positions, &a.h, &SIGMA_SCALES.map(|s| s * a.eps));
+    let mean_abs = a.h.iter().map(|x| x.abs()).sum::<f64>() / a.h.len() as f64;
+    let n = a.h.len();
+    LEVEL_PAIRS
+        .iter()
+        .map(|&(f, c)| (0..n).map(|v| (means[v * 8 + f] - means[v * 8 + c]).abs()).fold(0.0, f64::max) / mean_abs)
+        .fold(0.0, f64::max)
+}
+
 /// The noise floor's margin: on tessellated spheres the centre-surround residue stays below a
-/// third of `NOISE_FLOOR` (so spheres are safely 0), while every real model's strongest level
-/// is over 20 times above it.
+/// third of `NOISE_FLOOR`, so spheres are safely 0 (real models: see the next test).
 #[test]
 fn noise_floor_has_margin() {
-    let residue = |m: &Mesh| -> f64 {
-        let a = analyse(&m.positions, &m.triangles);
-        let means =
-            cubist::saliency::levels::gaussian_means(&a.surface.positions, &a.h, &SIGMA_SCALES.map(|s| s * a.eps));
-        let mean_abs = a.h.iter().map(|x| x.abs()).sum::<f64>() / a.h.len() as f64;
-        let n = a.h.len();
-        LEVEL_PAIRS
-            .iter()
-            .map(|&(f, c)| (0..n).map(|v| (means[v * 8 + f] - means[v * 8 + c]).abs()).fold(0.0, f64::max) / mean_abs)
-            .fold(0.0, f64::max)
-    };
+    let residue = level_residue;
     for m in (1..=5).map(icosphere).chain([8, 16, 32, 64].map(|r| ellipsoid("uv", Vec3::ONE, r, 2 * r, 0))) {
         let r = residue(&m);
         assert!(r < NOISE_FLOOR / 3.0, "{} with {} vertices: residue {r}", m.name, m.positions.len());
     }
+}
+
+/// Every real model's strongest level is over 20 times above `NOISE_FLOOR`.
+#[test]
+#[ignore = "needs ../shared"]
+fn real_models_are_far_above_the_noise_floor() {
     for name in ["bunny_2k.glb", "venus_11k.glb", "spot.glb", "suzanne.glb", "teapot.glb"] {
-        if let Some(p) = shared(name) {
-            let m = Scene::load(&p).unwrap().meshes.remove(0);
-            let r = residue(&m);
-            assert!(r > 20.0 * NOISE_FLOOR, "{name}: residue {r}");
-        }
+        let m = Scene::load(&shared(name)).unwrap().meshes.remove(0);
+        let r = level_residue(&m);
+        assert!(r > 20.0 * NOISE_FLOOR, "{name}: residue {r}");
     }
 }
 
@@ -417,7 +417,7 @@ fn node_transforms_do_not_change_vertex_saliency() {
         };
         let prep = cubist::Prepared::new(scene);
         let settings = cubist::Settings { width: 48, height: 36, spp: 1, ..plain_settings() };
-        let r = cubist::saliency::render_map(&prep, &settings, &cubist::progress::Progress::silent()).unwrap();
+        let r = cubist::pipeline::saliency_map(&prep, &settings, &cubist::progress::Progress::silent()).unwrap();
         results.push(r.mesh.per_mesh[0].clone().expect("the mesh is in view"));
     }
     assert_eq!(results[0], results[1]);
@@ -538,9 +538,10 @@ fn clustered_is_deterministic_on_uneven_meshes() {
 // ---------------------------------------------------------------- real models
 
 #[test]
+#[ignore = "needs ../shared"]
 fn bunny_is_salient_on_its_features_not_its_hole_rims() {
     for name in ["bunny_full.glb", "bunny_2k.glb"] {
-        let Some(p) = shared(name) else { return };
+        let p = shared(name);
         let m = Scene::load(&p).unwrap().meshes.remove(0);
         let s = mesh_saliency(&m);
         assert!(s.iter().all(|x| x.is_finite() && (0.0..=1.0).contains(x)));
@@ -570,9 +571,10 @@ fn bunny_is_salient_on_its_features_not_its_hole_rims() {
 }
 
 #[test]
+#[ignore = "needs ../shared"]
 fn real_models_are_finite_and_spread() {
     for name in ["venus_11k.glb", "bunny_2k.glb", "spot.glb", "teapot.glb", "suzanne.glb", "human.glb"] {
-        let Some(p) = shared(name) else { return };
+        let p = shared(name);
         for m in &Scene::load(&p).unwrap().meshes {
             let s = mesh_saliency(m);
             assert!(s.iter().all(|x| x.is_finite() && (0.0..=1.0).contains(x)), "{name}");
@@ -659,13 +661,13 @@ fn render_pass_saliency_is_written_and_skipped_when_unneeded() {
     let progress = cubist::progress::Progress::silent();
     let plain = cubist::Settings { width: 64, height: 48, spp: 1, ..plain_settings() };
     let r = cubist::render(&prep, &plain, &progress).unwrap();
-    assert!(r.frame.saliency.is_none());
+    assert!(r.film.saliency.is_none());
     assert!(!r.timings.0.iter().any(|(s, _)| *s == "saliency"));
     let with = cubist::Settings { passes: vec![cubist::settings::Pass::Saliency], ..plain.clone() };
     let r = cubist::render(&prep, &with, &progress).unwrap();
-    let map = r.frame.saliency.as_ref().unwrap();
-    let sal = cubist::saliency::render_map(&prep, &plain, &progress).unwrap();
-    assert_eq!(map, sal.frame.saliency.as_ref().unwrap());
+    let map = r.film.saliency.as_ref().unwrap();
+    let sal = cubist::pipeline::saliency_map(&prep, &plain, &progress).unwrap();
+    assert_eq!(map, sal.film.saliency.as_ref().unwrap());
     assert_eq!(r.passes[0].1, sal.image);
 }
 
@@ -693,7 +695,7 @@ fn only_meshes_in_view_are_computed() {
         camera_target: Some([0.0, 0.0, 0.0]),
         ..plain_settings()
     };
-    let r = cubist::saliency::render_map(&prep, &settings, &cubist::progress::Progress::silent()).unwrap();
+    let r = cubist::pipeline::saliency_map(&prep, &settings, &cubist::progress::Progress::silent()).unwrap();
     assert!(r.mesh.per_mesh[0].is_some());
     assert!(r.mesh.per_mesh[1].is_none());
     let _: Option<&Arc<Vec<f32>>> = r.mesh.per_mesh[0].as_ref();
@@ -732,8 +734,8 @@ fn results_are_reused_in_process_and_across_processes() {
     let silent = cubist::progress::Progress::silent();
     // In process: the second frame gets the very same allocation.
     let prep = cubist::Prepared::new(scene.clone());
-    let a = cubist::saliency::render_map(&prep, &settings, &silent).unwrap().mesh.per_mesh[0].clone().unwrap();
-    let b = cubist::saliency::render_map(&prep, &settings, &silent).unwrap().mesh.per_mesh[0].clone().unwrap();
+    let a = cubist::pipeline::saliency_map(&prep, &settings, &silent).unwrap().mesh.per_mesh[0].clone().unwrap();
+    let b = cubist::pipeline::saliency_map(&prep, &settings, &silent).unwrap().mesh.per_mesh[0].clone().unwrap();
     assert!(Arc::ptr_eq(&a, &b));
     // Across processes: a fresh load reads the disk entry. Prove it by planting other values.
     let key = cubist::saliency::content_key(&m, SaliencyMethod::Auto);
@@ -742,12 +744,12 @@ fn results_are_reused_in_process_and_across_processes() {
     let planted = vec![0.5f32; m.positions.len()];
     cubist::saliency::cache::store(&dir.path().join("cache"), key, &planted).unwrap();
     let fresh = cubist::Prepared::new(scene.clone());
-    let c = cubist::saliency::render_map(&fresh, &settings, &silent).unwrap();
+    let c = cubist::pipeline::saliency_map(&fresh, &settings, &silent).unwrap();
     assert_eq!(*c.mesh.per_mesh[0].clone().unwrap(), planted);
     // A damaged entry is recomputed and rewritten.
     std::fs::write(&entry, b"garbage").unwrap();
     let again = cubist::Prepared::new(scene);
-    let d = cubist::saliency::render_map(&again, &settings, &silent).unwrap();
+    let d = cubist::pipeline::saliency_map(&again, &settings, &silent).unwrap();
     assert_eq!(d.mesh.per_mesh[0].clone().unwrap(), a);
     assert_eq!(cubist::saliency::cache::load(&dir.path().join("cache"), key, m.positions.len()).as_ref(), Some(&*a));
 }

@@ -29,7 +29,7 @@ fuzz_target!(|data: &[u8]| {
         s.height = 6;
         s.spp = 1;
         if let Ok(r) = render(&prep, &s, &Progress::silent()) {
-            assert!(r.frame.color.iter().all(|c| c.is_finite()), "NaN pixel");
+            assert!(r.film.color.iter().all(|c| c.is_finite()), "NaN pixel");
         }
     }
 });

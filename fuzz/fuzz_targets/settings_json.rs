@@ -7,6 +7,7 @@ use std::path::Path;
 use std::sync::OnceLock;
 
 use cubist::camera::frame_camera;
+use cubist::pipeline::params;
 use cubist::pipeline::{Prepared, render};
 use cubist::progress::Progress;
 use cubist::scene::Scene;
@@ -22,11 +23,11 @@ fn scene() -> &'static Prepared {
 fn check(settings: Settings) {
     settings.validate().expect("from_layers returned settings that do not validate");
     let prep = scene();
-    let _ = frame_camera(&settings, &prep.world);
+    let _ = frame_camera(&params::framing(&settings), &prep.world);
     // Trace only tiny images: the point is the parameters, not the time.
     if settings.width as u64 * settings.height as u64 * settings.spp as u64 <= 256 {
         if let Ok(r) = render(prep, &settings, &Progress::silent()) {
-            assert!(r.frame.color.iter().all(|c| c.is_finite()), "NaN pixel");
+            assert!(r.film.color.iter().all(|c| c.is_finite()), "NaN pixel");
         }
     }
 }

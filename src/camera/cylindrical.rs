@@ -28,8 +28,4 @@ impl Camera for Cylindrical {
         let on_axis = self.centre + f.up * (p.y * self.height);
         finish_ray(on_axis + v * self.distance, -v, self.distance, self.clip_radius)
     }
-
-    fn converges(&self) -> bool {
-        false
-    }
 }

@@ -1,5 +1,5 @@
-//! Choosing a camera's parameters from the settings and the scene (render space, where the
-//! scene's bounding sphere is centred at the origin with radius ~1).
+//! Choosing a camera's position, focal centre and size from what was asked and the scene
+//! (render space, where the scene's bounding sphere is centred at the origin with radius ~1).
 //!
 //! Every ray of a converging cubist camera passes through its focal centre C, so the picture
 //! is the scene seen along lines through C. With C inside an object the picture is a
@@ -13,10 +13,9 @@
 
 use glam::DVec3;
 
-use super::{Camera, CameraFrame, Cylindrical, Orthographic, Perspective, Planar, Spherical};
+use super::{Camera, CameraFrame, CameraKind, Cylindrical, Orthographic, Perspective, Planar, Spherical};
 use crate::error::{Error, Result};
 use crate::scene::{Projection, World};
-use crate::settings::{CameraKind, Framing, Settings};
 
 /// Fraction of the convergence half-angles the scene fills under `fit` (setting `fill`).
 pub const FIT_FILL: f64 = 0.8;
@@ -27,6 +26,54 @@ pub const PINHOLE_FILL: f64 = 0.9;
 pub const TALL_RATIO: f64 = 1.6;
 /// Vertices sampled for fitting (every n-th triangle corner beyond this many).
 const FIT_SAMPLES: usize = 30_000;
+
+/// Where a cubist camera's focal centre goes when no focus distance is given.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Framing {
+    /// Behind the scene's centre, so the whole scene fits the convergence angle.
+    Fit,
+    /// At the centre of the scene's bounding box (the thesis's literal default).
+    Centre,
+}
+
+/// What framing needs: the camera asked for, its angle, where it is and what it looks at
+/// (scene units; None: chosen from the scene), and the image's size.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FramingParams {
+    pub kind: CameraKind,
+    /// Convergence angle of cubist cameras, the perspective camera's vertical field of view,
+    /// degrees. None: 140 for cubist cameras, the glTF camera's (else 60) for perspective.
+    pub ambiguity: Option<f64>,
+    pub framing: Framing,
+    pub focus_distance: Option<f64>,
+    pub position: Option<[f64; 3]>,
+    pub target: Option<[f64; 3]>,
+    pub up: Option<[f64; 3]>,
+    /// Planar plane height, orthographic view height, cylindrical band height.
+    pub size: Option<f64>,
+    /// Fraction of the view the scene fills under automatic framing (None: `FIT_FILL` for
+    /// cubist cameras, `PINHOLE_FILL` for the others).
+    pub fill: Option<f64>,
+    pub width: u32,
+    pub height: u32,
+}
+
+/// The convergence angle of cubist cameras when none is given, degrees (the middle of the
+/// thesis's recommended 120-150).
+pub const DEFAULT_ANGLE: f64 = 140.0;
+/// The perspective camera's field of view when neither the parameters nor the glTF give one.
+pub const DEFAULT_FOV: f64 = 60.0;
+
+impl FramingParams {
+    /// The convergence angle (or field of view) in degrees actually used by `kind`.
+    pub fn angle_deg(&self, kind: CameraKind, gltf_yfov_deg: Option<f64>) -> f64 {
+        match (self.ambiguity, kind) {
+            (Some(a), _) => a,
+            (None, CameraKind::Perspective) => gltf_yfov_deg.unwrap_or(DEFAULT_FOV),
+            (None, _) => DEFAULT_ANGLE,
+        }
+    }
+}
 
 /// A camera with what was decided for it, for `--verbose` and the add-on.
 pub struct Framed {
@@ -56,9 +103,9 @@ impl Framed {
 
 /// Scene vertices (a bounded sample) in render space; non-finite ones (never hit) skipped.
 fn sample_points(world: &World) -> Vec<DVec3> {
-    let n = world.positions.len() * 3;
+    let n = world.triangle_count() * 3;
     let step = n.div_ceil(FIT_SAMPLES).max(1);
-    world.positions.iter().flatten().step_by(step).filter(|p| p.is_finite()).map(|p| p.as_dvec3()).collect()
+    (0..n).step_by(step).map(|k| world.corner(k)).filter(|p| p.is_finite()).map(|p| p.as_dvec3()).collect()
 }
 
 /// Angles (horizontal, vertical) from the view axis at which a camera with focal centre `c`
@@ -127,17 +174,18 @@ fn fit_depth(
     hi
 }
 
-pub fn frame_camera(settings: &Settings, world: &World) -> Result<Framed> {
+/// Chooses the camera's parameters for `world` (SPEC "Framing"; see the module doc).
+pub fn frame_camera(params: &FramingParams, world: &World) -> Result<Framed> {
     let mut warnings = Vec::new();
-    let aspect = settings.width as f64 / settings.height as f64;
+    let aspect = params.width as f64 / params.height as f64;
     let sim = world.to_render;
     let radius = (world.radius as f64).max(1e-9);
     let clip = radius * 1.001;
     let scene_cam = world.camera.as_ref();
 
-    // 1. The view frame: explicit settings, else the scene's camera, else looking down -Z.
-    let target = settings.camera_target.map(|t| sim.point_f64(DVec3::from(t)));
-    let position = settings.camera_position.map(|p| sim.point_f64(DVec3::from(p)));
+    // 1. The view frame: explicit parameters, else the scene's camera, else looking down -Z.
+    let target = params.target.map(|t| sim.point_f64(DVec3::from(t)));
+    let position = params.position.map(|p| sim.point_f64(DVec3::from(p)));
     let (forward, up) = match (position, target) {
         (Some(p), Some(t)) => (t - p, None),
         (Some(p), None) => (-p, None),
@@ -146,7 +194,7 @@ pub fn frame_camera(settings: &Settings, world: &World) -> Result<Framed> {
             None => (DVec3::NEG_Z, None),
         },
     };
-    let up = settings.camera_up.map(DVec3::from).or(up).unwrap_or(DVec3::Y);
+    let up = params.up.map(DVec3::from).or(up).unwrap_or(DVec3::Y);
     let forward = if forward.length_squared() > 0.0 { forward } else { DVec3::NEG_Z };
     let (mut frame, fixed) = CameraFrame::new(DVec3::ZERO, forward, up)
         .ok_or_else(|| Error::setting("camera_up", "cannot build a camera frame from these vectors"))?;
@@ -154,7 +202,7 @@ pub fn frame_camera(settings: &Settings, world: &World) -> Result<Framed> {
         warnings.push("camera up vector is parallel to the view direction; replaced by a perpendicular axis".into());
     }
     let fwd = frame.forward;
-    // 2. The camera position if one is given (settings, target, or the scene's camera).
+    // 2. The camera position if one is given (parameters, target, or the scene's camera).
     let given_position = match (position, target) {
         (Some(p), _) => Some(p),
         (None, Some(t)) => Some(t - fwd * 3.0 * radius),
@@ -174,7 +222,7 @@ pub fn frame_camera(settings: &Settings, world: &World) -> Result<Framed> {
     };
     let (ext_r, ext_u, ext_f) = (extent(frame.right), extent(frame.up), extent(frame.forward));
     let size = DVec3::new(ext_r.1 - ext_r.0, ext_u.1 - ext_u.0, ext_f.1 - ext_f.0);
-    let kind = match settings.camera {
+    let kind = match params.kind {
         CameraKind::Auto => {
             if size.y >= TALL_RATIO * size.x.max(size.z) {
                 CameraKind::Cylindrical
@@ -188,7 +236,7 @@ pub fn frame_camera(settings: &Settings, world: &World) -> Result<Framed> {
         Projection::Perspective { yfov } => Some(yfov.to_degrees()),
         _ => None,
     });
-    let angle_deg = settings.angle_deg(kind, gltf_fov);
+    let angle_deg = params.angle_deg(kind, gltf_fov);
     if kind == CameraKind::Planar && !(0.0..180.0).contains(&angle_deg) {
         return Err(Error::setting(
             "ambiguity",
@@ -199,10 +247,10 @@ pub fn frame_camera(settings: &Settings, world: &World) -> Result<Framed> {
     // The scene's own focus applies only to its own camera.
     let scene_focus =
         if position.is_none() && target.is_none() { scene_cam.and_then(|c| c.focus_distance) } else { None };
-    let focus = settings.focus_distance.map(|f| sim.length(f)).or(scene_focus);
-    let size_setting = settings.camera_size.map(|s| sim.length(s));
-    let fit_fill = settings.fill.unwrap_or(FIT_FILL);
-    let pinhole_fill = settings.fill.unwrap_or(PINHOLE_FILL);
+    let focus = params.focus_distance.map(|f| sim.length(f)).or(scene_focus);
+    let size_setting = params.size.map(|s| sim.length(s));
+    let fit_fill = params.fill.unwrap_or(FIT_FILL);
+    let pinhole_fill = params.fill.unwrap_or(PINHOLE_FILL);
     let view_height;
 
     let camera: Box<dyn Camera>;
@@ -211,7 +259,7 @@ pub fn frame_camera(settings: &Settings, world: &World) -> Result<Framed> {
         CameraKind::Spherical | CameraKind::Cylindrical | CameraKind::Auto => {
             let half =
                 if kind == CameraKind::Spherical { (alpha / 2.0, alpha / aspect / 2.0) } else { (alpha / 2.0, 0.0) };
-            let framed_c = || match settings.framing {
+            let framed_c = || match params.framing {
                 Framing::Centre => axis,
                 Framing::Fit => axis + fwd * fit_depth(&points, kind, &frame, axis, half, radius, fit_fill),
             };
@@ -263,7 +311,7 @@ pub fn frame_camera(settings: &Settings, world: &World) -> Result<Framed> {
                 let s = size_setting.unwrap_or((ext_u.1 - ext_u.0).max((ext_r.1 - ext_r.0) / aspect) / pinhole_fill);
                 (axis - fwd * 3.0 * radius, s.max(1e-9))
             } else {
-                let fp = match settings.framing {
+                let fp = match params.framing {
                     Framing::Centre => axis,
                     Framing::Fit => axis + fwd * fit_depth(&points, kind, &frame, axis, half, radius, fit_fill),
                 };
@@ -301,7 +349,7 @@ pub fn frame_camera(settings: &Settings, world: &World) -> Result<Framed> {
         }
         CameraKind::Orthographic => {
             let gltf_height = scene_cam.and_then(|c| match c.projection {
-                Projection::Orthographic { ymag } if settings.camera_position.is_none() => Some(2.0 * ymag),
+                Projection::Orthographic { ymag } if params.position.is_none() => Some(2.0 * ymag),
                 _ => None,
             });
             let height = size_setting.or(gltf_height).unwrap_or_else(|| 2.0 * radius / pinhole_fill / aspect.min(1.0));

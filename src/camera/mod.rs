@@ -14,11 +14,48 @@ mod spherical;
 use glam::{DVec2, DVec3, Vec3};
 
 pub use cylindrical::Cylindrical;
-pub use framing::{Framed, frame_camera};
+pub use framing::{Framed, Framing, FramingParams, frame_camera};
 pub use orthographic::Orthographic;
 pub use perspective::Perspective;
 pub use planar::Planar;
 pub use spherical::Spherical;
+
+/// The camera model (SPEC "Cameras").
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum CameraKind {
+    /// Spherical for compact scenes, cylindrical for tall ones (`framing::TALL_RATIO`).
+    Auto,
+    /// Rays start on a sphere and converge on the focal centre (eq 4.2).
+    Spherical,
+    /// Rays converge on a vertical focal line; rows map linearly to height.
+    Cylindrical,
+    /// Rays start on a plane and converge on a focal point (eq 4.1).
+    Planar,
+    /// Pinhole camera; the angle is its vertical field of view.
+    Perspective,
+    /// Parallel rays.
+    Orthographic,
+}
+
+impl CameraKind {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            CameraKind::Auto => "auto",
+            CameraKind::Spherical => "spherical",
+            CameraKind::Cylindrical => "cylindrical",
+            CameraKind::Planar => "planar",
+            CameraKind::Perspective => "perspective",
+            CameraKind::Orthographic => "orthographic",
+        }
+    }
+}
+
+impl std::fmt::Display for CameraKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
 
 /// A primary ray. `focus` is the signed distance along the ray to its focal point (where the
 /// camera's rays converge); infinite for parallel rays. Re-aiming a facet (SPEC "Spatial
@@ -55,9 +92,6 @@ impl CameraRay {
 pub trait Camera: Send + Sync {
     /// The ray through screen point `p` (see the module doc for the convention).
     fn ray(&self, p: DVec2) -> CameraRay;
-
-    /// Whether all rays share one focal point (spherical, planar): re-aiming then moves it.
-    fn converges(&self) -> bool;
 }
 
 /// An orthonormal camera frame: `forward` is the view direction c_d, `up` is u and

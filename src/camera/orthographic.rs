@@ -21,8 +21,4 @@ impl Camera for Orthographic {
         let origin = f.position + f.up * (p.y * self.height) + f.right * (p.x * self.height * self.aspect);
         finish_ray(origin, f.forward, self.focus, self.clip_radius)
     }
-
-    fn converges(&self) -> bool {
-        false
-    }
 }

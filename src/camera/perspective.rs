@@ -24,8 +24,4 @@ impl Camera for Perspective {
         let focus = self.focus * d.length();
         finish_ray(f.position, d, focus, self.clip_radius)
     }
-
-    fn converges(&self) -> bool {
-        false
-    }
 }

@@ -43,8 +43,4 @@ impl Camera for Planar {
         let focus = if self.inv_focal_length > 0.0 { towards.length() / self.inv_focal_length } else { f64::INFINITY };
         finish_ray(origin, towards, focus, self.clip_radius)
     }
-
-    fn converges(&self) -> bool {
-        self.inv_focal_length > 0.0
-    }
 }

@@ -38,8 +38,4 @@ impl Camera for Spherical {
         let v = self.outward(p);
         finish_ray(self.centre + v * self.distance, -v, self.distance, self.clip_radius)
     }
-
-    fn converges(&self) -> bool {
-        true
-    }
 }

@@ -19,17 +19,21 @@ pub mod segment;
 pub mod voronoi;
 
 use std::collections::VecDeque;
+use std::path::PathBuf;
 
 use glam::DVec2;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-use crate::frame::Frame;
-use crate::render::{splitmix64, unit_f64};
-use crate::settings::{Faceting, Settings};
+use crate::film::Film;
+use crate::util::grid::Grid;
+use segment::SegmentParams;
 
 /// Largest number of facets in a layout: ids fit the 16-bit `facet-ids` pass and PNG layouts.
 pub const MAX_FACETS: u32 = 65536;
+/// Largest base label image a layout file may hold: the largest image a render makes
+/// (`settings::MAX_PIXELS`, checked equal in `pipeline::params`).
+pub const MAX_BASE_PIXELS: u64 = 64 * 1024 * 1024;
 
 /// A label raster, each value a facet id.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -202,32 +206,19 @@ fn fill_uncovered(ids: &mut [u32], width: u32, height: u32) {
     if !ids.contains(&UNSET) {
         return;
     }
-    let (w, h) = (width as usize, height as usize);
+    let grid = Grid::new(width, height);
     let mut queue: VecDeque<usize> = (0..ids.len()).filter(|&i| ids[i] != UNSET).collect();
     if queue.is_empty() {
         ids.fill(0);
         return;
     }
     while let Some(i) = queue.pop_front() {
-        let (x, y) = (i % w, i / w);
         let id = ids[i];
-        let mut visit = |j: usize| {
+        for j in grid.neighbours4(i) {
             if ids[j] == UNSET {
                 ids[j] = id;
                 queue.push_back(j);
             }
-        };
-        if x > 0 {
-            visit(i - 1);
-        }
-        if x + 1 < w {
-            visit(i + 1);
-        }
-        if y > 0 {
-            visit(i - w);
-        }
-        if y + 1 < h {
-            visit(i + w);
         }
     }
 }
@@ -262,48 +253,74 @@ impl FacetMap {
 
     /// Whether pixel `i` touches a pixel of another facet (4-neighbourhood).
     pub fn is_border(&self, i: usize) -> bool {
-        let (w, h) = (self.width as usize, self.height as usize);
-        let (x, y, id) = (i % w, i / w, self.ids[i]);
-        (x > 0 && self.ids[i - 1] != id)
-            || (x + 1 < w && self.ids[i + 1] != id)
-            || (y > 0 && self.ids[i - w] != id)
-            || (y + 1 < h && self.ids[i + w] != id)
+        Grid::new(self.width, self.height).on_border(&self.ids, i)
     }
 }
 
-/// A seeded uniform number in [0, 1) for (seed, stream, index): stateless, so results never
-/// depend on evaluation order or thread count.
-pub(crate) fn rand01(seed: u64, stream: u64, index: u64) -> f64 {
-    unit_f64(splitmix64(splitmix64(seed ^ stream.wrapping_mul(0xA24B_AED4_963E_E407)) ^ splitmix64(index)))
+/// How the image is split into facets (SPEC "Faceting").
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FacetMethod {
+    /// One facet: the unfaceted cubist view.
+    None,
+    /// A facet map image, each distinct colour a facet (`constant`).
+    Constant,
+    /// Nearest of k stratified random points (`voronoi`).
+    Voronoi,
+    /// Random quadrilaterals painted until every pixel is covered (`patch`).
+    Patch,
+    /// Multiscale normalized-cut segments of the pre-render, selected by saliency (`segment`).
+    Segment,
 }
 
-/// The layout the settings ask for: loaded from `settings.facets`, or computed by the
-/// faceting method (`frame` is the pre-render, for methods that follow the picture).
-pub fn layout_for(settings: &Settings, frame: &Frame) -> Result<FacetLayout> {
-    if let Some(path) = &settings.facets {
+/// What the faceting stage needs besides the pre-render.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FacetParams {
+    pub method: FacetMethod,
+    /// A saved layout (.json or .png) to load instead of computing one, so every frame of an
+    /// animation shares it.
+    pub layout_file: Option<PathBuf>,
+    /// The facet map image of `Constant`.
+    pub facet_map: Option<PathBuf>,
+    /// Voronoi: k facets over m grid cells.
+    pub facet_count: u32,
+    pub grid_cells: u32,
+    /// Patch: n_p quadrilaterals and the occlusion ratio r_occ of eq 4.3.
+    pub patch_count: u32,
+    pub occlusion: f64,
+    pub segment: SegmentParams,
+    pub width: u32,
+    pub height: u32,
+    pub seed: u64,
+}
+
+impl FacetParams {
+    /// Whether the image is split at all: a faceting method, or a layout loaded from a file.
+    pub fn faceted(&self) -> bool {
+        self.method != FacetMethod::None || self.layout_file.is_some()
+    }
+
+    fn aspect(&self) -> f64 {
+        self.width as f64 / self.height as f64
+    }
+}
+
+/// The layout `params` ask for: loaded from `layout_file`, or computed by the faceting method
+/// (`film` is the pre-render, for methods that follow the picture).
+pub fn layout_for(params: &FacetParams, film: &Film) -> Result<FacetLayout> {
+    if let Some(path) = &params.layout_file {
         return io::load(path);
     }
-    let layout = match settings.faceting {
-        Faceting::None => FacetLayout::single(),
-        Faceting::Constant => {
-            let path = settings.facet_map.as_deref().ok_or_else(|| {
+    let layout = match params.method {
+        FacetMethod::None => FacetLayout::single(),
+        FacetMethod::Constant => {
+            let path = params.facet_map.as_deref().ok_or_else(|| {
                 Error::setting("facet_map", "constant faceting needs a facet map image (--facet-map)")
             })?;
             constant::layout(path)?
         }
-        Faceting::Voronoi => voronoi::layout(
-            settings.facet_count,
-            settings.grid_cells,
-            settings.width as f64 / settings.height as f64,
-            settings.seed,
-        ),
-        Faceting::Patch => patch::layout(
-            settings.patch_count,
-            settings.occlusion,
-            settings.width as f64 / settings.height as f64,
-            settings.seed,
-        )?,
-        Faceting::Segment => segment::layout(frame, settings)?.0,
+        FacetMethod::Voronoi => voronoi::layout(params.facet_count, params.grid_cells, params.aspect(), params.seed),
+        FacetMethod::Patch => patch::layout(params.patch_count, params.occlusion, params.aspect(), params.seed)?,
+        FacetMethod::Segment => segment::layout(film, &params.segment)?.0,
     };
     debug_assert!(layout.validate().is_ok());
     Ok(layout)

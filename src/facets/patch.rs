@@ -12,9 +12,10 @@
 
 use glam::DVec2;
 
-use super::{FacetLayout, FacetPolygon, MAX_FACETS, fill_polygon, rand01};
+use super::{FacetLayout, FacetPolygon, MAX_FACETS, fill_polygon};
 use crate::error::{Error, Result};
-use crate::render::splitmix64;
+use crate::util::rng::rand01;
+use crate::util::rng::splitmix64;
 
 const STREAM: u64 = 0x0070_6174_6368; // "patch"
 

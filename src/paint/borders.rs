@@ -6,6 +6,7 @@ use rayon::prelude::*;
 use super::{Canvas, Effect, PaintContext, darken};
 use crate::distance::distance_to_features;
 use crate::error::Result;
+use crate::util::grid::Grid;
 
 /// Eq 4.8: colour factor (md + 3 sqrt(p_d md)) / (4 md) for p_d in [0, md], 1 beyond:
 /// a quarter of the colour on the border, rising steeply then flattening to 1 at md.
@@ -26,15 +27,8 @@ pub fn darkening(pd: f32, md: f32, strength: f32) -> f32 {
 /// first pixel the thesis's circle search stops at); p_d is the Euclidean distance between
 /// pixel centres to the nearest border pixel, so both sides of a border darken alike.
 pub fn border_pixels(width: u32, height: u32, ids: &[u32]) -> impl Fn(usize) -> bool + Sync + '_ {
-    let (w, h) = (width as usize, height as usize);
-    move |i| {
-        let (x, y) = (i % w, i / w);
-        let id = ids[i];
-        (x > 0 && ids[i - 1] != id)
-            || (x + 1 < w && ids[i + 1] != id)
-            || (y > 0 && ids[i - w] != id)
-            || (y + 1 < h && ids[i + w] != id)
-    }
+    let grid = Grid::new(width, height);
+    move |i| grid.on_border(ids, i)
 }
 
 /// Darkens pixels near facet borders (eq 4.8).

@@ -6,9 +6,9 @@
 use glam::{DVec2, Vec2, Vec3};
 use rayon::prelude::*;
 
-use super::{Canvas, Effect, PaintContext, effect_seed};
+use super::{Canvas, Effect, PaintContext};
 use crate::error::Result;
-use crate::render::{splitmix64, unit_f64};
+use crate::util::rng::{splitmix64, sub_seed, unit_f64};
 
 const SALT: u64 = 0x6772_6164_6965_6e74; // "gradient"
 /// Share of the chosen facets that darken (the rest lighten).
@@ -78,7 +78,7 @@ impl Gradients {
     /// The overlay of every facet (None for facets not chosen). Seeded per facet, so a facet's
     /// choice does not depend on the others or on the image size.
     pub fn overlays(&self, width: u32, ids: &[u32], count: usize) -> Vec<Option<Overlay>> {
-        let seed = effect_seed(self.seed, SALT);
+        let seed = sub_seed(self.seed, SALT);
         facet_shapes(width, ids, count)
             .into_iter()
             .enumerate()

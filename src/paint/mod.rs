@@ -3,10 +3,13 @@
 //! `Effect` trait and left out of the chain when its setting is off.
 //!
 //! Order (fixed): chiaroscuro (relights the shading, so it must see the unmodified render) ->
-//! silhouettes -> facet borders -> gradient overlays (the geometric darkenings and
-//! lightenings) -> colour transfer / palette (maps the final luminance onto the painter's
-//! colours, so borders and gradients come out in palette colours too) -> quantisation (last,
-//! so the image really has at most K colours).
+//! silhouettes -> facet borders, symmetric or passage -> gradient overlays (the geometric
+//! darkenings and lightenings) -> colour transfer / palette (maps the final luminance onto the
+//! painter's colours, so borders and gradients come out in palette colours too) ->
+//! quantisation (so the paint has at most K colours) -> per-plane light (the ramp across each
+//! plane, after the palette: the palette ranks luminance, and ramps spread over a large
+//! backdrop would push a small subject's values to the ends of the ramp) -> brushwork (strokes
+//! of the finished colours) -> canvas grain (last: the weave shows through the paint).
 //!
 //! Background and alpha. An opaque image's background is part of the canvas: every effect
 //! paints it (borders cross it, the palette colours it). A transparent image has no background
@@ -22,17 +25,25 @@ pub mod gradients;
 pub mod palette;
 pub mod quantise;
 pub mod silhouettes;
+// Issue 13: per-plane light, passage, brushwork, canvas grain, and their measure.
+pub mod brushwork;
+pub mod canvas;
+pub mod measure;
+pub mod noise;
+pub mod passage;
+pub mod plane_light;
+pub mod planes;
 
 use glam::{Vec3, Vec4};
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::facets::FacetMap;
-use crate::frame::{Frame, PixelHit};
-use crate::render::splitmix64;
+use crate::film::{Film, PixelHit};
 use crate::scene::World;
-use crate::settings::Settings;
 use crate::shading::LightRig;
+pub use palette::Palette;
+pub use passage::BorderStyle;
 
 /// The image the effects work on, in place on the frame's colour buffer (row 0 at the top).
 /// Each pixel's `xyz` is, on an opaque canvas, the composited colour (linear RGB) and, on a
@@ -139,6 +150,8 @@ pub fn darken_background(p: &mut Vec4, coverage: f32, f: f32, bg: Vec3, transpar
 pub struct Lighting<'a> {
     pub world: &'a World,
     pub rig: &'a LightRig,
+    /// The camera's axes: chiaroscuro turns each facet's lights about the view axis.
+    pub view: chiaroscuro::ViewAxes,
 }
 
 /// What the effects read besides the canvas.
@@ -170,9 +183,77 @@ pub trait Effect: Send + Sync {
     fn apply(&self, canvas: &mut Canvas<'_>, ctx: &PaintContext) -> Result<()>;
 }
 
-/// A seed for one effect's random choices: the render's seed mixed with the effect's salt.
-pub fn effect_seed(seed: u64, salt: u64) -> u64 {
-    splitmix64(seed ^ splitmix64(salt))
+/// What the painterly effects need besides the render. Distances are pixels at 1000 px,
+/// converted with `scale` (pixels of this image per such pixel); strengths and fractions in
+/// [0, 1].
+#[derive(Clone, Debug, PartialEq)]
+pub struct PaintParams {
+    /// Per-facet variation of light direction and intensity; 0 = off.
+    pub chiaroscuro: f64,
+    /// Silhouette darkening distance; 0 = off.
+    pub silhouette_width: f64,
+    pub silhouette_strength: f64,
+    /// Facet border darkening distance md of eq 4.8; 0 = off.
+    pub border_width: f64,
+    pub border_strength: f64,
+    /// Fraction of facets with a gradient overlay.
+    pub gradients: f64,
+    /// A built-in palette mapped onto the luminance ranks.
+    pub palette: Palette,
+    /// A painting whose colours are mapped instead (overrides `palette`).
+    pub palette_image: Option<std::path::PathBuf>,
+    /// Quantise to this many colours; 0 = off.
+    pub colors: u32,
+    /// Issue 13: the light-to-dark ramp across each facet (0 = off), how borders are drawn,
+    /// the stroke layer's opacity (0 = off) and stroke size, the canvas weave (0 = off).
+    pub plane_light: f64,
+    pub border_style: BorderStyle,
+    pub brushwork: f64,
+    pub stroke_length: f64,
+    pub stroke_width: f64,
+    pub canvas_grain: f64,
+    pub scale: f64,
+    pub seed: u64,
+    /// The render's background, linear RGB, and whether the output is transparent.
+    pub background: [f32; 3],
+    pub transparent: bool,
+}
+
+/// One effect of the chain, in chain order (see the module doc for why this order).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Step {
+    Chiaroscuro,
+    Silhouettes,
+    Borders,
+    Gradients,
+    Palette,
+    Quantise,
+    PlaneLight,
+    Brushwork,
+    CanvasGrain,
+}
+
+impl PaintParams {
+    /// The effects these parameters turn on, in chain order (decided without reading a file).
+    fn chain(&self) -> Vec<Step> {
+        let on = [
+            (Step::Chiaroscuro, self.chiaroscuro > 0.0),
+            (Step::Silhouettes, self.silhouette_width > 0.0 && self.silhouette_strength > 0.0),
+            (Step::Borders, self.border_width > 0.0 && self.border_strength > 0.0),
+            (Step::Gradients, self.gradients > 0.0),
+            (Step::Palette, self.palette_image.is_some() || palette::ramp(self.palette).is_some()),
+            (Step::Quantise, self.colors > 0),
+            (Step::PlaneLight, self.plane_light > 0.0),
+            (Step::Brushwork, self.brushwork > 0.0),
+            (Step::CanvasGrain, self.canvas_grain > 0.0),
+        ];
+        on.into_iter().filter(|(_, on)| *on).map(|(step, _)| step).collect()
+    }
+
+    /// Whether no effect is on: the paint stage is skipped and the render left as traced.
+    pub fn is_off(&self) -> bool {
+        self.chain().is_empty()
+    }
 }
 
 /// The enabled effects of a render, in chain order. Built once per settings (it loads the
@@ -184,37 +265,52 @@ pub struct Painter {
 }
 
 impl Painter {
-    /// The chain the settings ask for; effects that are off are left out.
-    pub fn new(settings: &Settings) -> Result<Painter> {
-        let scale = settings.pixel_scale();
+    /// The chain `params` ask for; effects that are off are left out. Reads the palette
+    /// painting, if any: built once, it serves every frame of an animation.
+    pub fn new(params: &PaintParams) -> Result<Painter> {
+        let p = params;
         let mut effects: Vec<Box<dyn Effect>> = Vec::new();
-        if settings.chiaroscuro > 0.0 {
-            effects.push(Box::new(chiaroscuro::Chiaroscuro::new(settings.chiaroscuro as f32, settings.seed)));
+        for step in p.chain() {
+            effects.push(match step {
+                Step::Chiaroscuro => Box::new(chiaroscuro::Chiaroscuro::new(p.chiaroscuro as f32, p.seed)),
+                Step::Silhouettes => Box::new(silhouettes::Silhouettes {
+                    width: (p.silhouette_width * p.scale) as f32,
+                    strength: p.silhouette_strength as f32,
+                }),
+                Step::Borders => {
+                    let (width, strength) = ((p.border_width * p.scale) as f32, p.border_strength as f32);
+                    match p.border_style {
+                        BorderStyle::Symmetric => Box::new(borders::Borders { width, strength }),
+                        BorderStyle::Passage => Box::new(passage::Passage {
+                            width,
+                            strength,
+                            seed: p.seed,
+                            plane_light: p.plane_light as f32,
+                        }),
+                    }
+                }
+                Step::Gradients => Box::new(gradients::Gradients { fraction: p.gradients, seed: p.seed }),
+                Step::Palette => match (&p.palette_image, palette::ramp(p.palette)) {
+                    (Some(path), _) => Box::new(palette::ColourTransfer::from_image(path)?),
+                    (None, Some(ramp)) => Box::new(palette::ColourTransfer::from_ramp(ramp)),
+                    (None, None) => unreachable!("chain() leaves the palette out without one"),
+                },
+                Step::Quantise => Box::new(quantise::Quantise { colors: p.colors }),
+                Step::PlaneLight => Box::new(plane_light::PlaneLight { amount: p.plane_light as f32, seed: p.seed }),
+                Step::Brushwork => Box::new(brushwork::Brushwork {
+                    opacity: p.brushwork as f32,
+                    length: (p.stroke_length * p.scale) as f32,
+                    width: (p.stroke_width * p.scale) as f32,
+                    seed: p.seed,
+                }),
+                Step::CanvasGrain => Box::new(canvas::CanvasGrain {
+                    amount: p.canvas_grain as f32,
+                    period: (canvas::PERIOD as f64 * p.scale) as f32,
+                    seed: p.seed,
+                }),
+            });
         }
-        if settings.silhouette_width > 0.0 && settings.silhouette_strength > 0.0 {
-            effects.push(Box::new(silhouettes::Silhouettes {
-                width: (settings.silhouette_width * scale) as f32,
-                strength: settings.silhouette_strength as f32,
-            }));
-        }
-        if settings.border_width > 0.0 && settings.border_strength > 0.0 {
-            effects.push(Box::new(borders::Borders {
-                width: (settings.border_width * scale) as f32,
-                strength: settings.border_strength as f32,
-            }));
-        }
-        if settings.gradients > 0.0 {
-            effects.push(Box::new(gradients::Gradients { fraction: settings.gradients, seed: settings.seed }));
-        }
-        if let Some(path) = &settings.palette_image {
-            effects.push(Box::new(palette::ColourTransfer::from_image(path)?));
-        } else if let Some(ramp) = palette::ramp(settings.palette) {
-            effects.push(Box::new(palette::ColourTransfer::from_ramp(ramp)));
-        }
-        if settings.colors > 0 {
-            effects.push(Box::new(quantise::Quantise { colors: settings.colors }));
-        }
-        Ok(Painter { effects, background: settings.background, transparent: settings.transparent })
+        Ok(Painter { effects, background: p.background, transparent: p.transparent })
     }
 
     /// A chain of the given effects (tests, benchmarks).
@@ -233,21 +329,21 @@ impl Painter {
 
     /// Runs the chain on `frame`'s colour. With no effect enabled the frame is not touched
     /// (bit-identical). `facets` must match the frame's size.
-    pub fn apply(&self, frame: &mut Frame, facets: Option<&FacetMap>, lighting: Option<&Lighting>) -> Result<()> {
+    pub fn apply(&self, film: &mut Film, facets: Option<&FacetMap>, lighting: Option<&Lighting>) -> Result<()> {
         if self.effects.is_empty() {
             return Ok(());
         }
         if let Some(f) =
-            facets.filter(|f| f.width != frame.width || f.height != frame.height || f.ids.len() != frame.pixel_count())
+            facets.filter(|f| f.width != film.width || f.height != film.height || f.ids.len() != film.pixel_count())
         {
-            return Err(Error::setting(
-                "facets",
-                format!("the facet map is {}x{} but the image is {}x{}", f.width, f.height, frame.width, frame.height),
-            ));
+            return Err(Error::Internal(format!(
+                "painterly effects: the facet map is {}x{} but the image is {}x{}",
+                f.width, f.height, film.width, film.height
+            )));
         }
-        let (w, h) = (frame.width, frame.height);
-        let mut canvas = Canvas::new(w, h, &mut frame.color, self.background, self.transparent);
-        let ctx = PaintContext { hits: &frame.hits, facets, lighting };
+        let (w, h) = (film.width, film.height);
+        let mut canvas = Canvas::new(w, h, &mut film.color, self.background, self.transparent);
+        let ctx = PaintContext { hits: &film.hits, facets, lighting };
         let mut result = Ok(());
         for e in &self.effects {
             result = e.apply(&mut canvas, &ctx);
@@ -260,23 +356,20 @@ impl Painter {
     }
 }
 
-/// Builds the chain from `settings` and runs it on `frame` (see `Painter`).
+/// Builds the chain from `params` and runs it on `film` (see `Painter`).
 pub fn apply_chain(
-    frame: &mut Frame,
+    film: &mut Film,
     facets: Option<&FacetMap>,
-    settings: &Settings,
+    params: &PaintParams,
     lighting: Option<&Lighting>,
 ) -> Result<()> {
-    Painter::new(settings)?.apply(frame, facets, lighting)
+    Painter::new(params)?.apply(film, facets, lighting)
 }
 
 /// Luminance of linear RGB (Rec. 709), as `shading::luminance`.
 pub fn luminance(c: Vec3) -> f32 {
     crate::shading::luminance(c)
 }
-
-#[cfg(test)]
-mod tests;
 
 /// Number of luminance levels the rank-based effects sort into: far finer than the 8-bit
 /// output, and a counting sort over them is linear time.
@@ -324,3 +417,8 @@ impl LuminanceKeys {
         LuminanceKeys { keys, histogram, total }
     }
 }
+
+#[cfg(test)]
+mod tests;
+#[cfg(test)]
+mod tests_plane;

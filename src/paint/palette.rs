@@ -11,7 +11,20 @@ use rayon::prelude::*;
 use super::{Canvas, Effect, LuminanceKeys, PaintContext, UNPAINTED, luminance};
 use crate::error::{Error, Result};
 use crate::scene::texture::srgb_to_linear;
-use crate::settings::Palette;
+
+/// The built-in palettes: luminance-ordered colour ramps written for this project.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Palette {
+    None,
+    /// Picasso and Braque, 1910: umber, ochre, lead white.
+    Ochre,
+    /// Grisaille, 1911: warm blacks, brownish and cool greys.
+    Grey,
+    /// Picasso's blue period: Prussian blue to pale blue-grey.
+    BluePeriod,
+    /// Braque, 1908-09: olive and earth greens to pale ochre.
+    Olive,
+}
 
 /// Number of quantile levels a reference is reduced to.
 pub const LEVELS: usize = 1024;
@@ -138,12 +151,11 @@ impl ColourTransfer {
 
     /// A painting (PNG or JPEG, any size); fully transparent pixels are not part of it.
     pub fn from_image(path: &Path) -> Result<ColourTransfer> {
-        let img = image::ImageReader::open(path)
-            .map_err(|e| Error::input(path, format!("cannot open the palette image: {e}")))?
-            .with_guessed_format()
-            .map_err(|e| Error::input(path, format!("cannot read the palette image: {e}")))?
-            .decode()
-            .map_err(|e| Error::input(path, format!("cannot decode the palette image: {e}")))?
+        // Bounded (issue 18): a regular file, its size checked before decoding.
+        let bytes = crate::util::files::read_bounded(path, crate::util::limits::MAX_IMAGE_FILE)
+            .map_err(|m| Error::input(path, format!("the palette image: {m}")))?;
+        let img = crate::util::files::decode_image(&bytes, crate::util::limits::MAX_IMAGE_PIXELS)
+            .map_err(|m| Error::input(path, format!("the palette image: {m}")))?
             .to_rgba8();
         let lut: Vec<f32> = (0..256).map(|v| srgb_to_linear(v as f32 / 255.0)).collect();
         let colours: Vec<Vec3> = img

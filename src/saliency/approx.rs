@@ -433,7 +433,7 @@ mod tests {
         let mut h = Vec::new();
         for j in 0..n {
             for i in 0..n {
-                let r = crate::render::unit_f64(crate::render::splitmix64((j * n + i) as u64)) - 0.5;
+                let r = crate::util::rng::unit_f64(crate::util::rng::splitmix64((j * n + i) as u64)) - 0.5;
                 let (x, y) = (i as f64 / n as f64 + jitter * r / n as f64, j as f64 / n as f64);
                 p.push(DVec3::new(x, y, 0.1 * (6.0 * x).sin() * (4.0 * y).cos()));
                 h.push((6.0 * x).sin() * (4.0 * y).cos() + 0.3 * (17.0 * y).sin());

@@ -5,21 +5,14 @@
 use image::RgbaImage;
 use rayon::prelude::*;
 
-use super::{MeshSaliency, for_frame_with};
-use crate::camera::frame_camera;
-use crate::error::Result;
-use crate::frame::Frame;
-use crate::pipeline::{Prepared, Timings};
-use crate::progress::Progress;
-use crate::render::Tracer;
+use super::MeshSaliency;
+use crate::film::Film;
 use crate::scene::World;
-use crate::settings::Settings;
 
 /// Per-pixel saliency in [0, 1]: the mean over ALL samples of the pixel, misses counting 0.
-pub fn saliency_map(world: &World, sal: &MeshSaliency, frame: &Frame) -> Vec<f32> {
-    let spp = frame.spp.max(1) as usize;
-    frame
-        .samples
+pub fn saliency_map(world: &World, sal: &MeshSaliency, film: &Film) -> Vec<f32> {
+    let spp = film.spp.max(1) as usize;
+    film.samples
         .par_chunks(spp)
         .map(|samples| {
             let mut sum = 0.0f32;
@@ -47,42 +40,6 @@ pub fn saliency_image(map: &[f32], width: u32, height: u32) -> RgbaImage {
     img
 }
 
-/// What `cubist saliency` produces.
-pub struct SaliencyRender {
-    pub frame: Frame,
-    pub mesh: MeshSaliency,
-    pub image: RgbaImage,
-    pub timings: Timings,
-    pub warnings: Vec<String>,
-    /// One line saying which camera was used.
-    pub camera: String,
-}
-
-/// Traces the pre-render's hits only (no shading: the map needs none) through the settings'
-/// camera and returns the saliency map.
-pub fn render_map(prep: &Prepared, settings: &Settings, progress: &Progress) -> Result<SaliencyRender> {
-    settings.validate()?;
-    let mut timings = Timings::default();
-    let mut warnings = prep.scene.warnings.clone();
-    let framed = frame_camera(settings, &prep.world)?;
-    warnings.extend(framed.warnings.iter().cloned());
-    let tracer =
-        Tracer { world: &prep.world, accel: &prep.accel, rig: None, background: glam::Vec3::ZERO, seed: settings.seed };
-    let mut frame = Frame::new(settings.width, settings.height, settings.spp);
-    progress.begin("pre-render", frame.pixel_count() as u64);
-    timings.time("pre-render", || tracer.render(&mut frame, &|_, p| framed.camera.ray(p), None, progress));
-    progress.finish();
-    progress.begin("saliency", 1);
-    let mesh = timings.time("saliency", || {
-        for_frame_with(prep, &frame, settings.saliency_cache.as_deref(), settings.saliency_method)
-    })?;
-    let map = saliency_map(&prep.world, &mesh, &frame);
-    progress.finish();
-    let image = saliency_image(&map, frame.width, frame.height);
-    frame.saliency = Some(map);
-    Ok(SaliencyRender { frame, mesh, image, timings, warnings, camera: framed.describe(&prep.world) })
-}
-
 #[cfg(test)]
 mod tests {
     use std::sync::Arc;
@@ -90,7 +47,7 @@ mod tests {
     use glam::Vec3;
 
     use super::*;
-    use crate::frame::SampleHit;
+    use crate::film::SampleHit;
     use crate::scene::{Mesh, Object, Scene};
 
     fn two_triangle_scene() -> Scene {
@@ -116,16 +73,16 @@ mod tests {
         let world = World::new(&scene);
         let sal = MeshSaliency::new(&scene, vec![Some(Arc::new(vec![0.0, 1.0, 0.5, 0.25]))]);
         assert_eq!(sal.corners[0].as_ref().unwrap()[1], [1.0, 0.25, 0.5]);
-        let mut frame = Frame::new(2, 1, 2);
+        let mut film = Film::new(2, 1, 2);
         // Pixel 0: one hit at (u, v) = (0.5, 0.25) on triangle 0 -> 0.5*1 + 0.25*0.5 = 0.625,
         // one miss -> mean 0.3125. Pixel 1: triangle 1 at its first corner twice -> 1.0.
-        frame.samples = vec![
+        film.samples = vec![
             SampleHit { tri: 0, u: 0.5, v: 0.25 },
             SampleHit::MISS,
             SampleHit { tri: 1, u: 0.0, v: 0.0 },
             SampleHit { tri: 1, u: 0.0, v: 0.0 },
         ];
-        let map = saliency_map(&world, &sal, &frame);
+        let map = saliency_map(&world, &sal, &film);
         assert!((map[0] - 0.3125).abs() < 1e-6, "{map:?}");
         assert!((map[1] - 1.0).abs() < 1e-6);
         let img = saliency_image(&map, 2, 1);
@@ -138,8 +95,8 @@ mod tests {
         let scene = two_triangle_scene();
         let world = World::new(&scene);
         let sal = MeshSaliency::new(&scene, vec![None]);
-        let mut frame = Frame::new(1, 1, 1);
-        frame.samples = vec![SampleHit { tri: 0, u: 0.2, v: 0.2 }];
-        assert_eq!(saliency_map(&world, &sal, &frame), vec![0.0]);
+        let mut film = Film::new(1, 1, 1);
+        film.samples = vec![SampleHit { tri: 0, u: 0.2, v: 0.2 }];
+        assert_eq!(saliency_map(&world, &sal, &film), vec![0.0]);
     }
 }

@@ -32,13 +32,41 @@ use std::sync::{Arc, Mutex};
 use glam::Vec3;
 use rayon::prelude::*;
 
-pub use map::{render_map, saliency_image, saliency_map};
+pub use map::{saliency_image, saliency_map};
 
 use crate::error::Result;
-use crate::frame::Frame;
-use crate::pipeline::Prepared;
-use crate::scene::{Mesh, Scene};
-pub use crate::settings::SaliencyMethod;
+use crate::film::Film;
+use crate::scene::{Mesh, Scene, World};
+
+/// How mesh saliency's Gaussian means are evaluated (SPEC "Mesh saliency").
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum SaliencyMethod {
+    /// Exact while the neighbour sums stay affordable (`EXACT_PAIR_BUDGET`), clustered above.
+    Auto,
+    /// The definition's exact sums, whatever the mesh's size.
+    Exact,
+    /// Clustered sources and targets (`approx`): fast on huge meshes, approximate.
+    Clustered,
+}
+
+impl SaliencyMethod {
+    /// The method's name, part of the cache's content key (so never renamed lightly).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            SaliencyMethod::Auto => "auto",
+            SaliencyMethod::Exact => "exact",
+            SaliencyMethod::Clustered => "clustered",
+        }
+    }
+}
+
+/// What the saliency stage needs: the method, and a directory keeping per-mesh results
+/// across processes (None: in memory only).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SaliencyParams {
+    pub method: SaliencyMethod,
+    pub cache: Option<std::path::PathBuf>,
+}
 
 /// Bumped whenever the definition or its numbers change, so stale cache entries are ignored.
 pub const ALGORITHM_VERSION: u32 = 2;
@@ -218,16 +246,15 @@ pub fn cached_mesh_saliency(
     Ok(values)
 }
 
-/// Which of `scene`'s meshes some sample of `frame` hit.
-pub fn visible_meshes(prep: &Prepared, frame: &Frame) -> Vec<bool> {
-    let world = &prep.world;
+/// Which of `scene`'s meshes some sample of `film` hit.
+pub fn visible_meshes(scene: &Scene, world: &World, film: &Film) -> Vec<bool> {
     let mut seen_objects = vec![false; world.objects.len()];
-    for s in frame.samples.iter().filter(|s| s.is_hit()) {
-        if let Some(&o) = world.triangle_object.get(s.tri as usize) {
-            seen_objects[o as usize] = true;
+    for s in film.samples.iter().filter(|s| s.is_hit()) {
+        if (s.tri as usize) < world.triangle_count() {
+            seen_objects[world.object_of(s.tri) as usize] = true;
         }
     }
-    let mut meshes = vec![false; prep.scene.meshes.len()];
+    let mut meshes = vec![false; scene.meshes.len()];
     for (o, seen) in seen_objects.iter().enumerate() {
         if *seen {
             meshes[world.objects[o].mesh] = true;
@@ -236,45 +263,39 @@ pub fn visible_meshes(prep: &Prepared, frame: &Frame) -> Vec<bool> {
     meshes
 }
 
-/// Saliency of the meshes hit by some sample of `frame` (SPEC: skip what the picture does not
-/// need), automatic method, cached in `prep` and, when given, on disk in `cache`.
-pub fn for_frame(prep: &Prepared, frame: &Frame, cache: Option<&Path>) -> Result<MeshSaliency> {
-    for_frame_with(prep, frame, cache, SaliencyMethod::Auto)
-}
-
-/// `for_frame` with an explicit method.
-pub fn for_frame_with(
-    prep: &Prepared,
-    frame: &Frame,
-    cache: Option<&Path>,
-    method: SaliencyMethod,
+/// Saliency of the meshes hit by some sample of `film` (SPEC: skip what the picture does not
+/// need), from `memo` (this process's per-mesh results) or the disk cache when they hold it.
+pub fn for_film(
+    scene: &Scene,
+    world: &World,
+    memo: &Memo,
+    film: &Film,
+    params: &SaliencyParams,
 ) -> Result<MeshSaliency> {
-    let visible = visible_meshes(prep, frame);
-    let per_mesh: Vec<Option<Arc<Vec<f32>>>> = prep
-        .scene
+    let visible = visible_meshes(scene, world, film);
+    let cache = params.cache.as_deref();
+    let per_mesh: Vec<Option<Arc<Vec<f32>>>> = scene
         .meshes
         .par_iter()
         .zip(visible.par_iter())
         .map(
             |(mesh, &v)| {
-                if v { cached_mesh_saliency(mesh, method, Some(&prep.saliency), cache).map(Some) } else { Ok(None) }
+                if v { cached_mesh_saliency(mesh, params.method, Some(memo), cache).map(Some) } else { Ok(None) }
             },
         )
         .collect::<Result<_>>()?;
-    Ok(MeshSaliency::new(&prep.scene, per_mesh))
+    Ok(MeshSaliency::new(scene, per_mesh))
 }
 
 /// Every mesh's per-vertex saliency as `{"meshes": [{"name", "vertex_saliency": [...]}, ...]}`
 /// in `Scene::meshes` order (what `cubist saliency --json` prints).
-pub fn vertex_json(prep: &Prepared, cache: Option<&Path>, method: SaliencyMethod) -> Result<serde_json::Value> {
-    let values: Vec<Arc<Vec<f32>>> = prep
-        .scene
+pub fn vertex_json(scene: &Scene, memo: &Memo, params: &SaliencyParams) -> Result<serde_json::Value> {
+    let values: Vec<Arc<Vec<f32>>> = scene
         .meshes
         .par_iter()
-        .map(|m| cached_mesh_saliency(m, method, Some(&prep.saliency), cache))
+        .map(|m| cached_mesh_saliency(m, params.method, Some(memo), params.cache.as_deref()))
         .collect::<Result<_>>()?;
-    let meshes: Vec<serde_json::Value> = prep
-        .scene
+    let meshes: Vec<serde_json::Value> = scene
         .meshes
         .iter()
         .zip(values)

@@ -150,11 +150,6 @@ impl Grid {
         });
     }
 
-    /// Appends to `out` the occupied cells whose box lies within `radius` of cell `c`'s box.
-    pub fn candidate_cells(&self, c: usize, radius: f64, out: &mut Vec<u32>) {
-        self.for_near_cells(c, radius, |ci| out.push(ci as u32));
-    }
-
     fn for_near_cells(&self, c: usize, radius: f64, mut f: impl FnMut(usize)) {
         let base = self.unpack(self.cells[c].0);
         let m = (radius / self.cell).ceil() as i64;
@@ -227,8 +222,8 @@ mod tests {
         let mut h = 1u64;
         for _ in 0..600 {
             let mut r = || {
-                h = crate::render::splitmix64(h);
-                crate::render::unit_f64(h) * 3.0 - 1.0
+                h = crate::util::rng::splitmix64(h);
+                crate::util::rng::unit_f64(h) * 3.0 - 1.0
             };
             pts.push(DVec3::new(r(), r(), r() * 0.2));
         }

@@ -8,6 +8,8 @@
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
+use crate::util::csr::Csr;
+
 /// Marks an input vertex that is on no triangle (or has a non-finite position).
 pub const NOT_ON_SURFACE: u32 = u32::MAX;
 
@@ -152,38 +154,20 @@ impl Surface {
 
 /// Each vertex's neighbours through an edge, in compressed rows (ascending ids).
 #[derive(Clone, Debug, Default)]
-pub struct Adjacency {
-    start: Vec<u32>,
-    list: Vec<u32>,
-}
+pub struct Adjacency(Csr);
 
 impl Adjacency {
+    /// From the surface's edges (a, b, triangles using it), as `Surface::edges` lists them.
     pub fn new(vertices: usize, edges: &[(u32, u32, u32)]) -> Adjacency {
-        let mut count = vec![0u32; vertices + 1];
-        for &(a, b, _) in edges {
-            count[a as usize + 1] += 1;
-            count[b as usize + 1] += 1;
-        }
-        for i in 0..vertices {
-            count[i + 1] += count[i];
-        }
-        let mut fill = count.clone();
-        let mut list = vec![0u32; edges.len() * 2];
-        for &(a, b, _) in edges {
-            list[fill[a as usize] as usize] = b;
-            fill[a as usize] += 1;
-            list[fill[b as usize] as usize] = a;
-            fill[b as usize] += 1;
-        }
-        for v in 0..vertices {
-            list[count[v] as usize..count[v + 1] as usize].sort_unstable();
-        }
-        Adjacency { start: count, list }
+        let pairs: Vec<(u32, u32)> = edges.iter().map(|&(a, b, _)| (a, b)).collect();
+        let mut csr = Csr::from_undirected(vertices, &pairs);
+        csr.edges = Vec::new(); // only the neighbours are kept
+        Adjacency(csr)
     }
 
     /// The neighbours of `v`.
     pub fn of(&self, v: usize) -> &[u32] {
-        &self.list[self.start[v] as usize..self.start[v + 1] as usize]
+        self.0.neighbours(v)
     }
 }
 

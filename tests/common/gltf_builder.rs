@@ -144,6 +144,32 @@ impl Gltf {
         serde_json::to_string_pretty(&root).unwrap()
     }
 
+    /// The document as a binary glTF (GLB): a JSON chunk and the buffer as a BIN chunk.
+    pub fn to_glb(&self) -> Vec<u8> {
+        let mut root: Value = serde_json::from_str(&self.to_json()).unwrap();
+        root["buffers"] = json!([{"byteLength": self.bin.len()}]);
+        let mut json_chunk = serde_json::to_vec(&root).unwrap();
+        while !json_chunk.len().is_multiple_of(4) {
+            json_chunk.push(b' ');
+        }
+        let mut bin = self.bin.clone();
+        while !bin.len().is_multiple_of(4) {
+            bin.push(0);
+        }
+        let total = 12 + 8 + json_chunk.len() + 8 + bin.len();
+        let mut out = Vec::with_capacity(total);
+        out.extend_from_slice(b"glTF");
+        out.extend_from_slice(&2u32.to_le_bytes());
+        out.extend_from_slice(&(total as u32).to_le_bytes());
+        out.extend_from_slice(&(json_chunk.len() as u32).to_le_bytes());
+        out.extend_from_slice(b"JSON");
+        out.extend_from_slice(&json_chunk);
+        out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+        out.extend_from_slice(b"BIN\0");
+        out.extend_from_slice(&bin);
+        out
+    }
+
     pub fn write(&self, dir: &std::path::Path, name: &str) -> std::path::PathBuf {
         let p = dir.join(name);
         std::fs::write(&p, self.to_json()).unwrap();

@@ -30,6 +30,16 @@ def engine(addon):
     return sys.modules["blender_addon.engine"]
 
 
+@pytest.fixture
+def exports(engine, tmp_path):
+    """The folder where the engine copies each scene it exports (frame_NNNN.glb): the CLI
+    then renders exactly what F12 sent."""
+    folder = tmp_path / "exports"
+    engine.keep_exports = folder
+    yield folder
+    engine.keep_exports = None
+
+
 def render_still(bpy, scene, path: Path):
     scene.render.filepath = str(path)
     bpy.ops.render.render(write_still=True)
@@ -100,6 +110,9 @@ class FakeLayout:
     def row(self, **kw):
         return self
 
+    def box(self, **kw):
+        return self
+
 
 def bpy_ops():
     import bpy
@@ -135,7 +148,7 @@ def cli_render(tmp_path, scene_glb, out, settings_json=None, args=()):
     return out
 
 
-def test_f12_renders_the_cli_picture(bpy, engine, tmp_path):
+def test_f12_renders_the_cli_picture(bpy, engine, exports, tmp_path):
     scene = new_scene(bpy)
     scene.cubist.preset = "PLAIN"  # no palette: the background keeps the world's colour
     set_world_colour(scene, (0.3, 0.35, 0.4))
@@ -153,21 +166,19 @@ def test_f12_renders_the_cli_picture(bpy, engine, tmp_path):
     assert differs > 0.1, f"only {differs:.1%} of pixels show the scene"
 
     # The CLI on the same exported scene with the same settings gives the same pixels.
-    export = sys.modules["blender_addon.export"]
-    glb = export.export_glb(scene, bpy.context.view_layer, scene.frame_current, tmp_path / "scene.glb")
+    glb = exports / f"frame_{scene.frame_current:04d}.glb"
     cli = read_png(bpy, cli_render(tmp_path, glb, tmp_path / "cli.png", engine.last_run["settings_json"]))
     assert np.abs(cli - img).max() <= 1.0 / 255 + 1e-6
 
 
-def test_f12_with_an_untouched_panel_is_cubist_render(bpy, engine, tmp_path):
+def test_f12_with_an_untouched_panel_is_cubist_render(bpy, engine, exports, tmp_path):
     """An untouched panel paints what `cubist render` paints with its defaults (the analytic
     preset): only what Blender decides (size, camera, world colour, samples) is given as flags."""
     scene = new_scene(bpy, 80, 60)
     out = render_still(bpy, scene, tmp_path / "f12.png")
     sent = json.loads(engine.last_run["settings_json"])
     assert (sent["preset"], sent["faceting"], sent["palette"]) == ("analytic", "segment", "ochre")
-    export = sys.modules["blender_addon.export"]
-    glb = export.export_glb(scene, bpy.context.view_layer, scene.frame_current, tmp_path / "scene.glb")
+    glb = exports / f"frame_{scene.frame_current:04d}.glb"
     vec = lambda k: ",".join(repr(float(c)) for c in sent[k])  # noqa: E731
     flags = ["--width", "80", "--height", "60", "--spp", "1", "--camera-position", vec("camera_position"),
              "--camera-target", vec("camera_target"), "--camera-up", vec("camera_up"), "--background",
@@ -659,7 +670,7 @@ def png16_grey(path: Path) -> np.ndarray:
     return np.array(rows, dtype=np.uint8).view(">u2").astype(np.int64)
 
 
-def test_passes_reach_the_render_result(bpy, engine, tmp_path):
+def test_passes_reach_the_render_result(bpy, engine, exports, tmp_path):
     """Every pass arrives in Blender's render result (compositor, multilayer EXR) with the
     renderer's values: saliency 0-1, facet ids as exact integers, the rest as data colours."""
     scene = new_scene(bpy)
@@ -676,8 +687,7 @@ def test_passes_reach_the_render_result(bpy, engine, tmp_path):
         for c in (chan_id if channels == 3 else "X"):
             assert f"{layer}.{bname}.{c}" in ch, sorted(ch)
     # The same passes from the CLI on the same scene and settings.
-    export = sys.modules["blender_addon.export"]
-    glb = export.export_glb(scene, bpy.context.view_layer, scene.frame_current, tmp_path / "scene.glb")
+    glb = exports / f"frame_{scene.frame_current:04d}.glb"
     cli_render(tmp_path, glb, tmp_path / "cli.png", engine.last_run["settings_json"])
     exr = lambda name: ch[f"{layer}.{name}"][::-1]  # noqa: E731 (EXR rows run top-down, Blender's bottom-up)
     depth = read_png(bpy, tmp_path / "cli.depth.png")[..., 0]

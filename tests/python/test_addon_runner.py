@@ -17,6 +17,7 @@ from pathlib import Path
 import pytest
 
 from addon_support import ROOT, cubist_binary  # noqa: F401 (fixture)
+from ship_support import bpy_extension_cli  # noqa: F401 (fixture)
 
 from blender_addon import mapping, presets, runner
 
@@ -45,7 +46,7 @@ def settings_rs_keys():
 
 def test_settings_keys_match_settings_rs():
     """Every key the renderer accepts is known to the add-on and vice versa (a renamed or
-    added setting must reach the panel)."""
+    added setting must reach the panel): the schema the add-on reads lists the struct's fields."""
     assert runner.SETTINGS_KEYS == settings_rs_keys()
 
 
@@ -233,6 +234,11 @@ def test_presets_set_every_look_value_and_nothing_else():
     ("colors", 12, "colors", 12),
     ("gradients", 0.4, "gradients", 0.4),
     ("chiaroscuro", 0.2, "chiaroscuro", 0.2),
+    ("plane_light", 0.4, "plane_light", 0.4),
+    ("border_style", "SYMMETRIC", "border_style", "symmetric"),
+    ("brushwork", 0.5, "brushwork", 0.5),
+    ("stroke_length", 40.0, "stroke_length", 40.0),
+    ("canvas_grain", 0.3, "canvas_grain", 0.3),
     ("shadows", False, "shadows", False),
     ("pass_facet_ids", True, "passes", ["facet-ids"]),
     ("camera_size", 2.5, "camera_size", 2.5),
@@ -379,18 +385,107 @@ def make_exe(path: Path, body: str, executable=True) -> Path:
     return path
 
 
+FAKE_CUBIST = """
+    import sys
+    if sys.argv[1:] == ["--version"]:
+        print("cubist 9.9.9")
+"""
+
+# The first bytes of an arm64 Mach-O executable (magic, cputype CPU_TYPE_ARM64): a binary
+# for another platform, which the kernel refuses to run here.
+MACHO_ARM64 = bytes.fromhex("cffaedfe0c000001") + bytes(24)
+
+PREF = "Preferences > Add-ons > Cubist > Cubist Binary"
+
+
 def test_preference_path_wins_and_a_wrong_one_is_reported(tmp_path):
-    exe = make_exe(tmp_path / "custom" / runner.BINARY_NAME, "print('hi')\n")
-    assert runner.find_binary(str(exe), addon_dir=tmp_path / "addon", path_env="") == exe
-    assert runner.find_binary(str(exe.parent), addon_dir=tmp_path / "addon", path_env="") == exe
-    with pytest.raises(runner.BinaryNotFound, match="not found at .*nowhere.*add-on preferences"):
-        runner.find_binary(str(tmp_path / "nowhere" / "cubist"), addon_dir=tmp_path / "addon", path_env="")
+    exe = make_exe(tmp_path / "custom" / runner.BINARY_NAME, FAKE_CUBIST)
+    # Used first, even with a bundled binary and one on PATH.
+    addon = tmp_path / "addon"
+    make_exe(addon / "bin" / runner.BINARY_NAME, FAKE_CUBIST)
+    on_path = make_exe(tmp_path / "pathdir" / runner.BINARY_NAME, FAKE_CUBIST)
+    assert runner.find_binary(str(exe), addon_dir=addon, path_env=str(on_path.parent)) == exe
+    assert runner.locate_binary(str(exe.parent), addon_dir=addon, path_env="") == ("add-on preferences", exe)
+    assert runner.binary_version(exe) == "cubist 9.9.9"
+    # Each wrong path is named, with the preference to fix, and never replaced by another binary.
+    with pytest.raises(runner.BinaryNotFound, match=f"cubist binary not found at .*nowhere.*fix or clear {PREF}"):
+        runner.find_binary(str(tmp_path / "nowhere" / "cubist"), addon_dir=addon, path_env=str(on_path.parent))
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(runner.BinaryNotFound, match=r"not found at .*empty[/\\]cubist"):
+        runner.find_binary(str(tmp_path / "empty"), addon_dir=addon, path_env="")
+    other = make_exe(tmp_path / "other" / "cubist", "print('hello')\n")
+    with pytest.raises(runner.BinaryNotFound,
+                       match=f"is not the cubist renderer .`--version` gave: hello.: fix or clear {PREF}"):
+        runner.find_binary(str(other), addon_dir=addon, path_env="")
+    broken = make_exe(tmp_path / "broken" / "cubist", "import sys; print('boom', file=sys.stderr); sys.exit(3)\n")
+    with pytest.raises(runner.BinaryNotFound, match="is not the cubist renderer .`--version` gave: boom"):
+        runner.find_binary(str(broken), addon_dir=addon, path_env="")
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="Windows reports a foreign binary differently")
+def test_a_preferred_binary_for_another_platform_is_reported(tmp_path):
+    foreign = tmp_path / "mac" / "cubist"
+    foreign.parent.mkdir()
+    foreign.write_bytes(MACHO_ARM64)
+    foreign.chmod(0o755)
+    with pytest.raises(runner.BinaryNotFound,
+                       match=f"does not run on this {runner.platform_tag()} machine .*: set {PREF} to a cubist built"):
+        runner.find_binary(str(foreign), addon_dir=tmp_path / "addon", path_env="")
+    # And if one is run anyway, it is a clear error, not an OSError from deep inside.
+    with pytest.raises(runner.BinaryNotFound, match="cannot run the cubist binary .*mac"):
+        runner.run([str(foreign), "render"])
+
+
+def test_platform_names_are_blenders():
+    assert runner.platform_tag("Linux", "x86_64") == "linux-x64"
+    assert runner.platform_tag("Linux", "aarch64") == "linux-arm64"
+    assert runner.platform_tag("Darwin", "arm64") == "macos-arm64"
+    assert runner.platform_tag("Darwin", "x86_64") == "macos-x64"
+    assert runner.platform_tag("Windows", "AMD64") == "windows-x64"
+    assert runner.platform_tag("Windows", "ARM64") == "windows-arm64"
+    assert runner.executable_name("windows-x64") == "cubist.exe" and runner.executable_name("macos-x64") == "cubist"
+
+
+def test_this_machines_platform_is_the_one_blender_names(bpy_extension_cli):
+    """The add-on's name for this machine is the one Blender's extension installer checks a
+    zip's `platforms` against (bl_pkg's own function, from the bpy wheel)."""
+    assert runner.platform_tag() == bpy_extension_cli.platform_from_this_system()
+
+
+def test_a_zip_for_another_platform_says_so(tmp_path):
+    """A zip for another platform (only a legacy install lets it in) holds a `bin/cubist`
+    that cannot run here: never picked, and the message says which zip to get and names the
+    preference for a binary of one's own."""
+    here = runner.platform_tag()
+    other = "macos-arm64" if here != "macos-arm64" else "linux-x64"
+    addon = tmp_path / "cubist"
+    make_exe(addon / "bin" / runner.BINARY_NAME, FAKE_CUBIST)
+    (addon / "blender_manifest.toml").write_text(f'id = "cubist"\nversion = "1.2.3"\n\nplatforms = ["{other}"]\n')
+    assert runner.bundled_platforms(addon) == [other]
+    assert runner.manifest_field(addon, "version") == "1.2.3"
+    assert runner.missing_platform_binary(addon) == (f"this Cubist add-on is the {other} build: it carries no "
+                                                     f"renderer for this {here} Blender")
+    message = (f"cubist binary not found: this Cubist add-on is the {other} build: it carries no renderer for this "
+               f"{here} Blender (install cubist-1.2.3-{here}.zip): build cubist (cargo build --release) and set its "
+               f"path in {PREF}, or put it on PATH")
+    with pytest.raises(runner.BinaryNotFound) as e:
+        runner.find_binary("", addon_dir=addon, path_env="")
+    if here in runner.RELEASE_PLATFORMS:
+        assert str(e.value) == message
+    else:
+        assert "(no release zip is made for it)" in str(e.value)
+    # The zip for this platform: its binary is used.
+    (addon / "blender_manifest.toml").write_text(f'id = "cubist"\nversion = "1.2.3"\n\nplatforms = ["{here}"]\n')
+    assert runner.missing_platform_binary(addon) is None
+    assert runner.locate_binary("", addon_dir=addon, path_env="") == ("bundled with the add-on",
+                                                                       addon / "bin" / runner.BINARY_NAME)
 
 
 def test_path_then_bundled_then_project_build(tmp_path):
     addon = tmp_path / "proj" / "blender_addon"
     addon.mkdir(parents=True)
-    with pytest.raises(runner.BinaryNotFound, match="cubist binary not found: set its path"):
+    with pytest.raises(runner.BinaryNotFound, match=f"cubist binary not found: this Cubist add-on carries no "
+                       f"renderer for {runner.platform_tag()} .*set its path in {PREF}, or put it on PATH"):
         runner.find_binary("", addon_dir=addon, path_env="")
     project = make_exe(tmp_path / "proj" / "target" / "release" / runner.BINARY_NAME, "")
     assert runner.find_binary("", addon_dir=addon, path_env="") == project
@@ -573,19 +668,6 @@ def test_progress_stages_are_the_binarys(cubist_binary, tmp_path):
 # ---------------------------------------------------------------------------------------------
 # Facet layouts across frames
 
-
-def test_saliency_is_needed_exactly_when_the_renderer_computes_it():
-    base = {"faceting": "none", "imprecision": "saliency", "discontinuity": 0.0, "passes": []}
-    assert not runner.needs_saliency(base)
-    assert not runner.needs_saliency(dict(base, discontinuity=100.0))  # no facets to re-aim
-    assert runner.needs_saliency(dict(base, faceting="voronoi", discontinuity=100.0))
-    assert not runner.needs_saliency(dict(base, faceting="voronoi", discontinuity=100.0, imprecision="random"))
-    assert runner.needs_saliency(dict(base, faceting="segment"))
-    assert runner.needs_saliency(dict(base, passes=["saliency"]))
-    assert runner.needs_saliency(dict(base, passes=["facets"]))
-    # A loaded layout replaces the segmentation; re-aiming still needs saliency.
-    assert not runner.needs_saliency(dict(base, faceting="segment", facets="/l.json"))
-    assert runner.needs_saliency(dict(base, faceting="none", facets="/l.json", discontinuity=50.0))
 
 
 def test_layout_plan(tmp_path):

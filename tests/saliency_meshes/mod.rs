@@ -82,11 +82,11 @@ pub fn human(n: usize) -> String {
 }
 
 fn hash3(seed: u64, k: [u32; 3]) -> f64 {
-    let mut h = cubist::render::splitmix64(seed);
+    let mut h = cubist::util::rng::splitmix64(seed);
     for c in k {
-        h = cubist::render::splitmix64(h ^ c as u64);
+        h = cubist::util::rng::splitmix64(h ^ c as u64);
     }
-    cubist::render::unit_f64(h)
+    cubist::util::rng::unit_f64(h)
 }
 
 /// Where an adaptive remesher or a scanner put more vertices, as a bijection of the unit

@@ -14,6 +14,7 @@ use rayon::prelude::*;
 
 use super::SegmentWeights;
 use super::superpixels::{FEATURES, Features, Superpixels, feature_distance};
+use crate::util::csr::Csr;
 
 /// Superpixel `i`'s statistics.
 #[derive(Clone, Debug)]
@@ -189,39 +190,15 @@ impl RegionGraph {
     /// Builds the CSR graph from undirected edges (a < b, boundary length).
     pub fn from_edges(regions: Vec<Region>, edges: &[(u32, u32, u32)], weights: &SegmentWeights) -> RegionGraph {
         let n = regions.len();
-        let mut count = vec![0usize; n + 1];
-        for &(a, b, _) in edges {
-            count[a as usize + 1] += 1;
-            count[b as usize + 1] += 1;
-        }
-        for i in 0..n {
-            count[i + 1] += count[i];
-        }
-        let offsets = count.clone();
-        let m = offsets[n];
-        let mut fill = offsets.clone();
-        let mut targets = vec![0u32; m];
-        let mut wts = vec![0f64; m];
-        let mut lengths = vec![0u32; m];
-        for &(a, b, len) in edges {
-            let wgt = len as f64 * affinity(&regions[a as usize], &regions[b as usize], weights);
-            for (s, t) in [(a, b), (b, a)] {
-                let slot = fill[s as usize];
-                targets[slot] = t;
-                wts[slot] = wgt;
-                lengths[slot] = len;
-                fill[s as usize] += 1;
-            }
-        }
-        // Edges arrive sorted by (a, b): make each row sorted by target for determinism.
-        for i in 0..n {
-            let (s, e) = (offsets[i], offsets[i + 1]);
-            let mut row: Vec<(u32, f64, u32)> = (s..e).map(|k| (targets[k], wts[k], lengths[k])).collect();
-            row.sort_by_key(|r| r.0);
-            for (k, r) in (s..e).zip(row) {
-                (targets[k], wts[k], lengths[k]) = r;
-            }
-        }
+        let pairs: Vec<(u32, u32)> = edges.iter().map(|&(a, b, _)| (a, b)).collect();
+        // Rows sorted by target, for determinism.
+        let Csr { offsets, targets, edges: edge_of } = Csr::from_undirected(n, &pairs);
+        let edge_weight: Vec<f64> = edges
+            .iter()
+            .map(|&(a, b, len)| len as f64 * affinity(&regions[a as usize], &regions[b as usize], weights))
+            .collect();
+        let wts: Vec<f64> = edge_of.iter().map(|&e| edge_weight[e as usize]).collect();
+        let lengths: Vec<u32> = edge_of.iter().map(|&e| edges[e as usize].2).collect();
         // Each pixel's affinity to itself is 1 (Shi and Malik's W includes the diagonal), so no
         // region has a zero degree, even a one-pixel island behind an object wall.
         let self_loops: Vec<f64> = regions.iter().map(|r| 2.0 * r.inner_pairs as f64 + r.area as f64).collect();

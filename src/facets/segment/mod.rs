@@ -10,8 +10,8 @@
 //! -> selection, quads and draw order (`select`). About 0.19 s of CPU for 1000 x 1000
 //! (docs/segment.md; the thesis's pipeline was its slow step).
 
-pub mod debug;
 pub mod graph;
+pub mod inspection;
 pub mod ncut;
 pub mod quality;
 pub mod select;
@@ -19,17 +19,12 @@ pub mod superpixels;
 
 use std::time::{Duration, Instant};
 
-use image::RgbaImage;
-
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::facets::{FacetLayout, LabelImage};
-use crate::frame::Frame;
-use crate::pipeline::Prepared;
-use crate::progress::Progress;
-use crate::render::splitmix64;
-use crate::settings::{Faceting, Pass, Preset, Settings};
+use crate::film::Film;
+use crate::util::rng::splitmix64;
 
 use graph::RegionGraph;
 use ncut::Shortfall;
@@ -58,23 +53,7 @@ pub struct SegmentWeights {
     pub saliency: f32,
 }
 
-impl Default for SegmentWeights {
-    fn default() -> Self {
-        SegmentWeights::from_settings(&Settings::preset(crate::settings::Preset::Plain))
-    }
-}
-
 impl SegmentWeights {
-    pub fn from_settings(s: &Settings) -> SegmentWeights {
-        SegmentWeights {
-            colour: s.weight_colour as f32,
-            normal: s.weight_normal as f32,
-            depth: s.weight_depth as f32,
-            object: s.weight_object as f32,
-            saliency: s.weight_saliency as f32,
-        }
-    }
-
     /// Whether objects separate superpixels (any positive object weight).
     pub fn separates_objects(&self) -> bool {
         self.object > 0.0
@@ -86,13 +65,54 @@ impl SegmentWeights {
     }
 }
 
-/// The superpixel count used when the settings say 0: about one per 600 pixels (1667 at
+/// The superpixel count used when `superpixels` is 0: about one per 600 pixels (1667 at
 /// 1000 x 1000; see the benchmark's time-against-quality table), at least 6 per segment of
 /// the finest level, at most one per 16 pixels.
 pub fn auto_superpixels(width: u32, height: u32, max_segments: u32) -> usize {
     let pixels = width as usize * height as usize;
     let by_area = pixels / 600;
     by_area.max(6 * max_segments as usize).min(pixels / 16).max(1)
+}
+
+/// Most eigenvector work the normalized cut may take: superpixels x (largest level's
+/// segments)^2. The embedding computes that many eigenvectors over the superpixel graph, in
+/// time about proportional to this (1.25e9, 500 segments over 5000 superpixels, took two
+/// minutes on two cores). The default 5,30,120 at 8192 x 8192 is 1.6e9.
+pub const MAX_EIGEN_WORK: f64 = 4e9;
+
+/// A clear error up front instead of an hour-long segmentation (issue 18).
+pub fn check_work(width: u32, height: u32, params: &SegmentParams) -> Result<()> {
+    let max_n = params.segments.iter().copied().max().unwrap_or(1);
+    let pixels = width as usize * height as usize;
+    let superpixels = match params.superpixels {
+        0 => auto_superpixels(width, height, max_n),
+        k => k as usize,
+    }
+    .min(pixels);
+    let work = superpixels as f64 * max_n as f64 * max_n as f64;
+    if work > MAX_EIGEN_WORK {
+        return Err(Error::setting(
+            "segments",
+            format!(
+                "{max_n} segments over {superpixels} superpixels is {work:.1e} units of eigenvector work, more than \
+                 the limit of {MAX_EIGEN_WORK:.0e} (hours): fewer segments, superpixels or pixels"
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// What the Segment faceting needs besides the pre-render.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SegmentParams {
+    /// Segments N per level, coarsest first.
+    pub segments: Vec<u32>,
+    /// Mean-saliency threshold per level, in [0, 1].
+    pub thresholds: Vec<f64>,
+    /// Superpixels the normalized cut groups; 0 = `auto_superpixels`.
+    pub superpixels: u32,
+    pub weights: SegmentWeights,
+    pub seed: u64,
 }
 
 /// One segmentation level.
@@ -129,29 +149,32 @@ pub struct SegmentLevels {
 
 /// The Segment faceting of a pre-render: the layout (base = level-1 segments, polygons = the
 /// selected segments' quads in ascending mean saliency) and every level for inspection.
-/// `frame.saliency` None counts as zero saliency everywhere (only level 1, threshold 0,
-/// is then selected). Deterministic for `settings.seed` on any thread count.
-pub fn layout(frame: &Frame, settings: &Settings) -> Result<(FacetLayout, SegmentLevels)> {
-    let n = frame.pixel_count();
-    if frame.width == 0 || frame.height == 0 || frame.color.len() != n || frame.hits.len() != n {
-        return Err(Error::setting("width", "the pre-render's buffers do not match its size"));
+/// `film.saliency` None counts as zero saliency everywhere (only level 1, threshold 0,
+/// is then selected). Deterministic for `params.seed` on any thread count.
+pub fn layout(film: &Film, params: &SegmentParams) -> Result<(FacetLayout, SegmentLevels)> {
+    let n = film.pixel_count();
+    if film.width == 0 || film.height == 0 || film.color.len() != n || film.hits.len() != n {
+        return Err(Error::Internal(format!(
+            "segment faceting: the pre-render's buffers do not match its {}x{} size",
+            film.width, film.height
+        )));
     }
-    if frame.saliency.as_ref().is_some_and(|s| s.len() != n) {
-        return Err(Error::setting("faceting", "the saliency map does not match the pre-render's size"));
+    if film.saliency.as_ref().is_some_and(|s| s.len() != n) {
+        return Err(Error::Internal("segment faceting: the saliency map does not match the pre-render's size".into()));
     }
-    if settings.segments.is_empty() || settings.segments.contains(&0) {
+    if params.segments.is_empty() || params.segments.contains(&0) {
         return Err(Error::setting("segments", "needs one or more levels, each of at least 1 segment"));
     }
-    if settings.thresholds.len() != settings.segments.len() {
+    if params.thresholds.len() != params.segments.len() {
         return Err(Error::setting(
             "thresholds",
-            format!("{} thresholds given for {} segment levels", settings.thresholds.len(), settings.segments.len()),
+            format!("{} thresholds given for {} segment levels", params.thresholds.len(), params.segments.len()),
         ));
     }
-    let weights = SegmentWeights::from_settings(settings);
-    let max_n = *settings.segments.iter().max().unwrap_or(&1);
-    let want = match settings.superpixels {
-        0 => auto_superpixels(frame.width, frame.height, max_n),
+    let weights = params.weights;
+    let max_n = *params.segments.iter().max().unwrap_or(&1);
+    let want = match params.superpixels {
+        0 => auto_superpixels(film.width, film.height, max_n),
         k => k as usize,
     }
     .min(n);
@@ -163,22 +186,22 @@ pub fn layout(frame: &Frame, settings: &Settings) -> Result<(FacetLayout, Segmen
         clock = now;
     };
 
-    let features = Features::new(frame, &weights);
+    let features = Features::new(film, &weights);
     lap("features".into(), &mut timings);
-    let seed = splitmix64(settings.seed ^ 0x005E_6EE7);
+    let seed = splitmix64(params.seed ^ 0x005E_6EE7);
     let sp = superpixels::slic(&features, want, weights.separates_objects(), seed);
     lap("superpixels".into(), &mut timings);
     let graph = RegionGraph::build(&sp, &features, &weights);
     lap("graph".into(), &mut timings);
     let no_convergence =
-        |_| Error::setting("segments", "the eigensolver did not converge on this image's region graph");
+        |_| Error::Internal("segment faceting: the eigensolver did not converge on this image's region graph".into());
     let embedding = ncut::embed(&graph, None, max_n as usize, seed).map_err(no_convergence)?;
     lap("eigenvectors".into(), &mut timings);
 
-    let (w, h) = (frame.width, frame.height);
+    let (w, h) = (film.width, film.height);
     // Levels are independent given the embedding: cut in parallel, collected in order.
     let level_specs: Vec<(usize, u32, f64)> =
-        settings.segments.iter().zip(&settings.thresholds).enumerate().map(|(i, (&n, &t))| (i, n, t)).collect();
+        params.segments.iter().zip(&params.thresholds).enumerate().map(|(i, (&n, &t))| (i, n, t)).collect();
     let results: Vec<Result<(SegmentLevel, Duration)>> = level_specs
         .par_iter()
         .map(|&(li, requested, threshold)| {
@@ -236,71 +259,6 @@ pub fn layout(frame: &Frame, settings: &Settings) -> Result<(FacetLayout, Segmen
     lap("selection".into(), &mut timings);
     let superpixels = LabelImage { width: w, height: h, labels: sp.labels };
     Ok((selection.layout, SegmentLevels { superpixels, superpixel_count: sp.count, levels, timings, warnings }))
-}
-
-/// What `cubist facets` shows: the pre-render, the layout and the inspection images.
-pub struct Inspection {
-    /// The pre-render (Fig. 4.5 a).
-    pub view: RgbaImage,
-    /// (pass name, image): `layout` always; with `--pass segments` also `superpixels`,
-    /// `level1`.. and the render's saliency pass; any other pass the settings ask for.
-    pub images: Vec<(String, RgbaImage)>,
-    pub layout: FacetLayout,
-    pub levels: SegmentLevels,
-    /// Pre-render stages, then "segment" for the whole faceting.
-    pub timings: Vec<(String, Duration)>,
-    pub warnings: Vec<String>,
-}
-
-/// Settings whose render stops where faceting would start: unfaceted, unpainted, with the
-/// saliency map (its pass is added), so the render's frame is what the render pipeline's
-/// faceting stage sees. Passes that need facets are dropped.
-pub fn prerender_settings(settings: &Settings) -> Settings {
-    let mut pre = settings.clone();
-    pre.faceting = Faceting::None;
-    (pre.facets, pre.save_facets) = (None, None);
-    let plain = Settings::preset(Preset::Plain);
-    pre.border_width = plain.border_width;
-    pre.silhouette_width = plain.silhouette_width;
-    pre.palette = plain.palette;
-    pre.palette_image = None;
-    pre.colors = plain.colors;
-    pre.gradients = plain.gradients;
-    pre.chiaroscuro = plain.chiaroscuro;
-    pre.passes.retain(|p| !matches!(p, Pass::Segments | Pass::Facets | Pass::FacetIds));
-    if !pre.passes.contains(&Pass::Saliency) {
-        pre.passes.push(Pass::Saliency); // makes the pipeline compute the saliency map
-    }
-    pre
-}
-
-/// Pre-renders `settings`' view (`prerender_settings`), computes the Segment layout and its
-/// inspection images.
-pub fn inspect(prep: &Prepared, settings: &Settings, progress: &Progress) -> Result<Inspection> {
-    let show_levels = settings.passes.contains(&Pass::Segments);
-    let pre = prerender_settings(settings);
-    let rendered = crate::render(prep, &pre, progress)?;
-    progress.begin("segment", 1);
-    let t = Instant::now();
-    let (layout, levels) = layout(&rendered.frame, settings)?;
-    let segment_time = t.elapsed();
-    progress.finish();
-    let mut images = Vec::new();
-    for (pass, img) in &rendered.passes {
-        if settings.passes.contains(pass) || (show_levels && *pass == Pass::Saliency) {
-            images.push((pass.as_str().to_string(), img.clone()));
-        }
-    }
-    if show_levels {
-        images.extend(debug::images(&levels, &layout, &rendered.image));
-    } else {
-        images.push(("layout".into(), debug::layout_image(&layout, rendered.frame.width, rendered.frame.height)));
-    }
-    let mut timings: Vec<(String, Duration)> = rendered.timings.0.iter().map(|(n, d)| (n.to_string(), *d)).collect();
-    timings.push(("segment".into(), segment_time));
-    let mut warnings = rendered.warnings;
-    warnings.extend(levels.warnings.iter().cloned());
-    Ok(Inspection { view: rendered.image, images, layout, levels, timings, warnings })
 }
 
 #[cfg(test)]

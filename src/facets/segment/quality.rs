@@ -2,20 +2,13 @@
 //! benchmark's time-against-quality table.
 
 use crate::facets::LabelImage;
+use crate::util::grid::Grid;
 
 /// Boundary pixels: those whose right or lower neighbour has another label (so each boundary
 /// between two regions is one pixel wide, drawn on its upper/left side).
 pub fn boundary_mask(labels: &LabelImage) -> Vec<bool> {
-    let (w, h) = (labels.width as usize, labels.height as usize);
-    let l = &labels.labels;
-    let mut m = vec![false; w * h];
-    for y in 0..h {
-        for x in 0..w {
-            let p = y * w + x;
-            m[p] = (x + 1 < w && l[p + 1] != l[p]) || (y + 1 < h && l[p + w] != l[p]);
-        }
-    }
-    m
+    let grid = Grid::new(labels.width, labels.height);
+    (0..labels.labels.len()).map(|p| grid.on_border_forward(&labels.labels, p)).collect()
 }
 
 /// Fraction of `from`'s set pixels that lie within Euclidean distance `tolerance` of a set

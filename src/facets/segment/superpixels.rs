@@ -10,8 +10,9 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::SegmentWeights;
-use crate::frame::{Frame, NO_HIT};
-use crate::render::{splitmix64, unit_f64};
+use crate::film::{Film, NO_HIT};
+use crate::util::grid::Grid as PixelGrid;
+use crate::util::rng::{splitmix64, unit_f64};
 
 /// Components of a pixel's feature vector: CIELAB colour (3), normal (3), log depth, saliency.
 pub const FEATURES: usize = 8;
@@ -74,12 +75,12 @@ pub fn linear_rgb_to_lab(c: Vec3) -> [f32; 3] {
 impl Features {
     /// Reads colour, normal, depth, object and saliency off the pre-render. Background pixels
     /// get a zero normal and a depth beyond the farthest hit, so they differ from every surface.
-    pub fn new(frame: &Frame, weights: &SegmentWeights) -> Features {
-        let (width, height) = (frame.width as usize, frame.height as usize);
+    pub fn new(film: &Film, weights: &SegmentWeights) -> Features {
+        let (width, height) = (film.width as usize, film.height as usize);
         let n = width * height;
-        let far = frame.hits.iter().filter(|h| h.is_hit() && h.t.is_finite()).fold(1e-6f32, |m, h| m.max(h.t));
+        let far = film.hits.iter().filter(|h| h.is_hit() && h.t.is_finite()).fold(1e-6f32, |m, h| m.max(h.t));
         let far_ln = far.ln() + std::f32::consts::LN_2;
-        let saliency: Vec<f32> = match &frame.saliency {
+        let saliency: Vec<f32> = match &film.saliency {
             Some(s) => s.iter().map(|v| if v.is_finite() { v.clamp(0.0, 1.0) } else { 0.0 }).collect(),
             None => vec![0.0; n],
         };
@@ -90,8 +91,8 @@ impl Features {
         let values: Vec<[f32; FEATURES]> = (0..n)
             .into_par_iter()
             .map(|i| {
-                let lab = linear_rgb_to_lab(frame.color[i].truncate());
-                let h = &frame.hits[i];
+                let lab = linear_rgb_to_lab(film.color[i].truncate());
+                let h = &film.hits[i];
                 let (normal, depth) =
                     if h.is_hit() && h.t.is_finite() { (h.normal, h.t.max(1e-6).ln()) } else { (Vec3::ZERO, far_ln) };
                 [
@@ -106,7 +107,7 @@ impl Features {
                 ]
             })
             .collect();
-        let object = frame.hits.iter().map(|h| if h.is_hit() { h.object } else { NO_HIT }).collect();
+        let object = film.hits.iter().map(|h| if h.is_hit() { h.object } else { NO_HIT }).collect();
         Features { width, height, values, object, saliency }
     }
 }
@@ -261,8 +262,11 @@ fn assign(
             let fp = &features.values[p];
             let op = features.object[p];
             let xf = x as f32;
-            let (mut best, mut best_d) = (0u32, f32::INFINITY);
-            for c in [cy * grid.gx + cx, cy * grid.gx + ox, oy * grid.gx + cx, oy * grid.gx + ox] {
+            // The pixel's own cell's seed unless a nearer one is found: a distance that
+            // overflows to infinity or NaN never leaves a label outside this pixel's band.
+            let own = cy * grid.gx + cx;
+            let (mut best, mut best_d) = (own as u32, f32::INFINITY);
+            for c in [own, cy * grid.gx + ox, oy * grid.gx + cx, oy * grid.gx + ox] {
                 let ce = &centres[c];
                 let (dx, dy) = (xf - ce.x, yf - ce.y);
                 let mut d = feature_distance(fp, &ce.f) + spatial * (dx * dx + dy * dy);
@@ -415,19 +419,14 @@ pub fn enforce_connectivity(sp: &mut Superpixels, features: &Features, separate_
     // Shared boundary lengths between pieces where at least one is small.
     let small = |a: u32| area[a as usize] < min_area;
     let mut pairs: Vec<(u32, u32)> = Vec::new();
-    for y in 0..h {
-        for x in 0..w {
-            let p = y * w + x;
-            let a = piece[p];
-            for q in [if x + 1 < w { Some(p + 1) } else { None }, if y + 1 < h { Some(p + w) } else { None }]
-                .into_iter()
-                .flatten()
-            {
-                let b = piece[q];
-                if a != b && (small(a) || small(b)) {
-                    pairs.push((a, b));
-                    pairs.push((b, a));
-                }
+    let grid = PixelGrid { width: w, height: h };
+    for p in 0..n {
+        let a = piece[p];
+        for q in grid.forward_neighbours(p) {
+            let b = piece[q];
+            if a != b && (small(a) || small(b)) {
+                pairs.push((a, b));
+                pairs.push((b, a));
             }
         }
     }

@@ -11,8 +11,9 @@ use super::select::{self, LevelInput};
 use super::superpixels::{FEATURES, Features};
 use super::*;
 use crate::facets::io;
-use crate::frame::{Frame, PixelHit};
-use crate::render::{splitmix64, unit_f64};
+use crate::film::{Film, PixelHit};
+use crate::util::grid::Grid;
+use crate::util::rng::{splitmix64, unit_f64};
 
 /// A frame whose pixel (x, y) lies in region `region(x, y)`, flat-coloured `colours[region]`,
 /// on object `objects[region]` (same normal and depth everywhere), plus optional per-pixel
@@ -24,8 +25,8 @@ fn synthetic(
     colours: &[Vec3],
     objects: &[u32],
     noise: f32,
-) -> Frame {
-    let mut f = Frame::new(w, h, 1);
+) -> Film {
+    let mut f = Film::new(w, h, 1);
     for y in 0..h {
         for x in 0..w {
             let i = (y * w + x) as usize;
@@ -52,8 +53,17 @@ fn voronoi(seeds: &[(f32, f32)]) -> impl Fn(u32, u32) -> usize + '_ {
     }
 }
 
-fn settings(segments: &[u32], thresholds: &[f64]) -> Settings {
-    Settings { segments: segments.to_vec(), thresholds: thresholds.to_vec(), ..Settings::default() }
+/// The default settings' Segment parameters (`cubist render`'s) with these levels.
+fn settings(segments: &[u32], thresholds: &[f64]) -> SegmentParams {
+    SegmentParams { segments: segments.to_vec(), thresholds: thresholds.to_vec(), ..default_params() }
+}
+
+fn default_params() -> SegmentParams {
+    crate::pipeline::params::segment(&crate::Settings::default())
+}
+
+fn default_weights() -> SegmentWeights {
+    default_params().weights
 }
 
 fn truth(w: u32, h: u32, region: impl Fn(u32, u32) -> usize) -> LabelImage {
@@ -82,8 +92,8 @@ fn six_colours() -> Vec<Vec3> {
 fn recovers_flat_coloured_regions() {
     let (w, h) = (240, 180);
     let region = voronoi(&SIX);
-    let frame = synthetic(w, h, &region, &six_colours(), &[0; 6], 0.0);
-    let (_, levels) = layout(&frame, &settings(&[6], &[0.0])).unwrap();
+    let film = synthetic(w, h, &region, &six_colours(), &[0; 6], 0.0);
+    let (_, levels) = layout(&film, &settings(&[6], &[0.0])).unwrap();
     let level = &levels.levels[0];
     assert_eq!(level.count, 6);
     let f = boundary_f_measure(&level.labels, &truth(w, h, &region), 2).unwrap();
@@ -109,10 +119,10 @@ fn recovers_regions_under_noise_with_colour_only() {
     // The thesis's setting: colour alone (geometric weights off), with pixel noise.
     let (w, h) = (240, 180);
     let region = voronoi(&SIX);
-    let frame = synthetic(w, h, &region, &six_colours(), &[0; 6], 0.04);
+    let film = synthetic(w, h, &region, &six_colours(), &[0; 6], 0.04);
     let mut s = settings(&[6], &[0.0]);
-    (s.weight_normal, s.weight_depth, s.weight_object, s.weight_saliency) = (0.0, 0.0, 0.0, 0.0);
-    let (_, levels) = layout(&frame, &s).unwrap();
+    (s.weights.normal, s.weights.depth, s.weights.object, s.weights.saliency) = (0.0, 0.0, 0.0, 0.0);
+    let (_, levels) = layout(&film, &s).unwrap();
     let f = boundary_f_measure(&levels.levels[0].labels, &truth(w, h, &region), 2).unwrap();
     assert!(f > 0.95, "boundary agreement {f}");
 }
@@ -122,14 +132,14 @@ fn object_walls_are_never_crossed() {
     // Four quadrants of one colour, normal and depth: only the object ids separate them.
     // Object 1 is the top-left and bottom-right quadrants, which touch at a corner only.
     let region = |x: u32, y: u32| (x >= 110) as usize + 2 * (y >= 85) as usize;
-    let frame = synthetic(220, 170, region, &[Vec3::splat(0.5); 4], &[1, 2, 3, 1], 0.02);
+    let film = synthetic(220, 170, region, &[Vec3::splat(0.5); 4], &[1, 2, 3, 1], 0.02);
     let mut s = settings(&[2, 4, 9], &[0.0, 0.0, 0.0]);
-    s.weight_object = 1.0;
-    let (layout, levels) = layout(&frame, &s).unwrap();
+    s.weights.object = 1.0;
+    let (layout, levels) = layout(&film, &s).unwrap();
     for level in &levels.levels {
         let mut object_of = vec![None; level.count as usize];
         for (p, &l) in level.labels.labels.iter().enumerate() {
-            let o = frame.hits[p].object;
+            let o = film.hits[p].object;
             match object_of[l as usize] {
                 None => object_of[l as usize] = Some(o),
                 Some(prev) => assert_eq!(prev, o, "level N={}: segment {l} crosses objects", level.requested),
@@ -148,8 +158,8 @@ fn object_walls_are_never_crossed() {
 #[test]
 fn soft_object_weight_still_makes_n_segments() {
     let region = |x: u32, y: u32| (x >= 110) as usize + 2 * (y >= 85) as usize;
-    let frame = synthetic(220, 170, region, &[Vec3::splat(0.5); 4], &[1, 2, 3, 1], 0.02);
-    let (_, levels) = layout(&frame, &settings(&[2, 4, 9], &[0.0; 3])).unwrap();
+    let film = synthetic(220, 170, region, &[Vec3::splat(0.5); 4], &[1, 2, 3, 1], 0.02);
+    let (_, levels) = layout(&film, &settings(&[2, 4, 9], &[0.0; 3])).unwrap();
     let counts: Vec<u32> = levels.levels.iter().map(|l| l.count).collect();
     assert_eq!(counts, vec![2, 4, 9]);
     // With a soft wall the object boundaries are still where the 4 segments go.
@@ -157,7 +167,7 @@ fn soft_object_weight_still_makes_n_segments() {
     assert!(f > 0.95, "boundary agreement {f}");
 }
 
-fn noisy_frame(w: u32, h: u32) -> Frame {
+fn noisy_frame(w: u32, h: u32) -> Film {
     let seeds: Vec<(f32, f32)> = (0..14)
         .map(|i| {
             let a = splitmix64(i + 5);
@@ -178,11 +188,11 @@ fn noisy_frame(w: u32, h: u32) -> Frame {
 
 #[test]
 fn deterministic_for_a_seed_on_any_thread_count() {
-    let frame = noisy_frame(400, 300);
+    let film = noisy_frame(400, 300);
     let mut s = settings(&[5, 30, 120], &[0.0, 0.05, 0.08]);
     s.superpixels = 700; // above the dense limit: the shift-invert solver runs
     let run = |threads: usize| {
-        rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(|| layout(&frame, &s).unwrap())
+        rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(|| layout(&film, &s).unwrap())
     };
     let (a, la) = run(1);
     let (b, lb) = run(2);
@@ -199,8 +209,8 @@ fn deterministic_for_a_seed_on_any_thread_count() {
 
 #[test]
 fn one_segment_covers_the_image() {
-    let frame = noisy_frame(120, 90);
-    let (layout, levels) = layout(&frame, &settings(&[1], &[0.0])).unwrap();
+    let film = noisy_frame(120, 90);
+    let (layout, levels) = layout(&film, &settings(&[1], &[0.0])).unwrap();
     assert_eq!(levels.levels[0].count, 1);
     assert!(levels.levels[0].labels.labels.iter().all(|&l| l == 0));
     assert_eq!(layout.facet_count, 1);
@@ -210,10 +220,10 @@ fn one_segment_covers_the_image() {
 
 #[test]
 fn more_segments_than_superpixels() {
-    let frame = noisy_frame(120, 90);
+    let film = noisy_frame(120, 90);
     let mut s = settings(&[40], &[0.0]);
     s.superpixels = 12;
-    let (layout, levels) = layout(&frame, &s).unwrap();
+    let (layout, levels) = layout(&film, &s).unwrap();
     let level = &levels.levels[0];
     assert_eq!(level.count as usize, levels.superpixel_count);
     assert!(level.count < 40);
@@ -225,8 +235,8 @@ fn more_segments_than_superpixels() {
 #[test]
 fn tiny_images() {
     for (w, h) in [(1, 1), (2, 3), (7, 1)] {
-        let frame = noisy_frame(w, h);
-        let (layout, levels) = layout(&frame, &settings(&[5, 30, 120], &[0.0, 0.05, 0.08])).unwrap();
+        let film = noisy_frame(w, h);
+        let (layout, levels) = layout(&film, &settings(&[5, 30, 120], &[0.0, 0.05, 0.08])).unwrap();
         for l in &levels.levels {
             assert!(l.count >= 1 && l.count <= w * h);
         }
@@ -236,19 +246,21 @@ fn tiny_images() {
 
 #[test]
 fn bad_inputs_are_errors() {
-    let frame = noisy_frame(20, 10);
-    assert!(layout(&frame, &settings(&[], &[])).is_err());
-    assert!(layout(&frame, &settings(&[3, 0], &[0.0, 0.0])).is_err());
-    assert!(layout(&frame, &settings(&[3], &[0.0, 0.1])).is_err());
-    let mut bad = frame.clone();
+    let film = noisy_frame(20, 10);
+    assert!(layout(&film, &settings(&[], &[])).is_err());
+    assert!(layout(&film, &settings(&[3, 0], &[0.0, 0.0])).is_err());
+    assert!(layout(&film, &settings(&[3], &[0.0, 0.1])).is_err());
+    let mut bad = film.clone();
     bad.saliency = Some(vec![0.0; 3]);
-    assert!(layout(&bad, &settings(&[3], &[0.0])).is_err());
+    // Buffers that disagree are the renderer's failure, not a usage error (exit 1).
+    let e = layout(&bad, &settings(&[3], &[0.0])).unwrap_err();
+    assert!(matches!(e, crate::Error::Internal(_)) && !e.is_usage(), "{e}");
 }
 
 #[test]
 fn layout_covers_every_pixel_and_draws_by_saliency() {
-    let frame = noisy_frame(200, 150);
-    let (layout, levels) = layout(&frame, &settings(&[5, 30, 120], &[0.0, 0.05, 0.08])).unwrap();
+    let film = noisy_frame(200, 150);
+    let (layout, levels) = layout(&film, &settings(&[5, 30, 120], &[0.0, 0.05, 0.08])).unwrap();
     assert_eq!(layout.validate(), Ok(()));
     // Base = level-1 segments.
     assert_eq!(layout.base.as_ref().unwrap(), &levels.levels[0].labels);
@@ -327,8 +339,8 @@ fn quad_goes_through_the_extreme_pixels() {
 
 #[test]
 fn layout_saves_and_reloads() {
-    let frame = noisy_frame(160, 120);
-    let (layout, _) = layout(&frame, &settings(&[5, 30, 120], &[0.0, 0.05, 0.08])).unwrap();
+    let film = noisy_frame(160, 120);
+    let (layout, _) = layout(&film, &settings(&[5, 30, 120], &[0.0, 0.05, 0.08])).unwrap();
     assert!(layout.validate().is_ok());
     let dir = tempfile::tempdir().unwrap();
     let map = layout.rasterize(160, 120);
@@ -364,7 +376,7 @@ fn normalized_cut_separates_weakly_joined_cliques() {
     edges.push((9, 10, 1));
     edges.push((14, 0, 1));
     edges.sort();
-    let g = RegionGraph::from_edges(regions, &edges, &SegmentWeights::default());
+    let g = RegionGraph::from_edges(regions, &edges, &default_weights());
     // Identical means: affinity 1, so W is the boundary length (20 inside, 1 between).
     let emb = ncut::embed(&g, None, 3, 1).unwrap();
     let p = ncut::partition(&g, &emb, 3, false, 1).unwrap();
@@ -377,9 +389,9 @@ fn normalized_cut_separates_weakly_joined_cliques() {
 
 #[test]
 fn shift_invert_matches_the_dense_solver() {
-    let frame = noisy_frame(300, 220);
-    let w = SegmentWeights::default();
-    let f = Features::new(&frame, &w);
+    let film = noisy_frame(300, 220);
+    let w = default_weights();
+    let f = Features::new(&film, &w);
     let sp = superpixels::slic(&f, 600, true, 1);
     let g = RegionGraph::build(&sp, &f, &w);
     assert!(g.len() > ncut::DENSE_LIMIT);
@@ -424,9 +436,9 @@ fn boundary_f_measure_tolerance() {
 
 #[test]
 fn superpixels_are_connected_and_respect_objects() {
-    let frame = noisy_frame(200, 150);
-    let w = SegmentWeights::default();
-    let f = Features::new(&frame, &w);
+    let film = noisy_frame(200, 150);
+    let w = default_weights();
+    let f = Features::new(&film, &w);
     let sp = superpixels::slic(&f, 150, true, 1);
     assert!(sp.count > 100 && sp.count < 260, "{}", sp.count);
     // Each label one object and one 4-connected piece.
@@ -451,24 +463,11 @@ fn ncut_free_pieces(labels: &[u32], w: usize, h: usize) -> usize {
         let mut stack = vec![start];
         seen[start] = true;
         while let Some(p) = stack.pop() {
-            let (x, y) = (p % w, p / w);
-            let mut push = |q: usize| {
+            for q in (Grid { width: w, height: h }).neighbours4(p) {
                 if !seen[q] && labels[q] == labels[p] {
                     seen[q] = true;
                     stack.push(q);
                 }
-            };
-            if x > 0 {
-                push(p - 1);
-            }
-            if x + 1 < w {
-                push(p + 1);
-            }
-            if y > 0 {
-                push(p - w);
-            }
-            if y + 1 < h {
-                push(p + w);
             }
         }
     }
@@ -477,8 +476,8 @@ fn ncut_free_pieces(labels: &[u32], w: usize, h: usize) -> usize {
 
 #[test]
 fn segments_of_a_level_are_connected() {
-    let frame = noisy_frame(200, 150);
-    let (_, levels) = layout(&frame, &settings(&[5, 30], &[0.0, 0.0])).unwrap();
+    let film = noisy_frame(200, 150);
+    let (_, levels) = layout(&film, &settings(&[5, 30], &[0.0, 0.0])).unwrap();
     for l in &levels.levels {
         assert_eq!(ncut_free_pieces(&l.labels.labels, 200, 150), l.count as usize);
     }
@@ -487,10 +486,10 @@ fn segments_of_a_level_are_connected() {
 #[test]
 fn real_still_life() {
     let prep = crate::Prepared::load(None).unwrap();
-    let mut s = Settings::default();
+    let mut s = crate::Settings::default();
     (s.width, s.height) = (320, 240);
     let r = crate::render(&prep, &s, &crate::progress::Progress::silent()).unwrap();
-    let (layout, levels) = layout(&r.frame, &s).unwrap();
+    let (layout, levels) = layout(&r.film, &crate::pipeline::params::segment(&s)).unwrap();
     assert_eq!(levels.levels.iter().map(|l| l.count).collect::<Vec<_>>(), vec![5, 30, 120]);
     // Level 1 (threshold 0) is always selected.
     assert!(levels.levels[0].selected.iter().all(|s| *s));
@@ -526,26 +525,4 @@ proptest! {
         let maxy = q.iter().map(|v| v[1]).fold(0.0, f64::max);
         prop_assert!((minx * 12.0 - x0 as f64).abs() < 1e-9 && (maxy * 9.0 - y1 as f64).abs() < 1e-9);
     }
-}
-
-#[test]
-fn weight_settings_are_validated() {
-    let ok = Settings::default();
-    assert!(ok.validate().is_ok());
-    let bad = |f: &dyn Fn(&mut Settings), key: &str| {
-        let mut s = Settings::default();
-        f(&mut s);
-        let e = s.validate().unwrap_err().to_string();
-        assert!(e.contains(key), "{e}");
-    };
-    bad(&|s| s.weight_object = 1.5, "weight_object");
-    bad(&|s| s.weight_colour = -1.0, "weight_colour");
-    bad(&|s| s.weight_normal = f64::NAN, "weight_normal");
-    bad(&|s| s.weight_depth = f64::INFINITY, "weight_depth");
-    bad(&|s| s.weight_saliency = -0.1, "weight_saliency");
-    bad(&|s| s.superpixels = 2_000_000, "superpixels");
-    // JSON keys and flags reach the same fields.
-    let json = serde_json::json!({ "weight_object": 1.0, "superpixels": 900 });
-    let s = Settings::from_layers(Some((std::path::Path::new("x.json"), json)), Default::default()).unwrap();
-    assert_eq!((s.weight_object, s.superpixels), (1.0, 900));
 }

@@ -1,0 +1,187 @@
+//! The command line (clap definitions only: raw flags), their conversion into validated
+//! `Settings` (`settings_args`), and the schema of every setting for front ends (`schema`).
+
+mod schema;
+mod settings_args;
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+
+pub use schema::schema;
+pub use settings_args::SettingsArgs;
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "cubist",
+    version,
+    about = "Renders 3D scenes in the manner of Analytical Cubism: cubist cameras, facets, mesh saliency, painterly effects",
+    after_help = "Pixel-valued settings (discontinuity, neighborhood, border and silhouette widths) are given at 1000 px and scale with sqrt(width x height) / 1000.\nExit codes: 0 success, 1 bad input or failure, 2 bad usage (flags, settings)."
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Render a scene (the built-in still life when none is given) to a PNG.
+    Render(RenderArgs),
+    /// Count the faces visible through one or more cameras (the thesis's Table 4.1 measure).
+    Faces(FacesArgs),
+    /// Write the saliency map seen through the camera (grey PNG) and/or print per-vertex mesh saliency as JSON.
+    Saliency(SaliencyArgs),
+    /// Compute a scene's Segment facet layout and write it as images: <stem>.png the
+    /// pre-render, <stem>.layout.png the facets; with --pass segments also the superpixels and
+    /// each level (<stem>.level1.png...), as in the thesis's Fig. 4.5.
+    Facets(FacetsArgs),
+    /// Print the fully resolved, validated settings as JSON on stdout: every key, with the
+    /// preset's values and the defaults, after the config file and the flags (null = chosen
+    /// per scene, see each flag's help). Nothing is rendered. With --schema, what every
+    /// setting is (for front ends); with --stages, the stages a render of these settings runs.
+    Settings(SettingsCmdArgs),
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ProgressMode {
+    /// A progress bar when stderr is a terminal, nothing otherwise.
+    Auto,
+    /// Always a progress bar.
+    Bar,
+    /// Machine-readable lines on stderr: `PROGRESS <fraction 0..1> <stage>` (the Blender add-on reads these).
+    Lines,
+    /// Nothing.
+    None,
+}
+
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    /// Scene to render (.gltf or .glb). Without one, the built-in still life.
+    pub scene: Option<PathBuf>,
+    /// Output image (.png). Passes go beside it as <stem>.<pass>.png.
+    #[arg(short, long, default_value = "cubist.png")]
+    pub output: PathBuf,
+    /// JSON file of settings (the keys of the options below, in snake_case); flags override it.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Print the camera used and each stage's time.
+    #[arg(short, long)]
+    pub verbose: bool,
+    #[arg(long, value_enum, default_value = "auto")]
+    pub progress: ProgressMode,
+    #[command(flatten)]
+    pub settings: SettingsArgs,
+}
+
+#[derive(Args, Debug)]
+pub struct SaliencyArgs {
+    /// Scene (.gltf or .glb). Without one, the built-in still life.
+    pub scene: Option<PathBuf>,
+    /// Saliency map image (.png, grey, white = most salient) [default: saliency.png, none with --json]
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// Print every mesh's per-vertex saliency, in the glTF's vertex order, as JSON on stdout:
+    /// {"meshes": [{"name": ..., "vertex_saliency": [...]}, ...]}
+    #[arg(long)]
+    pub json: bool,
+    /// JSON settings file, as for `render`.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Print the camera used and each stage's time.
+    #[arg(short, long)]
+    pub verbose: bool,
+    #[arg(long, value_enum, default_value = "auto")]
+    pub progress: ProgressMode,
+    #[command(flatten)]
+    pub settings: SettingsArgs,
+}
+
+#[derive(Args, Debug)]
+pub struct FacesArgs {
+    /// Scenes to evaluate (.gltf or .glb); one row per scene and view.
+    #[arg(required = true)]
+    pub scenes: Vec<PathBuf>,
+    /// A camera setting to evaluate, as KIND or KIND:DEGREES (e.g. planar:90, spherical:360,
+    /// perspective:60, orthographic). Repeat for a whole table row. Without any, the camera
+    /// and angles of --camera and --ambiguity.
+    #[arg(long = "view", value_name = "KIND[:DEG]")]
+    pub views: Vec<String>,
+    /// Several angles for --camera, degrees, comma-separated (e.g. 90,120,150).
+    #[arg(long, value_delimiter = ',', value_name = "DEG,...")]
+    pub angles: Vec<f64>,
+    /// Print JSON instead of a table (with each view's camera in scene units).
+    #[arg(long)]
+    pub json: bool,
+    /// With --json, also list the visible triangle ids of each view.
+    #[arg(long, requires = "json")]
+    pub ids: bool,
+    /// JSON settings file, as for `render`.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    #[command(flatten)]
+    pub settings: SettingsArgs,
+}
+
+#[derive(Args, Debug)]
+pub struct FacetsArgs {
+    /// Scene (.gltf or .glb). Without one, the built-in still life.
+    pub scene: Option<PathBuf>,
+    /// Output image (.png): the pre-render; the layout and levels go beside it.
+    #[arg(short, long, default_value = "facets.png")]
+    pub output: PathBuf,
+    /// JSON file of settings, as for `render`.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Print each step's time and each level's segment count.
+    #[arg(short, long)]
+    pub verbose: bool,
+    #[arg(long, value_enum, default_value = "auto")]
+    pub progress: ProgressMode,
+    #[command(flatten)]
+    pub settings: SettingsArgs,
+}
+
+#[derive(Args, Debug)]
+pub struct SettingsCmdArgs {
+    /// JSON file of settings, as for `render`; flags override it.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Print instead every setting's type, default (the analytic preset's), range or choices,
+    /// unit, help and group, the pipeline's stages and the presets, as JSON (README, "The
+    /// settings schema"). The other options are ignored.
+    #[arg(long, conflicts_with = "stages")]
+    pub schema: bool,
+    /// Print instead the stages a render of these settings runs, in order, as a JSON list of
+    /// their progress names (`re-trace` runs only if some facet's rays move).
+    #[arg(long)]
+    pub stages: bool,
+    #[command(flatten)]
+    pub settings: SettingsArgs,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Regression: `--camera-position -2,1,2.5` was refused as an unknown flag `-2`.
+    #[test]
+    fn vectors_may_start_with_a_minus_sign() {
+        let cli = Cli::try_parse_from([
+            "cubist",
+            "faces",
+            "a.glb",
+            "--camera-position",
+            "-2,1,2.5",
+            "--camera-target",
+            "-0.5,-1,0",
+            "--camera-up",
+            "-1,0,0",
+        ])
+        .unwrap();
+        let Command::Faces(args) = cli.command else { panic!("not faces") };
+        let s = args.settings.resolve(None).unwrap();
+        assert_eq!(s.camera_position, Some([-2.0, 1.0, 2.5]));
+        assert_eq!(s.camera_target, Some([-0.5, -1.0, 0.0]));
+        assert_eq!(s.camera_up, Some([-1.0, 0.0, 0.0]));
+    }
+}

@@ -1,0 +1,301 @@
+//! The render pipeline of SPEC Fig. 4.1 as explicit stages, each run only when the settings
+//! need it. `params` turns the validated settings into each stage's own parameters; every
+//! stage below is a function of plain values to plain values:
+//!
+//! | stage | inputs | output |
+//! |---|---|---|
+//! | `prerender` | scene (`Prepared`), `FramingParams`, `TraceParams` | `PreRender`: film (colour, hits, samples), camera, lights |
+//! | `saliency_stage` | scene, pre-render film, `SaliencyParams` | per-pixel saliency map |
+//! | `layout_stage` | pre-render film (+ map), `FacetParams` | `FacetLayout`, its `FacetMap` |
+//! | `aims_stage` | camera, facet map, saliency map, `AimParams` | one `FacetAim` per facet |
+//! | `retrace_stage` | camera, facet map, aims, `TraceParams` | film with moved facets traced again |
+//! | `paint_stage` | film, facet map, lights, `PaintParams` | film colour painted |
+//! | `encode_stage` | film, facets, aims, passes | image and pass images |
+//!
+//! A stage's output depends on nothing but its inputs, so a long-lived process (a render
+//! server, the frames of an animation) may keep any stage's output and skip the stage while
+//! its inputs are unchanged: the pre-render for a new palette, the layout for a new
+//! discontinuity. Nothing is cached yet besides per-mesh saliency (`Prepared::saliency`).
+//!
+//! The other products of the pre-render: `saliency_map` (`cubist saliency`),
+//! `inspect_facets` (`cubist facets`) and `evaluate` (`cubist faces`).
+
+mod faces;
+mod inspect;
+pub mod params;
+mod prepared;
+mod prerender;
+mod saliency_map;
+mod stage;
+
+use glam::DVec2;
+use image::RgbaImage;
+
+use crate::error::Result;
+use crate::facets::{self, FacetLayout, FacetMap, FacetParams};
+use crate::film::Film;
+use crate::imprecision::{self, AimContext, AimParams, FacetAim};
+use crate::output::passes::{facet_ids_pass, facets_pass, geometry_pass};
+use crate::output::{Gray16, Pass, encode};
+use crate::paint::chiaroscuro::ViewAxes;
+use crate::paint::{Lighting, Painter};
+use crate::progress::Progress;
+use crate::saliency::{MeshSaliency, SaliencyParams};
+use crate::settings::Settings;
+use crate::trace::TraceParams;
+
+pub use faces::{evaluate, visible_faces};
+pub use inspect::{Inspection, faceting_input, inspect_facets};
+pub use params::StageParams;
+pub use prepared::Prepared;
+pub use prerender::{PreRender, Shading, View, prerender};
+pub use saliency_map::{SaliencyRender, saliency_map};
+pub use stage::{Plan, Stage, Timings};
+
+/// What a render produces.
+pub struct Rendered {
+    pub film: Film,
+    pub image: RgbaImage,
+    pub passes: Vec<(Pass, RgbaImage)>,
+    /// Passes stored as 16-bit grey (facet ids), written with `output::write_png16`.
+    pub passes16: Vec<(Pass, Gray16)>,
+    /// The facet id of every pixel (a single facet when unfaceted); painterly effects read it.
+    pub facets: FacetMap,
+    /// The facet layout `facets` was rasterised from (what `save_facets` saves).
+    pub layout: FacetLayout,
+    /// Each facet's centres and re-aim, when the imprecision stage ran (else empty).
+    pub aims: Vec<FacetAim>,
+    pub timings: Timings,
+    pub warnings: Vec<String>,
+    /// One line saying which camera was used and where its focal centre is.
+    pub camera: String,
+}
+
+/// Renders `settings` through the whole pipeline.
+pub fn render(prep: &Prepared, settings: &Settings, progress: &Progress) -> Result<Rendered> {
+    render_with(prep, settings, progress, &|_, _| {})
+}
+
+/// `render`, calling `after_saliency` on the film once the pre-render and saliency stages are
+/// done and before faceting: tests and evaluations use it to supply a known saliency map.
+pub fn render_with(
+    prep: &Prepared,
+    settings: &Settings,
+    progress: &Progress,
+    after_saliency: &dyn Fn(&Prepared, &mut Film),
+) -> Result<Rendered> {
+    settings.validate()?;
+    let params = StageParams::new(settings);
+    check_work(&params)?;
+    let plan = Plan::new(&params);
+    let mut timings = Timings::default();
+
+    // Built before tracing so a bad palette image fails before the long part; it serves every
+    // frame of an animation.
+    let painter = timings.time("paint setup", || Painter::new(&params.paint))?;
+
+    let PreRender { mut film, view, mut warnings } =
+        prerender(prep, &params.framing, &params.trace, Shading::Lit, progress, &mut timings)?;
+
+    if plan.saliency {
+        film.saliency = Some(saliency_stage(prep, &film, &params.saliency, progress, &mut timings)?.1);
+    }
+    after_saliency(prep, &mut film);
+
+    let faceted = plan.faceting;
+    let (layout, map) = layout_stage(&params.facets, &film, progress, &mut timings, &mut warnings)?;
+
+    // Saliency centres count pixels within `neighborhood` of a facet: bounded work, or an error.
+    if faceted && params.aim.neighborhood > 0.0 && film.saliency.is_some() {
+        imprecision::check_neighbourhood(&map, params.aim.neighbourhood_px())?;
+    }
+
+    // Spatial imprecision (SPEC "Spatial imprecision"): re-aim facets, re-trace only the pixels
+    // of facets whose rays changed; at discontinuity 0 with converging facets nothing runs.
+    let mut aims = Vec::new();
+    if plan.imprecision {
+        if params.aim.reads_saliency() && film.saliency.is_none() {
+            warnings.push("no saliency map was computed: facets are not re-aimed (imprecision saliency)".into());
+        }
+        let ctx = aim_context(prep, &view, &params.trace);
+        aims = aims_stage(&ctx, &map, film.saliency.as_deref(), &params.aim, progress, &mut timings);
+        retrace_stage(prep, &view, &ctx, &params.trace, &map, &aims, &mut film, progress, &mut timings);
+    }
+
+    if plan.paint {
+        // An unfaceted image has no facet borders or corners: no facet map for the painter.
+        let f = &view.framed.frame;
+        let axes = ViewAxes { right: f.right.as_vec3(), up: f.up.as_vec3(), forward: f.forward.as_vec3() };
+        let lighting = view.rig.as_ref().map(|rig| Lighting { world: &prep.world, rig, view: axes });
+        progress.begin(Stage::Paint.name(), 1);
+        timings.time(Stage::Paint.name(), || painter.apply(&mut film, faceted.then_some(&map), lighting.as_ref()))?;
+    }
+
+    let (image, passes, passes16) = encode_stage(&film, &map, &aims, &params, &mut timings);
+    if let Some(path) = &params.save_facets {
+        facets::io::save(path, &layout, &map)?;
+    }
+    Ok(Rendered {
+        image,
+        passes,
+        passes16,
+        facets: map,
+        layout,
+        aims,
+        timings,
+        warnings,
+        camera: view.describe_camera(prep),
+        film,
+    })
+}
+
+/// Work that would take hours, refused before anything runs (issue 18): the Segment
+/// faceting's eigenvectors. (The lights' work depends on the scene: `prerender` checks it.)
+pub fn check_work(params: &StageParams) -> Result<()> {
+    if params.facets.method == facets::FacetMethod::Segment && params.facets.layout_file.is_none() {
+        facets::segment::check_work(params.facets.width, params.facets.height, &params.facets.segment)?;
+    }
+    Ok(())
+}
+
+/// Mesh saliency (SPEC "Mesh saliency") of the meshes the pre-render hit, and the saliency
+/// map read off the same samples (no second trace).
+pub fn saliency_stage(
+    prep: &Prepared,
+    film: &Film,
+    params: &SaliencyParams,
+    progress: &Progress,
+    timings: &mut Timings,
+) -> Result<(MeshSaliency, Vec<f32>)> {
+    progress.begin(Stage::Saliency.name(), 1);
+    let out = timings.time(Stage::Saliency.name(), || {
+        crate::saliency::for_film(&prep.scene, &prep.world, &prep.saliency, film, params).map(|sal| {
+            let map = crate::saliency::saliency_map(&prep.world, &sal, film);
+            (sal, map)
+        })
+    })?;
+    progress.finish();
+    Ok(out)
+}
+
+/// Faceting (SPEC "Faceting"): the layout computed from the pre-render, or loaded so every
+/// frame of an animation shares it, and rasterised at this size. Unfaceted: one facet.
+pub fn layout_stage(
+    params: &FacetParams,
+    film: &Film,
+    progress: &Progress,
+    timings: &mut Timings,
+    warnings: &mut Vec<String>,
+) -> Result<(FacetLayout, FacetMap)> {
+    let (width, height) = (params.width, params.height);
+    let (layout, map) = if params.faceted() {
+        progress.begin(Stage::Faceting.name(), 1);
+        timings.time(Stage::Faceting.name(), || -> Result<(FacetLayout, FacetMap)> {
+            let layout = facets::layout_for(params, film)?;
+            let map = layout.rasterize(width, height);
+            Ok((layout, map))
+        })?
+    } else {
+        let layout = FacetLayout::single();
+        let map = layout.rasterize(width, height);
+        (layout, map)
+    };
+    if let (Some(path), Some(base)) = (&params.layout_file, &layout.base) {
+        let (a, b) = (width as f64 / height as f64, base.width as f64 / base.height as f64);
+        if (a / b - 1.0).abs() > 0.01 {
+            warnings.push(format!(
+                "facet layout {} is {}x{}, stretched to this {width}x{height} image",
+                path.display(),
+                base.width,
+                base.height
+            ));
+        }
+    }
+    Ok((layout, map))
+}
+
+/// What re-aiming needs of the pre-render's camera and the scene.
+fn aim_context<'a>(prep: &'a Prepared, view: &'a View, trace: &TraceParams) -> AimContext<'a> {
+    let clip_radius = (prep.world.radius as f64).max(1e-9) * 1.001;
+    AimContext {
+        camera: view.framed.camera.as_ref(),
+        accel: &prep.accel,
+        width: trace.width,
+        height: trace.height,
+        clip_radius,
+    }
+}
+
+/// Each facet's centres, the point it is aimed at and its new rays (`imprecision`).
+pub fn aims_stage(
+    ctx: &AimContext,
+    map: &FacetMap,
+    saliency: Option<&[f32]>,
+    params: &AimParams,
+    progress: &Progress,
+    timings: &mut Timings,
+) -> Vec<FacetAim> {
+    progress.begin(Stage::Imprecision.name(), 1);
+    timings.time(Stage::Imprecision.name(), || imprecision::aim_facets(ctx, map, saliency, params))
+}
+
+/// Traces again the pixels of the facets whose rays moved, with the pre-render's tracer (the
+/// same lights, background and samples), overwriting their colour and hits in `film`.
+#[allow(clippy::too_many_arguments)]
+pub fn retrace_stage(
+    prep: &Prepared,
+    view: &View,
+    ctx: &AimContext,
+    trace: &TraceParams,
+    map: &FacetMap,
+    aims: &[FacetAim],
+    film: &mut Film,
+    progress: &Progress,
+    timings: &mut Timings,
+) {
+    let moved: Vec<u32> = (0..map.ids.len() as u32).filter(|&i| aims[map.ids[i as usize] as usize].moved()).collect();
+    if moved.is_empty() {
+        return;
+    }
+    let camera = view.framed.camera.as_ref();
+    let rays = |i: usize, p: DVec2| aims[map.ids[i] as usize].apply(camera.ray(p), ctx.pixel_pos(p), ctx.clip_radius);
+    let tracer = view.tracer(prep, trace);
+    progress.begin(Stage::ReTrace.name(), moved.len() as u64);
+    timings.time(Stage::ReTrace.name(), || tracer.render(film, &rays, Some(&moved), progress));
+    progress.finish();
+}
+
+/// The output image and the passes the settings ask for.
+#[allow(clippy::type_complexity)]
+pub fn encode_stage(
+    film: &Film,
+    map: &FacetMap,
+    aims: &[FacetAim],
+    params: &StageParams,
+    timings: &mut Timings,
+) -> (RgbaImage, Vec<(Pass, RgbaImage)>, Vec<(Pass, Gray16)>) {
+    let (background, transparent) = (params.trace.background, params.paint.transparent);
+    let image = timings.time("encode", || encode(film, background, transparent));
+    let mut passes = Vec::new();
+    let mut passes16 = Vec::new();
+    for &pass in &params.passes {
+        if let Some(img) = geometry_pass(film, pass) {
+            passes.push((pass, img));
+        }
+        match pass {
+            Pass::Facets => {
+                let shown = if aims.is_empty() {
+                    imprecision::centres_only(map, film.saliency.as_deref(), params.aim.neighbourhood_px())
+                } else {
+                    aims.to_vec()
+                };
+                passes.push((pass, facets_pass(map, &shown, film.saliency.as_deref(), params.aim.scale)));
+            }
+            Pass::FacetIds => passes16.push((pass, facet_ids_pass(map))),
+            // The final layout (Fig. 4.5 f); `cubist facets --pass segments` also shows each level.
+            Pass::Segments => passes.push((pass, facets::segment::inspection::map_image(map))),
+            _ => {}
+        }
+    }
+    (image, passes, passes16)
+}

@@ -1,0 +1,262 @@
+//! The one place that reads the validated `Settings` for the stages: each stage gets its own
+//! parameters, in its own types, and nothing else (so a stage can be run, tested and, later,
+//! cached on exactly what it depends on). A new setting is read here and nowhere else.
+
+use crate::camera::{self, FramingParams};
+use crate::facets::segment::{SegmentParams, SegmentWeights};
+use crate::facets::{self, FacetMethod, FacetParams};
+use crate::imprecision::{AimMode, AimParams, FacetProjection};
+use crate::output::Pass;
+use crate::paint::{BorderStyle, PaintParams, Palette};
+use crate::saliency::{SaliencyMethod, SaliencyParams};
+use crate::settings::{self, Settings};
+use crate::trace::TraceParams;
+
+// The settings' bounds on facets (16-bit ids) and image size are the facets' own; both modules
+// state them, this module knows both.
+const _: () = assert!(settings::MAX_FACETS == facets::MAX_FACETS);
+const _: () = assert!(settings::MAX_PIXELS == facets::MAX_BASE_PIXELS);
+
+/// Every stage's parameters for one render.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StageParams {
+    pub framing: FramingParams,
+    pub trace: TraceParams,
+    pub saliency: SaliencyParams,
+    pub facets: FacetParams,
+    pub aim: AimParams,
+    pub paint: PaintParams,
+    /// Extra images written beside the output, in the settings' order.
+    pub passes: Vec<Pass>,
+    /// Where the facet layout used is saved, for reuse by later frames.
+    pub save_facets: Option<std::path::PathBuf>,
+}
+
+impl StageParams {
+    /// The parameters of every stage from validated settings.
+    pub fn new(s: &Settings) -> StageParams {
+        StageParams {
+            framing: framing(s),
+            trace: trace(s),
+            saliency: saliency(s),
+            facets: facets(s),
+            aim: aim(s),
+            paint: paint(s),
+            passes: s.passes.iter().map(|&p| pass(p)).collect(),
+            save_facets: s.save_facets.clone(),
+        }
+    }
+
+    /// Whether any stage reads the scene's mesh saliency: re-aiming at saliency centres,
+    /// Segment faceting (unless a saved layout replaces it), and the passes that show it.
+    pub fn needs_saliency(&self) -> bool {
+        let imprecision_uses = self.facets.faceted() && self.aim.reads_saliency();
+        let segment_uses = self.facets.method == FacetMethod::Segment && self.facets.layout_file.is_none();
+        imprecision_uses || segment_uses || self.passes.contains(&Pass::Saliency) || self.passes.contains(&Pass::Facets)
+    }
+}
+
+pub fn framing(s: &Settings) -> FramingParams {
+    FramingParams {
+        kind: camera_kind(s.camera),
+        ambiguity: s.ambiguity,
+        framing: match s.framing {
+            settings::Framing::Fit => camera::Framing::Fit,
+            settings::Framing::Centre => camera::Framing::Centre,
+        },
+        focus_distance: s.focus_distance,
+        position: s.camera_position,
+        target: s.camera_target,
+        up: s.camera_up,
+        size: s.camera_size,
+        fill: s.fill,
+        width: s.width,
+        height: s.height,
+    }
+}
+
+pub fn camera_kind(k: settings::CameraKind) -> camera::CameraKind {
+    use camera::CameraKind as C;
+    match k {
+        settings::CameraKind::Auto => C::Auto,
+        settings::CameraKind::Spherical => C::Spherical,
+        settings::CameraKind::Cylindrical => C::Cylindrical,
+        settings::CameraKind::Planar => C::Planar,
+        settings::CameraKind::Perspective => C::Perspective,
+        settings::CameraKind::Orthographic => C::Orthographic,
+    }
+}
+
+pub fn trace(s: &Settings) -> TraceParams {
+    TraceParams {
+        width: s.width,
+        height: s.height,
+        spp: s.spp,
+        seed: s.seed,
+        shadows: s.shadows,
+        exposure: s.exposure,
+        background: s.background,
+    }
+}
+
+pub fn saliency(s: &Settings) -> SaliencyParams {
+    SaliencyParams { method: saliency_method(s.saliency_method), cache: s.saliency_cache.clone() }
+}
+
+pub fn saliency_method(m: settings::SaliencyMethod) -> SaliencyMethod {
+    match m {
+        settings::SaliencyMethod::Auto => SaliencyMethod::Auto,
+        settings::SaliencyMethod::Exact => SaliencyMethod::Exact,
+        settings::SaliencyMethod::Clustered => SaliencyMethod::Clustered,
+    }
+}
+
+pub fn facets(s: &Settings) -> FacetParams {
+    FacetParams {
+        method: match s.faceting {
+            settings::Faceting::None => FacetMethod::None,
+            settings::Faceting::Constant => FacetMethod::Constant,
+            settings::Faceting::Voronoi => FacetMethod::Voronoi,
+            settings::Faceting::Patch => FacetMethod::Patch,
+            settings::Faceting::Segment => FacetMethod::Segment,
+        },
+        layout_file: s.facets.clone(),
+        facet_map: s.facet_map.clone(),
+        facet_count: s.facet_count,
+        grid_cells: s.grid_cells,
+        patch_count: s.patch_count,
+        occlusion: s.occlusion,
+        segment: segment(s),
+        width: s.width,
+        height: s.height,
+        seed: s.seed,
+    }
+}
+
+pub fn segment(s: &Settings) -> SegmentParams {
+    SegmentParams {
+        segments: s.segments.clone(),
+        thresholds: s.thresholds.clone(),
+        superpixels: s.superpixels,
+        weights: SegmentWeights {
+            colour: s.weight_colour as f32,
+            normal: s.weight_normal as f32,
+            depth: s.weight_depth as f32,
+            object: s.weight_object as f32,
+            saliency: s.weight_saliency as f32,
+        },
+        seed: s.seed,
+    }
+}
+
+pub fn aim(s: &Settings) -> AimParams {
+    AimParams {
+        mode: match s.imprecision {
+            settings::Imprecision::Saliency => AimMode::Saliency,
+            settings::Imprecision::Random => AimMode::Random,
+            settings::Imprecision::None => AimMode::None,
+        },
+        projection: match s.facet_projection {
+            settings::FacetProjection::Converging => FacetProjection::Converging,
+            settings::FacetProjection::Linear => FacetProjection::Linear,
+        },
+        discontinuity: s.discontinuity,
+        neighborhood: s.neighborhood,
+        facet_fov: s.facet_fov,
+        scale: s.pixel_scale(),
+        seed: s.seed,
+    }
+}
+
+pub fn paint(s: &Settings) -> PaintParams {
+    PaintParams {
+        chiaroscuro: s.chiaroscuro,
+        silhouette_width: s.silhouette_width,
+        silhouette_strength: s.silhouette_strength,
+        border_width: s.border_width,
+        border_strength: s.border_strength,
+        gradients: s.gradients,
+        palette: match s.palette {
+            settings::Palette::None => Palette::None,
+            settings::Palette::Ochre => Palette::Ochre,
+            settings::Palette::Grey => Palette::Grey,
+            settings::Palette::BluePeriod => Palette::BluePeriod,
+            settings::Palette::Olive => Palette::Olive,
+        },
+        palette_image: s.palette_image.clone(),
+        colors: s.colors,
+        plane_light: s.plane_light,
+        border_style: match s.border_style {
+            settings::BorderStyle::Symmetric => BorderStyle::Symmetric,
+            settings::BorderStyle::Passage => BorderStyle::Passage,
+        },
+        brushwork: s.brushwork,
+        stroke_length: s.stroke_length,
+        stroke_width: s.stroke_width,
+        canvas_grain: s.canvas_grain,
+        scale: s.pixel_scale(),
+        seed: s.seed,
+        background: s.background,
+        transparent: s.transparent,
+    }
+}
+
+/// How the scene file may reach other files (README "Security").
+pub fn load_options(s: &Settings) -> crate::scene::LoadOptions {
+    crate::scene::LoadOptions { allow_external_files: s.allow_external_files }
+}
+
+pub fn pass(p: settings::Pass) -> Pass {
+    match p {
+        settings::Pass::Saliency => Pass::Saliency,
+        settings::Pass::Facets => Pass::Facets,
+        settings::Pass::FacetIds => Pass::FacetIds,
+        settings::Pass::Segments => Pass::Segments,
+        settings::Pass::Objects => Pass::Objects,
+        settings::Pass::Normals => Pass::Normals,
+        settings::Pass::Depth => Pass::Depth,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_enum_value_keeps_its_name() {
+        use clap::ValueEnum;
+        for &k in settings::CameraKind::value_variants() {
+            assert_eq!(camera_kind(k).as_str(), k.as_str());
+        }
+        for &m in settings::SaliencyMethod::value_variants() {
+            assert_eq!(saliency_method(m).as_str(), m.as_str(), "the saliency cache keys on this name");
+        }
+        for &p in settings::Pass::value_variants() {
+            assert_eq!(pass(p).as_str(), p.as_str());
+        }
+    }
+
+    #[test]
+    fn saliency_is_needed_exactly_when_a_stage_reads_it() {
+        let base = Settings {
+            faceting: settings::Faceting::None,
+            imprecision: settings::Imprecision::Saliency,
+            discontinuity: 0.0,
+            passes: vec![],
+            ..Settings::default()
+        };
+        let needs = |s: Settings| StageParams::new(&s).needs_saliency();
+        assert!(!needs(base.clone()));
+        assert!(!needs(Settings { discontinuity: 100.0, ..base.clone() }), "no facets to re-aim");
+        let voronoi = Settings { faceting: settings::Faceting::Voronoi, discontinuity: 100.0, ..base.clone() };
+        assert!(needs(voronoi.clone()));
+        assert!(!needs(Settings { imprecision: settings::Imprecision::Random, ..voronoi }));
+        assert!(needs(Settings { faceting: settings::Faceting::Segment, ..base.clone() }));
+        assert!(needs(Settings { passes: vec![settings::Pass::Saliency], ..base.clone() }));
+        assert!(needs(Settings { passes: vec![settings::Pass::Facets], ..base.clone() }));
+        // A loaded layout replaces the segmentation; re-aiming still needs saliency.
+        let loaded = Some(std::path::PathBuf::from("/l.json"));
+        assert!(!needs(Settings { faceting: settings::Faceting::Segment, facets: loaded.clone(), ..base.clone() }));
+        assert!(needs(Settings { facets: loaded, discontinuity: 50.0, ..base }));
+    }
+}

@@ -1,0 +1,100 @@
+//! The pre-render (SPEC "Pipeline" step 1): the camera framed for the scene, then one trace of
+//! the whole image into every buffer the later stages read. Rendering, facet inspection, the
+//! saliency map and face counting all start here.
+
+use glam::Vec3;
+
+use super::{Prepared, Stage, Timings};
+use crate::camera::{Framed, FramingParams, frame_camera};
+use crate::error::Result;
+use crate::film::Film;
+use crate::progress::Progress;
+use crate::shading::LightRig;
+use crate::trace::{TraceParams, Tracer};
+
+/// Whether the pre-render shades its samples or only records their hits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Shading {
+    /// Colour from the scene's lights (a render).
+    Lit,
+    /// Hits only, colour black (the saliency map, face counting): no light rig, no shadow rays.
+    HitsOnly,
+}
+
+/// The pre-render's output. Depends only on the scene, `FramingParams`, `TraceParams` and the
+/// shading.
+pub struct PreRender {
+    pub film: Film,
+    pub view: View,
+    /// The scene's and the framing's warnings.
+    pub warnings: Vec<String>,
+}
+
+/// The camera the pre-render was traced through and its lights, kept for the re-trace and
+/// chiaroscuro.
+pub struct View {
+    pub framed: Framed,
+    /// None with `Shading::HitsOnly`.
+    pub rig: Option<LightRig>,
+}
+
+impl View {
+    /// A tracer of the same scene, lights, background and seed as the pre-render (the
+    /// re-trace of moved facets must match it everywhere else).
+    pub fn tracer<'a>(&'a self, prep: &'a Prepared, trace: &TraceParams) -> Tracer<'a> {
+        tracer(prep, self.rig.as_ref(), trace)
+    }
+
+    /// One line saying which camera was used and where its focal centre is.
+    pub fn describe_camera(&self, prep: &Prepared) -> String {
+        self.framed.describe(&prep.world)
+    }
+}
+
+/// The tracer of `prep` with `rig` (None: hits only, on a black background).
+fn tracer<'a>(prep: &'a Prepared, rig: Option<&'a LightRig>, trace: &TraceParams) -> Tracer<'a> {
+    let background = if rig.is_some() { Vec3::from(trace.background) } else { Vec3::ZERO };
+    Tracer { world: &prep.world, accel: &prep.accel, rig, background, seed: trace.seed }
+}
+
+/// Frames the camera for the scene and traces every pixel once (progress stage `pre-render`).
+pub fn prerender(
+    prep: &Prepared,
+    framing: &FramingParams,
+    trace: &TraceParams,
+    shading: Shading,
+    progress: &Progress,
+    timings: &mut Timings,
+) -> Result<PreRender> {
+    let mut warnings = prep.scene.warnings.clone();
+    let framed = frame_camera(framing, &prep.world)?;
+    warnings.extend(framed.warnings.iter().cloned());
+    let rig = match shading {
+        Shading::Lit => Some(LightRig::new(&prep.world, &framed.frame, trace.shadows, trace.exposure)),
+        Shading::HitsOnly => None,
+    };
+    // Issue 18: every light is evaluated at every sample; hours of work are refused up front.
+    if let Some(rig) = &rig {
+        let work = rig.lights.len() as u64 * trace.width as u64 * trace.height as u64 * trace.spp as u64;
+        if work > crate::util::limits::MAX_LIGHT_SAMPLES {
+            return Err(crate::error::Error::scene(
+                &prep.scene.source,
+                format!(
+                    "{} lights x {} samples is {:.2e} light evaluations, more than the limit of {:.0e}: \
+                     fewer lights, pixels or samples per pixel",
+                    rig.lights.len(),
+                    trace.width as u64 * trace.height as u64 * trace.spp as u64,
+                    work as f64,
+                    crate::util::limits::MAX_LIGHT_SAMPLES as f64
+                ),
+            ));
+        }
+    }
+    let mut film = Film::new(trace.width, trace.height, trace.spp);
+    progress.begin(Stage::PreRender.name(), film.pixel_count() as u64);
+    let tracer = tracer(prep, rig.as_ref(), trace);
+    let camera = framed.camera.as_ref();
+    timings.time(Stage::PreRender.name(), || tracer.render(&mut film, &|_, p| camera.ray(p), None, progress));
+    progress.finish();
+    Ok(PreRender { film, view: View { framed, rig }, warnings })
+}

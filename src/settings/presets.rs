@@ -1,0 +1,181 @@
+//! The values before any preset (the bare cubist camera) and what each preset sets. The
+//! defaults of `Settings` are the `analytic` preset's.
+
+use super::{
+    BorderStyle, CameraKind, FacetProjection, Faceting, Framing, Imprecision, Palette, Preset, SaliencyMethod, Settings,
+};
+
+impl Default for Settings {
+    fn default() -> Self {
+        let mut s = Settings::base();
+        Preset::Analytic.apply(&mut s);
+        s
+    }
+}
+
+impl Settings {
+    /// Values before any preset: the bare cubist camera.
+    pub(super) fn base() -> Self {
+        Settings {
+            preset: Preset::Plain,
+            width: 800,
+            height: 600,
+            spp: 4,
+            seed: 0,
+            camera: CameraKind::Auto,
+            ambiguity: None,
+            framing: Framing::Fit,
+            focus_distance: None,
+            camera_position: None,
+            camera_target: None,
+            camera_up: None,
+            camera_size: None,
+            fill: None,
+            shadows: true,
+            background: [0.62, 0.56, 0.46],
+            transparent: false,
+            exposure: 1.0,
+            faceting: Faceting::None,
+            facet_map: None,
+            facets: None,
+            save_facets: None,
+            facet_count: 150,
+            grid_cells: 15,
+            patch_count: 80,
+            occlusion: 3.0,
+            segments: vec![5, 30, 120],
+            thresholds: vec![0.0, 0.05, 0.08],
+            superpixels: 0,
+            weight_colour: 1.0,
+            weight_normal: 1.0,
+            weight_depth: 0.5,
+            weight_object: 0.9,
+            weight_saliency: 0.5,
+            imprecision: Imprecision::Saliency,
+            discontinuity: 0.0,
+            neighborhood: 0.0,
+            facet_projection: FacetProjection::Converging,
+            facet_fov: 0.0,
+            border_width: 0.0,
+            border_strength: 1.0,
+            silhouette_width: 0.0,
+            silhouette_strength: 1.0,
+            palette: Palette::None,
+            palette_image: None,
+            colors: 0,
+            gradients: 0.0,
+            chiaroscuro: 0.0,
+            plane_light: 0.0,
+            border_style: BorderStyle::Symmetric,
+            brushwork: 0.0,
+            stroke_length: 26.0,
+            stroke_width: 7.0,
+            canvas_grain: 0.0,
+            saliency_method: SaliencyMethod::Auto,
+            saliency_cache: None,
+            passes: Vec::new(),
+            allow_external_files: false,
+        }
+    }
+
+    /// The settings of a preset, before any override.
+    pub fn preset(preset: Preset) -> Self {
+        let mut s = Settings::base();
+        preset.apply(&mut s);
+        s
+    }
+}
+
+impl Preset {
+    /// Sets the values this preset bundles.
+    pub fn apply(self, s: &mut Settings) {
+        s.preset = self;
+        match self {
+            Preset::Plain => {}
+            Preset::Analytic => {
+                // The thesis's recommendations (Chapter 5): ambiguity 120-150, discontinuity
+                // 50-200 at 1000 px, Segment faceting, bold facet borders, a painter's palette.
+                s.camera = CameraKind::Auto;
+                s.ambiguity = None; // 140 for cubist cameras
+                s.faceting = Faceting::Segment;
+                s.discontinuity = 200.0;
+                s.border_width = 12.0;
+                s.border_strength = 0.85;
+                // Passage draws the silhouettes (no halo); the planes' own ramps replace the
+                // corner gradients.
+                s.silhouette_width = 0.0;
+                s.silhouette_strength = 0.5;
+                s.palette = Palette::Ochre;
+                s.gradients = 0.0;
+                s.colors = 0;
+                s.chiaroscuro = 0.3;
+                // Each plane lit on its own, passage, brushwork (issue 13; ART.md).
+                s.plane_light = 0.7;
+                s.border_style = BorderStyle::Passage;
+                s.brushwork = 0.8;
+                s.canvas_grain = 0.5;
+            }
+            Preset::Braque => {
+                s.camera = CameraKind::Auto;
+                s.ambiguity = Some(150.0);
+                s.faceting = Faceting::Segment;
+                s.discontinuity = 150.0;
+                s.border_width = 16.0;
+                s.border_strength = 1.0;
+                s.silhouette_width = 20.0;
+                s.silhouette_strength = 0.5;
+                s.palette = Palette::Olive;
+                s.gradients = 0.3;
+                s.colors = 8;
+                s.chiaroscuro = 0.5;
+                // Heavier paint: broad strokes over the eight colours, so they read as paint,
+                // not a print (ART.md's panel).
+                s.plane_light = 0.6;
+                s.border_style = BorderStyle::Passage;
+                s.brushwork = 0.9;
+                s.stroke_length = 30.0;
+                s.stroke_width = 9.0;
+                s.canvas_grain = 0.6;
+            }
+            Preset::BluePeriod => {
+                s.camera = CameraKind::Auto;
+                s.ambiguity = Some(120.0);
+                s.faceting = Faceting::Segment;
+                s.discontinuity = 100.0;
+                s.border_width = 8.0;
+                s.border_strength = 0.7;
+                s.silhouette_width = 20.0;
+                s.silhouette_strength = 0.4;
+                s.palette = Palette::BluePeriod;
+                s.gradients = 0.2;
+                s.colors = 0;
+                s.chiaroscuro = 0.25;
+                // Softer planes, long thin strokes.
+                s.plane_light = 0.5;
+                s.border_style = BorderStyle::Passage;
+                s.brushwork = 0.7;
+                s.stroke_length = 34.0;
+                s.stroke_width = 6.0;
+                s.canvas_grain = 0.4;
+            }
+            Preset::Grisaille => {
+                s.camera = CameraKind::Auto;
+                s.ambiguity = None;
+                s.faceting = Faceting::Segment;
+                s.discontinuity = 200.0;
+                s.border_width = 12.0;
+                s.border_strength = 0.9;
+                s.silhouette_width = 25.0;
+                s.silhouette_strength = 0.4;
+                s.palette = Palette::Grey;
+                s.gradients = 0.2;
+                s.colors = 6;
+                s.chiaroscuro = 0.3;
+                s.plane_light = 0.7;
+                s.border_style = BorderStyle::Passage;
+                s.brushwork = 0.8;
+                s.canvas_grain = 0.6;
+            }
+        }
+    }
+}

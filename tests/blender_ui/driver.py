@@ -1,0 +1,322 @@
+"""Drives a windowed Blender as a user would, for tests/python/test_blender_ui.py.
+
+Run inside Blender's interface (Debian's Blender 3.4.1 under Xvfb), never in background mode:
+
+    xvfb-run -a -s "-screen 0 1280x1024x24" blender --factory-startup --python driver.py -- \
+        ROOT OUT BINARY
+
+It enables the add-on from ROOT/blender_addon as a legacy add-on and, from a `bpy.app.timers`
+callback (the main thread, between interface events), does what a user does: chooses the
+Cubist engine on the factory scene, presses F12 (`bpy.ops.render.render('INVOKE_DEFAULT')` in
+a window context) with Lock Interface off and on, renders an animation whose camera and cube
+move, renders a frame away from the facet layout's frame, presses Esc (a real key press sent
+to the X server with xdotool) during a long render, and opens a scene whose colour management
+was set deliberately. Each render runs `RenderEngine.render()` on Blender's render-job thread,
+as for users. Everything it sees goes to OUT/results.json; the pytest side checks it (and
+renders the exported files with the CLI). Blender quits at the end, also after a failure.
+"""
+
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+import traceback
+from pathlib import Path
+
+import addon_utils
+import bpy
+
+ARGS = sys.argv[sys.argv.index("--") + 1:]
+ROOT, OUT, BINARY = Path(ARGS[0]), Path(ARGS[1]), ARGS[2]
+OUT.mkdir(parents=True, exist_ok=True)
+results: dict = {"blender": bpy.app.version_string, "background": bpy.app.background, "done": False}
+
+
+def log(message):
+    print(f"UI-TEST: {message}", flush=True)
+
+
+def window_context():
+    window = bpy.context.window_manager.windows[0]
+    screen = window.screen
+    area = max(screen.areas, key=lambda a: a.width * a.height)
+    region = next(r for r in area.regions if r.type == "WINDOW")
+    return {"window": window, "screen": screen, "area": area, "region": region}
+
+
+def engine_module():
+    return sys.modules["blender_addon.engine"]
+
+
+def invoke_render(animation=False):
+    """What F12 / Ctrl+F12 do: the render operator invoked in a window."""
+    with bpy.context.temp_override(**window_context()):
+        return sorted(bpy.ops.render.render("INVOKE_DEFAULT", animation=animation))
+
+
+def wait_for_render(timeout):
+    """Yields (to the timer) until the render job has ended; returns its wall time."""
+    t0 = time.monotonic()
+    while bpy.app.is_job_running("RENDER"):
+        if time.monotonic() - t0 > timeout:
+            raise TimeoutError(f"the render job still runs after {timeout} s")
+        yield 0.1
+    return time.monotonic() - t0
+
+
+class RecordingLayout:
+    """Stands in for a panel's layout: records the labels and operators drawn."""
+
+    def __init__(self, drawn):
+        self.drawn = drawn
+        self.use_property_split = False
+        self.active = True
+
+    def prop(self, *a, **kw):
+        pass
+
+    def label(self, text="", **kw):
+        self.drawn.append(text)
+
+    def operator(self, idname, text="", **kw):
+        self.drawn.append(f"[{idname}]")
+        return type("Props", (), {})()
+
+    def menu(self, *a, **kw):
+        pass
+
+    def separator(self, *a, **kw):
+        pass
+
+    def box(self, **kw):
+        return self
+
+    column = row = box
+
+
+def panel_lines():
+    drawn = []
+    ui = sys.modules["blender_addon.ui"]
+    panel = type("P", (), {"layout": RecordingLayout(drawn)})()
+    with bpy.context.temp_override(**window_context()):
+        ui.CUBIST_PT_render.draw(panel, bpy.context)
+    return drawn
+
+
+def temp_entries():
+    """The add-on's temporary files and folders (its render workspaces are cubist-render-*)."""
+    return sorted(p.name for p in Path(tempfile.gettempdir()).glob("cubist-*"))
+
+
+def pose(ob, frame):
+    """Location of an object at a frame from its f-curves (what the frame must show)."""
+    loc = list(ob.location)
+    action = ob.animation_data.action if ob.animation_data else None
+    if action is not None:
+        for fc in action.fcurves:
+            if fc.data_path == "location":
+                loc[fc.array_index] = fc.evaluate(frame)
+    return loc
+
+
+# ---------------------------------------------------------------------------------------------
+
+
+def setup():
+    sys.path.insert(0, str(ROOT))
+    mod = addon_utils.enable("blender_addon", default_set=True, persistent=True)
+    assert mod is not None, "the add-on did not enable"
+    prefs = bpy.context.preferences.addons["blender_addon"].preferences
+    prefs.binary_path = BINARY
+    results["addon"] = "enabled"
+
+
+def scene_f12():
+    """The factory scene (default cube, camera, light) plus a monkey and a text: the user
+    chooses Cubist, which (main thread, message bus) sets a never-configured scene to
+    Standard; then F12 with Lock Interface off and on."""
+    scene = bpy.context.scene
+    results["factory_view_transform"] = scene.view_settings.view_transform
+    with bpy.context.temp_override(**window_context()):
+        bpy.ops.mesh.primitive_monkey_add(location=(0.0, 0.0, 2.2), size=1.2)
+        bpy.ops.object.text_add(location=(-1.5, -1.5, -1.0))
+    scene.render.engine = "CUBIST"  # as the Render Engine menu does
+    yield 1.0  # the message bus is handled by the interface's event loop
+    results["after_choosing_cubist"] = {"view_transform": scene.view_settings.view_transform,
+                                        "switched_from": scene.cubist_colour.switched_from}
+    results["panel_after_choosing_cubist"] = panel_lines()
+    r = scene.render
+    r.resolution_x, r.resolution_y, r.resolution_percentage = 200, 150, 100
+    scene.cubist.spp = 1
+    scene.cubist.layout_folder = str(OUT / "layouts")
+    engine = engine_module()
+    engine.keep_exports = str(OUT / "f12_exports")
+    results["f12"] = []
+    for lock in (False, True):
+        r.use_lock_interface = lock
+        t0 = time.monotonic()
+        started = invoke_render()
+        seconds = yield from wait_for_render(300)
+        out = OUT / f"f12_lock{int(lock)}.png"
+        img = bpy.data.images["Render Result"]
+        img.save_render(str(out), scene=scene)
+        results["f12"].append({"lock": lock, "operator": started, "seconds": time.monotonic() - t0,
+                               "job_seconds": seconds, "saved": out.is_file(),
+                               "error": engine.last_run.get("error"),
+                               "exports": engine.last_run.get("exports"), "frame": scene.frame_current})
+        log(f"F12 lock={lock}: {time.monotonic() - t0:.1f} s")
+    engine.keep_exports = None
+
+
+def scene_animation():
+    """Render Animation over frames 1-3 with the camera and the cube moving."""
+    scene = bpy.context.scene
+    cam, cube = scene.camera, bpy.data.objects["Cube"]
+    for frame, x in ((1, 6.0), (3, 8.5)):
+        cam.location.x = x
+        cam.keyframe_insert("location", index=0, frame=frame)
+    for frame, z in ((1, -0.5), (3, 1.5)):
+        cube.location.z = z
+        cube.keyframe_insert("location", index=2, frame=frame)
+    scene.frame_start, scene.frame_end = 1, 3
+    scene.frame_set(1)
+    scene.render.filepath = str(OUT / "anim" / "frame_####")
+    scene.render.image_settings.file_format = "PNG"
+    scene.render.use_lock_interface = False
+    # Its own layout folder: the F12 step's layout stays for the test to render the CLI with.
+    scene.cubist.layout_folder = str(OUT / "anim_layouts")
+    results["animation_expected"] = {f: {"camera": pose(cam, f), "cube": pose(cube, f)} for f in (1, 2, 3)}
+    engine = engine_module()
+    engine.keep_exports = str(OUT / "anim_exports")
+    engine.history.clear()
+    t0 = time.monotonic()
+    started = invoke_render(animation=True)
+    yield from wait_for_render(600)
+    results["animation"] = {"operator": started, "seconds": time.monotonic() - t0,
+                            "frames": [h["frame"] for h in engine.history],
+                            "errors": [h["error"] for h in engine.history if h["error"]],
+                            "written": sorted(p.name for p in (OUT / "anim").glob("*.png"))}
+    engine.keep_exports = None
+    log(f"animation: {results['animation']}")
+
+
+def scene_layout_from_another_frame():
+    """F12 on frame 3 with no facet layout yet: the layout is computed on frame 1 first, the
+    render's depsgraph evaluated there with RenderEngine.frame_set and back."""
+    scene = bpy.context.scene
+    scene.frame_set(3)
+    scene.cubist.layout_folder = str(OUT / "layouts_other_frame")
+    engine = engine_module()
+    engine.keep_exports = str(OUT / "prepass_exports")
+    started = invoke_render()
+    yield from wait_for_render(300)
+    img = bpy.data.images["Render Result"]
+    img.save_render(str(OUT / "prepass_frame3.png"), scene=scene)
+    results["prepass"] = {"operator": started, "prepass": engine.last_run.get("prepass"),
+                          "error": engine.last_run.get("error"), "frame_after": scene.frame_current,
+                          "exports": engine.last_run.get("exports"),
+                          "layouts": sorted(p.name for p in (OUT / "layouts_other_frame").glob("*.facets.json"))}
+    engine.keep_exports = None
+    scene.frame_set(1)
+
+
+def scene_cancel():
+    """Esc during a long render: a real key press (xdotool) on the X server Blender listens to."""
+    scene = bpy.context.scene
+    r = scene.render
+    r.resolution_x, r.resolution_y = 1280, 960
+    scene.cubist.spp = 64
+    engine = engine_module()
+    before = temp_entries()
+    engine.last_run.clear()  # what follows is this render's (render() fills it on its thread)
+    started = invoke_render()
+    t0 = time.monotonic()
+    while not engine.last_run.get("progress_lines"):
+        if time.monotonic() - t0 > 120 or not bpy.app.is_job_running("RENDER"):
+            raise RuntimeError("the long render did not get under way")
+        yield 0.1
+    pid = engine.last_run["pid"]
+    workspace = str(engine.last_run["workspace"])
+    during = temp_entries()
+    # The pointer over Blender's windows, then Escape, as a user's key press.
+    subprocess.run(["xdotool", "mousemove", "640", "500"], check=True)
+    subprocess.run(["xdotool", "key", "Escape"], check=True)
+    t_esc = time.monotonic()
+    renderer_ended = None
+    while bpy.app.is_job_running("RENDER"):
+        if renderer_ended is None and engine.last_run["process"].poll() is not None:
+            renderer_ended = time.monotonic() - t_esc
+        if time.monotonic() - t_esc > 60:
+            raise TimeoutError("the render job still runs 60 s after Esc")
+        yield 0.05
+    seconds = time.monotonic() - t_esc
+    yield 0.5
+    alive = True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        alive = False
+    proc = engine.last_run.get("process")
+    results["cancel"] = {"operator": started, "cancelled": engine.last_run.get("cancelled"),
+                         "error": engine.last_run.get("error"), "renderer_ended_after_esc": renderer_ended,
+                         "engine_saw_cancel_after_esc": engine.last_run.get("cancel_seen", t_esc - 1) - t_esc,
+                         "job_ended_after_esc": seconds, "renderer_alive": alive,
+                         "renderer_returncode": None if proc is None else proc.poll(),
+                         "workspace": workspace, "workspace_exists": Path(workspace).exists(),
+                         "temp_before": before, "temp_during": during, "temp_after": temp_entries()}
+    r.resolution_x, r.resolution_y = 200, 150
+    scene.cubist.spp = 1
+    log(f"cancel: {results['cancel']}")
+
+
+def scene_configured_colours():
+    """A scene whose colour management the user set (Filmic, a look) then switched to Cubist:
+    left as set, with the warning in the panel."""
+    scene = bpy.data.scenes.new("Configured")
+    bpy.context.window.scene = scene
+    scene.view_settings.view_transform = "Filmic"
+    scene.view_settings.look = "Medium High Contrast"
+    yield 0.3
+    scene.render.engine = "CUBIST"
+    yield 1.0
+    results["configured"] = {"view_transform": scene.view_settings.view_transform,
+                             "look": scene.view_settings.look,
+                             "switched_from": scene.cubist_colour.switched_from, "panel": panel_lines()}
+
+
+def main():
+    setup()
+    for step in (scene_f12, scene_animation, scene_layout_from_another_frame, scene_cancel,
+                 scene_configured_colours):
+        log(f"step {step.__name__}")
+        yield from step()
+    results["done"] = True
+
+
+def write_results():
+    (OUT / "results.json").write_text(json.dumps(results, indent=1, default=str))
+
+
+_steps = None
+
+
+def tick():
+    global _steps
+    try:
+        if _steps is None:
+            _steps = main()
+        return next(_steps)
+    except StopIteration:
+        pass
+    except BaseException:
+        results["failure"] = traceback.format_exc()
+        log(results["failure"])
+    write_results()
+    with bpy.context.temp_override(**window_context()):
+        bpy.ops.wm.quit_blender()
+    return None
+
+
+bpy.app.timers.register(tick, first_interval=2.0)
