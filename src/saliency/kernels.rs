@@ -251,7 +251,9 @@ mod tests {
     }
 
     fn candidates(n: usize, seed: u64) -> [Vec<f32>; 5] {
-        let r = |i: usize, k: u64| crate::util::rng::unit_f64(crate::util::rng::splitmix64(seed ^ (i as u64 * 5 + k))) as f32;
+        let r = |i: usize, k: u64| {
+            crate::util::rng::unit_f64(crate::util::rng::splitmix64(seed ^ (i as u64 * 5 + k))) as f32
+        };
         [
             (0..n).map(|i| r(i, 0) * 2.0 - 1.0).collect(),
             (0..n).map(|i| r(i, 1) * 2.0 - 1.0).collect(),

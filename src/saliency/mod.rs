@@ -41,11 +41,11 @@ use crate::scene::{Mesh, Scene, World};
 /// How mesh saliency's Gaussian means are evaluated (SPEC "Mesh saliency").
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum SaliencyMethod {
-    /// Exact while the neighbour sums stay affordable (`EXACT_PAIR_BUDGET`), clustered above.
+    /// Exact while the exact sums' work counted on the mesh stays within `EXACT_BUDGET`, clustered above.
     Auto,
     /// The definition's exact sums, whatever the mesh's size.
     Exact,
-    /// Clustered sources and targets (`approx`): fast on huge meshes, approximate.
+    /// Each block of vertices exact or by clusters, whichever is cheaper (`approx`): bounded cost, approximate.
     Clustered,
 }
 
