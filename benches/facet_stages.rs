@@ -149,7 +149,14 @@ fn main() {
             "| faceting | facets | pixels re-traced | pre-render | saliency | faceting | imprecision | re-trace | paint | encode | total | CPU |"
         );
         println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
-        for faceting in [Faceting::None, Faceting::Constant, Faceting::Voronoi, Faceting::Patch, Faceting::Segment] {
+        for faceting in [
+            Faceting::None,
+            Faceting::Constant,
+            Faceting::Voronoi,
+            Faceting::Patch,
+            Faceting::Segment,
+            Faceting::Planes,
+        ] {
             let mut s = Settings::default();
             (s.width, s.height) = (size, size);
             s.faceting = faceting;

@@ -160,7 +160,7 @@ impl Timed {
 /// Times tracing one ray through each pixel centre: the render loop without shading against
 /// a bare traversal of the same rays, alternating the two. Returns (bare, loop, hit fraction).
 fn primary_rays(prep: &Prepared, s: &Settings, repeat: usize) -> (Timed, Timed, f64) {
-    let framed = frame_camera(&params::framing(s), &prep.world).expect("camera");
+    let framed = frame_camera(&params::framing(s), &prep.world, &prep.accel).expect("camera");
     let (w, h) = (s.width, s.height);
     let centre = DVec2::splat(0.5);
     let bare = || -> usize {

@@ -231,11 +231,11 @@ class CubistRenderEngine(bpy.types.RenderEngine):
                 where = folder if layout is not None and not folder.is_dir() else cache
                 raise runner.CubistError(f"cannot create the folder {where}: {e.strerror}") from None
 
-            # A Segment layout follows what the layout frame shows: reused only while that is
-            # unchanged (runner.layout_source), so a moved camera or object gives new facets.
+            # A Segment or planes layout follows what the layout frame shows: reused only while
+            # that is unchanged (runner.layout_source), so a moved camera or object gives new facets.
             source = None
             pre_glb = pre_settings = None
-            if layout is not None and settings["faceting"] == "segment":
+            if layout is not None and runner.follows_picture(settings):
                 if frame == props.layout_frame:
                     source = runner.layout_source(glb, settings)
                     _job_sources[(scene.name, frame, str(layout))] = source

@@ -155,7 +155,9 @@ def settings_from_panel(panel: Mapping[str, object], facts: SceneFacts) -> dict:
     # Camera: the active camera's frame, its focus, its lens for the perspective kind.
     cam = facts.camera
     kind = s["camera"]
-    s["ambiguity"] = f32(p["ambiguity"])
+    # 0 = automatic (null): the renderer chooses the cubist angle per scene (`compose`).
+    ambiguity = f32(p["ambiguity"])
+    s["ambiguity"] = ambiguity if ambiguity > 0 else None
     camera_size = f32(p["camera_size"])
     if cam is not None:
         pos, fwd, up = cam.position(), cam.forward(), cam.up()

@@ -23,7 +23,7 @@ LABELS = {
 }
 # Slider ranges (the renderer's hard limits are the properties' min and max).
 SOFT = {
-    "spp": (None, 64), "ambiguity": (60.0, None), "exposure": (None, 4.0), "facet_count": (None, 2000),
+    "spp": (None, 64), "exposure": (None, 4.0), "facet_count": (None, 2000),
     "grid_cells": (None, 400), "patch_count": (None, 1000), "occlusion": (None, 10.0), "superpixels": (None, 5000),
     "weight_colour": (None, 4.0), "weight_normal": (None, 4.0), "weight_depth": (None, 4.0),
     "weight_saliency": (None, 4.0), "discontinuity": (None, 400.0), "neighborhood": (None, 200.0),
@@ -67,7 +67,8 @@ def _label(key: str) -> str:
 
 def _tooltip(field: dict) -> str:
     text = field["help"]
-    if field["nullable"] and field["type"] == "number" and field.get("null_means") and not field.get("automatic"):
+    auto = field.get("automatic") or {}
+    if field["nullable"] and field["type"] == "number" and field.get("null_means") and "other" not in auto:
         text += f". 0 = automatic ({field['null_means']})"
     return text
 

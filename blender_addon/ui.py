@@ -161,6 +161,10 @@ class CUBIST_PT_facets(CubistPanel, bpy.types.Panel):
         elif f == "PATCH":
             layout.prop(c, "patch_count")
             layout.prop(c, "occlusion")
+        elif f == "PLANES":
+            layout.prop(c, "planes")
+            layout.prop(c, "plane_detail")
+            layout.prop(c, "plane_outlines")
         elif f == "SEGMENT":
             layout.prop(c, "segments")
             layout.prop(c, "thresholds")
@@ -181,7 +185,7 @@ class CUBIST_PT_facets(CubistPanel, bpy.types.Panel):
             path = engine.current_layout_path(context.scene)
             if not path.is_file():
                 state = f"computed on frame {c.layout_frame} at next render"
-            elif c.faceting == "SEGMENT":
+            elif c.faceting in ("SEGMENT", "PLANES"):
                 state = f"saved (again when frame {c.layout_frame}'s view changes)"
             else:
                 state = "saved"
@@ -202,6 +206,8 @@ class CUBIST_PT_imprecision(CubistPanel, bpy.types.Panel):
         layout.active = c.faceting != "NONE"
         layout.prop(c, "imprecision")
         layout.prop(c, "discontinuity")
+        layout.prop(c, "aim_min_coverage")
+        layout.prop(c, "aim_width_share")
         layout.prop(c, "neighborhood")
         layout.prop(c, "facet_projection")
         if c.facet_projection == "LINEAR":

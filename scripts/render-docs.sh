@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Renders the README's preset pictures (docs/presets/<preset>.png, 480x360) from the built-in
-# still life, so they can be regenerated whenever the pipeline changes:
+# Renders the README's pictures from the built-in still life, so they can be regenerated
+# whenever the pipeline changes: docs/cubist.png (`cubist render`, the defaults, 800x600) and
+# the presets' (docs/presets/<preset>.png, 480x360):
 #   bash scripts/render-docs.sh            # every preset
 #   bash scripts/render-docs.sh braque     # some presets
 # Each picture is `cubist render --preset <name>` with nothing else changed but the size.
@@ -9,7 +10,9 @@ cd "$(dirname "$0")/.."
 cargo build --release --locked --quiet
 presets=("$@")
 if [ ${#presets[@]} -eq 0 ]; then
-    presets=(plain analytic braque blue-period grisaille)
+    presets=(plain analytic braque blue-period grisaille thesis)
+    target/release/cubist render --progress none -o docs/cubist.png
+    echo "docs/cubist.png"
 fi
 mkdir -p docs/presets
 for p in "${presets[@]}"; do

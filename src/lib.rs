@@ -17,6 +17,7 @@ pub mod eval;
 pub mod facets;
 pub mod film;
 pub mod imprecision;
+pub mod look;
 pub mod output;
 pub mod paint;
 pub mod pipeline;

@@ -6,7 +6,9 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::Parser;
-use cubist::cli::{Cli, Command, FacesArgs, FacetsArgs, ProgressMode, RenderArgs, SaliencyArgs, SettingsCmdArgs};
+use cubist::cli::{
+    Cli, Command, FacesArgs, FacetsArgs, LookArgs, ProgressMode, RenderArgs, SaliencyArgs, SettingsCmdArgs,
+};
 use cubist::output::{Outputs, pass_path, write_png};
 use cubist::pipeline::{self, Plan, Stage, StageParams, evaluate};
 use cubist::progress::Progress;
@@ -41,6 +43,7 @@ fn main() -> ExitCode {
         Command::Saliency(args) => run_saliency(args),
         Command::Facets(args) => run_facets(args),
         Command::Settings(args) => run_settings(args),
+        Command::Look(args) => run_look(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -363,6 +366,90 @@ fn run_facets(args: FacetsArgs) -> anyhow::Result<()> {
         for (stage, t) in steps.chain(out.levels.timings.iter().cloned()) {
             say!("{stage:>14}: {:>9.1} ms", t.as_secs_f64() * 1e3);
         }
+    }
+    Ok(())
+}
+
+fn run_look(mut args: LookArgs) -> anyhow::Result<()> {
+    // The look's targets are stated at 640 x 480.
+    args.settings.width = args.settings.width.or(Some(640));
+    args.settings.height = args.settings.height.or(Some(480));
+    let after = args.settings.resolve(args.config.as_deref())?;
+    let before = args.before.map(|p| {
+        let mut s = cubist::settings::Settings::preset(p);
+        (s.width, s.height, s.spp, s.seed) = (after.width, after.height, after.spp, after.seed);
+        s
+    });
+    if let Some(sheet) = &args.sheet {
+        cubist::output::check_png_path(sheet)?;
+    }
+    // (name, a file, or a scene built in code; None and None: the still life).
+    let mut scenes: Vec<(String, Option<std::path::PathBuf>, Option<cubist::scene::Scene>)> =
+        cubist::look::scene_files(&args.scenes)?
+            .into_iter()
+            .map(|p| (cubist::look::scene_name(Some(&p)), Some(p), None))
+            .collect();
+    if args.still_life || (scenes.is_empty() && !args.odd) {
+        scenes.push((cubist::look::scene_name(None), None, None));
+    }
+    if args.odd {
+        scenes.extend(cubist::look::odd::odd_scenes().into_iter().map(|(n, s)| (n, None, Some(s))));
+    }
+    let (mut rows_before, mut rows_after, mut pictures) = (Vec::new(), Vec::new(), Vec::new());
+    let mut skipped = Vec::new();
+    for (name, path, built) in scenes {
+        let loaded = match built {
+            Some(s) => Ok(Prepared::new(s)),
+            None => Prepared::load(path.as_deref()),
+        };
+        let prep = match loaded {
+            Ok(p) => p,
+            Err(e) => {
+                skipped.push(format!("{name}: {e}"));
+                continue;
+            }
+        };
+        let mut pics = Vec::new();
+        for (settings, rows) in [(before.as_ref(), &mut rows_before), (Some(&after), &mut rows_after)] {
+            let Some(settings) = settings else { continue };
+            let mut look = pipeline::look(&prep, settings, &name)?;
+            if let Some(size) = args.time_size {
+                let mut s = settings.clone();
+                (s.width, s.height) = (size, size);
+                let mut times: Vec<f64> = Vec::new();
+                for _ in 0..args.time_runs.max(1) {
+                    let t = std::time::Instant::now();
+                    pipeline::render(&prep, &s, &Progress::silent())?;
+                    times.push(t.elapsed().as_secs_f64() * 1e3);
+                }
+                times.sort_by(f64::total_cmp);
+                look.row.time_big_ms = Some(times[times.len() / 2]);
+            }
+            eprintln!("{name}: fill {:.0}%, straight {:.1}%", 100.0 * look.row.fill, 100.0 * look.row.straight);
+            rows.push(look.row);
+            pics.push(look.image);
+        }
+        pictures.push(pics);
+    }
+    if let Some(sheet) = &args.sheet {
+        let rows: Vec<Vec<&image::RgbaImage>> = pictures.iter().map(|p| p.iter().collect()).collect();
+        let columns = if before.is_some() { 2 } else { 4 };
+        write_png(sheet, &cubist::look::contact_sheet(&rows, 240, columns))?;
+    }
+    if args.json {
+        emit(&serde_json::to_string_pretty(
+            &serde_json::json!({ "width": after.width, "height": after.height, "before": rows_before, "after": rows_after, "skipped": skipped }),
+        )?)?;
+    } else {
+        let mut text = String::new();
+        if let Some(p) = args.before {
+            text += &format!("Before (`--preset {p}`):\n\n{}\nAfter:\n\n", cubist::look::markdown(&rows_before));
+        }
+        text += &cubist::look::markdown(&rows_after);
+        for s in &skipped {
+            text += &format!("\nskipped: {s}");
+        }
+        emit(&text)?;
     }
     Ok(())
 }

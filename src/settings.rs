@@ -47,14 +47,15 @@ pub use enums::{
 };
 pub use validate::{
     MAX_EXPOSURE, MAX_FACETS, MAX_GRID_CELLS, MAX_JOB_MEMORY, MAX_OCCLUSION, MAX_PIXEL_DISTANCE, MAX_PIXELS,
-    MAX_SAMPLES, MAX_SCENE_VALUE, MAX_SEGMENT_LEVELS, MAX_SEGMENTS, MAX_SIDE, MAX_SUPERPIXELS, MAX_WEIGHT,
+    MAX_PLANES, MAX_SAMPLES, MAX_SCENE_VALUE, MAX_SEGMENT_LEVELS, MAX_SEGMENTS, MAX_SIDE, MAX_SUPERPIXELS, MAX_WEIGHT,
 };
 
 kebab_enum!(
     /// Bundles of settings; explicit flags and JSON keys override them.
     Preset {
-        /// The paper's recommended look (the default of `cubist render`): 140 deg, Segment
-        /// facets, discontinuity 200, bold borders, ochre palette, some gradients.
+        /// Our look (the default of `cubist render`): planes over the whole canvas, the subject
+        /// composed to fill it, the backdrop kept still; discontinuity 200, bold borders, ochre
+        /// palette, some gradients.
         Analytic = "analytic",
         /// Braque's earthy 1909-10 canvases: olive palette, 8 colours, heavy borders, many
         /// gradients, light manipulated facet by facet.
@@ -66,6 +67,11 @@ kebab_enum!(
         Grisaille = "grisaille",
         /// The bare cubist camera: no facets, no painterly effects.
         Plain = "plain",
+        /// The thesis's method exactly as the paper has it, for comparisons and evaluations:
+        /// Segment faceting (levels 5, 30, 120), every facet re-aimed, eq 4.8 borders, the
+        /// recommended 140 deg and discontinuity 200, the `fit` framing; no planes, no
+        /// composition, no backdrop rule (the `analytic` look before issue 13).
+        Thesis = "thesis",
     }
 );
 
@@ -153,6 +159,23 @@ pub struct Settings {
     pub weight_object: f64,
     /// Segment: weight of saliency differences.
     pub weight_saliency: f64,
+
+    // ---- planes faceting and what facets show (issue 13; `facets::planes`, `imprecision::backdrop`)
+    /// Planes: how many planes the canvas is split into before the subject's outlines cut them.
+    pub planes: u32,
+    /// Planes: how much denser the planes are at the most salient parts than far from the
+    /// subject (a ratio of planes per area, >= 1).
+    pub plane_detail: f64,
+    /// Planes: cut the planes along the subject's outlines (silhouettes and object boundaries).
+    pub plane_outlines: bool,
+    /// A facet is re-aimed only when at least this share of its pixels showed geometry in the
+    /// pre-render, in [0, 1]; 0 = every facet (the thesis). Background facets then keep the
+    /// backdrop instead of a magnified copy of the subject (a ghost).
+    pub aim_min_coverage: f64,
+    /// A re-aimed facet's view shifts by at most this share of its mean width (converging
+    /// facets), >= 0; 0 = no limit but `discontinuity` (the thesis). Keeps thin parts (an arm,
+    /// a finger) in their planes.
+    pub aim_width_share: f64,
 
     // ---- spatial imprecision (SPEC "Spatial imprecision")
     pub imprecision: Imprecision,

@@ -395,7 +395,7 @@ fn a_facet_whose_centre_lies_outside_it_is_re_aimed_as_a_whole() {
 fn a_saliency_centre_on_the_background_aims_at_the_focal_point_of_its_ray() {
     let prep = still_life();
     let s = base_settings();
-    let framed = frame_camera(&cubist::pipeline::params::framing(&s), &prep.world).unwrap();
+    let framed = frame_camera(&cubist::pipeline::params::framing(&s), &prep.world, &prep.accel).unwrap();
     let ctx = AimContext {
         camera: framed.camera.as_ref(),
         accel: &prep.accel,

@@ -11,7 +11,7 @@ use serde_json::{Map, Value, json};
 fn presets_bundle_the_papers_settings() {
     let a = Settings::default();
     assert_eq!(a.preset, Preset::Analytic);
-    assert_eq!(a.faceting, Faceting::Segment);
+    assert_eq!(a.faceting, Faceting::Planes);
     assert_eq!(a.discontinuity, 200.0);
     let angle = |s: &Settings| params::framing(s).angle_deg(params::camera_kind(CameraKind::Spherical), None);
     assert_eq!(angle(&a), 140.0);
@@ -21,13 +21,17 @@ fn presets_bundle_the_papers_settings() {
         s.validate().unwrap();
         assert!((120.0..=150.0).contains(&angle(&s)), "{p}: ambiguity {}", angle(&s));
         assert!((50.0..=200.0).contains(&s.discontinuity), "{p}");
-        assert_eq!(s.faceting, Faceting::Segment);
+        assert_eq!(s.faceting, Faceting::Planes);
         assert!(!Painter::new(&params::paint(&s)).unwrap().is_empty());
         // Named in JSON and flags alike.
         let from_json: Preset = serde_json::from_value(json!(p.as_str())).unwrap();
         assert_eq!(from_json, p);
     }
     assert!(Painter::new(&params::paint(&Settings::preset(Preset::Plain))).unwrap().is_empty());
+    // The paper's method stays reachable as it has it (issue 13).
+    let t = Settings::preset(Preset::Thesis);
+    t.validate().unwrap();
+    assert_eq!((t.faceting, angle(&t), t.discontinuity), (Faceting::Segment, 140.0, 200.0));
 }
 
 #[test]

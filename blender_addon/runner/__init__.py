@@ -34,8 +34,10 @@ from .binary import (
 from .errors import BinaryNotFound, Cancelled, CubistError, RendererError, SettingError
 from .layouts import (
     LAYOUT_KEYS,
+    PICTURE_FACETINGS,
     PRERENDER_KEYS,
     LayoutPlan,
+    follows_picture,
     forget_source,
     layout_is_current,
     layout_key,
@@ -63,7 +65,7 @@ __all__ = [
     "binary_supports", "binary_version", "bundled_platforms", "executable_name", "find_binary", "locate_binary",
     "manifest_field", "missing_platform_binary", "platform_tag", "settings_for_binary",
     "BinaryNotFound", "Cancelled", "CubistError", "RendererError", "SettingError",
-    "LAYOUT_KEYS", "PRERENDER_KEYS", "LayoutPlan", "forget_source", "layout_is_current", "layout_key", "layout_path",
+    "LAYOUT_KEYS", "PICTURE_FACETINGS", "PRERENDER_KEYS", "LayoutPlan", "follows_picture", "forget_source", "layout_is_current", "layout_key", "layout_path",
     "layout_prepass", "layout_source", "plan_layout", "record_source", "source_path", "uses_layout",
     "RunResult", "Workspace", "build_argv", "pass_path", "run",
     "STAGE_WEIGHTS", "Line", "ProgressTracker", "parse_line",

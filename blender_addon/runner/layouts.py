@@ -11,11 +11,21 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Mapping, Optional
 
-# Settings that decide a facet layout (besides the pre-render, for segment faceting): a
-# change of any of them gives a new layout file name, so a stale layout is never reused.
+# Settings that decide a facet layout (besides the pre-render, for the faceting methods that
+# follow the picture): a change of any of them gives a new layout file name, so a stale
+# layout is never reused.
 LAYOUT_KEYS = ("faceting", "facet_map", "facet_count", "grid_cells", "patch_count", "occlusion", "segments",
                "thresholds", "superpixels", "weight_colour", "weight_normal", "weight_depth", "weight_object",
-               "weight_saliency", "saliency_method", "seed")
+               "weight_saliency", "planes", "plane_detail", "plane_outlines", "saliency_method", "seed")
+
+# Faceting methods whose layout follows the pre-render (its saliency, outlines, segments): a
+# saved layout of theirs is computed again when what the layout frame shows changes.
+PICTURE_FACETINGS = ("segment", "planes")
+
+
+def follows_picture(settings: Mapping[str, object]) -> bool:
+    """Whether the layout of these settings depends on the pre-render (`PICTURE_FACETINGS`)."""
+    return settings.get("faceting") in PICTURE_FACETINGS
 
 # Settings that decide the pre-render a Segment layout is computed from (besides the layout
 # frame's scene itself). Not the size: the layout is resolution-independent (its aspect ratio

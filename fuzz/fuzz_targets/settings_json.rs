@@ -23,7 +23,7 @@ fn scene() -> &'static Prepared {
 fn check(settings: Settings) {
     settings.validate().expect("from_layers returned settings that do not validate");
     let prep = scene();
-    let _ = frame_camera(&params::framing(&settings), &prep.world);
+    let _ = frame_camera(&params::framing(&settings), &prep.world, &prep.accel);
     // Trace only tiny images: the point is the parameters, not the time.
     if settings.width as u64 * settings.height as u64 * settings.spp as u64 <= 256 {
         if let Ok(r) = render(prep, &settings, &Progress::silent()) {

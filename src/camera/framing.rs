@@ -13,7 +13,8 @@
 
 use glam::DVec3;
 
-use super::{Camera, CameraFrame, CameraKind, Cylindrical, Orthographic, Perspective, Planar, Spherical};
+use super::{Camera, CameraFrame, CameraKind, Cylindrical, Orthographic, Perspective, Planar, Spherical, compose};
+use crate::accel::Accel;
 use crate::error::{Error, Result};
 use crate::scene::{Projection, World};
 
@@ -34,6 +35,9 @@ pub enum Framing {
     Fit,
     /// At the centre of the scene's bounding box (the thesis's literal default).
     Centre,
+    /// Per scene: C as close behind the scene as the cameras allow and the horizontal and
+    /// vertical spans fitted to it, so the subject fills the canvas (`compose`, issue 13).
+    Compose,
 }
 
 /// What framing needs: the camera asked for, its angle, where it is and what it looks at
@@ -127,7 +131,7 @@ fn view_angles(kind: CameraKind, f: &CameraFrame, c: DVec3, p: DVec3) -> (f64, f
 /// Distance k behind `axis` (along the view) for the focal centre: the smallest k at which
 /// every sampled vertex is in front of C and within `fill` of the half-angles (each
 /// capped at 80 deg, so C stays outside the scene even at 360 deg).
-fn fit_depth(
+pub(super) fn fit_depth(
     points: &[DVec3],
     kind: CameraKind,
     f: &CameraFrame,
@@ -174,8 +178,9 @@ fn fit_depth(
     hi
 }
 
-/// Chooses the camera's parameters for `world` (SPEC "Framing"; see the module doc).
-pub fn frame_camera(params: &FramingParams, world: &World) -> Result<Framed> {
+/// Chooses the camera's parameters for `world` (SPEC "Framing"; see the module doc);
+/// `accel` (its BVH) lets `compose` measure its candidates' fill by a tiny trace.
+pub fn frame_camera(params: &FramingParams, world: &World, accel: &Accel) -> Result<Framed> {
     let mut warnings = Vec::new();
     let aspect = params.width as f64 / params.height as f64;
     let sim = world.to_render;
@@ -236,7 +241,7 @@ pub fn frame_camera(params: &FramingParams, world: &World) -> Result<Framed> {
         Projection::Perspective { yfov } => Some(yfov.to_degrees()),
         _ => None,
     });
-    let angle_deg = params.angle_deg(kind, gltf_fov);
+    let mut angle_deg = params.angle_deg(kind, gltf_fov);
     if kind == CameraKind::Planar && !(0.0..180.0).contains(&angle_deg) {
         return Err(Error::setting(
             "ambiguity",
@@ -259,26 +264,64 @@ pub fn frame_camera(params: &FramingParams, world: &World) -> Result<Framed> {
         CameraKind::Spherical | CameraKind::Cylindrical | CameraKind::Auto => {
             let half =
                 if kind == CameraKind::Spherical { (alpha / 2.0, alpha / aspect / 2.0) } else { (alpha / 2.0, 0.0) };
-            let framed_c = || match params.framing {
-                Framing::Centre => axis,
-                Framing::Fit => axis + fwd * fit_depth(&points, kind, &frame, axis, half, radius, fit_fill),
-            };
-            let (c, distance) = match (focus, given_position) {
-                (Some(f), Some(p)) => (p + fwd * f, f),
-                (Some(f), None) => (framed_c(), f),
-                (None, Some(p)) => {
-                    let c = framed_c();
-                    (c, (c - p).length().max(1e-9))
-                }
+            let distance_for = |c: DVec3| match (focus, given_position) {
+                (Some(f), _) => f,
+                (None, Some(p)) => (c - p).length().max(1e-9),
                 // Rays start on a sphere enclosing the scene.
-                (None, None) => {
-                    let c = framed_c();
-                    (c, c.length() + 1.5 * radius)
-                }
+                (None, None) => c.length() + 1.5 * radius,
             };
+            // `compose` fits C and the spans together when the angle is the renderer's to
+            // choose; a given ambiguity, or a user's focus from a user's camera, is framed as
+            // `fit` frames it.
+            let composing = params.framing == Framing::Compose
+                && params.ambiguity.is_none()
+                && !(focus.is_some() && given_position.is_some());
+            let composed = composing.then(|| {
+                let margin = params.fill.unwrap_or(compose::COMPOSE_FILL);
+                let fill_of = |k: &compose::Composition| {
+                    let distance = distance_for(k.centre);
+                    let frame = CameraFrame { position: k.centre - fwd * distance, ..frame };
+                    let camera: Box<dyn Camera> = if kind == CameraKind::Cylindrical {
+                        Box::new(Cylindrical {
+                            frame,
+                            centre: k.centre,
+                            distance,
+                            angle_x: k.angle_x,
+                            height: k.height,
+                            clip_radius: clip,
+                        })
+                    } else {
+                        Box::new(Spherical {
+                            frame,
+                            centre: k.centre,
+                            distance,
+                            angle_x: k.angle_x,
+                            angle_y: k.angle_y,
+                            clip_radius: clip,
+                        })
+                    };
+                    probe_fill(camera.as_ref(), accel, aspect)
+                };
+                compose::compose(&points, kind, &frame, axis, aspect, radius, margin, &fill_of)
+            });
+            let framed_c = || match (params.framing, composed) {
+                (_, Some(k)) => k.centre,
+                (Framing::Centre, _) => axis,
+                _ => axis + fwd * fit_depth(&points, kind, &frame, axis, half, radius, fit_fill),
+            };
+            let (alpha, alpha_y, band) = match composed {
+                Some(k) => (k.angle_x, k.angle_y, Some(k.height)),
+                None => (alpha, alpha / aspect, None),
+            };
+            angle_deg = alpha.to_degrees();
+            let c = match (focus, given_position) {
+                (Some(f), Some(p)) => p + fwd * f,
+                _ => framed_c(),
+            };
+            let distance = distance_for(c);
             frame.position = c - fwd * distance;
             if kind == CameraKind::Cylindrical {
-                let height = size_setting.unwrap_or((size.y * 1.08).max(1e-6));
+                let height = size_setting.or(band).unwrap_or((size.y * 1.08).max(1e-6));
                 // The band is centred on the scene's vertical middle.
                 let centre = c + frame.up * (0.5 * (ext_u.0 + ext_u.1) - c.dot(frame.up));
                 camera = Box::new(Cylindrical { frame, centre, distance, angle_x: alpha, height, clip_radius: clip });
@@ -290,7 +333,7 @@ pub fn frame_camera(params: &FramingParams, world: &World) -> Result<Framed> {
                     centre: c,
                     distance,
                     angle_x: alpha,
-                    angle_y: alpha / aspect,
+                    angle_y: alpha_y,
                     clip_radius: clip,
                 });
                 focal_centre = Some(c);
@@ -313,7 +356,9 @@ pub fn frame_camera(params: &FramingParams, world: &World) -> Result<Framed> {
             } else {
                 let fp = match params.framing {
                     Framing::Centre => axis,
-                    Framing::Fit => axis + fwd * fit_depth(&points, kind, &frame, axis, half, radius, fit_fill),
+                    Framing::Fit | Framing::Compose => {
+                        axis + fwd * fit_depth(&points, kind, &frame, axis, half, radius, fit_fill)
+                    }
                 };
                 match size_setting {
                     Some(s) => (fp - fwd * (s / (2.0 * tan)), s),
@@ -362,4 +407,28 @@ pub fn frame_camera(params: &FramingParams, world: &World) -> Result<Framed> {
         }
     }
     Ok(Framed { camera, kind, angle_deg, view_height, focal_centre, frame, warnings })
+}
+
+/// Columns of `probe_fill`'s tiny image (rows follow the aspect).
+const PROBE_COLUMNS: u32 = 48;
+
+/// The share of a tiny image (`PROBE_COLUMNS` wide, one ray per pixel centre) whose rays hit
+/// geometry: `compose`'s estimate of a candidate's subject fill. Deterministic (a hit count).
+fn probe_fill(camera: &dyn Camera, accel: &Accel, aspect: f64) -> f64 {
+    use rayon::prelude::*;
+    let w = PROBE_COLUMNS;
+    let h = ((w as f64 / aspect).round() as u32).clamp(8, 4 * PROBE_COLUMNS);
+    let hits: u32 = (0..h)
+        .into_par_iter()
+        .map(|y| {
+            (0..w)
+                .filter(|&x| {
+                    let p = glam::DVec2::new((x as f64 + 0.5) / w as f64 - 0.5, 0.5 - (y as f64 + 0.5) / h as f64);
+                    let r = camera.ray(p);
+                    accel.closest(r.origin, r.dir, 0.0, f32::INFINITY).is_some()
+                })
+                .count() as u32
+        })
+        .sum();
+    hits as f64 / (w * h) as f64
 }

@@ -4,6 +4,7 @@
 //!
 //! Screen points are (x, y) in [-0.5, 0.5]^2 with (0.5, 0.5) the top-right corner.
 
+pub mod compose;
 mod cylindrical;
 pub mod framing;
 mod orthographic;

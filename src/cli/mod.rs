@@ -6,6 +6,7 @@ mod settings_args;
 
 use std::path::PathBuf;
 
+use crate::settings::Preset;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
 pub use schema::schema;
@@ -40,6 +41,43 @@ pub enum Command {
     /// per scene, see each flag's help). Nothing is rendered. With --schema, what every
     /// setting is (for front ends); with --stages, the stages a render of these settings runs.
     Settings(SettingsCmdArgs),
+    /// The look report (ART.md "What we measure"): render each scene, measure straight planes,
+    /// whole-canvas planes, subject fill, ghosts, cues kept and per-plane light, print a
+    /// markdown table (or JSON) and write a contact sheet. Default size 640 x 480.
+    Look(LookArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct LookArgs {
+    /// Scenes (.glb/.gltf) or folders of them (their .glb/.gltf files, not recursive).
+    pub scenes: Vec<PathBuf>,
+    /// Include the built-in still life (always when no scene is given).
+    #[arg(long)]
+    pub still_life: bool,
+    /// Include the built-in odd scenes: very tall, very flat, z-up, several objects, far from
+    /// the origin, huge, tiny.
+    #[arg(long)]
+    pub odd: bool,
+    /// Also render every scene with this preset: measured and shown beside, as "before".
+    #[arg(long, value_enum, value_name = "PRESET")]
+    pub before: Option<Preset>,
+    /// Write a contact sheet here: per scene, the before picture (with --before) and the after one.
+    #[arg(long, value_name = "PNG")]
+    pub sheet: Option<PathBuf>,
+    /// Print JSON rows instead of markdown tables.
+    #[arg(long)]
+    pub json: bool,
+    /// Also time every render at SIZE x SIZE pixels (the median of --time-runs).
+    #[arg(long, value_name = "SIZE")]
+    pub time_size: Option<u32>,
+    /// Renders timed per scene with --time-size.
+    #[arg(long, default_value_t = 3)]
+    pub time_runs: u32,
+    /// JSON file of settings, as for `render`.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    #[command(flatten)]
+    pub settings: SettingsArgs,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]

@@ -9,7 +9,7 @@ use clap::{Args, Command, ValueEnum};
 use serde_json::{Map, Value, json};
 
 use super::SettingsArgs;
-use crate::camera::framing::{DEFAULT_ANGLE, DEFAULT_FOV};
+use crate::camera::framing::DEFAULT_FOV;
 use crate::pipeline::{Stage, params};
 use crate::settings::schema::{FIELDS, Field, Kind, choices};
 use crate::settings::{Pass, Preset, Settings};
@@ -88,9 +88,11 @@ fn setting(f: &Field, flags: &Command, defaults: &Map<String, Value>) -> Value {
     if let Some(c) = f.choices {
         out.insert("choices".into(), json!(c()));
     }
-    // What null gives where it is one value per case (front ends that show a number).
+    // What null gives where it is one value per case (front ends that show a number): the
+    // pinhole's field of view; the cubist cameras' angle is chosen per scene by `compose`
+    // (`framing::DEFAULT_ANGLE` under `fit` and `centre`).
     if f.key == "ambiguity" {
-        out.insert("automatic".into(), json!({ "perspective": DEFAULT_FOV, "other": DEFAULT_ANGLE }));
+        out.insert("automatic".into(), json!({ "perspective": DEFAULT_FOV }));
     }
     if f.key == "passes" {
         let formats: Map<String, Value> =

@@ -40,10 +40,10 @@ pub struct SettingsArgs {
     /// Camera model [default: auto = spherical, or cylindrical for tall scenes]
     #[arg(long, value_enum, help_heading = "Camera")]
     pub camera: Option<CameraKind>,
-    /// Convergence angle of cubist cameras, degrees (spherical/cylindrical 0..360, planar 0..<180); vertical field of view of the perspective camera [default: 140; perspective: the glTF camera's or 60]
+    /// Convergence angle of cubist cameras, degrees (spherical/cylindrical 0..360, planar 0..<180); vertical field of view of the perspective camera [default: chosen per scene by --framing compose (at most 160), 140 under fit and centre; perspective: the glTF camera's or 60]
     #[arg(long, help_heading = "Camera", allow_negative_numbers = true, value_parser = finite_f64)]
     pub ambiguity: Option<f64>,
-    /// Where the focal centre goes without --focus-distance: fit = behind the scene so all of it is in view, centre = the bounding box's centre [default: fit]
+    /// Where the focal centre goes without --focus-distance: compose = as close behind the scene as the cameras allow, with the horizontal and vertical spans fitted so the subject fills the canvas; fit = behind the scene so all of it spans --fill of 140 deg; centre = the bounding box's centre [default: compose]
     #[arg(long, value_enum, help_heading = "Camera")]
     pub framing: Option<Framing>,
     /// Distance from the camera position to the focal centre along the view, scene units [default: chosen by --framing]
@@ -85,7 +85,7 @@ pub struct SettingsArgs {
     /// Planar plane height / orthographic view height / cylindrical band height, scene units [default: fits the scene]
     #[arg(long, help_heading = "Camera", allow_negative_numbers = true, value_parser = finite_f64)]
     pub camera_size: Option<f64>,
-    /// Fraction of the view the scene fills under automatic framing, (0, 1]: of the convergence half-angles for cubist cameras, of the smaller image side for perspective/orthographic [default: 0.8 cubist, 0.9 others]
+    /// Fraction of the view the scene fills under automatic framing, (0, 1]: of each span under compose, of the convergence half-angles under fit, of the smaller image side for perspective/orthographic [default: 0.94 compose, 0.8 fit, 0.9 others]
     #[arg(long, help_heading = "Camera", value_parser = finite_f64)]
     pub fill: Option<f64>,
 
@@ -102,7 +102,7 @@ pub struct SettingsArgs {
     #[arg(long, help_heading = "Shading", value_parser = finite_f32)]
     pub exposure: Option<f32>,
 
-    /// Faceting method; segment follows the picture's forms (needs saliency) [analytic: segment]
+    /// Faceting method; planes tile the canvas with straight-edged planes cut along the subject's outlines, segment is the thesis's (both need saliency) [analytic: planes]
     #[arg(long, value_enum, help_heading = "Facets")]
     pub faceting: Option<Faceting>,
     /// Facet map image for constant faceting, each distinct colour a facet
@@ -150,6 +150,15 @@ pub struct SettingsArgs {
     /// Segment: weight of saliency differences [default: 0.5]
     #[arg(long, help_heading = "Facets", allow_negative_numbers = true, value_parser = finite_f64)]
     pub weight_saliency: Option<f64>,
+    /// Planes: how many planes the canvas is split into before the subject's outlines cut them [default: 150]
+    #[arg(long, help_heading = "Facets")]
+    pub planes: Option<u32>,
+    /// Planes: how much denser planes are at the most salient parts than far from the subject, 1..100 [default: 5]
+    #[arg(long, help_heading = "Facets", allow_negative_numbers = true, value_parser = finite_f64)]
+    pub plane_detail: Option<f64>,
+    /// Planes: cut the planes along the subject's outlines (true/false) [default: true]
+    #[arg(long, help_heading = "Facets")]
+    pub plane_outlines: Option<bool>,
 
     /// How facets are re-aimed [default: saliency]
     #[arg(long, value_enum, help_heading = "Spatial imprecision")]
@@ -157,6 +166,12 @@ pub struct SettingsArgs {
     /// Largest facet-centre to saliency-centre shift, pixels at 1000 px; the paper recommends 50-200 [analytic: 200]
     #[arg(long, help_heading = "Spatial imprecision", allow_negative_numbers = true, value_parser = finite_f64)]
     pub discontinuity: Option<f64>,
+    /// Re-aim a facet only when this share of its pixels showed geometry, 0..1; 0 = every facet, as the thesis [analytic: 0.5]
+    #[arg(long, help_heading = "Spatial imprecision", allow_negative_numbers = true, value_parser = finite_f64)]
+    pub aim_min_coverage: Option<f64>,
+    /// Largest view shift of a re-aimed facet, as a share of its mean width; 0 = only --discontinuity limits it [analytic: 0.3]
+    #[arg(long, help_heading = "Spatial imprecision", allow_negative_numbers = true, value_parser = finite_f64)]
+    pub aim_width_share: Option<f64>,
     /// Pixels outside a facet that count for its saliency centre, at 1000 px [default: 0]
     #[arg(long, help_heading = "Spatial imprecision", allow_negative_numbers = true, value_parser = finite_f64)]
     pub neighborhood: Option<f64>,

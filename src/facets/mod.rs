@@ -15,6 +15,7 @@
 pub mod constant;
 pub mod io;
 pub mod patch;
+pub mod planes;
 pub mod segment;
 pub mod voronoi;
 
@@ -270,6 +271,8 @@ pub enum FacetMethod {
     Patch,
     /// Multiscale normalized-cut segments of the pre-render, selected by saliency (`segment`).
     Segment,
+    /// Straight-edged planes tiling the canvas, cut along the subject's outlines (`planes`).
+    Planes,
 }
 
 /// What the faceting stage needs besides the pre-render.
@@ -288,6 +291,7 @@ pub struct FacetParams {
     pub patch_count: u32,
     pub occlusion: f64,
     pub segment: SegmentParams,
+    pub planes: planes::PlanesParams,
     pub width: u32,
     pub height: u32,
     pub seed: u64,
@@ -321,6 +325,15 @@ pub fn layout_for(params: &FacetParams, film: &Film) -> Result<FacetLayout> {
         FacetMethod::Voronoi => voronoi::layout(params.facet_count, params.grid_cells, params.aspect(), params.seed),
         FacetMethod::Patch => patch::layout(params.patch_count, params.occlusion, params.aspect(), params.seed)?,
         FacetMethod::Segment => segment::layout(film, &params.segment)?.0,
+        FacetMethod::Planes => planes::layout(
+            &planes::PlanesInput {
+                width: film.width,
+                height: film.height,
+                hits: &film.hits,
+                saliency: film.saliency.as_deref(),
+            },
+            &params.planes,
+        ),
     };
     debug_assert!(layout.validate().is_ok());
     Ok(layout)

@@ -17,6 +17,7 @@
 //! `centres` decides where each facet is aimed (pixel positions), `rays` turns that into the
 //! facet's rays; `aim_facets` runs both for every facet.
 
+pub mod backdrop;
 mod centres;
 mod rays;
 
@@ -66,6 +67,12 @@ pub struct AimParams {
     pub facet_fov: f64,
     pub scale: f64,
     pub seed: u64,
+    /// A facet is re-aimed only when at least this share of its pixels showed geometry in the
+    /// pre-render; 0 = every facet (the thesis). See `backdrop`.
+    pub min_coverage: f64,
+    /// A re-aimed facet's view shift is kept within this share of its mean width; 0 = no
+    /// limit but the discontinuity. See `backdrop`.
+    pub width_share: f64,
 }
 
 impl AimParams {

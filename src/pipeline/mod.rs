@@ -7,7 +7,7 @@
 //! | `prerender` | scene (`Prepared`), `FramingParams`, `TraceParams` | `PreRender`: film (colour, hits, samples), camera, lights |
 //! | `saliency_stage` | scene, pre-render film, `SaliencyParams` | per-pixel saliency map |
 //! | `layout_stage` | pre-render film (+ map), `FacetParams` | `FacetLayout`, its `FacetMap` |
-//! | `aims_stage` | camera, facet map, saliency map, `AimParams` | one `FacetAim` per facet |
+//! | `aims_stage` | camera, facet map, saliency map and coverage, `AimParams` | one `FacetAim` per facet |
 //! | `retrace_stage` | camera, facet map, aims, `TraceParams` | film with moved facets traced again |
 //! | `paint_stage` | film, facet map, lights, `PaintParams` | film colour painted |
 //! | `encode_stage` | film, facets, aims, passes | image and pass images |
@@ -18,10 +18,11 @@
 //! discontinuity. Nothing is cached yet besides per-mesh saliency (`Prepared::saliency`).
 //!
 //! The other products of the pre-render: `saliency_map` (`cubist saliency`),
-//! `inspect_facets` (`cubist facets`) and `evaluate` (`cubist faces`).
+//! `inspect_facets` (`cubist facets`), `evaluate` (`cubist faces`) and `look` (`cubist look`).
 
 mod faces;
 mod inspect;
+mod look;
 pub mod params;
 mod prepared;
 mod prerender;
@@ -46,6 +47,7 @@ use crate::trace::TraceParams;
 
 pub use faces::{evaluate, visible_faces};
 pub use inspect::{Inspection, faceting_input, inspect_facets};
+pub use look::{Look, look};
 pub use params::StageParams;
 pub use prepared::Prepared;
 pub use prerender::{PreRender, Shading, View, prerender};
@@ -118,7 +120,7 @@ pub fn render_with(
             warnings.push("no saliency map was computed: facets are not re-aimed (imprecision saliency)".into());
         }
         let ctx = aim_context(prep, &view, &params.trace);
-        aims = aims_stage(&ctx, &map, film.saliency.as_deref(), &params.aim, progress, &mut timings);
+        aims = aims_stage(&ctx, &map, &film, &params.aim, progress, &mut timings);
         retrace_stage(prep, &view, &ctx, &params.trace, &map, &aims, &mut film, progress, &mut timings);
     }
 
@@ -230,13 +232,18 @@ fn aim_context<'a>(prep: &'a Prepared, view: &'a View, trace: &TraceParams) -> A
 pub fn aims_stage(
     ctx: &AimContext,
     map: &FacetMap,
-    saliency: Option<&[f32]>,
+    film: &Film,
     params: &AimParams,
     progress: &Progress,
     timings: &mut Timings,
 ) -> Vec<FacetAim> {
     progress.begin(Stage::Imprecision.name(), 1);
-    timings.time(Stage::Imprecision.name(), || imprecision::aim_facets(ctx, map, saliency, params))
+    timings.time(Stage::Imprecision.name(), || {
+        let mut aims = imprecision::aim_facets(ctx, map, film.saliency.as_deref(), params);
+        // What a facet may show (issue 13): backdrop kept, shifts within the facet's width.
+        imprecision::backdrop::apply(&mut aims, ctx, map, |i| film.color[i].w, params);
+        aims
+    })
 }
 
 /// Traces again the pixels of the facets whose rays moved, with the pre-render's tracer (the

@@ -16,6 +16,7 @@ use crate::trace::TraceParams;
 // state them, this module knows both.
 const _: () = assert!(settings::MAX_FACETS == facets::MAX_FACETS);
 const _: () = assert!(settings::MAX_PIXELS == facets::MAX_BASE_PIXELS);
+const _: () = assert!(settings::MAX_PLANES == facets::planes::MAX_PLANES);
 
 /// Every stage's parameters for one render.
 #[derive(Clone, Debug, PartialEq)]
@@ -51,7 +52,8 @@ impl StageParams {
     /// Segment faceting (unless a saved layout replaces it), and the passes that show it.
     pub fn needs_saliency(&self) -> bool {
         let imprecision_uses = self.facets.faceted() && self.aim.reads_saliency();
-        let segment_uses = self.facets.method == FacetMethod::Segment && self.facets.layout_file.is_none();
+        let segment_uses = matches!(self.facets.method, FacetMethod::Segment | FacetMethod::Planes)
+            && self.facets.layout_file.is_none();
         imprecision_uses || segment_uses || self.passes.contains(&Pass::Saliency) || self.passes.contains(&Pass::Facets)
     }
 }
@@ -63,6 +65,7 @@ pub fn framing(s: &Settings) -> FramingParams {
         framing: match s.framing {
             settings::Framing::Fit => camera::Framing::Fit,
             settings::Framing::Centre => camera::Framing::Centre,
+            settings::Framing::Compose => camera::Framing::Compose,
         },
         focus_distance: s.focus_distance,
         position: s.camera_position,
@@ -119,6 +122,7 @@ pub fn facets(s: &Settings) -> FacetParams {
             settings::Faceting::Voronoi => FacetMethod::Voronoi,
             settings::Faceting::Patch => FacetMethod::Patch,
             settings::Faceting::Segment => FacetMethod::Segment,
+            settings::Faceting::Planes => FacetMethod::Planes,
         },
         layout_file: s.facets.clone(),
         facet_map: s.facet_map.clone(),
@@ -127,6 +131,12 @@ pub fn facets(s: &Settings) -> FacetParams {
         patch_count: s.patch_count,
         occlusion: s.occlusion,
         segment: segment(s),
+        planes: facets::planes::PlanesParams {
+            planes: s.planes,
+            detail: s.plane_detail,
+            outlines: s.plane_outlines,
+            seed: s.seed,
+        },
         width: s.width,
         height: s.height,
         seed: s.seed,
@@ -165,6 +175,8 @@ pub fn aim(s: &Settings) -> AimParams {
         facet_fov: s.facet_fov,
         scale: s.pixel_scale(),
         seed: s.seed,
+        min_coverage: s.aim_min_coverage,
+        width_share: s.aim_width_share,
     }
 }
 

@@ -29,6 +29,9 @@ kebab_enum!(
         Fit = "fit",
         /// At the centre of the scene's bounding box (the thesis's literal default).
         Centre = "centre",
+        /// Per scene: C as close behind the scene as the cameras allow, the horizontal and
+        /// vertical spans fitted to it, so the subject fills the canvas (`camera::compose`).
+        Compose = "compose",
     }
 );
 
@@ -45,6 +48,9 @@ kebab_enum!(
         Patch = "patch",
         /// Multiscale normalized-cut segments of the pre-render, selected by saliency.
         Segment = "segment",
+        /// Straight-edged planes tiling the whole canvas, denser at salient parts, cut along
+        /// the subject's outlines (`facets::planes`, issue 13).
+        Planes = "planes",
     }
 );
 

@@ -51,6 +51,11 @@ impl Settings {
             weight_depth: 0.5,
             weight_object: 0.9,
             weight_saliency: 0.5,
+            planes: 150,
+            plane_detail: 5.0,
+            plane_outlines: true,
+            aim_min_coverage: 0.0,
+            aim_width_share: 0.0,
             imprecision: Imprecision::Saliency,
             discontinuity: 0.0,
             neighborhood: 0.0,
@@ -92,12 +97,29 @@ impl Preset {
         s.preset = self;
         match self {
             Preset::Plain => {}
-            Preset::Analytic => {
+            Preset::Thesis => {
                 // The thesis's recommendations (Chapter 5): ambiguity 120-150, discontinuity
                 // 50-200 at 1000 px, Segment faceting, bold facet borders, a painter's palette.
                 s.camera = CameraKind::Auto;
                 s.ambiguity = None; // 140 for cubist cameras
+                s.framing = Framing::Fit;
                 s.faceting = Faceting::Segment;
+                s.aim_min_coverage = 0.0;
+                s.aim_width_share = 0.0;
+                s.discontinuity = 200.0;
+                s.border_width = 12.0;
+                s.border_strength = 0.85;
+                s.silhouette_width = 40.0;
+                s.silhouette_strength = 0.5;
+                s.palette = Palette::Ochre;
+                s.gradients = 0.3;
+                s.colors = 0;
+                s.chiaroscuro = 0.0;
+            }
+            Preset::Analytic => {
+                // Our look (issue 13): planes, composition, the backdrop kept still; the
+                // thesis's discontinuity 200 at 1000 px, bold borders, a painter's palette.
+                planes_look(s);
                 s.discontinuity = 200.0;
                 s.border_width = 12.0;
                 s.border_strength = 0.85;
@@ -116,9 +138,7 @@ impl Preset {
                 s.canvas_grain = 0.5;
             }
             Preset::Braque => {
-                s.camera = CameraKind::Auto;
-                s.ambiguity = Some(150.0);
-                s.faceting = Faceting::Segment;
+                planes_look(s);
                 s.discontinuity = 150.0;
                 s.border_width = 16.0;
                 s.border_strength = 1.0;
@@ -138,9 +158,7 @@ impl Preset {
                 s.canvas_grain = 0.6;
             }
             Preset::BluePeriod => {
-                s.camera = CameraKind::Auto;
-                s.ambiguity = Some(120.0);
-                s.faceting = Faceting::Segment;
+                planes_look(s);
                 s.discontinuity = 100.0;
                 s.border_width = 8.0;
                 s.border_strength = 0.7;
@@ -159,9 +177,7 @@ impl Preset {
                 s.canvas_grain = 0.4;
             }
             Preset::Grisaille => {
-                s.camera = CameraKind::Auto;
-                s.ambiguity = None;
-                s.faceting = Faceting::Segment;
+                planes_look(s);
                 s.discontinuity = 200.0;
                 s.border_width = 12.0;
                 s.border_strength = 0.9;
@@ -178,4 +194,20 @@ impl Preset {
             }
         }
     }
+}
+
+/// The facet, camera and imprecision values of our presets (issue 13; every preset but
+/// `plain` and `thesis`): planes faceting, the `compose` framing with the angles chosen per
+/// scene, background facets not re-aimed and view shifts within a share of each facet's width
+/// (`imprecision::backdrop`).
+fn planes_look(s: &mut Settings) {
+    s.camera = CameraKind::Auto;
+    s.ambiguity = None;
+    s.framing = Framing::Compose;
+    s.faceting = Faceting::Planes;
+    s.planes = 150;
+    s.plane_detail = 5.0;
+    s.plane_outlines = true;
+    s.aim_min_coverage = 0.5;
+    s.aim_width_share = 0.3;
 }

@@ -15,7 +15,7 @@ use super::validate::{
 use super::{
     BorderStyle, CameraKind, FacetProjection, Faceting, Framing, Imprecision, Palette, Pass, Preset, SaliencyMethod,
 };
-use super::{MAX_FACETS, MAX_SIDE};
+use super::{MAX_FACETS, MAX_PLANES, MAX_SIDE};
 
 /// The JSON type of a key's value.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -182,6 +182,11 @@ pub const FIELDS: &[Field] = &[
     field("weight_depth", Number).range(WEIGHT),
     field("weight_object", Number).range(UNIT),
     field("weight_saliency", Number).range(WEIGHT),
+    field("planes", Integer).range(Range::closed(1.0, MAX_PLANES as f64)),
+    field("plane_detail", Number).range(Range::closed(1.0, 100.0)),
+    field("plane_outlines", Boolean),
+    field("aim_min_coverage", Number).range(UNIT),
+    field("aim_width_share", Number).range(Range::closed(0.0, 100.0)),
     field("imprecision", Enum).choices(choices::<Imprecision>),
     field("discontinuity", Number).unit(PX_AT_1000).range(DISTANCE_PX),
     field("neighborhood", Number).unit(PX_AT_1000).range(DISTANCE_PX),

@@ -17,6 +17,10 @@ pub const MAX_SAMPLES: u64 = 256 * 1024 * 1024;
 /// Most facets a layout may have: facet ids fit the 16-bit `facet-ids` pass and PNG layouts
 /// (`facets::MAX_FACETS`, checked equal where both are known, in `pipeline::params`).
 pub const MAX_FACETS: u32 = 65536;
+/// Most planes the planes faceting splits the canvas into (`facets::planes::MAX_PLANES`,
+/// checked equal in `pipeline::params`): the outlines then cut them into at most a few times
+/// as many facets, well within `MAX_FACETS`.
+pub const MAX_PLANES: u32 = 4000;
 /// Largest pixel distance (discontinuity, neighborhood, border and silhouette widths), pixels
 /// at 1000 px: ten images wide. Larger values mean nothing more, and f32 casts of them overflow.
 pub const MAX_PIXEL_DISTANCE: f64 = 10_000.0;
@@ -60,6 +64,11 @@ impl Settings {
         }
         if self.faceting == Faceting::Segment && !loaded {
             per_pixel += 28 + 6 * self.segments.len() as u64;
+        }
+        // Planes: the density, the outline trace and the per-pixel plane labels (measured: a
+        // `cubist facets` job at 1 Mpx peaks at 161 MB, 45 bytes a pixel above a render's).
+        if self.faceting == Faceting::Planes && !loaded {
+            per_pixel += 48;
         }
         pixels.saturating_mul(per_pixel).saturating_add(64 << 20)
     }
@@ -236,6 +245,14 @@ impl Settings {
         nonneg("weight_depth", s.weight_depth)?;
         unit("weight_object", s.weight_object)?;
         nonneg("weight_saliency", s.weight_saliency)?;
+        if s.planes == 0 || s.planes > MAX_PLANES {
+            return Err(Error::setting("planes", format!("must be in 1..={MAX_PLANES}")));
+        }
+        if !(s.plane_detail.is_finite() && (1.0..=100.0).contains(&s.plane_detail)) {
+            return Err(Error::setting("plane_detail", format!("{} must be in [1, 100]", s.plane_detail)));
+        }
+        unit("aim_min_coverage", s.aim_min_coverage)?;
+        within("aim_width_share", s.aim_width_share, 100.0)?;
         if s.colors == 1 {
             return Err(Error::setting("colors", "quantising to 1 colour leaves no image; use 0 (off) or >= 2"));
         }

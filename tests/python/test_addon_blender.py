@@ -68,7 +68,7 @@ def test_addon_enables_with_engine_panels_and_properties(bpy):
     assert bpy.types.RenderEngine.bl_rna_get_subclass_py("CUBIST") is not None
     scene = new_scene(bpy)  # selects the engine: fails unless it is registered
     assert scene.render.engine == "CUBIST"
-    assert scene.cubist.ambiguity == 140.0
+    assert scene.cubist.ambiguity == 0.0  # automatic: chosen per scene by the renderer
     for name in ("CUBIST_PT_render", "CUBIST_PT_camera", "CUBIST_PT_facets", "CUBIST_PT_imprecision",
                  "CUBIST_PT_saliency", "CUBIST_PT_painterly", "CUBIST_PT_sampling", "CUBIST_PT_passes",
                  "CUBIST_PT_output", "CUBIST_MT_presets"):
@@ -126,7 +126,7 @@ def test_every_panel_draws_existing_properties(bpy, engine):
     drawn = []
     panels = [c for c in ui.classes if issubclass(c, bpy.types.Panel)]
     for camera in ("AUTO", "PLANAR", "PERSPECTIVE", "ORTHOGRAPHIC"):
-        for faceting in ("NONE", "CONSTANT", "VORONOI", "PATCH", "SEGMENT"):
+        for faceting in ("NONE", "CONSTANT", "VORONOI", "PATCH", "SEGMENT", "PLANES"):
             scene.cubist.camera, scene.cubist.faceting = camera, faceting
             scene.cubist.facet_projection = "LINEAR"
             for panel in panels:
@@ -177,7 +177,7 @@ def test_f12_with_an_untouched_panel_is_cubist_render(bpy, engine, exports, tmp_
     scene = new_scene(bpy, 80, 60)
     out = render_still(bpy, scene, tmp_path / "f12.png")
     sent = json.loads(engine.last_run["settings_json"])
-    assert (sent["preset"], sent["faceting"], sent["palette"]) == ("analytic", "segment", "ochre")
+    assert (sent["preset"], sent["faceting"], sent["palette"]) == ("analytic", "planes", "ochre")
     glb = exports / f"frame_{scene.frame_current:04d}.glb"
     vec = lambda k: ",".join(repr(float(c)) for c in sent[k])  # noqa: E731
     flags = ["--width", "80", "--height", "60", "--spp", "1", "--camera-position", vec("camera_position"),
@@ -197,12 +197,9 @@ def binary_settings(*args):
 
 
 def effective(settings):
-    """Resolved settings as the renderer uses them, nulls dropped (null ambiguity = 140 deg
-    for cubist cameras, which the panel sends explicitly)."""
-    s = {k: v for k, v in settings.items() if v is not None}
-    if "ambiguity" not in s and s["camera"] not in ("perspective", "orthographic"):
-        s["ambiguity"] = 140.0
-    return s
+    """Resolved settings as the renderer uses them, nulls dropped (the panel's automatic 0s,
+    the convergence angle among them, are sent as null)."""
+    return {k: v for k, v in settings.items() if v is not None}
 
 
 def panel_settings(scene):
@@ -261,7 +258,7 @@ def test_settings_json_follows_the_panel_and_the_scene(bpy, engine, tmp_path):
     render_still(bpy, scene, tmp_path / "b.png")
     after = json.loads(engine.last_run["settings_json"])
     assert (before["discontinuity"], after["discontinuity"]) == (200.0, 120.0)
-    assert (before["ambiguity"], after["ambiguity"]) == (140.0, 150.0)
+    assert (before.get("ambiguity"), after["ambiguity"]) == (None, 150.0)
     assert (before["spp"], after["spp"]) == (1, 2)
     assert (before["palette"], after["palette"]) == ("ochre", "olive")
     assert (before["weight_depth"], after["weight_depth"]) == (0.5, 0.75)
@@ -297,7 +294,9 @@ def test_builtin_preset_operator_sets_the_panel(bpy):
     bpy.ops.cubist.apply_preset(name="Plain")
     assert (c.preset, c.faceting, c.discontinuity, c.palette, c.border_width) == ("PLAIN", "NONE", 0.0, "NONE", 0.0)
     bpy.ops.cubist.apply_preset(name="Braque")
-    assert (c.preset, c.faceting, c.palette, c.colors, c.ambiguity) == ("BRAQUE", "SEGMENT", "OLIVE", 8, 150.0)
+    assert (c.preset, c.faceting, c.palette, c.colors, c.ambiguity) == ("BRAQUE", "PLANES", "OLIVE", 8, 0.0)
+    bpy.ops.cubist.apply_preset(name="Thesis")
+    assert (c.preset, c.faceting, c.framing, c.aim_min_coverage) == ("THESIS", "SEGMENT", "FIT", 0.0)
     assert c.spp == 1 and c.pass_depth  # sampling and passes are not part of a look
 
 
@@ -466,11 +465,11 @@ def test_frame_chunks_match_one_run(bpy, engine, tmp_path, faceting):
 
 
 def test_static_segment_facets_stay_while_the_picture_moves(bpy, engine, tmp_path):
-    """The default look (Segment facets, computed from the layout frame's pre-render):
+    """Segment facets (computed from the layout frame's pre-render; the planes default does the same):
     every frame has the same facets, down to each pixel's facet id, while the camera and the
     cube move through them."""
     scene = animated_scene(bpy, tmp_path / "layouts", faceting="SEGMENT")
-    assert scene.cubist.preset == "ANALYTIC"
+    assert scene.cubist.preset == "ANALYTIC" and scene.cubist.faceting == "SEGMENT"
     scene.cubist.pass_facet_ids = True
     use_multilayer_exr(scene)
     engine.history.clear()
@@ -497,7 +496,8 @@ def test_segment_layout_follows_what_the_layout_frame_shows(bpy, engine, tmp_pat
     scene = new_scene(bpy)
     c = scene.cubist
     c.layout_folder = str(tmp_path / "layouts")
-    assert c.faceting == "SEGMENT" and c.static_facets
+    c.faceting = "SEGMENT"
+    assert c.static_facets
     layout_bytes = lambda: Path(engine.last_run["layout"]).read_bytes()  # noqa: E731
 
     render_still(bpy, scene, tmp_path / "1.png")

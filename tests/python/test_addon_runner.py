@@ -64,12 +64,9 @@ def binary_settings(binary, *args):
 
 
 def effective(settings):
-    """Resolved settings as the renderer uses them, nulls dropped: a null `ambiguity` is
-    140 deg for cubist cameras (Settings::angle_deg), which the panel sends explicitly."""
-    s = {k: v for k, v in settings.items() if v is not None}
-    if "ambiguity" not in s and s["camera"] not in ("perspective", "orthographic"):
-        s["ambiguity"] = 140.0
-    return s
+    """Resolved settings as the renderer uses them, nulls dropped (the panel's automatic 0,
+    e.g. the convergence angle the renderer chooses per scene, is sent as null)."""
+    return {k: v for k, v in settings.items() if v is not None}
 
 
 def default_facts(**kw):
@@ -80,10 +77,10 @@ def test_panel_defaults_cover_every_setting_the_panel_owns():
     s = mapping.settings_from_panel(dict(presets.DEFAULTS), default_facts())
     # The keys the add-on does not send from the panel: camera frame (no camera here), files
     # it decides per frame (layout), paths left empty, and the focus (none without a camera).
-    # `fill` and `camera_size` are automatic (0 in the panel, null in the settings); the engine
-    # adds the saliency cache folder.
+    # `ambiguity`, `fill` and `camera_size` are automatic (0 in the panel, null in the
+    # settings); the engine adds the saliency cache folder.
     not_sent = {"camera_position", "camera_target", "camera_up", "focus_distance", "camera_size", "fill", "facets",
-                "save_facets", "facet_map", "palette_image", "saliency_cache"}
+                "save_facets", "facet_map", "palette_image", "saliency_cache", "ambiguity"}
     assert set(s) == runner.SETTINGS_KEYS - not_sent
 
 
@@ -136,8 +133,8 @@ def test_each_preset_sends_the_binarys_preset(cubist_binary, name):
 
 @pytest.mark.parametrize("name", ["analytic", "grisaille", "plain"])
 def test_panel_settings_render_the_presets_picture(cubist_binary, tmp_path, name):
-    """The same picture both ways, so sending the implicit values explicitly (ambiguity 140
-    for null) changes nothing."""
+    """The same picture both ways: the panel's values are the preset's, its automatic 0s
+    sent as null."""
     panel = dict(presets.DEFAULTS, use_world_background=False, spp=1)
     panel.update(presets.renderer_preset_values(name))
     sent = mapping.settings_from_panel(panel, default_facts(width=72, height=54))
@@ -352,7 +349,9 @@ def test_perspective_uses_blenders_vertical_field_of_view():
     s = mapping.settings_from_panel(panel, default_facts(camera=cam, width=1080, height=1920))
     assert s["ambiguity"] == pytest.approx(math.degrees(2 * math.atan(18 / 50)))
     panel["use_camera_lens"] = False
-    assert mapping.settings_from_panel(panel, default_facts(camera=cam))["ambiguity"] == 140.0
+    assert "ambiguity" not in mapping.settings_from_panel(panel, default_facts(camera=cam))  # the renderer's 60
+    panel["ambiguity"] = 75.0
+    assert mapping.settings_from_panel(panel, default_facts(camera=cam))["ambiguity"] == 75.0
 
 
 def test_orthographic_uses_the_ortho_scale_and_sends_no_angle():

@@ -54,7 +54,9 @@ def test_the_panel_owns_every_setting_blender_does_not_decide():
     # Defaults are the renderer's: the analytic preset's values as the panel shows them.
     assert presets.DEFAULTS["discontinuity"] == schema.default("discontinuity")
     assert presets.DEFAULTS["segments"] == presets.format_number_list(schema.default("segments"))
-    assert presets.DEFAULTS["ambiguity"] == schema.automatic("ambiguity", "auto") == 140.0
+    # The cubist angle is chosen per scene (compose): the panel's automatic 0; the pinhole's is 60.
+    assert presets.DEFAULTS["ambiguity"] == 0.0 and schema.automatic("ambiguity", "auto") is None
+    assert schema.automatic("ambiguity", "perspective") == 60.0
 
 
 def test_passes_are_the_renderers():

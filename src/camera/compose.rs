@@ -1,0 +1,281 @@
+//! Composition (issue 13, ART.md "The subject fills the canvas"): the `compose` framing of the
+//! converging cameras, chosen per scene from its vertices.
+//!
+//! Why not `fit`: with the focal centre C outside the scene, the part of the scene a
+//! converging camera shows depends only on C (the lines through C); the convergence angle
+//! only scales that view onto the canvas. `fit` keeps the angle at 140 deg and moves C back
+//! until the scene spans 80% of it, so a compact subject fills 15-40% of the canvas and a
+//! tall or thin one under 15%, with an empty backdrop around it. The cameras give more
+//! freedom than a pinhole: their horizontal and vertical spans are independent.
+//!
+//! The rule, in order:
+//! 1. C goes as close behind the scene as it can while every vertex stays within
+//!    `margin` x `MAX_HALF_ANGLE` of the view axis: the widest wrap around the subject
+//!    (the cubist "several sides at once") the cameras can show without grazing rays.
+//!    (A user's ambiguity fixes the angle: such a camera is framed by `fit`.)
+//! 2. C slides across the view (right and up) so the scene's angular extent is centred,
+//!    then step 1 runs again from there (twice): an asymmetric subject (a bunny's ears, a
+//!    figure's raised arm) is not pushed off-centre with an empty margin on one side.
+//! 3. The spans are fitted to the vertices: horizontal angle and vertical angle (spherical)
+//!    or band height (cylindrical) = the scene's extent / `margin`, so the whole subject is in
+//!    view with a thin margin.
+//! 4. The two spans are kept within a ratio of the same scale per pixel (the wider one is
+//!    kept and the other widened): a tall or flat subject is stretched at most that much.
+//! 5. Closest is not always fullest: a part of the scene near C (a tail, a raised ear)
+//!    reaches the angle cap first and the bulk beyond it stays small; and a thin subject
+//!    (a fox head on) needs some stretch. So steps 1-4 run for C at a few distances further
+//!    back (`DEPTH_STEPS`) and a few stretch ratios (`ANISOTROPY_STEPS`); each candidate's
+//!    fill is measured by tracing a tiny image. The least stretched, then closest, candidate
+//!    that fills `FILL_GOAL` of the canvas wins; when none does (a figure with outstretched
+//!    arms), the least stretched and closest within `NEAR_BEST` of the best fill.
+//!
+//! No constant depends on a particular scene: the angle cap is the thesis's best ambiguity
+//! range's top (150 deg, section 5), the margin the `fill` setting.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::CameraFrame;
+use super::CameraKind;
+use super::framing::fit_depth;
+
+/// Largest half-angle a vertex may reach from the view axis: spans stay within the thesis's
+/// best ambiguity range (120-150 deg, section 5).
+pub const MAX_HALF_ANGLE: f64 = 75.0 * std::f64::consts::PI / 180.0;
+/// Default `fill` for `compose`: the scene's extent over the canvas's span, per axis.
+pub const COMPOSE_FILL: f64 = 0.94;
+/// The ratios between the horizontal and vertical scale per pixel (angle or length per pixel)
+/// step 4 may allow, least distortion first (step 5 picks one per scene).
+pub const ANISOTROPY_STEPS: [f64; 4] = [1.0, 1.5, 2.0, 2.5];
+/// The share of the canvas a composition should fill (ART.md: the subject occupies most of
+/// the picture); step 5 takes the least distortion that reaches it.
+pub const FILL_GOAL: f64 = 0.5;
+/// Centring passes of step 2.
+const CENTRING_PASSES: usize = 2;
+/// Candidate distances of C behind its closest place, in scene radii (step 5).
+const DEPTH_STEPS: [f64; 8] = [0.0, 0.0625, 0.125, 0.25, 0.5, 1.0, 2.0, 4.0];
+/// Step 5 takes the closest candidate whose fill is at least this share of the best.
+const NEAR_BEST: f64 = 0.9;
+
+/// What `compose` chose for a spherical or cylindrical camera.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Composition {
+    /// The focal centre C (cylindrical: a point of the focal line at the band's middle).
+    pub centre: DVec3,
+    /// Horizontal convergence angle, radians.
+    pub angle_x: f64,
+    /// Spherical: vertical convergence angle, radians. Cylindrical: unused (0).
+    pub angle_y: f64,
+    /// Cylindrical: the band's height, render units. Spherical: unused (0).
+    pub height: f64,
+}
+
+/// Angular (and, for the cylindrical camera, vertical) extents of `points` seen from `c`:
+/// (min, max) of the horizontal angle and of the vertical angle (spherical) or height above
+/// `c` (cylindrical).
+fn extents(points: &[DVec3], kind: CameraKind, f: &CameraFrame, c: DVec3) -> ((f64, f64), (f64, f64)) {
+    let mut h = (f64::INFINITY, f64::NEG_INFINITY);
+    let mut v = (f64::INFINITY, f64::NEG_INFINITY);
+    for p in points {
+        let w = *p - c;
+        let (x, y, z) = (w.dot(f.right), w.dot(f.up), -w.dot(f.forward));
+        let (a, b) = match kind {
+            CameraKind::Cylindrical => (x.atan2(z), y),
+            _ => ((x / w.length().max(1e-300)).clamp(-1.0, 1.0).asin(), y.atan2(z)),
+        };
+        h = (h.0.min(a), h.1.max(a));
+        v = (v.0.min(b), v.1.max(b));
+    }
+    if !h.0.is_finite() {
+        return ((0.0, 0.0), (0.0, 0.0));
+    }
+    (h, v)
+}
+
+/// The spans that hold `points` seen from `c`, step 3 and 4 of the rule.
+#[allow(clippy::too_many_arguments)]
+fn spans(
+    points: &[DVec3],
+    kind: CameraKind,
+    f: &CameraFrame,
+    c: DVec3,
+    aspect: f64,
+    margin: f64,
+    anisotropy: f64,
+) -> Composition {
+    let (h, v) = extents(points, kind, f, c);
+    let widest = 2.0 * MAX_HALF_ANGLE / margin;
+    let span_x = (2.0 * h.0.abs().max(h.1.abs()) / margin).clamp(1e-6, widest);
+    let mut angle_x = span_x;
+    if kind == CameraKind::Cylindrical {
+        // The band is centred on the scene's vertical middle (the focal line's point there).
+        let centre = c + f.up * (0.5 * (v.0 + v.1));
+        let mut height = ((v.1 - v.0) / margin).max(1e-6);
+        // Scale per pixel: angle_x r / width (r = the scene's mean distance from the focal
+        // line) against height / rows, both per image height here.
+        let r = mean_distance_from_line(points, f, centre).max(1e-9);
+        let sx = angle_x * r / aspect;
+        if sx > anisotropy * height {
+            height = sx / anisotropy;
+        } else if height > anisotropy * sx {
+            angle_x = ((height / anisotropy) * aspect / r).min(widest);
+        }
+        return Composition { centre, angle_x, angle_y: 0.0, height };
+    }
+    let mut angle_y = (2.0 * v.0.abs().max(v.1.abs()) / margin).clamp(1e-6, widest);
+    // Radians per pixel: angle_x / width against angle_y / height.
+    let sx = angle_x / aspect;
+    if sx > anisotropy * angle_y {
+        angle_y = sx / anisotropy;
+    } else if angle_y > anisotropy * sx {
+        angle_x = (angle_y / anisotropy * aspect).min(widest);
+    }
+    Composition { centre: c, angle_x, angle_y, height: 0.0 }
+}
+
+/// The `compose` framing of a spherical or cylindrical camera looking along `f.forward`, with
+/// C on the line through `axis` along the view before centring. `margin` in (0, 1]: the
+/// scene's extent over each span. `aspect` = width / height. `fill_of` measures the share of the canvas a
+/// candidate shows geometry on (a tiny trace, see `framing::probe_fill`).
+#[allow(clippy::too_many_arguments)]
+pub fn compose(
+    points: &[DVec3],
+    kind: CameraKind,
+    f: &CameraFrame,
+    axis: DVec3,
+    aspect: f64,
+    radius: f64,
+    margin: f64,
+    fill_of: &(dyn Fn(&Composition) -> f64 + Sync),
+) -> Composition {
+    let cylindrical = kind == CameraKind::Cylindrical;
+    let half = (MAX_HALF_ANGLE, MAX_HALF_ANGLE);
+    let place =
+        |axis: DVec3, back: f64| axis + f.forward * (fit_depth(points, kind, f, axis, half, radius, margin) + back);
+    let centres: Vec<DVec3> = DEPTH_STEPS
+        .par_iter()
+        .map(|&step| {
+            let back = step * radius;
+            let mut axis = axis;
+            let mut c = place(axis, back);
+            for _ in 0..CENTRING_PASSES {
+                let (h, v) = extents(points, kind, f, c);
+                // Typical depth of the scene in front of C: the slide that turns the extent's
+                // middle angle onto the axis.
+                let depth = points.iter().map(|p| -(*p - c).dot(f.forward)).fold(0.0, f64::max).max(1e-9) * 0.5;
+                let dx = depth * (0.5 * (h.0 + h.1)).tan();
+                let dy = if cylindrical { 0.0 } else { depth * (0.5 * (v.0 + v.1)).tan() };
+                if !(dx.is_finite() && dy.is_finite()) {
+                    break;
+                }
+                axis += f.right * dx + f.up * dy;
+                c = place(axis, back);
+            }
+            c
+        })
+        .collect();
+    // Candidates in order of preference: least distortion first, then the closest C.
+    let candidates: Vec<Composition> = ANISOTROPY_STEPS
+        .iter()
+        .flat_map(|&a| centres.iter().map(move |&c| (a, c)))
+        .collect::<Vec<_>>()
+        .par_iter()
+        .map(|&(a, c)| spans(points, kind, f, c, aspect, margin, a))
+        .collect();
+    let fills: Vec<f64> = candidates.par_iter().map(fill_of).collect();
+    let best = fills.iter().copied().fold(0.0, f64::max);
+    let pick = fills
+        .iter()
+        .position(|&v| v >= FILL_GOAL)
+        .or_else(|| fills.iter().position(|&v| v >= NEAR_BEST * best))
+        .unwrap_or(0);
+    candidates[pick]
+}
+
+/// Mean horizontal distance of `points` from the vertical line through `c` along `f.up`.
+fn mean_distance_from_line(points: &[DVec3], f: &CameraFrame, c: DVec3) -> f64 {
+    if points.is_empty() {
+        return 0.0;
+    }
+    let sum: f64 = points
+        .iter()
+        .map(|p| {
+            let w = *p - c;
+            (w - f.up * w.dot(f.up)).length()
+        })
+        .sum();
+    sum / points.len() as f64
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn frame() -> CameraFrame {
+        CameraFrame::new(DVec3::new(0.0, 0.0, 5.0), DVec3::NEG_Z, DVec3::Y).unwrap().0
+    }
+
+    /// Points on an ellipsoid of the given radii around `c`.
+    fn ellipsoid(r: DVec3, c: DVec3) -> Vec<DVec3> {
+        let mut v = Vec::new();
+        for i in 0..=12 {
+            for j in 0..24 {
+                let (t, p) = (std::f64::consts::PI * i as f64 / 12.0, std::f64::consts::TAU * j as f64 / 24.0);
+                v.push(c + DVec3::new(t.sin() * p.cos(), t.cos(), t.sin() * p.sin()) * r);
+            }
+        }
+        v
+    }
+
+    /// Every point lies in front of C and within the composition's spans.
+    fn in_view(k: &Composition, kind: CameraKind, pts: &[DVec3]) -> bool {
+        let f = frame();
+        let (h, v) = extents(pts, kind, &f, k.centre);
+        let depth_ok = pts.iter().all(|p| (*p - k.centre).dot(f.forward) < 0.0);
+        let hx = h.0.abs().max(h.1.abs()) <= k.angle_x / 2.0 + 1e-9;
+        let vy = match kind {
+            CameraKind::Cylindrical => v.0 >= -k.height / 2.0 - 1e-9 && v.1 <= k.height / 2.0 + 1e-9,
+            _ => v.0.abs().max(v.1.abs()) <= k.angle_y / 2.0 + 1e-9,
+        };
+        depth_ok && hx && vy
+    }
+
+    #[test]
+    fn the_whole_scene_is_in_view_and_centred() {
+        // An off-centre ellipsoid: the centring passes bring its extent onto the axis.
+        let pts = ellipsoid(DVec3::new(0.6, 0.4, 0.5), DVec3::new(0.3, -0.2, 0.0));
+        let k = compose(&pts, CameraKind::Spherical, &frame(), DVec3::ZERO, 4.0 / 3.0, 1.0, 0.94, &|_| 0.6);
+        assert!(in_view(&k, CameraKind::Spherical, &pts), "{k:?}");
+        let (h, v) = extents(&pts, CameraKind::Spherical, &frame(), k.centre);
+        assert!((h.0 + h.1).abs() < 0.1 * (h.1 - h.0), "horizontal extent {h:?} not centred");
+        assert!((v.0 + v.1).abs() < 0.1 * (v.1 - v.0), "vertical extent {v:?} not centred");
+        assert!(k.angle_x <= 2.0 * MAX_HALF_ANGLE / 0.94 + 1e-9 && k.angle_y <= 2.0 * MAX_HALF_ANGLE / 0.94 + 1e-9);
+        // Within the stretch bound picked (the first, isotropic, with this fill).
+        let stretch = (k.angle_x / (4.0 / 3.0)) / k.angle_y;
+        assert!((0.99..=1.01).contains(&stretch) || k.angle_x >= 2.0 * MAX_HALF_ANGLE / 0.94 - 1e-9, "{stretch}");
+    }
+
+    #[test]
+    fn the_least_stretched_closest_candidate_that_fills_wins() {
+        let pts = ellipsoid(DVec3::new(0.2, 1.0, 0.2), DVec3::ZERO);
+        let f = frame();
+        // Fill grows with the horizontal span per vertical span (more stretch fills a thin subject).
+        let fill = |k: &Composition| 0.3 * (k.angle_y / k.angle_x).min(2.0);
+        let k = compose(&pts, CameraKind::Spherical, &f, DVec3::ZERO, 4.0 / 3.0, 1.0, 0.94, &fill);
+        assert!(fill(&k) >= FILL_GOAL, "{k:?}");
+        assert!(in_view(&k, CameraKind::Spherical, &pts));
+        // With no candidate reaching the goal, the fullest within NEAR_BEST.
+        let k = compose(&pts, CameraKind::Spherical, &f, DVec3::ZERO, 4.0 / 3.0, 1.0, 0.94, &|_| 0.2);
+        assert!(in_view(&k, CameraKind::Spherical, &pts));
+    }
+
+    #[test]
+    fn cylinders_fit_the_height() {
+        let pts = ellipsoid(DVec3::new(0.3, 1.5, 0.3), DVec3::new(0.0, 2.0, 0.0));
+        let f = frame();
+        let k = compose(&pts, CameraKind::Cylindrical, &f, DVec3::ZERO, 4.0 / 3.0, 2.0, 0.9, &|_| 0.6);
+        assert!(in_view(&k, CameraKind::Cylindrical, &pts), "{k:?}");
+        assert!(k.height >= 3.0 / 0.9 - 1e-6, "{}", k.height);
+        assert!((k.centre.y - 2.0).abs() < 1e-6);
+    }
+}

@@ -1,0 +1,400 @@
+//! The subject's outlines as straight-edged rings: what the planes are cut along (issue 13 item
+//! 1, ART.md "may follow the subject's silhouettes", thesis 5.5.1: the painters aligned facets
+//! with the silhouette of the content).
+//!
+//! From the pre-render's object ids: a label per pixel (object, or background), specks smaller
+//! than `min_area` merged into their surroundings, then one mask per layer (all geometry; and,
+//! when several objects are large enough to matter, each of them with everything in front of
+//! it, far to near, so drawing the layers in order leaves no sliver between touching objects).
+//! Each mask's boundary is traced into closed rings on the pixel-corner lattice (outer rings
+//! and holes of opposite orientation) and simplified by Douglas-Peucker at `tolerance` pixels,
+//! so no edge keeps the pixel staircase.
+
+use std::collections::VecDeque;
+
+use glam::DVec2;
+
+/// Background label.
+pub const BACKGROUND: u32 = u32::MAX;
+
+/// One layer of outlines: rings in pixel coordinates (y down); even-odd inside = the layer.
+#[derive(Clone, Debug, Default)]
+pub struct Layer {
+    pub rings: Vec<Vec<DVec2>>,
+}
+
+/// Most object layers made besides the all-geometry one (the largest objects by area).
+pub const MAX_OBJECT_LAYERS: usize = 16;
+
+/// Connected components (4-neighbourhood, equal values) of `labels`: component id per pixel
+/// and each component's (value, area). Scan order, so deterministic.
+fn components(labels: &[u32], w: usize, h: usize) -> (Vec<u32>, Vec<(u32, usize)>) {
+    let mut comp = vec![u32::MAX; labels.len()];
+    let mut info = Vec::new();
+    let mut queue = VecDeque::new();
+    for start in 0..labels.len() {
+        if comp[start] != u32::MAX {
+            continue;
+        }
+        let id = info.len() as u32;
+        let value = labels[start];
+        comp[start] = id;
+        queue.push_back(start);
+        let mut area = 0;
+        while let Some(i) = queue.pop_front() {
+            area += 1;
+            let (x, y) = (i % w, i / w);
+            let mut visit = |j: usize| {
+                if comp[j] == u32::MAX && labels[j] == value {
+                    comp[j] = id;
+                    queue.push_back(j);
+                }
+            };
+            if x > 0 {
+                visit(i - 1);
+            }
+            if x + 1 < w {
+                visit(i + 1);
+            }
+            if y > 0 {
+                visit(i - w);
+            }
+            if y + 1 < h {
+                visit(i + w);
+            }
+        }
+        info.push((value, area));
+    }
+    (comp, info)
+}
+
+/// Merges every component smaller than `min_area` pixels into the neighbouring value it
+/// touches most (ties: the lower value), so specks and pinholes make no plane of their own.
+pub fn clean_labels(labels: &mut [u32], w: usize, h: usize, min_area: usize) {
+    if min_area <= 1 {
+        return;
+    }
+    let (comp, info) = components(labels, w, h);
+    let small: Vec<bool> = info.iter().map(|&(_, a)| a < min_area).collect();
+    if !small.contains(&true) {
+        return;
+    }
+    // For each small component, count the neighbouring pixels of other values.
+    let mut touches: Vec<Vec<(u32, u32)>> = vec![Vec::new(); info.len()];
+    for i in 0..labels.len() {
+        let c = comp[i] as usize;
+        if !small[c] {
+            continue;
+        }
+        let (x, y) = (i % w, i / w);
+        let mut count = |j: usize| {
+            let v = labels[j];
+            if comp[j] as usize != c {
+                let t = &mut touches[c];
+                match t.iter_mut().find(|e| e.0 == v) {
+                    Some(e) => e.1 += 1,
+                    None => t.push((v, 1)),
+                }
+            }
+        };
+        if x > 0 {
+            count(i - 1);
+        }
+        if x + 1 < w {
+            count(i + 1);
+        }
+        if y > 0 {
+            count(i - w);
+        }
+        if y + 1 < h {
+            count(i + w);
+        }
+    }
+    let target: Vec<Option<u32>> =
+        touches.iter().map(|t| t.iter().max_by(|a, b| a.1.cmp(&b.1).then(b.0.cmp(&a.0))).map(|e| e.0)).collect();
+    for i in 0..labels.len() {
+        let c = comp[i] as usize;
+        if small[c]
+            && let Some(v) = target[c]
+        {
+            labels[i] = v;
+        }
+    }
+}
+
+/// Keeps, of `mask`, the 4-connected components that contain a pixel where `seed` is true.
+fn keep_seeded(mask: &mut [bool], w: usize, h: usize, seed: impl Fn(usize) -> bool) {
+    let mut keep = vec![false; mask.len()];
+    let mut queue: VecDeque<usize> = (0..mask.len()).filter(|&i| mask[i] && seed(i)).collect();
+    for &i in &queue {
+        keep[i] = true;
+    }
+    while let Some(i) = queue.pop_front() {
+        let (x, y) = (i % w, i / w);
+        let mut visit = |j: usize| {
+            if mask[j] && !keep[j] {
+                keep[j] = true;
+                queue.push_back(j);
+            }
+        };
+        if x > 0 {
+            visit(i - 1);
+        }
+        if x + 1 < w {
+            visit(i + 1);
+        }
+        if y > 0 {
+            visit(i - w);
+        }
+        if y + 1 < h {
+            visit(i + w);
+        }
+    }
+    mask.copy_from_slice(&keep);
+}
+
+// Directions on the pixel-corner lattice (y down): right, down, left, up.
+const DIRS: [(i64, i64); 4] = [(1, 0), (0, 1), (-1, 0), (0, -1)];
+
+/// The boundary of `mask` as closed rings of lattice points (corners only), the mask on the
+/// right of the direction of travel (y down): outer boundaries run clockwise on screen, holes
+/// anticlockwise. At a saddle (two mask pixels touching at a corner) the walk turns right,
+/// so diagonal neighbours stay separate rings (4-connectivity).
+pub fn trace(mask: &[bool], w: usize, h: usize) -> Vec<Vec<DVec2>> {
+    let vw = w + 1;
+    let at =
+        |x: i64, y: i64| x >= 0 && y >= 0 && (x as usize) < w && (y as usize) < h && mask[y as usize * w + x as usize];
+    // Outgoing boundary edges per lattice vertex, one bit per direction.
+    let mut out = vec![0u8; vw * (h + 1)];
+    for y in 0..h as i64 {
+        for x in 0..w as i64 {
+            if !at(x, y) {
+                continue;
+            }
+            let v = |x: i64, y: i64| y as usize * vw + x as usize;
+            if !at(x, y - 1) {
+                out[v(x, y)] |= 1 << 0; // top edge, going right
+            }
+            if !at(x + 1, y) {
+                out[v(x + 1, y)] |= 1 << 1; // right edge, going down
+            }
+            if !at(x, y + 1) {
+                out[v(x + 1, y + 1)] |= 1 << 2; // bottom edge, going left
+            }
+            if !at(x - 1, y) {
+                out[v(x, y + 1)] |= 1 << 3; // left edge, going up
+            }
+        }
+    }
+    let mut rings = Vec::new();
+    for start in 0..out.len() {
+        while out[start] != 0 {
+            let d0 = out[start].trailing_zeros() as usize;
+            let (sx, sy) = ((start % vw) as i64, (start / vw) as i64);
+            let (mut x, mut y, mut d) = (sx, sy, d0);
+            let mut ring = Vec::new();
+            let mut prev_d = usize::MAX;
+            loop {
+                out[y as usize * vw + x as usize] &= !(1 << d);
+                if d != prev_d {
+                    ring.push(DVec2::new(x as f64, y as f64));
+                }
+                prev_d = d;
+                x += DIRS[d].0;
+                y += DIRS[d].1;
+                let mut bits = out[y as usize * vw + x as usize];
+                let home = (x, y) == (sx, sy);
+                if home {
+                    bits |= 1 << d0;
+                }
+                // Prefer a right turn, then straight on, then a left turn.
+                let (right, left) = ((d + 1) % 4, (d + 3) % 4);
+                let next = [right, d, left].into_iter().find(|&k| bits & (1 << k) != 0);
+                match next {
+                    Some(k) if home && k == d0 => break,
+                    Some(k) => d = k,
+                    None => break, // cannot happen on a closed boundary; stop safely
+                }
+            }
+            if ring.len() >= 4 {
+                rings.push(ring);
+            }
+        }
+    }
+    rings
+}
+
+/// Douglas-Peucker simplification of a closed ring at `tolerance`: split at the point farthest
+/// from the first, simplify both chains. Returns fewer than 3 points for a ring that collapses.
+pub fn simplify_ring(ring: &[DVec2], tolerance: f64) -> Vec<DVec2> {
+    let n = ring.len();
+    if n < 4 {
+        return ring.to_vec();
+    }
+    let far = (1..n)
+        .max_by(|&a, &b| (ring[a] - ring[0]).length_squared().total_cmp(&(ring[b] - ring[0]).length_squared()))
+        .unwrap_or(n / 2);
+    let mut keep = vec![false; n];
+    keep[0] = true;
+    keep[far] = true;
+    let chain_a: Vec<usize> = (0..=far).collect();
+    let chain_b: Vec<usize> = (far..n).chain(std::iter::once(0)).collect();
+    for chain in [&chain_a, &chain_b] {
+        dp(ring, chain, tolerance, &mut keep);
+    }
+    (0..n).filter(|&i| keep[i]).map(|i| ring[i]).collect()
+}
+
+/// Douglas-Peucker over `ring[chain[..]]`, marking kept points (iterative, no recursion depth).
+fn dp(ring: &[DVec2], chain: &[usize], tol: f64, keep: &mut [bool]) {
+    let mut stack = vec![(0usize, chain.len() - 1)];
+    while let Some((a, b)) = stack.pop() {
+        if b <= a + 1 {
+            continue;
+        }
+        let (p, q) = (ring[chain[a]], ring[chain[b]]);
+        let d = q - p;
+        let len = d.length();
+        let mut best = (0.0, a);
+        for k in a + 1..b {
+            let r = ring[chain[k]] - p;
+            let dist = if len > 0.0 { (d.x * r.y - d.y * r.x).abs() / len } else { r.length() };
+            if dist > best.0 {
+                best = (dist, k);
+            }
+        }
+        if best.0 > tol {
+            keep[chain[best.1]] = true;
+            stack.push((a, best.1));
+            stack.push((best.1, b));
+        }
+    }
+}
+
+/// The layers of a label image (objects' ids, `BACKGROUND` for no hit), already cleaned:
+/// layer 0 = every object; then, when at least two objects cover `min_object_area` pixels,
+/// the largest `MAX_OBJECT_LAYERS` of them from far to near (`depth[i]` = hit distance), each
+/// with the pixels of the objects drawn after it.
+pub fn layers(labels: &[u32], depth: &[f32], w: usize, h: usize, min_object_area: usize, tolerance: f64) -> Vec<Layer> {
+    let mut result = Vec::new();
+    let simplify = |rings: Vec<Vec<DVec2>>| -> Layer {
+        Layer { rings: rings.iter().map(|r| simplify_ring(r, tolerance)).filter(|r| r.len() >= 3).collect() }
+    };
+    let all: Vec<bool> = labels.iter().map(|&l| l != BACKGROUND).collect();
+    if !all.contains(&true) {
+        return result;
+    }
+    result.push(simplify(trace(&all, w, h)));
+    // Objects by area, with their mean depth.
+    let mut stats: Vec<(u32, usize, f64)> = Vec::new();
+    for (i, &l) in labels.iter().enumerate() {
+        if l == BACKGROUND {
+            continue;
+        }
+        let t = if depth[i].is_finite() { depth[i] as f64 } else { 0.0 };
+        match stats.iter_mut().find(|s| s.0 == l) {
+            Some(s) => {
+                s.1 += 1;
+                s.2 += t;
+            }
+            None => stats.push((l, 1, t)),
+        }
+    }
+    stats.retain(|s| s.1 >= min_object_area);
+    if stats.len() < 2 {
+        return result;
+    }
+    stats.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+    stats.truncate(MAX_OBJECT_LAYERS);
+    // Far to near.
+    stats.sort_by(|a, b| (b.2 / b.1 as f64).total_cmp(&(a.2 / a.1 as f64)).then(a.0.cmp(&b.0)));
+    for (k, &(object, _, _)) in stats.iter().enumerate() {
+        let nearer: Vec<u32> = stats[k + 1..].iter().map(|s| s.0).collect();
+        let mut mask: Vec<bool> = labels.iter().map(|&l| l == object || nearer.contains(&l)).collect();
+        keep_seeded(&mut mask, w, h, |i| labels[i] == object);
+        result.push(simplify(trace(&mask, w, h)));
+    }
+    result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::facets::planes::polygon::signed_area;
+
+    fn area(rings: &[Vec<DVec2>]) -> f64 {
+        rings.iter().map(|r| signed_area(r)).sum()
+    }
+
+    #[test]
+    fn trace_a_square_with_a_hole() {
+        let (w, h) = (8, 7);
+        let mask: Vec<bool> = (0..w * h)
+            .map(|i| (1..7).contains(&(i % w)) && (1..6).contains(&(i / w)) && !(i % w == 3 && i / w == 3))
+            .collect();
+        let rings = trace(&mask, w, h);
+        assert_eq!(rings.len(), 2);
+        // Outer 6 x 5 = 30 minus the one-pixel hole: signed areas add up.
+        assert!((area(&rings).abs() - 29.0).abs() < 1e-12, "{}", area(&rings));
+        assert_eq!(rings.iter().map(|r| r.len()).collect::<Vec<_>>(), vec![4, 4]);
+    }
+
+    #[test]
+    fn diagonal_pixels_are_separate_rings() {
+        let mask = vec![true, false, false, true];
+        let rings = trace(&mask, 2, 2);
+        assert_eq!(rings.len(), 2);
+        assert!((area(&rings).abs() - 2.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_staircase_simplifies_to_a_straight_edge() {
+        // A right triangle below the diagonal of a 40 x 40 image: its hypotenuse is a staircase.
+        let n = 40;
+        let mask: Vec<bool> = (0..n * n).map(|i| i % n <= i / n).collect();
+        let rings = trace(&mask, n, n);
+        assert_eq!(rings.len(), 1);
+        assert!(rings[0].len() > 40);
+        let s = simplify_ring(&rings[0], 1.0);
+        assert!(s.len() <= 4, "{s:?}");
+        assert!((signed_area(&s).abs() - 800.0).abs() < 45.0);
+    }
+
+    #[test]
+    fn specks_merge_into_their_surroundings() {
+        let (w, h) = (10, 10);
+        let mut labels = vec![BACKGROUND; w * h];
+        for i in 0..w * h {
+            if i % w < 5 {
+                labels[i] = 1;
+            }
+        }
+        labels[5 * w + 8] = 2; // a one-pixel speck of object 2 on the background
+        labels[2 * w + 2] = BACKGROUND; // a pinhole in object 1
+        clean_labels(&mut labels, w, h, 3);
+        assert_eq!(labels[5 * w + 8], BACKGROUND);
+        assert_eq!(labels[2 * w + 2], 1);
+    }
+
+    #[test]
+    fn object_layers_go_far_to_near_and_include_what_is_in_front() {
+        let (w, h) = (20, 10);
+        let mut labels = vec![BACKGROUND; w * h];
+        let mut depth = vec![f32::INFINITY; w * h];
+        for y in 2..8 {
+            for x in 2..12 {
+                labels[y * w + x] = 7;
+                depth[y * w + x] = 5.0;
+            }
+            for x in 10..16 {
+                labels[y * w + x] = 3;
+                depth[y * w + x] = 2.0;
+            }
+        }
+        let l = layers(&labels, &depth, w, h, 10, 0.5);
+        assert_eq!(l.len(), 3);
+        // The far object (7) with the near one in front of it: 14 x 6 pixels; the near one 6 x 6.
+        assert!((area(&l[1].rings).abs() - 84.0).abs() < 1e-9, "{}", area(&l[1].rings));
+        assert!((area(&l[2].rings).abs() - 36.0).abs() < 1e-9);
+    }
+}

@@ -1,0 +1,157 @@
+//! What a facet may show (issue 13): background facets keep the backdrop (item 2, no ghosts),
+//! and a re-aimed facet's view shift stays within its own width (item 5, cues kept).
+//!
+//! The thesis re-aims every facet at its saliency centre. A facet that shows mostly backdrop
+//! has its saliency centre on the little geometry it touches (or none), so its rays turn
+//! towards the subject and the whole facet fills with a smooth, unfaceted, magnified copy of it:
+//! a ghost, up to 40% of the canvas with large Segment leftovers. The painters' backgrounds are
+//! planes of the backdrop, each with its own light, meeting the figure in passage; they are not
+//! second, enlarged views of the figure. So a facet is re-aimed only when at least
+//! `aim_min_coverage` of its pixels showed geometry in the pre-render: background facets keep
+//! the backdrop as the pre-render saw it (its planes are read from their borders and, with the
+//! painterly stage, their own light), and the subject's facets are re-aimed as the thesis says.
+//! With the planes faceting, whose facets are cut along the subject's outlines, almost every
+//! facet is all subject or all backdrop, so the rule rarely has to weigh a mixed one.
+
+use super::{AimContext, AimParams, FacetAim, FacetProjection};
+use crate::facets::FacetMap;
+
+/// Each facet's share of pixel coverage (the fraction of samples that hit geometry, averaged
+/// over its pixels) in the pre-render whose per-pixel coverage is `coverage`.
+pub fn facet_coverage(map: &FacetMap, coverage: impl Fn(usize) -> f32) -> Vec<f64> {
+    let n = map.facet_count as usize;
+    let mut sum = vec![(0.0f64, 0u64); n];
+    for (i, &id) in map.ids.iter().enumerate() {
+        let s = &mut sum[id as usize];
+        s.0 += coverage(i).clamp(0.0, 1.0) as f64;
+        s.1 += 1;
+    }
+    sum.iter().map(|&(c, k)| if k > 0 { c / k as f64 } else { 0.0 }).collect()
+}
+
+/// Undoes the re-aim of every facet whose pre-render coverage is below `min_coverage`; returns
+/// how many facets were held. `min_coverage` 0 holds none (the thesis's behaviour).
+pub fn hold_background(aims: &mut [FacetAim], coverage: &[f64], min_coverage: f64) -> usize {
+    if min_coverage <= 0.0 {
+        return 0;
+    }
+    let mut held = 0;
+    for (aim, &c) in aims.iter_mut().zip(coverage) {
+        if c < min_coverage && aim.moved() {
+            aim.reaim = None;
+            aim.linear = None;
+            aim.sc = aim.fc;
+            aim.target = None;
+            held += 1;
+        }
+    }
+    held
+}
+
+/// Each facet's mean width, pixels: twice its area over its perimeter (pixel edges facing
+/// another facet or the image's edge); 0 for a facet with no pixel.
+pub fn facet_widths(map: &FacetMap) -> Vec<f64> {
+    let (w, h) = (map.width as usize, map.height as usize);
+    let n = map.facet_count as usize;
+    let (mut area, mut perimeter) = (vec![0u64; n], vec![0u64; n]);
+    for y in 0..h {
+        for x in 0..w {
+            let i = y * w + x;
+            let id = map.ids[i] as usize;
+            area[id] += 1;
+            let differs = |j: Option<usize>| j.is_none_or(|j| map.ids[j] as usize != id);
+            perimeter[id] += [
+                differs((x > 0).then(|| i - 1)),
+                differs((x + 1 < w).then(|| i + 1)),
+                differs((y > 0).then(|| i - w)),
+                differs((y + 1 < h).then(|| i + w)),
+            ]
+            .iter()
+            .filter(|&&d| d)
+            .count() as u64;
+        }
+    }
+    area.iter().zip(&perimeter).map(|(&a, &p)| if p > 0 { 2.0 * a as f64 / p as f64 } else { 0.0 }).collect()
+}
+
+/// Keeps each re-aimed facet's view shift within `share` of its mean width: the aim point sc
+/// moves back towards fc until |sc - fc| <= share x width, and the facet is re-aimed again.
+/// Why: a thin plane (an arm, a guitar's neck, a finger) re-aimed by more than its width shows
+/// the ground beside the part instead of the part, and the cue is lost (issue 13 item 5). A
+/// shift within a fraction of the plane keeps what the plane showed recognisably its own.
+pub fn limit_shift(aims: &mut [FacetAim], widths: &[f64], share: f64, ctx: &AimContext) {
+    if share <= 0.0 {
+        return;
+    }
+    for (aim, &width) in aims.iter_mut().zip(widths) {
+        let (Some(fc), Some(sc)) = (aim.fc, aim.sc) else { continue };
+        if aim.reaim.is_none() {
+            continue;
+        }
+        let limit = share * width;
+        let d = (sc - fc).length();
+        if d <= limit {
+            continue;
+        }
+        let sc = fc + (sc - fc) * (limit / d);
+        aim.sc = Some(sc);
+        aim.reaim = None;
+        aim.target = None;
+        if sc != fc
+            && let Some((r, p)) = ctx.reaim(fc, sc)
+        {
+            if r.turn.length() > ctx.negligible_turn(fc) {
+                aim.reaim = Some(r);
+            }
+            aim.target = p;
+        }
+    }
+}
+
+/// Both rules, as `params` set them, on the aims `aim_facets` decided; `coverage(i)` is pixel
+/// i's pre-render coverage (the share of its samples that hit geometry).
+pub fn apply(
+    aims: &mut [FacetAim],
+    ctx: &AimContext,
+    map: &FacetMap,
+    coverage: impl Fn(usize) -> f32,
+    params: &AimParams,
+) {
+    if params.min_coverage > 0.0 {
+        let c = facet_coverage(map, coverage);
+        hold_background(aims, &c, params.min_coverage);
+    }
+    if params.width_share > 0.0 && params.projection == FacetProjection::Converging {
+        limit_shift(aims, &facet_widths(map), params.width_share, ctx);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{DVec2, DVec3};
+
+    use crate::imprecision::Reaim;
+
+    #[test]
+    fn background_facets_keep_their_view() {
+        // Facet 0: all background; facet 1: 3 of 4 pixels on geometry.
+        let map = FacetMap { width: 4, height: 2, ids: vec![0, 0, 1, 1, 0, 0, 1, 1], facet_count: 2 };
+        let cov = [0.0, 0.0, 1.0, 1.0, 0.0, 0.2, 1.0, 0.0];
+        let c = facet_coverage(&map, |i| cov[i]);
+        assert!((c[0] - 0.05).abs() < 1e-6 && (c[1] - 0.75).abs() < 1e-6, "{c:?}");
+        let moved = FacetAim {
+            fc: Some(DVec2::ONE),
+            sc_raw: Some(DVec2::ZERO),
+            sc: Some(DVec2::ZERO),
+            target: Some(DVec3::ZERO),
+            reaim: Some(Reaim { turn: DVec3::X * 0.1, focus: 1.0 }),
+            linear: None,
+        };
+        let mut aims = vec![moved, moved];
+        assert_eq!(hold_background(&mut aims.clone(), &c, 0.0), 0);
+        assert_eq!(hold_background(&mut aims, &c, 0.5), 1);
+        assert!(!aims[0].moved() && aims[0].sc == aims[0].fc);
+        assert!(aims[1].moved());
+    }
+}

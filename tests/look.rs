@@ -1,0 +1,138 @@
+//! The default look (issue 13) on scenes built in code, so these run on a fresh clone: the
+//! odd scenes (very tall, flat, z-up, several objects, far, huge, tiny) and the still life.
+//! Planes tile the canvas with straight edges, no facet dominates, the subject fills the
+//! canvas and stays whole, background facets show no ghost, and the picture is the same on
+//! any thread count. The thesis preset keeps the paper's method.
+
+use cubist::look::odd::odd_scenes;
+use cubist::pipeline::{self, Prepared};
+use cubist::progress::Progress;
+use cubist::settings::{Faceting, Framing, Preset, Settings};
+
+fn small(preset: Preset, w: u32, h: u32) -> Settings {
+    Settings { width: w, height: h, spp: 1, ..Settings::preset(preset) }
+}
+
+#[test]
+fn the_default_look_on_odd_scenes() {
+    let s = small(Preset::Analytic, 320, 240);
+    for (name, scene) in odd_scenes() {
+        let prep = Prepared::new(scene);
+        let look = pipeline::look(&prep, &s, &name).unwrap();
+        let r = &look.row;
+        eprintln!("{name}: {r:?}");
+        assert_eq!(r.planes, 1.0, "{name}: every pixel in a polygonal plane");
+        assert!(r.largest <= 0.10, "{name}: largest facet {:.3}", r.largest);
+        // At 320 x 240 a run of 1% of the diagonal is 4 px, so short chains weigh more than
+        // at the report's 640 x 480; the report holds the 97% target.
+        assert!(r.straight >= 0.9, "{name}: straight runs {:.3}", r.straight);
+        assert!(r.ghost <= 0.05, "{name}: ghost share {:.3}", r.ghost);
+        // A figure ten times taller than wide on a 4:3 canvas fills about a quarter of it within
+        // the composition's largest stretch (2.5); compact subjects fill half or more.
+        let least = match name.as_str() {
+            "odd-flat" | "odd-z-up" => 0.5,
+            _ => 0.22,
+        };
+        assert!(r.fill >= least, "{name}: subject fill {:.3}", r.fill);
+    }
+}
+
+#[test]
+fn composed_subjects_stay_whole() {
+    // The pre-render's outermost pixels show no geometry: no part of the subject is cut off.
+    let s = Settings { faceting: Faceting::None, ..small(Preset::Analytic, 160, 120) };
+    for (name, scene) in odd_scenes() {
+        let prep = Prepared::new(scene);
+        let r = pipeline::render(&prep, &s, &Progress::silent()).unwrap();
+        let (w, h) = (r.film.width as usize, r.film.height as usize);
+        let on_edge = (0..w * h)
+            .filter(|&i| {
+                let (x, y) = (i % w, i / w);
+                (x == 0 || y == 0 || x == w - 1 || y == h - 1) && r.film.hits[i].is_hit()
+            })
+            .count();
+        assert_eq!(on_edge, 0, "{name}: {on_edge} edge pixels show geometry ({})", r.camera);
+    }
+}
+
+#[test]
+fn same_look_on_any_thread_count() {
+    let s = small(Preset::Analytic, 96, 72);
+    let mut scenes: Vec<Prepared> = odd_scenes().into_iter().take(2).map(|(_, s)| Prepared::new(s)).collect();
+    scenes.push(Prepared::load(None).unwrap());
+    for prep in &scenes {
+        let render = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            pool.install(|| pipeline::render(prep, &s, &Progress::silent()).unwrap())
+        };
+        let (a, b, c) = (render(1), render(2), render(5));
+        assert_eq!(a.facets, b.facets);
+        assert_eq!(a.facets, c.facets);
+        assert_eq!(a.image, b.image);
+        assert_eq!(a.image, c.image);
+        assert_eq!(a.camera, c.camera);
+    }
+}
+
+#[test]
+fn the_thesis_preset_is_the_papers_method() {
+    let t = Settings::preset(Preset::Thesis);
+    assert_eq!(t.faceting, Faceting::Segment);
+    assert_eq!((t.segments.clone(), t.thresholds.clone()), (vec![5, 30, 120], vec![0.0, 0.05, 0.08]));
+    assert_eq!(t.framing, Framing::Fit);
+    assert_eq!((t.aim_min_coverage, t.aim_width_share), (0.0, 0.0), "every facet re-aimed, as the thesis");
+    assert_eq!((t.discontinuity, t.border_width), (200.0, 12.0));
+    assert_eq!(t.ambiguity, None, "140 deg");
+    // The still life through it has Segment's level-1 leftovers and re-aimed background facets.
+    let prep = Prepared::load(None).unwrap();
+    let look = pipeline::look(&prep, &small(Preset::Thesis, 160, 120), "still-life").unwrap();
+    assert!(look.row.planes < 1.0, "{:?}", look.row);
+    // The default is ours: planes, composed, the backdrop kept.
+    let d = Settings::default();
+    assert_eq!((d.preset, d.faceting, d.framing), (Preset::Analytic, Faceting::Planes, Framing::Compose));
+    assert!(d.aim_min_coverage > 0.0);
+}
+
+#[test]
+fn the_still_life_keeps_its_cues() {
+    // The top 5% salient vertices are seen at least about as often as in the unfaceted render.
+    let prep = Prepared::load(None).unwrap();
+    let look = pipeline::look(&prep, &small(Preset::Analytic, 320, 240), "still-life").unwrap();
+    assert!(look.row.cues_pre > 10, "{:?}", look.row);
+    assert!(look.row.cues_kept >= 0.95, "{:?}", look.row);
+}
+
+/// Compares `img` with the golden image `name` (tests/golden), rewriting it when
+/// CUBIST_UPDATE_GOLDEN is set. `max_big` channels may differ by more than 24 levels (a facet
+/// edge or an outline one pixel off on another CPU's floating point).
+fn check_golden(img: &image::RgbaImage, name: &str, max_mean: f64, max_big: usize) {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden").join(name);
+    if std::env::var_os("CUBIST_UPDATE_GOLDEN").is_some() {
+        img.save(&path).unwrap();
+    }
+    let want =
+        image::open(&path).unwrap_or_else(|e| panic!("{name}: {e} (CUBIST_UPDATE_GOLDEN=1 writes it)")).to_rgba8();
+    assert_eq!(want.dimensions(), img.dimensions(), "{name}");
+    let (mut total, mut big) = (0u64, 0usize);
+    for (a, b) in want.pixels().zip(img.pixels()) {
+        for k in 0..3 {
+            let d = (a.0[k] as i32 - b.0[k] as i32).unsigned_abs() as u64;
+            total += d;
+            big += (d > 24) as usize;
+        }
+    }
+    let mean = total as f64 / (img.width() * img.height() * 3) as f64;
+    assert!(mean < max_mean && big < max_big, "{name}: mean abs diff {mean:.3}, {big} channels off by > 24");
+}
+
+/// The default look and the thesis preset on the still life, against committed pictures: the
+/// thesis's must not change while its method does not; the default's changes only deliberately.
+#[test]
+fn golden_default_and_thesis_still_life() {
+    let prep = Prepared::load(None).unwrap();
+    for (preset, name) in [(Preset::Analytic, "still_life_default.png"), (Preset::Thesis, "still_life_thesis.png")] {
+        let s = Settings { spp: 2, ..small(preset, 160, 120) };
+        let r = pipeline::render(&prep, &s, &Progress::silent()).unwrap();
+        check_golden(&r.image, name, 1.5, 400);
+    }
+}
