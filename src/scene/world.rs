@@ -81,6 +81,12 @@ pub struct World {
 
 impl World {
     pub fn new(scene: &Scene) -> World {
+        World::with_render_space(scene, World::render_space(scene))
+    }
+
+    /// The render space of `scene`: centred on its bounding box, its farthest vertex at
+    /// distance 1.
+    pub fn render_space(scene: &Scene) -> Similarity {
         // Bounds in scene units (f64), over every placed vertex. Non-finite vertices (the
         // loader refuses them; a scene built in code may have them) never hit anything and
         // must not drag the render space to infinity.
@@ -111,8 +117,13 @@ impl World {
         }
         let r = r2.sqrt();
         let scale = if r > 0.0 && r.is_finite() && (1.0 / r).is_finite() { 1.0 / r } else { 1.0 };
-        let to_render = Similarity { centre, scale };
+        Similarity { centre, scale }
+    }
 
+    /// `scene` flattened into a given render space: animation frames share the layout frame's,
+    /// so a point keeps its render-space coordinates while nothing moves it.
+    pub fn with_render_space(scene: &Scene, to_render: Similarity) -> World {
+        let scale = to_render.scale;
         let n_tris = scene.triangle_count();
         let any_colors = scene.objects.iter().any(|o| scene.meshes[o.mesh].colors.is_some());
         let mut w = World {
