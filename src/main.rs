@@ -71,11 +71,20 @@ fn progress_for(mode: ProgressMode) -> Progress {
 
 fn run_render(args: RenderArgs) -> anyhow::Result<()> {
     let settings = args.settings.resolve(args.config.as_deref())?;
+    if args.frames.frames.is_some() {
+        return run_frames(args, settings);
+    }
     cubist::output::check_png_path(&args.output)?;
     let progress = progress_for(args.progress);
     progress.begin(Stage::Loading.name(), 1);
     let prep = Prepared::load(args.scene.as_deref())?;
     let rendered = cubist::render(&prep, &settings, &progress)?;
+    if let Some(rig) = &prep.scene.rig {
+        eprintln!(
+            "warning: {} animation(s) not played: a still shows the scene as loaded (render frames with --frames A-B)",
+            rig.clips.len()
+        );
+    }
     progress.begin(Stage::Writing.name(), 1);
     write_png(&args.output, &rendered.image)?;
     for (pass, img) in &rendered.passes {
@@ -100,6 +109,75 @@ fn run_render(args: RenderArgs) -> anyhow::Result<()> {
         eprintln!("{:>14}: {:>9.1} ms", "load+bvh", prep.build_time.as_secs_f64() * 1e3);
         for (stage, t) in &rendered.timings.0 {
             eprintln!("{stage:>14}: {:>9.1} ms", t.as_secs_f64() * 1e3);
+        }
+    }
+    Ok(())
+}
+
+/// `render --frames`: every frame in this process, each written (atomically) as it is done.
+fn run_frames(args: RenderArgs, settings: cubist::Settings) -> anyhow::Result<()> {
+    use cubist::cli::frames::{frame_path, parse_range};
+    use cubist::pipeline::FramesParams;
+    use cubist::scene::animation::Choice;
+    let f = &args.frames;
+    let (first, last) = parse_range(f.frames.as_deref().unwrap_or_default())?;
+    cubist::output::check_png_path(&frame_path(&args.output, first))?;
+    if let Some(dir) = args.output.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create the directory {}", dir.display()))?;
+    }
+    let progress = progress_for(args.progress);
+    progress.begin(Stage::Loading.name(), 1);
+    let prep = Prepared::load(args.scene.as_deref())?;
+    let has_clips = prep.scene.rig.as_ref().is_some_and(|r| !r.clips.is_empty());
+    let animation = match &f.animation {
+        Some(a) => Some(Choice::parse(a)),
+        None if has_clips => Some(Choice::Index(0)),
+        None => None,
+    };
+    let params = FramesParams {
+        first,
+        last,
+        fps: f.fps,
+        animation,
+        orbit_deg: f.orbit,
+        layout_frame: f.layout_frame,
+    };
+    let mut per_frame: Vec<(u32, cubist::pipeline::Timings, Option<f64>)> = Vec::new();
+    let summary = pipeline::render_frames(&prep, &settings, &params, &progress, &mut |out| {
+        let path = frame_path(&args.output, out.frame);
+        write_png(&path, &out.image)?;
+        for (pass, img) in &out.passes {
+            write_png(&pass_path(&path, pass.as_str()), img)?;
+        }
+        for (pass, img) in &out.passes16 {
+            write_png16(&pass_path(&path, pass.as_str()), img)?;
+        }
+        per_frame.push((out.frame, out.timings, out.revealed));
+        Ok(())
+    })?;
+    progress.begin(Stage::Done.name(), 1);
+    progress.finish();
+    for w in &summary.warnings {
+        eprintln!("warning: {w}");
+    }
+    if args.verbose {
+        eprintln!(
+            "scene: {} ({} triangles, {} objects), frames {first}-{last}",
+            prep.scene.source.display(),
+            prep.world.triangle_count(),
+            prep.world.objects.len()
+        );
+        eprintln!("camera: {}", summary.camera);
+        eprintln!("{:>18}: {:>9.1} ms", "load+bvh", prep.build_time.as_secs_f64() * 1e3);
+        for (step, t) in &summary.setup.0 {
+            eprintln!("{step:>18}: {:>9.1} ms (once)", t.as_secs_f64() * 1e3);
+        }
+        for (frame, timings, revealed) in &per_frame {
+            let total: f64 = timings.0.iter().map(|(_, t)| t.as_secs_f64()).sum();
+            let steps: Vec<String> =
+                timings.0.iter().map(|(s, t)| format!("{s} {:.0}", t.as_secs_f64() * 1e3)).collect();
+            let revealed = revealed.map(|r| format!(", revealed {:.1}%", r * 100.0)).unwrap_or_default();
+            eprintln!("frame {frame}: {:.1} ms ({}){revealed}", total * 1e3, steps.join(", "));
         }
     }
     Ok(())

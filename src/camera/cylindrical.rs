@@ -4,9 +4,9 @@
 
 use glam::{DVec2, DVec3};
 
-use super::{Camera, CameraFrame, CameraRay, Nearest, Projected, finish_ray};
+use super::{Camera, CameraFrame, CameraModel, CameraRay, Nearest, Projected, finish_ray};
 
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Cylindrical {
     pub frame: CameraFrame,
     /// The focal line passes through this point along `frame.up`.
@@ -49,5 +49,9 @@ impl Camera for Cylindrical {
             best.offer(DVec2::new(theta / self.angle_x, y), depth);
         }
         best.get()
+    }
+
+    fn model(&self) -> CameraModel {
+        CameraModel::Cylindrical(self.clone())
     }
 }

@@ -106,6 +106,47 @@ pub trait Camera: Send + Sync {
     /// pinhole or an image plane). Facets that follow the scene (`facets::motion`) carry a
     /// surface point from one frame's picture to another's with it.
     fn project(&self, q: DVec3) -> Option<Projected>;
+
+    /// The camera as plain data, to save beside a facet layout and rebuild in another process
+    /// (the frames of a render farm carry facets from the layout frame's camera).
+    fn model(&self) -> CameraModel;
+}
+
+/// Every camera as a serialisable value; it is itself a `Camera`.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum CameraModel {
+    Spherical(Spherical),
+    Cylindrical(Cylindrical),
+    Planar(Planar),
+    Perspective(Perspective),
+    Orthographic(Orthographic),
+    Moved(Box<moved::MovedModel>),
+}
+
+impl CameraModel {
+    pub fn camera(&self) -> &dyn Camera {
+        match self {
+            CameraModel::Spherical(c) => c,
+            CameraModel::Cylindrical(c) => c,
+            CameraModel::Planar(c) => c,
+            CameraModel::Perspective(c) => c,
+            CameraModel::Orthographic(c) => c,
+            CameraModel::Moved(c) => c.as_ref(),
+        }
+    }
+}
+
+impl Camera for CameraModel {
+    fn ray(&self, p: DVec2) -> CameraRay {
+        self.camera().ray(p)
+    }
+    fn project(&self, q: DVec3) -> Option<Projected> {
+        self.camera().project(q)
+    }
+    fn model(&self) -> CameraModel {
+        self.clone()
+    }
 }
 
 /// Where a camera sees a point (`Camera::project`).
@@ -155,7 +196,7 @@ impl Nearest {
 
 /// An orthonormal camera frame: `forward` is the view direction c_d, `up` is u and
 /// `right` is the horizontal direction h (the image's +x), right-handed.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct CameraFrame {
     pub position: DVec3,
     pub forward: DVec3,

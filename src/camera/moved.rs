@@ -5,7 +5,7 @@
 
 use glam::{DQuat, DVec2, DVec3};
 
-use super::{Camera, CameraFrame, CameraRay, Projected, finish_ray};
+use super::{Camera, CameraFrame, CameraModel, CameraRay, Projected, finish_ray};
 
 /// `inner` rotated by `rotation` about the render-space origin, then shifted by `translation`.
 pub struct Moved<'a> {
@@ -43,5 +43,46 @@ impl Camera for Moved<'_> {
 
     fn project(&self, q: DVec3) -> Option<Projected> {
         self.inner.project(self.rotation.inverse() * (q - self.translation))
+    }
+
+    fn model(&self) -> CameraModel {
+        CameraModel::Moved(Box::new(MovedModel {
+            inner: self.inner.model(),
+            rotation: self.rotation,
+            translation: self.translation,
+            clip_radius: self.clip_radius,
+        }))
+    }
+}
+
+/// A `Moved` camera as plain data (`CameraModel::Moved`).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct MovedModel {
+    pub inner: CameraModel,
+    pub rotation: DQuat,
+    pub translation: DVec3,
+    pub clip_radius: f64,
+}
+
+impl MovedModel {
+    fn moved(&self) -> Moved<'_> {
+        Moved {
+            inner: self.inner.camera(),
+            rotation: self.rotation,
+            translation: self.translation,
+            clip_radius: self.clip_radius,
+        }
+    }
+}
+
+impl Camera for MovedModel {
+    fn ray(&self, p: DVec2) -> CameraRay {
+        self.moved().ray(p)
+    }
+    fn project(&self, q: DVec3) -> Option<Projected> {
+        self.moved().project(q)
+    }
+    fn model(&self) -> CameraModel {
+        CameraModel::Moved(Box::new(self.clone()))
     }
 }

@@ -2,9 +2,9 @@
 
 use glam::{DVec2, DVec3};
 
-use super::{Camera, CameraFrame, CameraRay, Projected, finish_ray};
+use super::{Camera, CameraFrame, CameraModel, CameraRay, Projected, finish_ray};
 
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Orthographic {
     /// `frame.position` is the centre of the view plane.
     pub frame: CameraFrame,
@@ -33,5 +33,9 @@ impl Camera for Orthographic {
         }
         let screen = DVec2::new(rel.dot(f.right) / (self.height * self.aspect), rel.dot(f.up) / self.height);
         screen.is_finite().then_some(Projected { screen, depth })
+    }
+
+    fn model(&self) -> CameraModel {
+        CameraModel::Orthographic(self.clone())
     }
 }

@@ -2,9 +2,9 @@
 
 use glam::{DVec2, DVec3};
 
-use super::{Camera, CameraFrame, CameraRay, Projected, finish_ray};
+use super::{Camera, CameraFrame, CameraModel, CameraRay, Projected, finish_ray};
 
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Perspective {
     pub frame: CameraFrame,
     /// tan(vertical field of view / 2).
@@ -39,5 +39,9 @@ impl Camera for Perspective {
             rel.dot(f.up) / (a * 2.0 * self.tan_half_fov),
         );
         screen.is_finite().then_some(Projected { screen, depth: rel.length() })
+    }
+
+    fn model(&self) -> CameraModel {
+        CameraModel::Perspective(self.clone())
     }
 }

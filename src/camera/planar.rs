@@ -3,9 +3,9 @@
 
 use glam::{DVec2, DVec3};
 
-use super::{Camera, CameraFrame, CameraRay, Projected, finish_ray};
+use super::{Camera, CameraFrame, CameraModel, CameraRay, Projected, finish_ray};
 
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Planar {
     /// `frame.position` is the plane's centre c_p.
     pub frame: CameraFrame,
@@ -66,5 +66,9 @@ impl Camera for Planar {
         let depth = a * (f.forward - offset * self.inv_focal_length).length();
         let screen = DVec2::new(offset.dot(f.right) / (self.size * self.aspect), offset.dot(f.up) / self.size);
         (screen.is_finite() && depth.is_finite()).then_some(Projected { screen, depth })
+    }
+
+    fn model(&self) -> CameraModel {
+        CameraModel::Planar(self.clone())
     }
 }

@@ -3,9 +3,9 @@
 
 use glam::{DVec2, DVec3};
 
-use super::{Camera, CameraFrame, CameraRay, Nearest, Projected, finish_ray};
+use super::{Camera, CameraFrame, CameraModel, CameraRay, Nearest, Projected, finish_ray};
 
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Spherical {
     /// Orientation (position is unused: rays are placed by `centre` and `distance`).
     pub frame: CameraFrame,
@@ -71,5 +71,9 @@ impl Camera for Spherical {
             }
         }
         best.get()
+    }
+
+    fn model(&self) -> CameraModel {
+        CameraModel::Spherical(self.clone())
     }
 }

@@ -11,7 +11,8 @@ use serde_json::{Map, Value};
 
 use crate::error::Result;
 use crate::settings::{
-    CameraKind, FacetProjection, Faceting, Framing, Imprecision, Palette, Pass, Preset, SaliencyMethod, Settings,
+    CameraKind, FacetMotion, FacetProjection, Faceting, Framing, Imprecision, Palette, Pass, Preset, SaliencyMethod,
+    Settings,
 };
 
 /// Every setting as an optional flag. Keys (after serde) are those of `Settings`; flags not
@@ -197,6 +198,10 @@ pub struct SettingsArgs {
     /// Directory keeping per-mesh saliency across runs, keyed by mesh content (created if missing)
     #[arg(long, value_name = "DIR", help_heading = "Saliency")]
     pub saliency_cache: Option<PathBuf>,
+
+    /// How facets move over animation frames: static = the layout frame's facets stay on the image (the thesis); follow = each surface point keeps its facet, carried with the scene's motion [default: static]
+    #[arg(long, value_enum, help_heading = "Animation")]
+    pub facet_motion: Option<FacetMotion>,
 
     /// Extra image written beside the output as <stem>.<pass>.png; repeat for several
     #[arg(long = "pass", value_enum, help_heading = "Outputs")]

@@ -21,6 +21,7 @@
 //! `inspect_facets` (`cubist facets`) and `evaluate` (`cubist faces`).
 
 mod faces;
+pub mod frames;
 mod inspect;
 pub mod params;
 mod prepared;
@@ -44,6 +45,7 @@ use crate::settings::Settings;
 use crate::trace::TraceParams;
 
 pub use faces::{evaluate, visible_faces};
+pub use frames::{FrameOutput, FramesParams, FramesSummary, render_frames};
 pub use inspect::{Inspection, faceting_input, inspect_facets};
 pub use params::StageParams;
 pub use prepared::Prepared;

@@ -4,6 +4,7 @@
 
 use crate::camera::{self, FramingParams};
 use crate::facets::segment::{SegmentParams, SegmentWeights};
+use crate::facets::motion::FacetMotion;
 use crate::facets::{self, FacetMethod, FacetParams};
 use crate::imprecision::{AimMode, AimParams, FacetProjection};
 use crate::output::Pass;
@@ -30,6 +31,8 @@ pub struct StageParams {
     pub passes: Vec<Pass>,
     /// Where the facet layout used is saved, for reuse by later frames.
     pub save_facets: Option<std::path::PathBuf>,
+    /// How facets move between animation frames.
+    pub motion: FacetMotion,
 }
 
 impl StageParams {
@@ -44,6 +47,7 @@ impl StageParams {
             paint: paint(s),
             passes: s.passes.iter().map(|&p| pass(p)).collect(),
             save_facets: s.save_facets.clone(),
+            motion: facet_motion(s.facet_motion),
         }
     }
 
@@ -84,6 +88,13 @@ pub fn camera_kind(k: settings::CameraKind) -> camera::CameraKind {
         settings::CameraKind::Planar => C::Planar,
         settings::CameraKind::Perspective => C::Perspective,
         settings::CameraKind::Orthographic => C::Orthographic,
+    }
+}
+
+pub fn facet_motion(m: settings::FacetMotion) -> FacetMotion {
+    match m {
+        settings::FacetMotion::Static => FacetMotion::Static,
+        settings::FacetMotion::Follow => FacetMotion::Follow,
     }
 }
 

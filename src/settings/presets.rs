@@ -1,7 +1,9 @@
 //! The values before any preset (the bare cubist camera) and what each preset sets. The
 //! defaults of `Settings` are the `analytic` preset's.
 
-use super::{CameraKind, FacetProjection, Faceting, Framing, Imprecision, Palette, Preset, SaliencyMethod, Settings};
+use super::{
+    CameraKind, FacetMotion, FacetProjection, Faceting, Framing, Imprecision, Palette, Preset, SaliencyMethod, Settings,
+};
 
 impl Default for Settings {
     fn default() -> Self {
@@ -65,6 +67,7 @@ impl Settings {
             chiaroscuro: 0.0,
             saliency_method: SaliencyMethod::Auto,
             saliency_cache: None,
+            facet_motion: FacetMotion::Static,
             passes: Vec::new(),
         }
     }

@@ -8,7 +8,9 @@
 use clap::ValueEnum;
 use serde::Serialize;
 
-use super::{CameraKind, FacetProjection, Faceting, Framing, Imprecision, Palette, Pass, Preset, SaliencyMethod};
+use super::{
+    CameraKind, FacetMotion, FacetProjection, Faceting, Framing, Imprecision, Palette, Pass, Preset, SaliencyMethod,
+};
 use super::{MAX_FACETS, MAX_SIDE};
 
 /// The JSON type of a key's value.
@@ -190,6 +192,7 @@ pub const FIELDS: &[Field] = &[
     field("chiaroscuro", Number).range(UNIT),
     field("saliency_method", Enum).choices(choices::<SaliencyMethod>),
     field("saliency_cache", Path).nullable(),
+    field("facet_motion", Enum).choices(choices::<FacetMotion>),
     field("passes", Array).of(Enum).choices(choices::<Pass>),
 ];
 
