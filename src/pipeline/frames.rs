@@ -37,6 +37,7 @@ use crate::facets::{self, FacetMap, FacetMethod};
 use crate::film::Film;
 use crate::imprecision::{self, AimContext, FacetAim};
 use crate::output::{Gray16, Pass};
+use crate::paint::chiaroscuro::ViewAxes;
 use crate::paint::{Lighting, Painter};
 use crate::progress::Progress;
 use crate::saliency;
@@ -225,9 +226,14 @@ impl<'a> Poser<'a> {
         let pose = rig.pose(&self.clips, frames.time(f), |m| &rest.meshes[m].triangles);
         animation::apply(&mut self.scene, &pose);
         let space = *self.space.get_or_insert_with(|| World::render_space(&self.scene));
-        let world = World::with_render_space(&self.scene, space);
+        let world = World::in_space(&self.scene, space);
+        // Only geometries whose content changed get a BVH (`Accel::update` keys them by
+        // content): the result is the same BVH as a fresh build, whatever frame came before.
         let accel = match previous {
-            Some(Geometry::Posed { world: w, accel, .. }) if w.positions == world.positions => accel,
+            Some(Geometry::Posed { mut accel, .. }) => {
+                accel.update(&world);
+                accel
+            }
             _ => Accel::new(&world),
         };
         Geometry::Posed { frame: f, world, accel }
@@ -297,7 +303,7 @@ pub fn key_data(world: &World, accel: &Accel, camera: &dyn Camera, trace: &Trace
         camera.ray(screen_point(x, y, DVec2::splat(0.5), w, h)).skipped
     };
     let (tri, depth) = motion::key_buffers(&film, skipped);
-    KeyData { width: w, height: h, tri, depth, positions: world.positions.clone(), camera: camera.model() }
+    KeyData { width: w, height: h, tri, depth, positions: (0..world.triangle_count()).map(|t| world.triangle(t as u32)).collect(), camera: camera.model() }
 }
 
 /// The layout (loaded, or made from the layout frame's full pre-render) and, for facets that
@@ -424,7 +430,8 @@ fn render_frame(
         Vec::new()
     };
 
-    let rig = LightRig::new(world, &camera.frame(&base.frame), trace.shadows, trace.exposure);
+    let view = camera.frame(&base.frame);
+    let rig = LightRig::new(world, &view, trace.shadows, trace.exposure);
     let tracer = Tracer { world, accel, rig: Some(&rig), background: Vec3::from(trace.background), seed: trace.seed };
     let mut film = Film::new(trace.width, trace.height, trace.spp);
     let rays = |i: usize, p: DVec2| {
@@ -438,7 +445,8 @@ fn render_frame(
     film.saliency = saliency;
 
     if plan.paint {
-        let lighting = Lighting { world, rig: &rig };
+        let axes = ViewAxes { right: view.right.as_vec3(), up: view.up.as_vec3(), forward: view.forward.as_vec3() };
+        let lighting = Lighting { world, rig: &rig, view: axes };
         timings.time(Stage::Paint.name(), || painter.apply(&mut film, keep.faceted.then_some(&map), Some(&lighting)))?;
     }
     let (image, passes, passes16) = encode_stage(&film, &map, &aims, params, &mut timings);
