@@ -201,14 +201,7 @@ fn run_frames(args: RenderArgs, settings: cubist::Settings) -> anyhow::Result<()
         None if has_clips => Some(Choice::Index(0)),
         None => None,
     };
-    let params = FramesParams {
-        first,
-        last,
-        fps: f.fps,
-        animation,
-        orbit_deg: f.orbit,
-        layout_frame: f.layout_frame,
-    };
+    let params = FramesParams { first, last, fps: f.fps, animation, orbit_deg: f.orbit, layout_frame: f.layout_frame };
     let mut per_frame: Vec<(u32, cubist::pipeline::Timings, Option<f64>)> = Vec::new();
     let summary = pipeline::render_frames(&prep, &settings, &params, &progress, &mut |out| {
         let path = frame_path(&args.output, out.frame);

@@ -181,7 +181,7 @@ impl Nearest {
             None => true,
             Some(b) => {
                 let (kc, kb) = (key(&c), key(b));
-                kc.0 < kb.0 || (kc.0 == kb.0 && (kc.1 < kb.1 || (kc.1 == kb.1 && kc.2 < kb.2)))
+                (!kc.0 & kb.0) || (kc.0 == kb.0 && (kc.1 < kb.1 || (kc.1 == kb.1 && kc.2 < kb.2)))
             }
         };
         if better {

@@ -60,7 +60,7 @@ impl Camera for Planar {
         if spread.abs() < 1e-12 {
             // The focal plane: f_p itself is on every ray (the central one is chosen).
             let at_focus = across.length() < 1e-12 * a.max(1.0);
-            return at_focus.then(|| Projected { screen: DVec2::ZERO, depth: a });
+            return at_focus.then_some(Projected { screen: DVec2::ZERO, depth: a });
         }
         let offset = across / spread;
         let depth = a * (f.forward - offset * self.inv_focal_length).length();

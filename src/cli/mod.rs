@@ -92,7 +92,14 @@ pub struct FramesArgs {
     /// Turntable: the camera turns this many degrees per frame about the scene's vertical axis
     /// (through its centre; positive turns it counter-clockwise seen from above); only the
     /// camera moves (and the default lights, which follow it)
-    #[arg(long, value_name = "DEG", default_value_t = 0.0, allow_negative_numbers = true, requires = "frames", help_heading = "Animation")]
+    #[arg(
+        long,
+        value_name = "DEG",
+        default_value_t = 0.0,
+        allow_negative_numbers = true,
+        requires = "frames",
+        help_heading = "Animation"
+    )]
     pub orbit: f64,
     /// The frame the facet layout is made at, which also fixes the camera's framing
     #[arg(long, value_name = "N", default_value_t = 1, requires = "frames", help_heading = "Animation")]

@@ -12,8 +12,7 @@ use serde_json::{Map, Value};
 use crate::error::Result;
 use crate::settings::{
     BorderStyle, CameraKind, FacetMotion, FacetProjection, Faceting, Framing, Imprecision, Palette, Pass, Preset,
-    SaliencyMethod,
-    Settings,
+    SaliencyMethod, Settings,
 };
 
 /// Every setting as an optional flag. Keys (after serde) are those of `Settings`; flags not

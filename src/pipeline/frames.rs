@@ -81,7 +81,10 @@ impl FramesParams {
             return bad("frames", format!("{}-{}: the first frame is after the last", self.first, self.last));
         }
         if self.last - self.first >= MAX_FRAMES {
-            return bad("frames", format!("{} frames exceed the limit of {MAX_FRAMES} per run", self.last - self.first + 1));
+            return bad(
+                "frames",
+                format!("{} frames exceed the limit of {MAX_FRAMES} per run", self.last - self.first + 1),
+            );
         }
         if !(self.fps > 0.0 && self.fps <= MAX_FPS) {
             return bad("fps", format!("{} is not in (0, {MAX_FPS}]", self.fps));
@@ -150,8 +153,7 @@ pub fn render_frames(
     };
     let camera_line = base.describe(key_geometry.world());
 
-    let keep =
-        setup.time("layout", || key_frame(prep, &params, frames, &key_geometry, &cameras, &mut warnings))?;
+    let keep = setup.time("layout", || key_frame(prep, &params, frames, &key_geometry, &cameras, &mut warnings))?;
     if params.motion == FacetMotion::Follow && !keep.faceted {
         warnings.push("facet motion `follow` has no effect without facets".into());
     }
@@ -173,7 +175,11 @@ pub fn render_frames(
 enum Geometry<'a> {
     /// Nothing is animated: the loaded scene's own.
     Rest(&'a World, &'a Accel),
-    Posed { frame: u32, world: World, accel: Accel },
+    Posed {
+        frame: u32,
+        world: Box<World>,
+        accel: Box<Accel>,
+    },
 }
 
 impl Geometry<'_> {
@@ -234,9 +240,9 @@ impl<'a> Poser<'a> {
                 accel.update(&world);
                 accel
             }
-            _ => Accel::new(&world),
+            _ => Box::new(Accel::new(&world)),
         };
-        Geometry::Posed { frame: f, world, accel }
+        Geometry::Posed { frame: f, world: Box::new(world), accel }
     }
 }
 
@@ -303,7 +309,14 @@ pub fn key_data(world: &World, accel: &Accel, camera: &dyn Camera, trace: &Trace
         camera.ray(screen_point(x, y, DVec2::splat(0.5), w, h)).skipped
     };
     let (tri, depth) = motion::key_buffers(&film, skipped);
-    KeyData { width: w, height: h, tri, depth, positions: (0..world.triangle_count()).map(|t| world.triangle(t as u32)).collect(), camera: camera.model() }
+    KeyData {
+        width: w,
+        height: h,
+        tri,
+        depth,
+        positions: (0..world.triangle_count()).map(|t| world.triangle(t as u32)).collect(),
+        camera: camera.model(),
+    }
 }
 
 /// The layout (loaded, or made from the layout frame's full pre-render) and, for facets that
@@ -326,7 +339,8 @@ fn key_frame(
     // their layout from their parameters, so no pre-render is traced for them.
     let film = if faceted && computes_segments {
         let rig = LightRig::new(world, &camera.frame(&cameras.base.frame), trace.shadows, trace.exposure);
-        let tracer = Tracer { world, accel, rig: Some(&rig), background: Vec3::from(trace.background), seed: trace.seed };
+        let tracer =
+            Tracer { world, accel, rig: Some(&rig), background: Vec3::from(trace.background), seed: trace.seed };
         let mut film = Film::new(trace.width, trace.height, trace.spp);
         tracer.render(&mut film, &|_, p| camera.ray(p), None, &Progress::silent());
         if plan.saliency {
@@ -425,7 +439,8 @@ fn render_frame(
 
     let ctx = AimContext { camera, accel, width: trace.width, height: trace.height, clip_radius: camera.clip_radius };
     let aims: Vec<FacetAim> = if plan.imprecision {
-        timings.time(Stage::Imprecision.name(), || imprecision::aim_facets(&ctx, &map, saliency.as_deref(), &params.aim))
+        timings
+            .time(Stage::Imprecision.name(), || imprecision::aim_facets(&ctx, &map, saliency.as_deref(), &params.aim))
     } else {
         Vec::new()
     };
@@ -447,7 +462,8 @@ fn render_frame(
     if plan.paint {
         let axes = ViewAxes { right: view.right.as_vec3(), up: view.up.as_vec3(), forward: view.forward.as_vec3() };
         let lighting = Lighting { world, rig: &rig, view: axes };
-        timings.time(Stage::Paint.name(), || painter.apply(&mut film, keep.faceted.then_some(&map), Some(&lighting)))?;
+        timings
+            .time(Stage::Paint.name(), || painter.apply(&mut film, keep.faceted.then_some(&map), Some(&lighting)))?;
     }
     let (image, passes, passes16) = encode_stage(&film, &map, &aims, params, &mut timings);
     Ok(FrameOutput { frame, image, passes, passes16, facets: map, timings, revealed })

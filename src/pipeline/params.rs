@@ -3,8 +3,8 @@
 //! cached on exactly what it depends on). A new setting is read here and nowhere else.
 
 use crate::camera::{self, FramingParams};
-use crate::facets::segment::{SegmentParams, SegmentWeights};
 use crate::facets::motion::FacetMotion;
+use crate::facets::segment::{SegmentParams, SegmentWeights};
 use crate::facets::{self, FacetMethod, FacetParams};
 use crate::imprecision::{AimMode, AimParams, FacetProjection};
 use crate::output::Pass;

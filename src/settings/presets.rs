@@ -2,7 +2,8 @@
 //! defaults of `Settings` are the `analytic` preset's.
 
 use super::{
-    BorderStyle, CameraKind, FacetMotion, FacetProjection, Faceting, Framing, Imprecision, Palette, Preset, SaliencyMethod, Settings,
+    BorderStyle, CameraKind, FacetMotion, FacetProjection, Faceting, Framing, Imprecision, Palette, Preset,
+    SaliencyMethod, Settings,
 };
 
 impl Default for Settings {

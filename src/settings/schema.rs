@@ -13,7 +13,8 @@ use super::validate::{
     MAX_WEIGHT,
 };
 use super::{
-    BorderStyle, CameraKind, FacetMotion, FacetProjection, Faceting, Framing, Imprecision, Palette, Pass, Preset, SaliencyMethod,
+    BorderStyle, CameraKind, FacetMotion, FacetProjection, Faceting, Framing, Imprecision, Palette, Pass, Preset,
+    SaliencyMethod,
 };
 use super::{MAX_FACETS, MAX_SIDE};
 

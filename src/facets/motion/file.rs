@@ -125,7 +125,11 @@ pub fn load(path: &Path) -> Result<KeyData> {
     let word = |k: usize| [body[4 * k], body[4 * k + 1], body[4 * k + 2], body[4 * k + 3]];
     let tris = h.triangles as usize;
     let positions: Vec<[Vec3; 3]> = (0..tris)
-        .map(|t| std::array::from_fn(|c| Vec3::from_array(std::array::from_fn(|k| f32::from_le_bytes(word(t * 9 + c * 3 + k))))))
+        .map(|t| {
+            std::array::from_fn(|c| {
+                Vec3::from_array(std::array::from_fn(|k| f32::from_le_bytes(word(t * 9 + c * 3 + k))))
+            })
+        })
         .collect();
     let base = tris * 9;
     let n = pixels as usize;
@@ -155,7 +159,13 @@ mod tests {
             tri: vec![0, NO_HIT],
             depth: vec![2.5, f32::INFINITY],
             positions: vec![[Vec3::ZERO, Vec3::X, Vec3::new(0.1, 0.7, -0.2)]],
-            camera: CameraModel::Orthographic(Orthographic { frame, height: 2.0, aspect: 2.0, focus: 3.0, clip_radius: 1.0 }),
+            camera: CameraModel::Orthographic(Orthographic {
+                frame,
+                height: 2.0,
+                aspect: 2.0,
+                focus: 3.0,
+                clip_radius: 1.0,
+            }),
         }
     }
 

@@ -60,7 +60,7 @@ impl Sampler {
         }
         let per_key = if interpolation == Interpolation::CubicSpline { 3 } else { 1 };
         let expected = times.len() as u64 * per_key;
-        if values.len() % width != 0 || (values.len() / width) as u64 != expected {
+        if !values.len().is_multiple_of(width) || (values.len() / width) as u64 != expected {
             return Err(format!(
                 "{} output elements for {} keyframes (of {width} number(s) each); {} needs {expected}",
                 values.len() as f64 / width as f64,

@@ -20,6 +20,9 @@ use crate::scene::animation::{Channel, Clip, Interpolation, Local, Property, Rig
 /// Keyframe times and values decoded for all animations together, numbers (1 GB of f32).
 const MAX_ANIMATION_VALUES: usize = 1 << 28;
 
+/// Samplers read so far, by (input, output, interpolation, width): each read once.
+type SamplerCache = HashMap<(usize, usize, u8, usize), Result<Arc<Sampler>, String>>;
+
 impl<'a> Loader<'a> {
     /// Every node's parent, rest transform and rest morph weights (`order` is filled as the
     /// scene is walked).
@@ -52,7 +55,7 @@ impl<'a> Loader<'a> {
 
     /// Reads every animation into `rig.clips`.
     pub(super) fn load_animations(&self, rig: &mut Rig) {
-        let mut cache: HashMap<(usize, usize, u8, usize), Result<Arc<Sampler>, String>> = HashMap::new();
+        let mut cache: SamplerCache = HashMap::new();
         let mut budget = MAX_ANIMATION_VALUES;
         for anim in self.doc.animations() {
             let clip = self.clip(&anim, rig, &mut cache, &mut budget);
@@ -64,7 +67,7 @@ impl<'a> Loader<'a> {
         &self,
         anim: &gltf::Animation,
         rig: &Rig,
-        cache: &mut HashMap<(usize, usize, u8, usize), Result<Arc<Sampler>, String>>,
+        cache: &mut SamplerCache,
         budget: &mut usize,
     ) -> Result<Clip, String> {
         let name = anim.name().map(str::to_string).unwrap_or_else(|| format!("animation {}", anim.index()));
