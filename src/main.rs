@@ -188,6 +188,17 @@ fn run_frames(args: RenderArgs, settings: cubist::Settings) -> anyhow::Result<()
     use cubist::scene::animation::Choice;
     let f = &args.frames;
     let (first, last) = parse_range(f.frames.as_deref().unwrap_or_default())?;
+    let mut params = FramesParams {
+        first,
+        last,
+        fps: f.fps,
+        animation: f.animation.as_deref().map(Choice::parse),
+        orbit_deg: f.orbit,
+        layout_frame: f.layout_frame,
+        measure: false,
+    };
+    // Every flag checked before anything is created, loaded or traced.
+    params.validate()?;
     cubist::output::check_png_path(&frame_path(&args.output, first))?;
     if let Some(dir) = args.output.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create the directory {}", dir.display()))?;
@@ -195,13 +206,10 @@ fn run_frames(args: RenderArgs, settings: cubist::Settings) -> anyhow::Result<()
     let progress = progress_for(args.progress);
     progress.begin(Stage::Loading.name(), 1);
     let prep = Prepared::load_with(args.scene.as_deref(), pipeline::params::load_options(&settings))?;
-    let has_clips = prep.scene.rig.as_ref().is_some_and(|r| !r.clips.is_empty());
-    let animation = match &f.animation {
-        Some(a) => Some(Choice::parse(a)),
-        None if has_clips => Some(Choice::Index(0)),
-        None => None,
-    };
-    let params = FramesParams { first, last, fps: f.fps, animation, orbit_deg: f.orbit, layout_frame: f.layout_frame };
+    // The first animation by default, when the file has any.
+    if params.animation.is_none() && prep.scene.rig.as_ref().is_some_and(|r| !r.clips.is_empty()) {
+        params.animation = Some(Choice::Index(0));
+    }
     let mut per_frame: Vec<(u32, cubist::pipeline::Timings, Option<f64>)> = Vec::new();
     let summary = pipeline::render_frames(&prep, &settings, &params, &progress, &mut |out| {
         let path = frame_path(&args.output, out.frame);

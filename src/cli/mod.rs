@@ -84,7 +84,7 @@ pub struct FramesArgs {
     #[arg(long, value_name = "A-B", help_heading = "Animation")]
     pub frames: Option<String>,
     /// Frames per second: frame f is the animation at (f - 1) / fps seconds
-    #[arg(long, default_value_t = 24.0, requires = "frames", help_heading = "Animation")]
+    #[arg(long, default_value_t = 24.0, requires = "frames", help_heading = "Animation", value_parser = settings_args::finite_f64)]
     pub fps: f64,
     /// The glTF animation played, by name or index, or `all` of them at once [default: the first, if any]
     #[arg(long, value_name = "NAME|INDEX|all", requires = "frames", help_heading = "Animation")]
@@ -98,6 +98,7 @@ pub struct FramesArgs {
         default_value_t = 0.0,
         allow_negative_numbers = true,
         requires = "frames",
+        value_parser = settings_args::finite_f64,
         help_heading = "Animation"
     )]
     pub orbit: f64,

@@ -236,7 +236,7 @@ pub struct SettingsArgs {
 
 /// A flag's number: finite, so that NaN or infinity is an error naming the flag (never read
 /// as "automatic"; JSON has no NaN).
-fn finite_f64(s: &str) -> std::result::Result<f64, String> {
+pub(crate) fn finite_f64(s: &str) -> std::result::Result<f64, String> {
     let v: f64 = s.trim().parse().map_err(|e| format!("not a number ({e})"))?;
     if v.is_finite() { Ok(v) } else { Err("not a finite number".into()) }
 }

@@ -32,7 +32,7 @@ use crate::accel::Accel;
 use crate::camera::{Camera, Framed, Moved, frame_camera};
 use crate::error::{Error, Result};
 use crate::facets::motion::file::{self as follow_file, KeyData};
-use crate::facets::motion::{self, FacetMotion};
+use crate::facets::motion::{self, FacetMotion, Surface};
 use crate::facets::{self, FacetMap, FacetMethod};
 use crate::film::Film;
 use crate::imprecision::{self, AimContext, FacetAim};
@@ -67,6 +67,9 @@ pub struct FramesParams {
     /// The frame whose picture the facet layout is made from, and whose pose fixes the render
     /// space and the camera's framing.
     pub layout_frame: u32,
+    /// Keep what each frame shows (`FrameOutput::surface`), to measure coherence between
+    /// frames (`facets::motion::coherence`).
+    pub measure: bool,
 }
 
 impl FramesParams {
@@ -108,6 +111,8 @@ pub struct FrameOutput {
     /// With facets that follow: the fraction of surface pixels the layout frame did not see
     /// (their facets grown from their neighbours').
     pub revealed: Option<f64>,
+    /// What the frame shows, per pixel (with `FramesParams::measure`).
+    pub surface: Option<Surface>,
 }
 
 /// What the whole run decided, for the user.
@@ -164,7 +169,19 @@ pub fn render_frames(
         let mut timings = Timings::default();
         geometry = timings.time("geometry", || poser.geometry(frames, f, Some(geometry)));
         let camera = cameras.at(f, geometry.world());
-        let out = render_frame(prep, &params, &keep, &painter, &geometry, &camera, &base, f, timings, progress)?;
+        let out = render_frame(
+            prep,
+            &params,
+            &keep,
+            &painter,
+            &geometry,
+            &camera,
+            &base,
+            f,
+            frames.measure,
+            timings,
+            progress,
+        )?;
         emit(out)?;
     }
     progress.finish();
@@ -302,13 +319,17 @@ fn prepass(world: &World, accel: &Accel, camera: &dyn Camera, trace: &TraceParam
 /// The key frame of facets that follow: its pre-pass's per-pixel triangles and depths, its
 /// geometry and camera.
 pub fn key_data(world: &World, accel: &Accel, camera: &dyn Camera, trace: &TraceParams) -> KeyData {
-    let film = prepass(world, accel, camera, trace);
+    key_of(&prepass(world, accel, camera, trace), world, camera, trace)
+}
+
+/// Key data from a frame's pre-pass film.
+fn key_of(film: &Film, world: &World, camera: &dyn Camera, trace: &TraceParams) -> KeyData {
     let (w, h) = (trace.width, trace.height);
     let skipped = |i: usize| {
         let (x, y) = (i as u32 % w, i as u32 / w);
         camera.ray(screen_point(x, y, DVec2::splat(0.5), w, h)).skipped
     };
-    let (tri, depth) = motion::key_buffers(&film, skipped);
+    let (tri, depth) = motion::key_buffers(film, skipped);
     KeyData {
         width: w,
         height: h,
@@ -407,6 +428,7 @@ fn render_frame(
     camera: &Moved,
     base: &Framed,
     frame: u32,
+    measure: bool,
     mut timings: Timings,
     progress: &Progress,
 ) -> Result<FrameOutput> {
@@ -466,5 +488,6 @@ fn render_frame(
             .time(Stage::Paint.name(), || painter.apply(&mut film, keep.faceted.then_some(&map), Some(&lighting)))?;
     }
     let (image, passes, passes16) = encode_stage(&film, &map, &aims, params, &mut timings);
-    Ok(FrameOutput { frame, image, passes, passes16, facets: map, timings, revealed })
+    let surface = measure.then(|| Surface::new(key_of(&pre, world, camera, trace), &pre));
+    Ok(FrameOutput { frame, image, passes, passes16, facets: map, timings, revealed, surface })
 }

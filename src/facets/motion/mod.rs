@@ -144,3 +144,59 @@ fn grow(ids: &mut [u32], width: u32, height: u32, fallback: u32) {
         }
     }
 }
+
+/// What a frame's picture shows, for measuring coherence between frames: its key data (per
+/// pixel triangle and depth, the frame's geometry and camera) and each pixel's barycentrics.
+pub struct Surface {
+    pub key: file::KeyData,
+    /// Barycentrics (u, v) of each pixel's centre-ray hit (meaningless where `key.tri` is `NO_HIT`).
+    pub uv: Vec<(f32, f32)>,
+}
+
+impl Surface {
+    /// From a pre-pass film and its key data.
+    pub fn new(key: file::KeyData, film: &Film) -> Surface {
+        Surface { key, uv: film.hits.iter().map(|h| (h.u, h.v)).collect() }
+    }
+}
+
+/// How coherent two consecutive frames are, over the surface points both show.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Coherence {
+    /// Surface points seen in both frames (pixels of the later frame whose point the earlier
+    /// frame saw).
+    pub points: usize,
+    /// Share of those points whose facet id is the same in both frames.
+    pub stickiness: f64,
+    /// Mean absolute colour change of those points, RGB in [0, 1] averaged over channels.
+    pub flicker: f64,
+}
+
+/// Stickiness and flicker from frame `a` to frame `b` (issue 15 item 4): each pixel of `b`
+/// showing a surface point is matched, through the scene's exact motion, to the pixel of `a`
+/// showing the same point (as facets follow: `a`'s geometry and camera, `Camera::project`).
+/// `image_*` are RGBA8 pictures at the frames' size.
+pub fn coherence(
+    a: &Surface,
+    map_a: &FacetMap,
+    image_a: &[u8],
+    b: &Surface,
+    map_b: &FacetMap,
+    image_b: &[u8],
+) -> Coherence {
+    let key = a.key.key(map_a);
+    let (mut points, mut same, mut change) = (0usize, 0usize, 0.0f64);
+    for (i, &tri) in b.key.tri.iter().enumerate() {
+        if tri == NO_HIT {
+            continue;
+        }
+        let (u, v) = b.uv[i];
+        let Some(k) = seen_at_key(&key, tri, u, v) else { continue };
+        points += 1;
+        same += (map_a.ids[k] == map_b.ids[i]) as usize;
+        change +=
+            (0..3).map(|c| (image_a[4 * k + c] as f64 - image_b[4 * i + c] as f64).abs()).sum::<f64>() / (3.0 * 255.0);
+    }
+    let n = points.max(1) as f64;
+    Coherence { points, stickiness: same as f64 / n, flicker: change / n }
+}
