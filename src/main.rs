@@ -196,6 +196,7 @@ fn run_frames(args: RenderArgs, settings: cubist::Settings) -> anyhow::Result<()
         orbit_deg: f.orbit,
         layout_frame: f.layout_frame,
         measure: false,
+        rekey: f.rekey,
     };
     // Every flag checked before anything is created, loaded or traced.
     params.validate()?;

@@ -79,6 +79,8 @@ fn farm_chunks_equal_one_run_byte_for_byte() {
         ("gltf-samples/CesiumMan.glb", &["--facet-motion", "follow"][..]),
         ("gltf-samples/Fox.glb", &["--animation", "Walk", "--layout-frame", "2"][..]),
         ("gltf-samples/CesiumMilkTruck.glb", &["--facet-motion", "follow", "--orbit", "3"][..]),
+        // Key frames 1 and 3: the chunk carries its facets 1 -> 3 without frame 2.
+        ("gltf-samples/Fox.glb", &["--animation", "Run", "--facet-motion", "follow", "--rekey", "2"][..]),
     ] {
         let dir = tempfile::tempdir().unwrap();
         let scene = shared(scene);
@@ -110,7 +112,7 @@ fn frames(scene: &Path, settings: &Settings, params: &FramesParams) -> Vec<Frame
 }
 
 fn params(first: u32, last: u32, fps: f64, animation: Option<Choice>, orbit_deg: f64) -> FramesParams {
-    FramesParams { first, last, fps, animation, orbit_deg, layout_frame: first, measure: true }
+    FramesParams { first, last, fps, animation, orbit_deg, layout_frame: first, measure: true, rekey: 0 }
 }
 
 fn small(side: u32) -> Settings {
@@ -196,7 +198,18 @@ fn facets_that_follow_stick_to_a_turntable_and_flicker_no_more_than_static_ones(
 #[ignore = "needs ../shared"]
 fn facets_that_follow_stick_to_the_fox_walking() {
     let fox = shared("gltf-samples/Fox.glb");
-    let (stat, follow) = compare("Fox walk", &fox, 200, &params(1, 8, 24.0, Some(Choice::parse("Walk")), 0.0));
+    let p = params(1, 8, 24.0, Some(Choice::parse("Walk")), 0.0);
+    let (stat, follow) = compare("Fox walk", &fox, 200, &p);
+    let mut s = small(200);
+    s.facet_motion = cubist::settings::FacetMotion::Follow;
+    let rekeyed = mean_coherence(&frames(&fox, &s, &FramesParams { rekey: 4, ..p.clone() }));
+    println!(
+        "Fox walk, follow with a key frame every 4: stickiness {:.1}% flicker {:.4}",
+        rekeyed.stickiness * 100.0,
+        rekeyed.flicker
+    );
+    // Points the layout frame did not see keep the facet they grew into at a key frame.
+    assert!(rekeyed.stickiness > follow.stickiness, "key frames every 4: {rekeyed:?} against {follow:?}");
     // A small subject at 200x200 (2700 points): facet borders, carried to the nearest pixel,
     // weigh more than on venus; the gain over static is what the method guarantees.
     assert!(follow.stickiness > stat.stickiness + 0.05, "follow {follow:?} not stickier than static {stat:?}");

@@ -105,6 +105,11 @@ pub struct FramesArgs {
     /// The frame the facet layout is made at, which also fixes the camera's framing
     #[arg(long, value_name = "N", default_value_t = 1, requires = "frames", help_heading = "Animation")]
     pub layout_frame: u32,
+    /// With --facet-motion follow: a new key frame every N frames from the layout frame, its
+    /// facets carried from the one before (points the layout frame did not see keep the facet
+    /// they grew into); 0 = the layout frame only
+    #[arg(long, value_name = "N", default_value_t = 0, requires = "frames", help_heading = "Animation")]
+    pub rekey: u32,
 }
 
 #[derive(Args, Debug)]

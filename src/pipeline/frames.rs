@@ -70,6 +70,11 @@ pub struct FramesParams {
     /// Keep what each frame shows (`FrameOutput::surface`), to measure coherence between
     /// frames (`facets::motion::coherence`).
     pub measure: bool,
+    /// With facets that follow, a new key frame every this many frames from the layout frame
+    /// (0: the layout frame only). Key frame k's facets are carried from key frame k-1's, so a
+    /// point revealed since the layout frame keeps the facet it grew into; frame N needs the
+    /// pre-passes of the key frames up to its own, never the frames between (farm chunks agree).
+    pub rekey: u32,
 }
 
 impl FramesParams {
@@ -165,14 +170,29 @@ pub fn render_frames(
     let (w, h) = (params.trace.width, params.trace.height);
     progress.begin("frames", (frames.last - frames.first + 1) as u64 * w as u64 * h as u64);
     let mut geometry = key_geometry;
+    let mut chain: Option<Chained> = None;
     for f in frames.first..=frames.last {
         let mut timings = Timings::default();
+        if let Some(key) = &keep.key
+            && frames.rekey > 0
+        {
+            let target = key_frame_of(f, frames.layout_frame, frames.rekey);
+            timings.time("key frames", || {
+                advance_chain(&mut chain, target, frames, key, &keep.map, &mut poser, &cameras, &params.trace)
+            });
+        }
         geometry = timings.time("geometry", || poser.geometry(frames, f, Some(geometry)));
         let camera = cameras.at(f, geometry.world());
+        let key = match (&keep.key, &chain) {
+            (Some(_), Some(c)) => Some((&c.key, &c.map)),
+            (Some(k), None) => Some((k, &keep.map)),
+            (None, _) => None,
+        };
         let out = render_frame(
             prep,
             &params,
             &keep,
+            key,
             &painter,
             &geometry,
             &camera,
@@ -295,6 +315,57 @@ impl<'a> Cameras<'a> {
         let (rotation, translation) = self.motion(f, world);
         let clip_radius = (world.radius as f64).max(1e-9) * 1.001;
         Moved { inner: self.base.camera.as_ref(), rotation, translation, clip_radius }
+    }
+}
+
+/// A key frame after the layout frame's (`FramesParams::rekey`): its data and facets.
+struct Chained {
+    frame: u32,
+    key: KeyData,
+    map: FacetMap,
+}
+
+/// The key frame of frame `f`: the last multiple of `every` frames from the layout frame at
+/// or before `f` (after it, for frames before the layout frame).
+fn key_frame_of(f: u32, layout: u32, every: u32) -> u32 {
+    if f >= layout { layout + (f - layout) / every * every } else { layout - (layout - f) / every * every }
+}
+
+/// Brings `chain` to key frame `target`, stepping `every` frames at a time from where it is
+/// (when on the way) or from the layout frame: each key frame's facets carried from the one
+/// before it. The same steps whatever frames were rendered before: deterministic.
+#[allow(clippy::too_many_arguments)]
+fn advance_chain<'a>(
+    chain: &mut Option<Chained>,
+    target: u32,
+    frames: &FramesParams,
+    layout_key: &KeyData,
+    layout_map: &FacetMap,
+    poser: &mut Poser<'a>,
+    cameras: &Cameras,
+    trace: &TraceParams,
+) {
+    let layout = frames.layout_frame;
+    let on_the_way = |c: u32| (c >= layout) == (target >= layout) && c.abs_diff(layout) <= target.abs_diff(layout);
+    if chain.as_ref().is_some_and(|c| !on_the_way(c.frame)) || target == layout {
+        *chain = None;
+    }
+    loop {
+        let at = chain.as_ref().map_or(layout, |c| c.frame);
+        if at == target {
+            return;
+        }
+        let next = if target > at { at + frames.rekey } else { at - frames.rekey };
+        let geometry = poser.geometry(frames, next, None);
+        let (world, accel) = (geometry.world(), geometry.accel());
+        let camera = cameras.at(next, world);
+        let pre = prepass(world, accel, &camera, trace);
+        let carried = match chain.as_ref() {
+            Some(c) => motion::carry(&c.key.key(&c.map), &pre),
+            None => motion::carry(&layout_key.key(layout_map), &pre),
+        };
+        let key = key_of(&pre, world, &camera, trace);
+        *chain = Some(Chained { frame: next, key, map: carried.map });
     }
 }
 
@@ -423,6 +494,7 @@ fn render_frame(
     prep: &Prepared,
     params: &StageParams,
     keep: &Keep,
+    key: Option<(&KeyData, &FacetMap)>,
     painter: &Painter,
     geometry: &Geometry,
     camera: &Moved,
@@ -448,9 +520,9 @@ fn render_frame(
         None
     };
 
-    let (map, revealed) = match &keep.key {
-        Some(key) => {
-            let carried = timings.time("facet motion", || motion::carry(&key.key(&keep.map), &pre));
+    let (map, revealed) = match key {
+        Some((key, key_map)) => {
+            let carried = timings.time("facet motion", || motion::carry(&key.key(key_map), &pre));
             (carried.map, Some(carried.revealed))
         }
         None => (keep.map.clone(), None),
