@@ -50,11 +50,13 @@ PRESET_LABELS = {name: (schema.label(name), help) for name, help in schema.PRESE
 
 # Settings keys Blender decides, not the panel: the render size, Film > Transparent, the
 # active camera and its focus, the per-frame layout files (static facets), the saliency
-# cache folder (beside the layout), and how facets move between frames (the add-on renders
-# each frame in its own process with the layout frame's static facets; facets that follow the
-# scene are the command line's `--frames --facet-motion follow` for now).
+# cache folder (beside the layout), external files (the exported GLB is self-contained), and
+# how facets move between frames (the add-on renders each frame in its own process with the
+# layout frame's static facets; facets that follow the scene are the command line's
+# `--frames --facet-motion follow` for now).
 BLENDER_KEYS = frozenset({"width", "height", "transparent", "camera_position", "camera_target", "camera_up",
-                          "focus_distance", "facets", "save_facets", "saliency_cache", "facet_motion"})
+                          "focus_distance", "facets", "save_facets", "saliency_cache", "allow_external_files",
+                          "facet_motion"})
 
 # Panel properties with no settings key of their own: how Blender's scene maps to settings,
 # animation, and files. The renderer has no say in these.
