@@ -17,9 +17,8 @@ from typing import Mapping, Optional, Sequence
 
 from . import presets, runner, schema
 
-# Panel enum properties: identifier (BLUE_PERIOD) -> settings value (blue-period); those
-# Blender decides are not on the panel.
-ENUM_KEYS = tuple(k for k in presets.ENUM_KEYS if k not in presets.BLENDER_KEYS)
+# Panel enum properties: identifier (BLUE_PERIOD) -> settings value (blue-period).
+ENUM_KEYS = presets.ENUM_KEYS
 
 # Panel properties copied to the settings key of the same name (floats as typed, see
 # runner.f32_decimal): every plain value the renderer takes (booleans and numbers that are
