@@ -116,10 +116,7 @@ fn params(first: u32, last: u32, fps: f64, animation: Option<Choice>, orbit_deg:
 }
 
 fn small(side: u32) -> Settings {
-    let mut s = Settings::default();
-    s.width = side;
-    s.height = side;
-    s
+    Settings { width: side, height: side, ..Settings::default() }
 }
 
 #[test]
