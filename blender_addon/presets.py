@@ -23,7 +23,6 @@ from . import runner, schema
 PRESETS_FILE = Path(__file__).resolve().parent / "renderer_presets.json"
 
 # Settings enum values <-> panel enum identifiers (Blender identifiers: upper case, `_`).
-ENUM_KEYS = schema.ENUM_KEYS
 
 
 def enum_id(value: str) -> str:
@@ -50,9 +49,16 @@ PRESET_LABELS = {name: (schema.label(name), help) for name, help in schema.PRESE
 
 # Settings keys Blender decides, not the panel: the render size, Film > Transparent, the
 # active camera and its focus, the per-frame layout files (static facets), the saliency
-# cache folder (beside the layout), external files (the exported GLB is self-contained).
+# cache folder (beside the layout), external files (the exported GLB is self-contained), and
+# how facets move between frames (the add-on renders each frame in its own process with the
+# layout frame's static facets; facets that follow the scene are the command line's
+# `--frames --facet-motion follow` for now).
 BLENDER_KEYS = frozenset({"width", "height", "transparent", "camera_position", "camera_target", "camera_up",
-                          "focus_distance", "facets", "save_facets", "saliency_cache", "allow_external_files"})
+                          "focus_distance", "facets", "save_facets", "saliency_cache", "allow_external_files",
+                          "facet_motion"})
+
+# The panel's enum settings (those Blender decides are not on the panel).
+ENUM_KEYS = tuple(k for k in schema.ENUM_KEYS if k not in BLENDER_KEYS)
 
 # Panel properties with no settings key of their own: how Blender's scene maps to settings,
 # animation, and files. The renderer has no say in these.

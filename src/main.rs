@@ -134,6 +134,9 @@ fn progress_for(mode: ProgressMode) -> Progress {
 
 fn run_render(args: RenderArgs) -> anyhow::Result<()> {
     let mut settings = args.settings.resolve(args.config.as_deref())?;
+    if args.frames.frames.is_some() {
+        return run_frames(args, settings);
+    }
     cubist::output::check_png_path(&args.output)?;
     let progress = progress_for(args.progress);
     progress.begin(Stage::Loading.name(), 1);
@@ -141,6 +144,12 @@ fn run_render(args: RenderArgs) -> anyhow::Result<()> {
     // The layout is saved with the images, all or nothing, not by the render.
     let save_facets = settings.save_facets.take();
     let rendered = cubist::render(&prep, &settings, &progress)?;
+    if let Some(rig) = &prep.scene.rig {
+        say!(
+            "warning: {} animation(s) not played: a still shows the scene as loaded (render frames with --frames A-B)",
+            rig.clips.len()
+        );
+    }
     progress.begin(Stage::Writing.name(), 1);
     let mut outputs = Outputs::new();
     outputs.png(&args.output, &rendered.image)?;
@@ -170,6 +179,80 @@ fn run_render(args: RenderArgs) -> anyhow::Result<()> {
         say!("{:>14}: {:>9.1} ms", "load+bvh", prep.build_time.as_secs_f64() * 1e3);
         for (stage, t) in &rendered.timings.0 {
             say!("{stage:>14}: {:>9.1} ms", t.as_secs_f64() * 1e3);
+        }
+    }
+    Ok(())
+}
+
+/// `render --frames`: every frame in this process, each written (atomically) as it is done.
+fn run_frames(args: RenderArgs, settings: cubist::Settings) -> anyhow::Result<()> {
+    use cubist::cli::frames::{frame_path, parse_range};
+    use cubist::pipeline::FramesParams;
+    use cubist::scene::animation::Choice;
+    let f = &args.frames;
+    let (first, last) = parse_range(f.frames.as_deref().unwrap_or_default())?;
+    let mut params = FramesParams {
+        first,
+        last,
+        fps: f.fps,
+        animation: f.animation.as_deref().map(Choice::parse),
+        orbit_deg: f.orbit,
+        layout_frame: f.layout_frame,
+        measure: false,
+        rekey: f.rekey,
+    };
+    // Every flag checked before anything is created, loaded or traced.
+    params.validate()?;
+    cubist::output::check_png_path(&frame_path(&args.output, first))?;
+    if let Some(dir) = args.output.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create the directory {}", dir.display()))?;
+    }
+    let progress = progress_for(args.progress);
+    progress.begin(Stage::Loading.name(), 1);
+    let prep = Prepared::load_with(args.scene.as_deref(), pipeline::params::load_options(&settings))?;
+    // The first animation by default, when the file has any.
+    if params.animation.is_none() && prep.scene.rig.as_ref().is_some_and(|r| !r.clips.is_empty()) {
+        params.animation = Some(Choice::Index(0));
+    }
+    let mut per_frame: Vec<(u32, cubist::pipeline::Timings, Option<f64>)> = Vec::new();
+    let summary = pipeline::render_frames(&prep, &settings, &params, &progress, &mut |out| {
+        let path = frame_path(&args.output, out.frame);
+        // A frame's picture and passes all or nothing.
+        let mut outputs = Outputs::new();
+        outputs.png(&path, &out.image)?;
+        for (pass, img) in &out.passes {
+            outputs.png(&pass_path(&path, pass.as_str()), img)?;
+        }
+        for (pass, img) in &out.passes16 {
+            outputs.png16(&pass_path(&path, pass.as_str()), img)?;
+        }
+        outputs.commit()?;
+        per_frame.push((out.frame, out.timings, out.revealed));
+        Ok(())
+    })?;
+    progress.begin(Stage::Done.name(), 1);
+    progress.finish();
+    for w in &summary.warnings {
+        say!("warning: {w}");
+    }
+    if args.verbose {
+        say!(
+            "scene: {} ({} triangles, {} objects), frames {first}-{last}",
+            prep.scene.source.display(),
+            prep.world.triangle_count(),
+            prep.world.objects.len()
+        );
+        say!("camera: {}", summary.camera);
+        say!("{:>18}: {:>9.1} ms", "load+bvh", prep.build_time.as_secs_f64() * 1e3);
+        for (step, t) in &summary.setup.0 {
+            say!("{step:>18}: {:>9.1} ms (once)", t.as_secs_f64() * 1e3);
+        }
+        for (frame, timings, revealed) in &per_frame {
+            let total: f64 = timings.0.iter().map(|(_, t)| t.as_secs_f64()).sum();
+            let steps: Vec<String> =
+                timings.0.iter().map(|(s, t)| format!("{s} {:.0}", t.as_secs_f64() * 1e3)).collect();
+            let revealed = revealed.map(|r| format!(", revealed {:.1}%", r * 100.0)).unwrap_or_default();
+            say!("frame {frame}: {:.1} ms ({}){revealed}", total * 1e3, steps.join(", "));
         }
     }
     Ok(())

@@ -43,7 +43,8 @@ pub mod schema;
 mod validate;
 
 pub use enums::{
-    BorderStyle, CameraKind, FacetProjection, Faceting, Framing, Imprecision, Palette, Pass, SaliencyMethod,
+    BorderStyle, CameraKind, FacetMotion, FacetProjection, Faceting, Framing, Imprecision, Palette, Pass,
+    SaliencyMethod,
 };
 pub use validate::{
     MAX_EXPOSURE, MAX_FACETS, MAX_GRID_CELLS, MAX_JOB_MEMORY, MAX_OCCLUSION, MAX_PIXEL_DISTANCE, MAX_PIXELS,
@@ -227,6 +228,12 @@ pub struct Settings {
     /// Directory keeping per-mesh saliency across runs, keyed by mesh content (animation
     /// frames rendered by separate processes compute each mesh once). None: no disk cache.
     pub saliency_cache: Option<PathBuf>,
+
+    // ---- animation (frames of `cubist render --frames`, or one per process from the add-on)
+    /// How facets move from frame to frame: `static` keeps the layout frame's facets on the
+    /// image, `follow` carries them with the surfaces they show (a saved layout then has its
+    /// follow data beside it, `<layout>.follow`).
+    pub facet_motion: FacetMotion,
 
     // ---- outputs
     /// Extra passes written beside the output as `<stem>.<pass>.png`.

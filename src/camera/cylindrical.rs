@@ -4,9 +4,9 @@
 
 use glam::{DVec2, DVec3};
 
-use super::{Camera, CameraFrame, CameraRay, finish_ray};
+use super::{Camera, CameraFrame, CameraModel, CameraRay, Nearest, Projected, finish_ray};
 
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Cylindrical {
     pub frame: CameraFrame,
     /// The focal line passes through this point along `frame.up`.
@@ -27,5 +27,31 @@ impl Camera for Cylindrical {
         let v = f.right * st - f.forward * ct;
         let on_axis = self.centre + f.up * (p.y * self.height);
         finish_ray(on_axis + v * self.distance, -v, self.distance, self.clip_radius)
+    }
+
+    /// The row is the height of q along the focal line; the column the angle of q's horizontal
+    /// offset w from the line: before the line v = w / |w| at depth d - |w|, beyond it
+    /// v = -w / |w| at depth d + |w| (as the spherical camera, in the horizontal plane).
+    fn project(&self, q: DVec3) -> Option<Projected> {
+        let f = &self.frame;
+        let rel = q - self.centre;
+        let along = rel.dot(f.up);
+        let y = along / self.height;
+        let w = rel - f.up * along;
+        let r = w.length();
+        let d = self.distance;
+        let Some(n) = w.try_normalize() else {
+            return Some(Projected { screen: DVec2::new(0.0, y), depth: d });
+        };
+        let mut best = Nearest::default();
+        for (v, depth) in [(n, d - r), (-n, d + r)] {
+            let theta = v.dot(f.right).atan2(-v.dot(f.forward));
+            best.offer(DVec2::new(theta / self.angle_x, y), depth);
+        }
+        best.get()
+    }
+
+    fn model(&self) -> CameraModel {
+        CameraModel::Cylindrical(self.clone())
     }
 }

@@ -1,12 +1,15 @@
-//! Cameras turn a screen point into a ray, and nothing else (they never see the sampler,
-//! the film or the scene). One file per model of SPEC "Cameras"; `framing.rs` chooses their
-//! parameters from the settings and the scene.
+//! Cameras turn a screen point into a ray and, for animation, a scene point back into the
+//! screen point whose ray passes through it (`Camera::project`, the exact inverse of `ray`);
+//! they never see the sampler, the film or the scene. One file per model of SPEC "Cameras";
+//! `framing.rs` chooses their parameters from the settings and the scene; `moved.rs` moves a
+//! camera rigidly (animation frames: orbits, animated glTF cameras).
 //!
 //! Screen points are (x, y) in [-0.5, 0.5]^2 with (0.5, 0.5) the top-right corner.
 
 pub mod compose;
 mod cylindrical;
 pub mod framing;
+mod moved;
 mod orthographic;
 mod perspective;
 mod planar;
@@ -16,6 +19,7 @@ use glam::{DVec2, DVec3, Vec3};
 
 pub use cylindrical::Cylindrical;
 pub use framing::{Framed, Framing, FramingParams, frame_camera};
+pub use moved::Moved;
 pub use orthographic::Orthographic;
 pub use perspective::Perspective;
 pub use planar::Planar;
@@ -89,15 +93,111 @@ impl CameraRay {
     }
 }
 
-/// A camera model: screen point -> ray, in render space.
+/// A camera model: screen point -> ray, in render space, and back.
 pub trait Camera: Send + Sync {
     /// The ray through screen point `p` (see the module doc for the convention).
     fn ray(&self, p: DVec2) -> CameraRay;
+
+    /// The inverse of `ray`: the screen point whose ray passes through `q` (render space) and
+    /// how far along that ray, from its origin on the camera surface, `q` lies. A point that
+    /// several rays pass through (behind a converging camera's focal point, or a camera whose
+    /// angle exceeds 180 degrees) gets the ray that reaches it first among those of the image,
+    /// else the nearest of the others; the screen point may lie outside [-0.5, 0.5]^2 (the
+    /// point is out of view). None when no ray of the camera passes through `q` (behind a
+    /// pinhole or an image plane). Facets that follow the scene (`facets::motion`) carry a
+    /// surface point from one frame's picture to another's with it.
+    fn project(&self, q: DVec3) -> Option<Projected>;
+
+    /// The camera as plain data, to save beside a facet layout and rebuild in another process
+    /// (the frames of a render farm carry facets from the layout frame's camera).
+    fn model(&self) -> CameraModel;
+}
+
+/// Every camera as a serialisable value; it is itself a `Camera`.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum CameraModel {
+    Spherical(Spherical),
+    Cylindrical(Cylindrical),
+    Planar(Planar),
+    Perspective(Perspective),
+    Orthographic(Orthographic),
+    Moved(Box<moved::MovedModel>),
+}
+
+impl CameraModel {
+    pub fn camera(&self) -> &dyn Camera {
+        match self {
+            CameraModel::Spherical(c) => c,
+            CameraModel::Cylindrical(c) => c,
+            CameraModel::Planar(c) => c,
+            CameraModel::Perspective(c) => c,
+            CameraModel::Orthographic(c) => c,
+            CameraModel::Moved(c) => c.as_ref(),
+        }
+    }
+}
+
+impl Camera for CameraModel {
+    fn ray(&self, p: DVec2) -> CameraRay {
+        self.camera().ray(p)
+    }
+    fn project(&self, q: DVec3) -> Option<Projected> {
+        self.camera().project(q)
+    }
+    fn model(&self) -> CameraModel {
+        self.clone()
+    }
+}
+
+/// Where a camera sees a point (`Camera::project`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Projected {
+    pub screen: DVec2,
+    /// Distance along the ray from its origin on the camera surface (`CameraRay::surface_origin`).
+    pub depth: f64,
+}
+
+impl Projected {
+    /// Whether the screen point lies in the image (its border included).
+    pub fn in_view(&self) -> bool {
+        self.screen.x.abs() <= 0.5 && self.screen.y.abs() <= 0.5
+    }
+}
+
+/// Picks, among the screen points whose rays pass through a point, the one `project` returns:
+/// in view before out of view, then the nearest along its ray, then the one nearest the screen's
+/// centre (rays that several screen points share), then the first offered.
+#[derive(Default)]
+pub(crate) struct Nearest(Option<Projected>);
+
+impl Nearest {
+    pub(crate) fn offer(&mut self, screen: DVec2, depth: f64) {
+        if !(depth >= 0.0 && screen.is_finite() && depth.is_finite()) {
+            return;
+        }
+        let c = Projected { screen, depth };
+        let key = |p: &Projected| (!p.in_view(), p.depth, p.screen.x.abs().max(p.screen.y.abs()));
+        let better = match &self.0 {
+            None => true,
+            Some(b) => {
+                let (kc, kb) = (key(&c), key(b));
+                (!kc.0 & kb.0) || (kc.0 == kb.0 && (kc.1 < kb.1 || (kc.1 == kb.1 && kc.2 < kb.2)))
+            }
+        };
+        if better {
+            self.0 = Some(c);
+        }
+    }
+
+    pub(crate) fn get(self) -> Option<Projected> {
+        self.0
+    }
 }
 
 /// An orthonormal camera frame: `forward` is the view direction c_d, `up` is u and
 /// `right` is the horizontal direction h (the image's +x), right-handed.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct CameraFrame {
     pub position: DVec3,
     pub forward: DVec3,

@@ -3,9 +3,9 @@
 
 use glam::{DVec2, DVec3};
 
-use super::{Camera, CameraFrame, CameraRay, finish_ray};
+use super::{Camera, CameraFrame, CameraModel, CameraRay, Projected, finish_ray};
 
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Planar {
     /// `frame.position` is the plane's centre c_p.
     pub frame: CameraFrame,
@@ -42,5 +42,33 @@ impl Camera for Planar {
         let towards = f.forward - offset * self.inv_focal_length;
         let focus = if self.inv_focal_length > 0.0 { towards.length() / self.inv_focal_length } else { f64::INFINITY };
         finish_ray(origin, towards, focus, self.clip_radius)
+    }
+
+    /// With k = 1 / L, the ray of plane offset o reaches c_p + c_d u + o (1 - u k) at parameter
+    /// u along c_d - o k. So for q - c_p = c_d a + b (b across the view): u = a and
+    /// o = b / (1 - a k), at depth a |c_d - o k|. Points behind the plane (a < 0) and on the
+    /// focal plane away from f_p (1 - a k = 0, no ray reaches them) are seen by no ray.
+    fn project(&self, q: DVec3) -> Option<Projected> {
+        let f = &self.frame;
+        let rel = q - f.position;
+        let a = rel.dot(f.forward);
+        let spread = 1.0 - a * self.inv_focal_length;
+        let across = rel - f.forward * a;
+        if !(a >= 0.0) {
+            return None;
+        }
+        if spread.abs() < 1e-12 {
+            // The focal plane: f_p itself is on every ray (the central one is chosen).
+            let at_focus = across.length() < 1e-12 * a.max(1.0);
+            return at_focus.then_some(Projected { screen: DVec2::ZERO, depth: a });
+        }
+        let offset = across / spread;
+        let depth = a * (f.forward - offset * self.inv_focal_length).length();
+        let screen = DVec2::new(offset.dot(f.right) / (self.size * self.aspect), offset.dot(f.up) / self.size);
+        (screen.is_finite() && depth.is_finite()).then_some(Projected { screen, depth })
+    }
+
+    fn model(&self) -> CameraModel {
+        CameraModel::Planar(self.clone())
     }
 }

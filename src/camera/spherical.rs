@@ -3,9 +3,9 @@
 
 use glam::{DVec2, DVec3};
 
-use super::{Camera, CameraFrame, CameraRay, finish_ray};
+use super::{Camera, CameraFrame, CameraModel, CameraRay, Nearest, Projected, finish_ray};
 
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Spherical {
     /// Orientation (position is unused: rays are placed by `centre` and `distance`).
     pub frame: CameraFrame,
@@ -31,11 +31,49 @@ impl Spherical {
         let (sp, cp) = (p.y * self.angle_y).sin_cos();
         f.right * st + (-f.forward * cp + f.up * sp) * ct
     }
+
+    /// The screen points whose outward vector is the unit vector `v` (the inverse of
+    /// `outward`): with a = v.h, b = v.u, c = -v.c_d, sin(theta) = a, cos(theta) cos(phi) = c,
+    /// cos(theta) sin(phi) = b. Two solutions, cos(theta) >= 0 and cos(theta) <= 0 (both in
+    /// the image only beyond 180 degrees); atan2 keeps full precision near theta = 90 deg,
+    /// where asin would not. phi is taken in (-pi, pi], the solution nearest the centre when
+    /// alpha / aspect exceeds 360 degrees and several rows see the same direction.
+    pub fn inverse_outward(&self, v: DVec3) -> [DVec2; 2] {
+        let f = &self.frame;
+        let (a, b, c) = (v.dot(f.right), v.dot(f.up), -v.dot(f.forward));
+        let h = b.hypot(c);
+        let screen = |theta: f64, phi: f64| DVec2::new(theta / self.angle_x, phi / self.angle_y);
+        [screen(a.atan2(h), b.atan2(c)), screen(a.atan2(-h), (-b).atan2(-c))]
+    }
 }
 
 impl Camera for Spherical {
     fn ray(&self, p: DVec2) -> CameraRay {
         let v = self.outward(p);
         finish_ray(self.centre + v * self.distance, -v, self.distance, self.clip_radius)
+    }
+
+    /// A ray from C + v d along -v passes through q = C + v (d - s): before the focal centre
+    /// v = (q - C) / |q - C| at depth d - |q - C| (q inside the sphere of origins), beyond it
+    /// v = -(q - C) / |q - C| at depth d + |q - C|.
+    fn project(&self, q: DVec3) -> Option<Projected> {
+        let w = q - self.centre;
+        let r = w.length();
+        let d = self.distance;
+        let Some(n) = w.try_normalize() else {
+            // The focal centre itself: every ray passes through it; the central one is chosen.
+            return Some(Projected { screen: DVec2::ZERO, depth: d });
+        };
+        let mut best = Nearest::default();
+        for (v, depth) in [(n, d - r), (-n, d + r)] {
+            for screen in self.inverse_outward(v) {
+                best.offer(screen, depth);
+            }
+        }
+        best.get()
+    }
+
+    fn model(&self) -> CameraModel {
+        CameraModel::Spherical(self.clone())
     }
 }

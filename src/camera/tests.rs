@@ -233,3 +233,136 @@ proptest! {
         prop_assert!(!r.focus.is_nan());
     }
 }
+
+/// A camera that maps screen points to rays one to one, and well-conditioned there: angles
+/// below 180 degrees for the spherical camera (at 180 its image's left and right edges look
+/// along -h and +h, where the row is undefined; beyond, two screen points share a ray), below
+/// 360 for the cylindrical one (whose edges then meet), finite fields of view.
+fn injective_camera(kind: u8, alpha_frac: f64, aspect: f64) -> Box<dyn Camera> {
+    let f = frame();
+    match kind % 5 {
+        0 => {
+            let a = (0.02 + 0.98 * alpha_frac) * 170f64.to_radians();
+            let ay = (a / aspect).min(170f64.to_radians());
+            Box::new(Spherical {
+                frame: f,
+                centre: DVec3::ZERO,
+                distance: 3.0,
+                angle_x: a,
+                angle_y: ay,
+                clip_radius: 1.0,
+            })
+        }
+        1 => Box::new(Cylindrical {
+            frame: f,
+            centre: DVec3::ZERO,
+            distance: 3.0,
+            angle_x: (0.02 + 0.98 * alpha_frac) * 350f64.to_radians(),
+            height: 2.0,
+            clip_radius: 1.0,
+        }),
+        2 => Box::new(Planar::new(f, 2.0, aspect, alpha_frac * 170f64.to_radians(), 1.0)),
+        3 => Box::new(Perspective {
+            frame: f,
+            tan_half_fov: ((0.02 + 0.98 * alpha_frac) * 170f64.to_radians() / 2.0).tan(),
+            aspect,
+            focus: 5.0,
+            clip_radius: 1.0,
+        }),
+        _ => Box::new(Orthographic { frame: f, height: 2.0, aspect, focus: 5.0, clip_radius: 1.0 }),
+    }
+}
+
+/// A point `fraction` of the way along the ray of `p` from the camera surface to its focal
+/// point (or 4 units along parallel rays).
+fn point_on_ray(cam: &dyn Camera, p: DVec2, fraction: f64) -> (DVec3, f64) {
+    let r = cam.ray(p);
+    let reach = if r.surface_focus().is_finite() { r.surface_focus() } else { 4.0 };
+    let depth = fraction * reach;
+    (r.surface_origin() + r.dir.as_dvec3() * depth, depth)
+}
+
+proptest! {
+    /// `project` is the exact inverse of `ray`: a point on the ray of a screen point, before
+    /// its focal point, projects back to that screen point at its distance along the ray.
+    #[test]
+    fn project_inverts_ray(
+        kind in 0u8..5,
+        alpha_frac in 0.0f64..=1.0,
+        aspect in 0.25f64..4.0,
+        x in -0.5f64..=0.5,
+        y in -0.5f64..=0.5,
+        fraction in 0.01f64..0.99,
+    ) {
+        let cam = injective_camera(kind, alpha_frac, aspect);
+        let p = DVec2::new(x, y);
+        let (q, depth) = point_on_ray(cam.as_ref(), p, fraction);
+        let back = cam.project(q).expect("a point on a ray is seen");
+        // f32 rays: about 1e-7 of the scene's size.
+        prop_assert!((back.screen - p).length() < 2e-5, "{p:?} -> {:?}", back.screen);
+        prop_assert!((back.depth - depth).abs() < 1e-5 * depth.max(1.0), "{depth} -> {}", back.depth);
+        prop_assert!(back.in_view() || (back.screen.abs() - DVec2::splat(0.5)).max_element() < 2e-5);
+    }
+
+    /// Beyond 180 degrees two screen points share a ray, so `project` cannot tell which one was
+    /// meant; the one it picks still sees the point: its ray passes through it at that depth.
+    #[test]
+    fn wide_cameras_project_onto_a_ray_through_the_point(
+        kind in 0u8..2,
+        alpha_frac in 0.5f64..=1.0,
+        x in -0.5f64..=0.5,
+        y in -0.5f64..=0.5,
+        fraction in 0.01f64..0.99,
+    ) {
+        let cam = any_camera(kind, alpha_frac, 1.0);
+        let (q, _) = point_on_ray(cam.as_ref(), DVec2::new(x, y), fraction);
+        let back = cam.project(q).unwrap();
+        prop_assert!(back.in_view(), "{:?}", back.screen);
+        let r = cam.ray(back.screen);
+        let reached = r.surface_origin() + r.dir.as_dvec3() * back.depth;
+        prop_assert!((reached - q).length() < 1e-5, "{q:?} vs {reached:?}");
+    }
+}
+
+#[test]
+fn points_no_ray_reaches_are_not_projected() {
+    let persp = injective_camera(3, 0.3, 1.0);
+    assert!(persp.project(DVec3::new(0.0, 0.0, 6.0)).is_none(), "behind the eye");
+    let ortho = injective_camera(4, 0.0, 1.0);
+    assert!(ortho.project(DVec3::new(0.0, 0.0, 5.5)).is_none(), "behind the view plane");
+    let planar = Planar::new(frame(), 2.0, 1.0, 90f64.to_radians(), 1.0);
+    // f_p = (0, 0, 4): a point of its focal plane away from it is on no ray.
+    assert!(planar.project(DVec3::new(0.5, 0.0, 4.0)).is_none());
+    assert_eq!(planar.project(DVec3::new(0.0, 0.0, 4.0)).unwrap().screen, DVec2::ZERO);
+    // Beyond the focal point rays have crossed: the point's image is mirrored.
+    let beyond = planar.project(DVec3::new(0.2, 0.1, 3.0)).unwrap();
+    assert!(beyond.screen.x < 0.0 && beyond.screen.y < 0.0, "{beyond:?}");
+    // A spherical camera does not see outside the sphere its rays start on, and sees a point
+    // beyond its focal centre through the opposite direction.
+    let sph = spherical(140.0, 1.0);
+    let out = sph.project(DVec3::new(0.0, 0.0, 3.5)).unwrap();
+    assert!((out.depth - 6.5).abs() < 1e-12, "only the ray from the far side reaches it: {out:?}");
+    let seen = sph.project(DVec3::new(0.0, 0.0, -1.0)).unwrap();
+    assert!((seen.depth - 4.0).abs() < 1e-12 && seen.screen.length() < 1e-12, "{seen:?}");
+}
+
+#[test]
+fn a_moved_camera_moves_its_rays_and_projects_back() {
+    let inner = spherical(140.0, 1.5);
+    let rotation = glam::DQuat::from_rotation_y(0.7);
+    let moved = Moved { inner: &inner, rotation, translation: DVec3::new(0.1, -0.2, 0.3), clip_radius: 10.0 };
+    for (x, y) in [(0.0, 0.0), (0.3, -0.2), (-0.45, 0.4)] {
+        let p = DVec2::new(x, y);
+        let a = inner.ray(p);
+        let b = moved.ray(p);
+        let turned = (rotation * a.dir.as_dvec3()).as_vec3();
+        assert!((b.dir - turned).length() < 1e-6);
+        assert!((b.focal_point().as_dvec3() - moved.point(a.focal_point().as_dvec3())).length() < 1e-5);
+        let (q, depth) = point_on_ray(&moved, p, 0.4);
+        let back = moved.project(q).unwrap();
+        assert!((back.screen - p).length() < 1e-5 && (back.depth - depth).abs() < 1e-5, "{back:?}");
+    }
+    let f = moved.frame(&inner.frame);
+    assert!((f.forward - rotation * DVec3::NEG_Z).length() < 1e-12);
+    assert!((f.right - f.forward.cross(f.up)).length() < 1e-12, "still right-handed");
+}

@@ -1,6 +1,7 @@
 //! The command line (clap definitions only: raw flags), their conversion into validated
 //! `Settings` (`settings_args`), and the schema of every setting for front ends (`schema`).
 
+pub mod frames;
 mod schema;
 mod settings_args;
 
@@ -108,7 +109,45 @@ pub struct RenderArgs {
     #[arg(long, value_enum, default_value = "auto")]
     pub progress: ProgressMode,
     #[command(flatten)]
+    pub frames: FramesArgs,
+    #[command(flatten)]
     pub settings: SettingsArgs,
+}
+
+/// Animation frames of `render` (SPEC "Animation", README "Animation").
+#[derive(Args, Debug, Default)]
+pub struct FramesArgs {
+    /// Render frames A-B of the scene's animation (or one frame N), all in this process; -o
+    /// names each frame with a run of # for its number (frames/cubist_####.png -> frames/cubist_0001.png...)
+    #[arg(long, value_name = "A-B", help_heading = "Animation")]
+    pub frames: Option<String>,
+    /// Frames per second: frame f is the animation at (f - 1) / fps seconds
+    #[arg(long, default_value_t = 24.0, requires = "frames", help_heading = "Animation", value_parser = settings_args::finite_f64)]
+    pub fps: f64,
+    /// The glTF animation played, by name or index, or `all` of them at once [default: the first, if any]
+    #[arg(long, value_name = "NAME|INDEX|all", requires = "frames", help_heading = "Animation")]
+    pub animation: Option<String>,
+    /// Turntable: the camera turns this many degrees per frame about the scene's vertical axis
+    /// (through its centre; positive turns it counter-clockwise seen from above); only the
+    /// camera moves (and the default lights, which follow it)
+    #[arg(
+        long,
+        value_name = "DEG",
+        default_value_t = 0.0,
+        allow_negative_numbers = true,
+        requires = "frames",
+        value_parser = settings_args::finite_f64,
+        help_heading = "Animation"
+    )]
+    pub orbit: f64,
+    /// The frame the facet layout is made at, which also fixes the camera's framing
+    #[arg(long, value_name = "N", default_value_t = 1, requires = "frames", help_heading = "Animation")]
+    pub layout_frame: u32,
+    /// With --facet-motion follow: a new key frame every N frames from the layout frame, its
+    /// facets carried from the one before (points the layout frame did not see keep the facet
+    /// they grew into); 0 = the layout frame only
+    #[arg(long, value_name = "N", default_value_t = 0, requires = "frames", help_heading = "Animation")]
+    pub rekey: u32,
 }
 
 #[derive(Args, Debug)]

@@ -11,8 +11,8 @@ use serde_json::{Map, Value};
 
 use crate::error::Result;
 use crate::settings::{
-    BorderStyle, CameraKind, FacetProjection, Faceting, Framing, Imprecision, Palette, Pass, Preset, SaliencyMethod,
-    Settings,
+    BorderStyle, CameraKind, FacetMotion, FacetProjection, Faceting, Framing, Imprecision, Palette, Pass, Preset,
+    SaliencyMethod, Settings,
 };
 
 /// Every setting as an optional flag. Keys (after serde) are those of `Settings`; flags not
@@ -235,6 +235,10 @@ pub struct SettingsArgs {
     #[arg(long, value_name = "DIR", help_heading = "Saliency")]
     pub saliency_cache: Option<PathBuf>,
 
+    /// How facets move over animation frames: static = the layout frame's facets stay on the image (the thesis); follow = each surface point keeps its facet, carried with the scene's motion [default: static]
+    #[arg(long, value_enum, help_heading = "Animation")]
+    pub facet_motion: Option<FacetMotion>,
+
     /// Extra image written beside the output as <stem>.<pass>.png; repeat for several
     #[arg(long = "pass", value_enum, help_heading = "Outputs")]
     #[serde(rename = "passes", skip_serializing_if = "Vec::is_empty")]
@@ -247,7 +251,7 @@ pub struct SettingsArgs {
 
 /// A flag's number: finite, so that NaN or infinity is an error naming the flag (never read
 /// as "automatic"; JSON has no NaN).
-fn finite_f64(s: &str) -> std::result::Result<f64, String> {
+pub(crate) fn finite_f64(s: &str) -> std::result::Result<f64, String> {
     let v: f64 = s.trim().parse().map_err(|e| format!("not a number ({e})"))?;
     if v.is_finite() { Ok(v) } else { Err("not a finite number".into()) }
 }

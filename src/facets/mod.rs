@@ -14,6 +14,7 @@
 
 pub mod constant;
 pub mod io;
+pub mod motion;
 pub mod patch;
 pub mod planes;
 pub mod segment;

@@ -21,6 +21,7 @@
 //! `inspect_facets` (`cubist facets`), `evaluate` (`cubist faces`) and `look` (`cubist look`).
 
 mod faces;
+pub mod frames;
 mod inspect;
 mod look;
 pub mod params;
@@ -46,6 +47,7 @@ use crate::settings::Settings;
 use crate::trace::TraceParams;
 
 pub use faces::{evaluate, visible_faces};
+pub use frames::{FrameOutput, FramesParams, FramesSummary, render_frames};
 pub use inspect::{Inspection, faceting_input, inspect_facets};
 pub use look::{Look, look};
 pub use params::StageParams;

@@ -3,6 +3,7 @@
 //! cached on exactly what it depends on). A new setting is read here and nowhere else.
 
 use crate::camera::{self, FramingParams};
+use crate::facets::motion::FacetMotion;
 use crate::facets::segment::{SegmentParams, SegmentWeights};
 use crate::facets::{self, FacetMethod, FacetParams};
 use crate::imprecision::{AimMode, AimParams, FacetProjection};
@@ -31,6 +32,8 @@ pub struct StageParams {
     pub passes: Vec<Pass>,
     /// Where the facet layout used is saved, for reuse by later frames.
     pub save_facets: Option<std::path::PathBuf>,
+    /// How facets move between animation frames.
+    pub motion: FacetMotion,
 }
 
 impl StageParams {
@@ -45,6 +48,7 @@ impl StageParams {
             paint: paint(s),
             passes: s.passes.iter().map(|&p| pass(p)).collect(),
             save_facets: s.save_facets.clone(),
+            motion: facet_motion(s.facet_motion),
         }
     }
 
@@ -87,6 +91,13 @@ pub fn camera_kind(k: settings::CameraKind) -> camera::CameraKind {
         settings::CameraKind::Planar => C::Planar,
         settings::CameraKind::Perspective => C::Perspective,
         settings::CameraKind::Orthographic => C::Orthographic,
+    }
+}
+
+pub fn facet_motion(m: settings::FacetMotion) -> FacetMotion {
+    match m {
+        settings::FacetMotion::Static => FacetMotion::Static,
+        settings::FacetMotion::Follow => FacetMotion::Follow,
     }
 }
 

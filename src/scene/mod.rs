@@ -2,8 +2,10 @@
 //! textures, lights and the scene's camera, all in the file's units (f64 transforms).
 //!
 //! `gltf/` is the only user of the gltf crate; `default.rs` builds the built-in still life;
-//! `world.rs` flattens a scene into render space for tracing.
+//! `world.rs` flattens a scene into render space for tracing; `animation/` poses a scene at a
+//! time of its glTF animations.
 
+pub mod animation;
 pub mod default;
 mod gltf;
 pub mod texture;
@@ -131,8 +133,10 @@ pub struct Scene {
     pub textures: Vec<Texture>,
     pub lights: Vec<Light>,
     pub camera: Option<SceneCamera>,
-    /// Content we skipped (points, lines, animations...), one line each, for the user.
+    /// Content we skipped (points, lines...), one line each, for the user.
     pub warnings: Vec<String>,
+    /// The scene graph and animations (`animation`), when the file has animations.
+    pub rig: Option<std::sync::Arc<animation::Rig>>,
 }
 
 /// What a scene file may reach besides itself (README "Security").

@@ -220,6 +220,12 @@ pub struct World {
 
 impl World {
     pub fn new(scene: &Scene) -> World {
+        World::in_space(scene, World::render_space(scene))
+    }
+
+    /// The render space of `scene`: centred on its bounding box, its farthest vertex at
+    /// distance 1 (animation frames keep the layout frame's).
+    pub fn render_space(scene: &Scene) -> Similarity {
         // Bounds in scene units (f64), over every placed vertex. Non-finite vertices (the
         // loader refuses them; a scene built in code may have them) never hit anything and
         // must not drag the render space to infinity.
@@ -254,7 +260,7 @@ impl World {
             .reduce(|| 0.0, f64::max);
         let r = r2.sqrt();
         let scale = if r > 0.0 && r.is_finite() && (1.0 / r).is_finite() { 1.0 / r } else { 1.0 };
-        World::in_space(scene, Similarity { centre, scale })
+        Similarity { centre, scale }
     }
 
     /// The scene in a given render space (`World::new` chooses the one centred on the scene

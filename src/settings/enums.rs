@@ -77,6 +77,16 @@ kebab_enum!(
 );
 
 kebab_enum!(
+    /// How facets move over the frames of an animation.
+    FacetMotion {
+        /// Fixed on the image, as the thesis animates: the layout frame's facets in every frame.
+        Static = "static",
+        /// Carried with the surfaces they show: each surface point keeps its facet from the layout frame.
+        Follow = "follow",
+    }
+);
+
+kebab_enum!(
     /// Built-in palettes: luminance-ordered colour ramps written for this project (`paint::palette`).
     Palette {
         None = "none",

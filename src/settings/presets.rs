@@ -2,7 +2,8 @@
 //! defaults of `Settings` are the `analytic` preset's.
 
 use super::{
-    BorderStyle, CameraKind, FacetProjection, Faceting, Framing, Imprecision, Palette, Preset, SaliencyMethod, Settings,
+    BorderStyle, CameraKind, FacetMotion, FacetProjection, Faceting, Framing, Imprecision, Palette, Preset,
+    SaliencyMethod, Settings,
 };
 
 impl Default for Settings {
@@ -78,6 +79,7 @@ impl Settings {
             canvas_grain: 0.0,
             saliency_method: SaliencyMethod::Auto,
             saliency_cache: None,
+            facet_motion: FacetMotion::Static,
             passes: Vec::new(),
             allow_external_files: false,
         }

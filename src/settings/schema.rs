@@ -13,7 +13,8 @@ use super::validate::{
     MAX_WEIGHT,
 };
 use super::{
-    BorderStyle, CameraKind, FacetProjection, Faceting, Framing, Imprecision, Palette, Pass, Preset, SaliencyMethod,
+    BorderStyle, CameraKind, FacetMotion, FacetProjection, Faceting, Framing, Imprecision, Palette, Pass, Preset,
+    SaliencyMethod,
 };
 use super::{MAX_FACETS, MAX_PLANES, MAX_SIDE};
 
@@ -210,6 +211,7 @@ pub const FIELDS: &[Field] = &[
     field("canvas_grain", Number).range(UNIT),
     field("saliency_method", Enum).choices(choices::<SaliencyMethod>),
     field("saliency_cache", Path).nullable(),
+    field("facet_motion", Enum).choices(choices::<FacetMotion>),
     field("passes", Array).of(Enum).choices(choices::<Pass>),
     field("allow_external_files", Boolean),
 ];

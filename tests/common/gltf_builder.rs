@@ -18,6 +18,7 @@ pub struct Gltf {
     pub samplers: Vec<Value>,
     pub cameras: Vec<Value>,
     pub lights: Vec<Value>,
+    pub animations: Vec<Value>,
     pub extensions_required: Vec<String>,
     pub extensions_used: Vec<String>,
     pub scene_nodes: Vec<usize>,
@@ -64,6 +65,26 @@ impl Gltf {
             acc["max"] = json!(hi);
         }
         self.accessors.push(acc);
+        self.accessors.len() - 1
+    }
+
+    /// A float SCALAR accessor without a buffer-view target (animation keyframe times and
+    /// weights: glTF forbids vertex-buffer targets on them).
+    pub fn scalars(&mut self, data: &[f32]) -> usize {
+        let bytes: Vec<u8> = data.iter().flat_map(|f| f.to_le_bytes()).collect();
+        let view = self.view(&bytes, None);
+        let (lo, hi) = data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(l, h), v| (l.min(*v), h.max(*v)));
+        self.accessors.push(json!({"bufferView": view, "componentType": 5126, "count": data.len(), "type": "SCALAR", "min": [lo], "max": [hi]}));
+        self.accessors.len() - 1
+    }
+
+    /// A float VEC3/VEC4 accessor without a buffer-view target (animation outputs).
+    pub fn values(&mut self, data: &[f32], components: usize) -> usize {
+        let bytes: Vec<u8> = data.iter().flat_map(|f| f.to_le_bytes()).collect();
+        let view = self.view(&bytes, None);
+        let ty = if components == 3 { "VEC3" } else { "VEC4" };
+        self.accessors
+            .push(json!({"bufferView": view, "componentType": 5126, "count": data.len() / components, "type": ty}));
         self.accessors.len() - 1
     }
 
@@ -123,6 +144,7 @@ impl Gltf {
             ("images", &self.images),
             ("samplers", &self.samplers),
             ("cameras", &self.cameras),
+            ("animations", &self.animations),
         ] {
             if !v.is_empty() {
                 obj.insert(k.into(), json!(v));

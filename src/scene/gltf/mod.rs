@@ -1,15 +1,17 @@
 //! glTF 2.0 loading: the only module that touches the gltf crate.
 //!
 //! Everything a file can get wrong becomes an `Error` naming the node, mesh or accessor;
-//! valid content we do not render (points, lines, animations) is skipped with a warning,
+//! valid content we do not render (points, lines) is skipped with a warning,
 //! and content we cannot render faithfully (Draco, unknown required extensions) is refused.
 //!
 //! `Loader` reads a document in order: `validate` (what the file may ask for), `buffers`
 //! (binary chunk, files, `data:` URIs; `accessor` reads typed views of them), `nodes` (the
 //! scene graph: transforms, cameras, lights, mesh instances), `primitives` (triangles and
-//! their attributes), `skins` (the rest pose), `materials` (base colour and textures).
+//! their attributes), `skins` (joints and weights), `materials` (base colour and textures),
+//! `animation` (the scene graph and animations kept for `scene::animation`).
 
 mod accessor;
+mod animation;
 mod buffers;
 mod materials;
 mod nodes;
@@ -97,6 +99,8 @@ struct Loader<'a> {
     warned: std::collections::HashSet<String>,
     /// Triangles placed so far (instances counted each time).
     triangles: usize,
+    /// The scene graph and animations, when the file has animations.
+    rig: Option<crate::scene::animation::Rig>,
 }
 
 impl<'a> Loader<'a> {
@@ -197,6 +201,7 @@ impl<'a> Loader<'a> {
             world: Vec::new(),
             warned: Default::default(),
             triangles: 0,
+            rig: None,
         };
         loader.check_asset()?;
         loader.load_buffers(blob)?;

@@ -5,6 +5,7 @@ use glam::{DMat4, DVec3, DVec4, Vec3};
 
 use super::{Loader, MAX_TRIANGLES};
 use crate::error::{Error, Result, short_num};
+use crate::scene::animation::{Instance, Rig, Skin};
 use crate::scene::{Light, LightKind, Object, Projection, SceneCamera};
 use crate::util::limits::{MAX_LIGHTS, MAX_OBJECTS};
 
@@ -23,6 +24,16 @@ impl<'a> Loader<'a> {
         for node in &roots {
             self.compute_world(node.clone(), DMat4::IDENTITY)?;
         }
+        // Animation needs the scene graph itself: kept only when the file animates something.
+        if self.doc.animations().len() > 0 {
+            let empty = Skin { joints: Vec::new(), inverse_bind: Vec::new() };
+            self.rig = Some(Rig {
+                nodes: self.rig_nodes()?,
+                order: Self::scene_order(&roots),
+                skins: vec![empty; self.doc.skins().len()],
+                ..Rig::default()
+            });
+        }
         let mut stack: Vec<gltf::Node> = roots.into_iter().rev().collect();
         let mut first_camera = true;
         while let Some(node) = stack.pop() {
@@ -30,6 +41,9 @@ impl<'a> Loader<'a> {
             if let Some(camera) = node.camera() {
                 let cam = self.camera(&node, camera, world)?;
                 if first_camera {
+                    if let Some(rig) = self.rig.as_mut() {
+                        rig.camera = Some((node.index() as u32, cam.projection));
+                    }
                     self.scene.camera = Some(cam);
                     first_camera = false;
                 }
@@ -43,12 +57,19 @@ impl<'a> Loader<'a> {
                 }
                 let l = self.light(&node, light, world)?;
                 self.scene.lights.push(l);
+                if let Some(rig) = self.rig.as_mut() {
+                    rig.lights.push(node.index() as u32);
+                }
             }
             if let Some(mesh) = node.mesh() {
                 self.instance(&node, mesh, world)?;
             }
             let children: Vec<_> = node.children().collect();
             stack.extend(children.into_iter().rev());
+        }
+        if let Some(mut rig) = self.rig.take() {
+            self.load_animations(&mut rig);
+            self.scene.rig = Some(std::sync::Arc::new(rig));
         }
         Ok(())
     }
@@ -181,28 +202,40 @@ impl<'a> Loader<'a> {
     }
 
     pub(super) fn instance(&mut self, node: &gltf::Node<'a>, mesh: gltf::Mesh<'a>, world: DMat4) -> Result<()> {
-        let skin_matrices = match node.skin() {
+        let skin = match node.skin() {
             Some(skin) => {
                 self.add_work(skin.joints().len(), &format!("skin {}", skin.index()))?;
-                Some(self.skin_matrices(&skin)?)
+                Some((skin.index(), self.read_skin(&skin)?))
             }
             None => None,
         };
+        // Joint matrices of the rest pose: world(joint) x inverse bind (glTF's skinning).
+        let skin_matrices: Option<Vec<DMat4>> = skin.as_ref().map(|(_, s)| {
+            s.joints
+                .iter()
+                .zip(&s.inverse_bind)
+                .map(|(&j, ibm)| self.world[j as usize].expect("checked") * *ibm)
+                .collect()
+        });
         // Morph weights: the node's, else the mesh's defaults.
         let weights: Vec<f32> = node.weights().or(mesh.weights()).map(<[f32]>::to_vec).unwrap_or_default();
+        // With animations every morphed primitive gets a mesh of its own: its weights may move.
+        let keep = self.rig.is_some();
         for prim in mesh.primitives() {
             let key = (mesh.index(), prim.index());
-            let deformed = skin_matrices.is_some() || weights.iter().any(|w| *w != 0.0);
-            let mesh_index = if deformed {
-                self.primitive(&mesh, &prim, skin_matrices.as_deref(), &weights)?
+            let deformed = skin_matrices.is_some()
+                || weights.iter().any(|w| *w != 0.0)
+                || (keep && prim.morph_targets().len() > 0);
+            let placed = if deformed {
+                self.primitive(&mesh, &prim, skin_matrices.as_deref(), &weights, keep)?
             } else if let Some(cached) = self.mesh_cache.get(&key) {
-                *cached
+                cached.map(|m| (m, None))
             } else {
-                let m = self.primitive(&mesh, &prim, None, &[])?;
+                let m = self.primitive(&mesh, &prim, None, &[], false)?.map(|(m, _)| m);
                 self.mesh_cache.insert(key, m);
-                m
+                m.map(|m| (m, None))
             };
-            let Some(mesh_index) = mesh_index else {
+            let Some((mesh_index, deform)) = placed else {
                 continue;
             };
             // Instancing multiplies triangles: a small file must not expand without bound.
@@ -219,6 +252,13 @@ impl<'a> Loader<'a> {
             // Skinned vertices are already in scene space (glTF ignores the node's transform).
             let transform = if skin_matrices.is_some() { DMat4::IDENTITY } else { world };
             self.scene.objects.push(Object { name, mesh: mesh_index, transform });
+            if let Some(rig) = self.rig.as_mut() {
+                let skin_index = skin.as_ref().map(|(i, _)| *i as u32);
+                rig.instances.push(Instance { node: node.index() as u32, mesh: mesh_index, skin: skin_index, deform });
+            }
+        }
+        if let (Some(rig), Some((i, s))) = (self.rig.as_mut(), skin) {
+            rig.skins[i] = s;
         }
         Ok(())
     }

@@ -1,24 +1,31 @@
 //! One primitive's triangles and attributes (positions, normals, UVs, colours, morph targets)
 //! as a `Mesh`.
 
+use std::sync::Arc;
+
 use glam::{DMat4, Vec2, Vec3, Vec4};
 use gltf::mesh::Mode;
 
 use super::accessor::{read_floats, read_indices};
 use super::{Loader, MAX_TRIANGLES};
 use crate::error::{Error, Result};
-use crate::scene::{Mesh, compute_normals};
+use crate::scene::Mesh;
+use crate::scene::animation::{Deformable, MorphTarget, deform};
 use crate::util::limits::MAX_SCENE_VERTICES;
 
 impl<'a> Loader<'a> {
-    /// Reads one primitive into a `Mesh`; `None` for primitives without triangles.
+    /// Reads one primitive into a `Mesh` at morph `weights` and, when skinned, the skin's
+    /// `joints` matrices (the rest pose); `None` for primitives without triangles. With `keep`
+    /// (the file has animations) a skinned or morphed primitive also returns its undeformed
+    /// data, which every frame deforms anew.
     pub(super) fn primitive(
         &mut self,
         mesh: &gltf::Mesh,
         prim: &gltf::Primitive,
         skin: Option<&[DMat4]>,
         weights: &[f32],
-    ) -> Result<Option<usize>> {
+        keep: bool,
+    ) -> Result<Option<(usize, Option<Arc<Deformable>>)>> {
         let mesh_name = mesh.name().map(str::to_string).unwrap_or_else(|| format!("mesh {}", mesh.index()));
         let name = if mesh.primitives().len() > 1 {
             format!("{mesh_name}/primitive {}", prim.index())
@@ -72,13 +79,13 @@ impl<'a> Loader<'a> {
             )));
         }
         let raw = read_floats::<3>(&pos_acc, &self.buffers, &what).map_err(|m| self.err(m))?;
-        let mut positions: Vec<Vec3> = raw.iter().map(|p| Vec3::from(*p)).collect();
+        let positions: Vec<Vec3> = raw.iter().map(|p| Vec3::from(*p)).collect();
         if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
             return Err(self.err(format!("{what}: vertex {i} is {:?}: NaN or infinite coordinates", positions[i])));
         }
         self.check_bounds(&pos_acc, &positions, &what)?;
 
-        let mut normals: Option<Vec<Vec3>> = match prim.get(&gltf::Semantic::Normals) {
+        let normals: Option<Vec<Vec3>> = match prim.get(&gltf::Semantic::Normals) {
             Some(acc) => {
                 let what = format!("accessor {} (NORMAL of {name})", acc.index());
                 let n = read_floats::<3>(&acc, &self.buffers, &what).map_err(|m| self.err(m))?;
@@ -90,41 +97,40 @@ impl<'a> Loader<'a> {
             None => None,
         };
 
-        // Morph targets at the given weights (rest pose).
+        // Morph targets: those the rest pose weighs, or all of them for animation.
+        let mut targets = Vec::new();
         for (t, target) in prim.morph_targets().enumerate() {
             let w = weights.get(t).copied().unwrap_or(0.0);
-            if w == 0.0 {
+            if w == 0.0 && !keep {
+                targets.push(MorphTarget { positions: None, normals: None });
                 continue;
             }
             self.add_work(positions.len(), &name)?;
-            if let Some(acc) = target.positions() {
-                let what = format!("accessor {} (morph target {t} POSITION of {name})", acc.index());
-                let d = read_floats::<3>(&acc, &self.buffers, &what).map_err(|m| self.err(m))?;
-                if d.len() != positions.len() {
-                    return Err(self.err(format!("{what}: {} deltas for {} positions", d.len(), positions.len())));
+            let deltas = match target.positions() {
+                Some(acc) => {
+                    let what = format!("accessor {} (morph target {t} POSITION of {name})", acc.index());
+                    let d = read_floats::<3>(&acc, &self.buffers, &what).map_err(|m| self.err(m))?;
+                    if d.len() != positions.len() {
+                        return Err(self.err(format!("{what}: {} deltas for {} positions", d.len(), positions.len())));
+                    }
+                    Some(d.into_iter().map(Vec3::from).collect())
                 }
-                for (p, d) in positions.iter_mut().zip(d) {
-                    *p += w * Vec3::from(d);
+                None => None,
+            };
+            let normal_deltas = match (target.normals(), normals.as_ref()) {
+                (Some(acc), Some(_)) => {
+                    let what = format!("accessor {} (morph target {t} NORMAL of {name})", acc.index());
+                    let d = read_floats::<3>(&acc, &self.buffers, &what).map_err(|m| self.err(m))?;
+                    Some(d.into_iter().map(Vec3::from).collect())
                 }
-            }
-            if let (Some(acc), Some(n)) = (target.normals(), normals.as_mut()) {
-                let what = format!("accessor {} (morph target {t} NORMAL of {name})", acc.index());
-                let d = read_floats::<3>(&acc, &self.buffers, &what).map_err(|m| self.err(m))?;
-                for (n, d) in n.iter_mut().zip(d) {
-                    *n += w * Vec3::from(d);
-                }
-            }
+                _ => None,
+            };
+            targets.push(MorphTarget { positions: deltas, normals: normal_deltas });
         }
-        if !weights.is_empty()
-            && prim.morph_targets().len() > 0
-            && let Some(i) = positions.iter().position(|p| !p.is_finite())
-        {
-            return Err(self.err(format!("{name}: morphed vertex {i} is not finite")));
-        }
-
-        if let Some(joint_matrices) = skin {
-            self.apply_skin(prim, &name, joint_matrices, &mut positions, normals.as_mut())?;
-        }
+        let skinning = match skin {
+            Some(joints) => Some(self.read_skinning(prim, &name, joints.len(), positions.len())?),
+            None => None,
+        };
 
         let count = positions.len();
         let indices: Vec<u32> = match prim.indices() {
@@ -150,16 +156,14 @@ impl<'a> Loader<'a> {
             self.warn(format!("{name}: primitive has no complete triangle"));
             return Ok(None);
         }
-        let normals = match normals {
-            Some(n) => {
-                let fallback = compute_normals(&positions, &triangles);
-                n.into_iter()
-                    .zip(fallback)
-                    .map(|(n, f)| if n.is_finite() { n.try_normalize().unwrap_or(f) } else { f })
-                    .collect()
-            }
-            None => compute_normals(&positions, &triangles),
-        };
+        let morphed = !weights.is_empty() && !targets.is_empty();
+        let deformable = Deformable { positions, normals, targets, skinning };
+        let (positions, normals) = deform(&deformable, weights, skin, &triangles);
+        if morphed && let Some(i) = positions.iter().position(|p| !p.is_finite()) {
+            return Err(self.err(format!("{name}: morphed vertex {i} is not finite")));
+        }
+        let kept =
+            (keep && (deformable.skinning.is_some() || !deformable.targets.is_empty())).then(|| Arc::new(deformable));
 
         let material = self.material(prim.material())?;
         let uv_set = self.scene.materials[material].base_color_texture.map(|t| t.uv_set);
@@ -201,7 +205,7 @@ impl<'a> Loader<'a> {
             None => None,
         };
         self.scene.meshes.push(Mesh { name, positions, normals, uvs, colors, triangles, material: Some(material) });
-        Ok(Some(self.scene.meshes.len() - 1))
+        Ok(Some((self.scene.meshes.len() - 1, kept)))
     }
 }
 

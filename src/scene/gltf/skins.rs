@@ -1,14 +1,17 @@
-//! Skins in the rest pose: joint matrices and linear blend skinning of the positions.
+//! Skins: joints and inverse bind matrices, and each skinned primitive's JOINTS_0/WEIGHTS_0,
+//! checked once here; `scene::animation::deform` does the linear blend skinning, for the rest
+//! pose (the loader) and for animation frames alike.
 
-use glam::{DMat4, Vec3};
+use glam::DMat4;
 
 use super::Loader;
 use super::accessor::read_floats;
 use crate::error::Result;
+use crate::scene::animation::{Skin, Skinning};
 
 impl Loader<'_> {
-    /// Joint matrices (scene space) for linear blend skinning in the rest pose.
-    pub(super) fn skin_matrices(&self, skin: &gltf::Skin) -> Result<Vec<DMat4>> {
+    /// The skin's joints (nodes of the rendered scene) and inverse bind matrices.
+    pub(super) fn read_skin(&self, skin: &gltf::Skin) -> Result<Skin> {
         let joints: Vec<_> = skin.joints().collect();
         let ibms: Vec<[f32; 16]> = match skin.inverse_bind_matrices() {
             Some(acc) => {
@@ -25,30 +28,33 @@ impl Loader<'_> {
                 joints.len()
             )));
         }
-        joints
-            .iter()
-            .zip(ibms)
-            .map(|(j, ibm)| {
-                let jw = self.world[j.index()].ok_or_else(|| {
-                    self.err(format!("skin {}: joint node {} is not in the rendered scene", skin.index(), j.index()))
-                })?;
-                let ibm = DMat4::from_cols_array(&ibm.map(|x| x as f64));
-                if !ibm.is_finite() {
-                    return Err(self.err(format!("skin {}: inverse bind matrix is not finite", skin.index())));
-                }
-                Ok(jw * ibm)
-            })
-            .collect()
+        let mut inverse_bind = Vec::with_capacity(joints.len());
+        for (j, ibm) in joints.iter().zip(ibms) {
+            if self.world[j.index()].is_none() {
+                return Err(self.err(format!(
+                    "skin {}: joint node {} is not in the rendered scene",
+                    skin.index(),
+                    j.index()
+                )));
+            }
+            let ibm = DMat4::from_cols_array(&ibm.map(|x| x as f64));
+            if !ibm.is_finite() {
+                return Err(self.err(format!("skin {}: inverse bind matrix is not finite", skin.index())));
+            }
+            inverse_bind.push(ibm);
+        }
+        Ok(Skin { joints: joints.iter().map(|j| j.index() as u32).collect(), inverse_bind })
     }
 
-    pub(super) fn apply_skin(
+    /// JOINTS_0 and WEIGHTS_0 of a skinned primitive of `vertices` vertices, every weighted
+    /// joint index checked against the skin's `joint_count`.
+    pub(super) fn read_skinning(
         &self,
         prim: &gltf::Primitive,
         name: &str,
-        joint_matrices: &[DMat4],
-        positions: &mut [Vec3],
-        normals: Option<&mut Vec<Vec3>>,
-    ) -> Result<()> {
+        joint_count: usize,
+        vertices: usize,
+    ) -> Result<Skinning> {
         let (Some(jacc), Some(wacc)) = (prim.get(&gltf::Semantic::Joints(0)), prim.get(&gltf::Semantic::Weights(0)))
         else {
             return Err(self.err(format!("{name}: skinned node but the primitive has no JOINTS_0/WEIGHTS_0")));
@@ -58,33 +64,29 @@ impl Loader<'_> {
         let weights =
             read_floats::<4>(&wacc, &self.buffers, &format!("accessor {} (WEIGHTS_0 of {name})", wacc.index()))
                 .map_err(|m| self.err(m))?;
-        if joints.len() != positions.len() || weights.len() != positions.len() {
+        if joints.len() != vertices || weights.len() != vertices {
             return Err(self.err(format!("{name}: JOINTS_0/WEIGHTS_0 counts differ from POSITION")));
         }
-        let mut normals = normals;
-        for i in 0..positions.len() {
-            let mut m = DMat4::ZERO;
-            let mut total = 0.0f64;
+        let mut out = Skinning { joints: Vec::with_capacity(vertices), weights: Vec::with_capacity(vertices) };
+        for (i, (j, w)) in joints.iter().zip(&weights).enumerate() {
+            let mut ids = [0u32; 4];
+            let mut ws = [0f32; 4];
             for k in 0..4 {
-                let w = weights[i][k] as f64;
-                if w == 0.0 {
+                if w[k] == 0.0 {
                     continue;
                 }
-                let j = joints[i][k] as usize;
-                let jm = joint_matrices.get(j).ok_or_else(|| {
-                    self.err(format!("{name}: vertex {i} uses joint {j} of a {}-joint skin", joint_matrices.len()))
-                })?;
-                m += *jm * w;
-                total += w;
+                if !(j[k] >= 0.0 && (j[k] as usize) < joint_count) {
+                    return Err(self.err(format!(
+                        "{name}: vertex {i} uses joint {} of a {joint_count}-joint skin",
+                        j[k] as usize
+                    )));
+                }
+                ids[k] = j[k] as u32;
+                ws[k] = w[k];
             }
-            // Weights that do not sum to 1 (seen in CesiumMan) are renormalised.
-            let m = if total > 0.0 { m * (1.0 / total) } else { DMat4::IDENTITY };
-            positions[i] = m.transform_point3(positions[i].as_dvec3()).as_vec3();
-            if let Some(n) = normals.as_deref_mut() {
-                let nm = m.inverse().transpose();
-                n[i] = nm.transform_vector3(n[i].as_dvec3()).as_vec3();
-            }
+            out.joints.push(ids);
+            out.weights.push(ws);
         }
-        Ok(())
+        Ok(out)
     }
 }

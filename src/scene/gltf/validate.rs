@@ -183,12 +183,6 @@ impl Loader<'_> {
         if major != "2" {
             return Err(self.err(format!("asset.version is \"{version}\": only glTF 2.x is supported")));
         }
-        if self.doc.animations().len() > 0 {
-            self.warn(format!(
-                "{} animation(s) ignored: the scene renders in its rest pose (animate in Blender and render frames instead)",
-                self.doc.animations().len()
-            ));
-        }
         Ok(())
     }
 

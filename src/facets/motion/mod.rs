@@ -1,0 +1,202 @@
+//! Facets that move with the scene (`--facet-motion follow`), the thesis's future work ("a
+//! cubist animation system which takes the time dimension into account and animates facets").
+//!
+//! A facet layout is made at a key frame (the layout frame). Every surface point keeps, in
+//! every later frame, the facet it had there: the point a pixel of frame N shows (its triangle
+//! and barycentrics, from frame N's pre-pass) is put back where it was at the key frame (the
+//! same triangle of the key frame's geometry, at the same barycentrics), projected through
+//! the key frame's camera (`Camera::project`, the exact inverse of its rays), and takes the
+//! facet of the key picture there. The motion is the scene's own (its animation, the camera's
+//! orbit), not an estimate from the pictures (optical flow), and frame N needs only the key
+//! frame, never frames between: a render farm's chunks agree.
+//!
+//! A point may have had no facet at the key frame: it was hidden there (behind another
+//! surface, or turned away) or out of the picture. Such pixels, and background pixels where the
+//! key frame showed a surface, take the facet of the nearest pixel that has one (breadth-first,
+//! so facets grow over what the motion reveals); background pixels where the key frame showed
+//! background keep their facet (the backdrop does not move). `Carried::revealed` says how much
+//! of the picture had to be filled so: when it grows, the view has changed too much for one
+//! key frame, and a new one is made (`pipeline::frames`).
+
+pub mod file;
+
+use std::collections::VecDeque;
+
+use glam::{DVec2, Vec3};
+
+use super::FacetMap;
+use crate::camera::Camera;
+use crate::film::{Film, NO_HIT};
+use crate::util::grid::Grid;
+
+/// How facets move over the frames of an animation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FacetMotion {
+    /// Fixed on the image, as the thesis animates (SPEC "Animation").
+    Static,
+    /// Carried with the surfaces they show.
+    Follow,
+}
+
+/// Depth agreement, render units (the scene's radius is 1), under which a point counts as the
+/// surface the key frame saw at its pixel: 0.5% of the scene, looser than the depth change
+/// across a pixel of any but grazing surfaces, tighter than the gap to the surface behind.
+pub const DEPTH_TOLERANCE: f32 = 5e-3;
+
+/// What carrying needs of the key frame: its picture's facets and, per pixel of it, the
+/// triangle and depth (from the camera surface) its centre ray hit, its geometry and camera.
+pub struct Key<'a> {
+    pub map: &'a FacetMap,
+    /// World triangle id of each pixel's centre ray, `NO_HIT` on the background.
+    pub tri: &'a [u32],
+    /// Distance along each pixel's centre ray from the camera surface (infinite on background).
+    pub depth: &'a [f32],
+    /// Triangle corners at the key frame, render space (`World::positions`).
+    pub positions: &'a [[Vec3; 3]],
+    pub camera: &'a dyn Camera,
+}
+
+/// A frame's facets carried from a key frame.
+pub struct Carried {
+    pub map: FacetMap,
+    /// Fraction of the frame's surface pixels whose point the key frame did not see (hidden,
+    /// turned away or out of its picture): their facets were grown from their neighbours'.
+    pub revealed: f64,
+}
+
+/// Per-pixel triangle and depth from the camera surface, read off a pre-pass film (one sample
+/// per pixel: the pixel's hit is its centre ray's).
+pub fn key_buffers(film: &Film, skipped: impl Fn(usize) -> f32) -> (Vec<u32>, Vec<f32>) {
+    film.hits
+        .iter()
+        .enumerate()
+        .map(|(i, h)| if h.is_hit() { (h.tri, h.t + skipped(i)) } else { (NO_HIT, f32::INFINITY) })
+        .unzip()
+}
+
+/// The key frame's pixel a point of the key geometry falls on, if the key frame saw it there.
+fn seen_at_key(key: &Key, tri: u32, u: f32, v: f32) -> Option<usize> {
+    let corners = key.positions.get(tri as usize)?;
+    let p = corners[0] * (1.0 - u - v) + corners[1] * u + corners[2] * v;
+    let seen = key.camera.project(p.as_dvec3())?;
+    if !seen.in_view() {
+        return None;
+    }
+    let (w, h) = (key.map.width as usize, key.map.height as usize);
+    let px = DVec2::new((seen.screen.x + 0.5) * w as f64, (0.5 - seen.screen.y) * h as f64);
+    let (x, y) = ((px.x.floor() as usize).min(w - 1), (px.y.floor() as usize).min(h - 1));
+    let i = y * w + x;
+    if key.tri[i] == tri {
+        return Some(i);
+    }
+    // A neighbouring triangle, or the pixel's centre ray landing elsewhere on the same surface:
+    // the same surface if some pixel around agrees in depth.
+    let depth = seen.depth as f32;
+    let near = (y.saturating_sub(1)..=(y + 1).min(h - 1))
+        .flat_map(|yy| (x.saturating_sub(1)..=(x + 1).min(w - 1)).map(move |xx| yy * w + xx))
+        .any(|j| key.tri[j] == tri || (key.depth[j] - depth).abs() <= DEPTH_TOLERANCE);
+    near.then_some(i)
+}
+
+/// Frame N's facets from the key frame: `hits` are frame N's pixel hits (triangle ids of the
+/// same geometry as the key's, posed at frame N), at the key map's size.
+pub fn carry(key: &Key, film: &Film) -> Carried {
+    let (w, h) = (key.map.width, key.map.height);
+    debug_assert_eq!((film.width, film.height), (w, h));
+    const UNSET: u32 = u32::MAX;
+    let n = film.hits.len();
+    let mut ids = vec![UNSET; n];
+    let (mut surface, mut revealed) = (0usize, 0usize);
+    for (i, hit) in film.hits.iter().enumerate() {
+        if hit.is_hit() {
+            surface += 1;
+            match seen_at_key(key, hit.tri, hit.u, hit.v) {
+                Some(k) => ids[i] = key.map.ids[k],
+                None => revealed += 1,
+            }
+        } else if key.tri[i] == NO_HIT {
+            ids[i] = key.map.ids[i];
+        }
+    }
+    grow(&mut ids, w, h, key.map.ids[0]);
+    Carried {
+        map: FacetMap { width: w, height: h, ids, facet_count: key.map.facet_count },
+        revealed: if surface == 0 { 0.0 } else { revealed as f64 / surface as f64 },
+    }
+}
+
+/// Gives every unset pixel the facet of the nearest set one (breadth-first over 4-neighbours
+/// in a fixed order: deterministic); all unset: `fallback`.
+fn grow(ids: &mut [u32], width: u32, height: u32, fallback: u32) {
+    const UNSET: u32 = u32::MAX;
+    let grid = Grid::new(width, height);
+    let mut queue: VecDeque<usize> = (0..ids.len()).filter(|&i| ids[i] != UNSET).collect();
+    if queue.is_empty() {
+        ids.fill(fallback);
+        return;
+    }
+    while let Some(i) = queue.pop_front() {
+        for j in grid.neighbours4(i) {
+            if ids[j] == UNSET {
+                ids[j] = ids[i];
+                queue.push_back(j);
+            }
+        }
+    }
+}
+
+/// What a frame's picture shows, for measuring coherence between frames: its key data (per
+/// pixel triangle and depth, the frame's geometry and camera) and each pixel's barycentrics.
+pub struct Surface {
+    pub key: file::KeyData,
+    /// Barycentrics (u, v) of each pixel's centre-ray hit (meaningless where `key.tri` is `NO_HIT`).
+    pub uv: Vec<(f32, f32)>,
+}
+
+impl Surface {
+    /// From a pre-pass film and its key data.
+    pub fn new(key: file::KeyData, film: &Film) -> Surface {
+        Surface { key, uv: film.hits.iter().map(|h| (h.u, h.v)).collect() }
+    }
+}
+
+/// How coherent two consecutive frames are, over the surface points both show.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Coherence {
+    /// Surface points seen in both frames (pixels of the later frame whose point the earlier
+    /// frame saw).
+    pub points: usize,
+    /// Share of those points whose facet id is the same in both frames.
+    pub stickiness: f64,
+    /// Mean absolute colour change of those points, RGB in [0, 1] averaged over channels.
+    pub flicker: f64,
+}
+
+/// Stickiness and flicker from frame `a` to frame `b` (issue 15 item 4): each pixel of `b`
+/// showing a surface point is matched, through the scene's exact motion, to the pixel of `a`
+/// showing the same point (as facets follow: `a`'s geometry and camera, `Camera::project`).
+/// `image_*` are RGBA8 pictures at the frames' size.
+pub fn coherence(
+    a: &Surface,
+    map_a: &FacetMap,
+    image_a: &[u8],
+    b: &Surface,
+    map_b: &FacetMap,
+    image_b: &[u8],
+) -> Coherence {
+    let key = a.key.key(map_a);
+    let (mut points, mut same, mut change) = (0usize, 0usize, 0.0f64);
+    for (i, &tri) in b.key.tri.iter().enumerate() {
+        if tri == NO_HIT {
+            continue;
+        }
+        let (u, v) = b.uv[i];
+        let Some(k) = seen_at_key(&key, tri, u, v) else { continue };
+        points += 1;
+        same += (map_a.ids[k] == map_b.ids[i]) as usize;
+        change +=
+            (0..3).map(|c| (image_a[4 * k + c] as f64 - image_b[4 * i + c] as f64).abs()).sum::<f64>() / (3.0 * 255.0);
+    }
+    let n = points.max(1) as f64;
+    Coherence { points, stickiness: same as f64 / n, flicker: change / n }
+}

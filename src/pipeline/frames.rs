@@ -1,0 +1,565 @@
+//! Animation frames (`cubist render --frames A-B`, SPEC "Animation"): every frame of a range in
+//! one process, each a pure function of its frame number, so any range rendered alone (a farm
+//! chunk) gives the same pictures, byte for byte, as the same frames of a longer run.
+//!
+//! Frame f is the scene at time (f - 1) / fps of its glTF animation (`scene::animation`), seen
+//! through the layout frame's camera moved rigidly (`camera::Moved`): turned about the scene's
+//! vertical axis by `orbit` degrees per frame (a turntable), and carried along with the glTF
+//! camera when the file animates it. The layout frame fixes what frames share: the render space,
+//! the camera's framing, and the facet layout (computed from its full pre-render, or loaded).
+//!
+//! Each frame then runs:
+//!
+//! | step | what | why it is cheap |
+//! |---|---|---|
+//! | geometry | the scene posed, flattened, its BVH | kept while no triangle moves (a turntable) |
+//! | pre-pass | one centre ray per pixel, hits only | a quarter of the samples, no shading |
+//! | saliency | the saliency map off the pre-pass | mesh saliency once per mesh content: a skinned or morphed mesh keeps its rest pose's, by vertex index |
+//! | facets | the layout's map (static) or carried to this frame (`facets::motion`) | the layout is never computed again |
+//! | imprecision | aims, as a still render's | |
+//! | trace | every pixel once, through its facet's rays, lit | no separate pre-render and re-trace |
+//! | paint, encode | as a still render's | |
+//!
+//! What frames keep from one another (the BVH while nothing moves, the layout, the key frame,
+//! the painter, per-mesh saliency) is held in `Keep` and `Prepared`: one place, so a stage cache
+//! shared with other long-lived renders can take it over.
+
+use glam::{DMat3, DQuat, DVec2, DVec3, Vec3};
+use image::RgbaImage;
+
+use super::{Plan, Prepared, Stage, StageParams, Timings, encode_stage, layout_stage};
+use crate::accel::Accel;
+use crate::camera::{Camera, Framed, Moved, frame_camera};
+use crate::error::{Error, Result};
+use crate::facets::motion::file::{self as follow_file, KeyData};
+use crate::facets::motion::{self, FacetMotion, Surface};
+use crate::facets::{self, FacetMap, FacetMethod};
+use crate::film::Film;
+use crate::imprecision::{self, AimContext, FacetAim};
+use crate::output::{Gray16, Pass};
+use crate::paint::chiaroscuro::ViewAxes;
+use crate::paint::{Lighting, Painter};
+use crate::progress::Progress;
+use crate::saliency;
+use crate::scene::animation::{self, Choice, Clip};
+use crate::scene::world::Similarity;
+use crate::scene::{Scene, SceneCamera, World};
+use crate::settings::Settings;
+use crate::shading::LightRig;
+use crate::trace::{TraceParams, Tracer, screen_point};
+
+/// Most frames one run renders (a range is validated before anything is loaded or traced).
+pub const MAX_FRAMES: u32 = 1_000_000;
+/// Highest frame rate accepted.
+pub const MAX_FPS: f64 = 10_000.0;
+
+/// Which frames, at what rate, and what moves in them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FramesParams {
+    pub first: u32,
+    pub last: u32,
+    pub fps: f64,
+    /// The glTF animation(s) played; None: the scene stays as loaded.
+    pub animation: Option<Choice>,
+    /// Turntable: the camera turns by this many degrees per frame about the scene's vertical
+    /// axis (the camera's up through the layout frame's scene centre), frame 1 unturned.
+    pub orbit_deg: f64,
+    /// The frame whose picture the facet layout is made from, and whose pose fixes the render
+    /// space and the camera's framing.
+    pub layout_frame: u32,
+    /// Keep what each frame shows (`FrameOutput::surface`), to measure coherence between
+    /// frames (`facets::motion::coherence`).
+    pub measure: bool,
+    /// With facets that follow, a new key frame every this many frames from the layout frame
+    /// (0: the layout frame only). Key frame k's facets are carried from key frame k-1's, so a
+    /// point revealed since the layout frame keeps the facet it grew into; frame N needs the
+    /// pre-passes of the key frames up to its own, never the frames between (farm chunks agree).
+    pub rekey: u32,
+}
+
+impl FramesParams {
+    /// Seconds into the animation at frame `f` (frame 1 is time 0, as in Blender).
+    pub fn time(&self, f: u32) -> f64 {
+        (f as f64 - 1.0) / self.fps
+    }
+
+    pub fn validate(&self) -> Result<()> {
+        let bad = |key: &'static str, m: String| Err(Error::setting(key, m));
+        if self.first > self.last {
+            return bad("frames", format!("{}-{}: the first frame is after the last", self.first, self.last));
+        }
+        if self.last - self.first >= MAX_FRAMES {
+            return bad(
+                "frames",
+                format!("{} frames exceed the limit of {MAX_FRAMES} per run", self.last - self.first + 1),
+            );
+        }
+        if !(self.fps > 0.0 && self.fps <= MAX_FPS) {
+            return bad("fps", format!("{} is not in (0, {MAX_FPS}]", self.fps));
+        }
+        if !(self.orbit_deg.is_finite() && self.orbit_deg.abs() <= 360.0) {
+            return bad("orbit", format!("{} degrees per frame is not in [-360, 360]", self.orbit_deg));
+        }
+        Ok(())
+    }
+}
+
+/// One frame, rendered.
+pub struct FrameOutput {
+    pub frame: u32,
+    pub image: RgbaImage,
+    pub passes: Vec<(Pass, RgbaImage)>,
+    pub passes16: Vec<(Pass, Gray16)>,
+    /// The facet id of every pixel.
+    pub facets: FacetMap,
+    pub timings: Timings,
+    /// With facets that follow: the fraction of surface pixels the layout frame did not see
+    /// (their facets grown from their neighbours').
+    pub revealed: Option<f64>,
+    /// What the frame shows, per pixel (with `FramesParams::measure`).
+    pub surface: Option<Surface>,
+}
+
+/// What the whole run decided, for the user.
+pub struct FramesSummary {
+    pub warnings: Vec<String>,
+    /// The layout frame's camera, in a line.
+    pub camera: String,
+    /// Steps done once, before the first frame (the layout frame's pre-render and layout).
+    pub setup: Timings,
+}
+
+/// Renders every frame of `frames`, handing each to `emit` as soon as it is done (the caller
+/// writes it), in order. `progress` runs over all frames' traces.
+pub fn render_frames(
+    prep: &Prepared,
+    settings: &Settings,
+    frames: &FramesParams,
+    progress: &Progress,
+    emit: &mut dyn FnMut(FrameOutput) -> Result<()>,
+) -> Result<FramesSummary> {
+    settings.validate()?;
+    frames.validate()?;
+    let params = StageParams::new(settings);
+    let clips = match &frames.animation {
+        Some(c) => animation::select(&prep.scene, c)?,
+        None => Vec::new(),
+    };
+    let mut setup = Timings::default();
+    let mut warnings = prep.scene.warnings.clone();
+    if clips.is_empty() && frames.orbit_deg == 0.0 && frames.first != frames.last {
+        warnings.push("nothing moves: the scene has no animation played and --orbit is 0".into());
+    }
+    let painter = setup.time("paint setup", || Painter::new(&params.paint))?;
+    let mut poser = Poser::new(prep, clips, frames.fps);
+    let key_geometry = setup.time("layout frame pose", || poser.geometry(frames, frames.layout_frame, None));
+    let base = frame_camera(&params.framing, key_geometry.world(), key_geometry.accel())?;
+    warnings.extend(base.warnings.iter().cloned());
+    let follows_scene_camera = params.framing.position.is_none() && params.framing.target.is_none();
+    let cameras = Cameras {
+        base: &base,
+        scene_camera: if follows_scene_camera { key_geometry.world().camera.clone() } else { None },
+        orbit_rad: frames.orbit_deg.to_radians(),
+    };
+    let camera_line = base.describe(key_geometry.world());
+
+    let keep = setup.time("layout", || key_frame(prep, &params, frames, &key_geometry, &cameras, &mut warnings))?;
+    if params.motion == FacetMotion::Follow && !keep.faceted {
+        warnings.push("facet motion `follow` has no effect without facets".into());
+    }
+    let (w, h) = (params.trace.width, params.trace.height);
+    progress.begin("frames", (frames.last - frames.first + 1) as u64 * w as u64 * h as u64);
+    let mut geometry = key_geometry;
+    let mut chain: Option<Chained> = None;
+    for f in frames.first..=frames.last {
+        let mut timings = Timings::default();
+        if let Some(key) = &keep.key
+            && frames.rekey > 0
+        {
+            let target = key_frame_of(f, frames.layout_frame, frames.rekey);
+            timings.time("key frames", || {
+                advance_chain(&mut chain, target, frames, key, &keep.map, &mut poser, &cameras, &params.trace)
+            });
+        }
+        geometry = timings.time("geometry", || poser.geometry(frames, f, Some(geometry)));
+        let camera = cameras.at(f, geometry.world());
+        let key = match (&keep.key, &chain) {
+            (Some(_), Some(c)) => Some((&c.key, &c.map)),
+            (Some(k), None) => Some((k, &keep.map)),
+            (None, _) => None,
+        };
+        let out = render_frame(
+            prep,
+            &params,
+            &keep,
+            key,
+            &painter,
+            &geometry,
+            &camera,
+            &base,
+            f,
+            frames.measure,
+            timings,
+            progress,
+        )?;
+        emit(out)?;
+    }
+    progress.finish();
+    Ok(FramesSummary { warnings, camera: camera_line, setup })
+}
+
+/// A frame's scene in render space and its BVH.
+enum Geometry<'a> {
+    /// Nothing is animated: the loaded scene's own.
+    Rest(&'a World, &'a Accel),
+    Posed {
+        frame: u32,
+        world: Box<World>,
+        accel: Box<Accel>,
+    },
+}
+
+impl Geometry<'_> {
+    fn world(&self) -> &World {
+        match self {
+            Geometry::Rest(w, _) => w,
+            Geometry::Posed { world, .. } => world,
+        }
+    }
+    fn accel(&self) -> &Accel {
+        match self {
+            Geometry::Rest(_, a) => a,
+            Geometry::Posed { accel, .. } => accel,
+        }
+    }
+}
+
+/// Poses the scene frame by frame: a working copy of the loaded scene, of which the clips only
+/// ever change the same parts (a pose lists everything its clips move), so posing it in place
+/// gives the same scene as posing the loaded one.
+struct Poser<'a> {
+    prep: &'a Prepared,
+    clips: Vec<&'a Clip>,
+    scene: Scene,
+    /// The layout frame's render space, shared by every frame.
+    space: Option<Similarity>,
+    fps: f64,
+}
+
+impl<'a> Poser<'a> {
+    fn new(prep: &'a Prepared, clips: Vec<&'a Clip>, fps: f64) -> Poser<'a> {
+        let scene = if clips.is_empty() { Scene::default() } else { prep.scene.clone() };
+        Poser { prep, clips, scene, space: None, fps }
+    }
+
+    /// Frame `f`'s geometry. The BVH of `previous` is kept when no triangle moved (a BVH
+    /// depends on nothing else); otherwise it is built anew.
+    fn geometry(&mut self, frames: &FramesParams, f: u32, previous: Option<Geometry<'a>>) -> Geometry<'a> {
+        if self.clips.is_empty() {
+            return Geometry::Rest(&self.prep.world, &self.prep.accel);
+        }
+        debug_assert_eq!(frames.fps, self.fps);
+        if let Some(Geometry::Posed { frame, .. }) = &previous
+            && *frame == f
+        {
+            return previous.expect("matched");
+        }
+        let rest = &self.prep.scene;
+        let rig = rest.rig.as_ref().expect("clips come from the scene's rig");
+        let pose = rig.pose(&self.clips, frames.time(f), |m| &rest.meshes[m].triangles);
+        animation::apply(&mut self.scene, &pose);
+        let space = *self.space.get_or_insert_with(|| World::render_space(&self.scene));
+        let world = World::in_space(&self.scene, space);
+        // Only geometries whose content changed get a BVH (`Accel::update` keys them by
+        // content): the result is the same BVH as a fresh build, whatever frame came before.
+        let accel = match previous {
+            Some(Geometry::Posed { mut accel, .. }) => {
+                accel.update(&world);
+                accel
+            }
+            _ => Box::new(Accel::new(&world)),
+        };
+        Geometry::Posed { frame: f, world: Box::new(world), accel }
+    }
+}
+
+/// The camera of every frame: the layout frame's, moved rigidly.
+struct Cameras<'a> {
+    base: &'a Framed,
+    /// The glTF camera at the layout frame (render space), when frames follow its animation.
+    scene_camera: Option<SceneCamera>,
+    orbit_rad: f64,
+}
+
+impl<'a> Cameras<'a> {
+    /// The rigid motion from the layout frame's camera to frame `f`'s: the glTF camera's own
+    /// motion, then the orbit about the vertical axis through the scene's centre.
+    fn motion(&self, f: u32, world: &World) -> (DQuat, DVec3) {
+        let (mut rotation, mut translation) = (DQuat::IDENTITY, DVec3::ZERO);
+        if let (Some(a), Some(b)) = (&self.scene_camera, &world.camera)
+            && (a.position, a.forward, a.up) != (b.position, b.forward, b.up)
+        {
+            let basis = |c: &SceneCamera| DMat3::from_cols(c.forward, c.up, c.forward.cross(c.up));
+            rotation = DQuat::from_mat3(&(basis(b) * basis(a).transpose())).normalize();
+            translation = b.position - rotation * a.position;
+        }
+        if self.orbit_rad != 0.0 {
+            let orbit = DQuat::from_axis_angle(self.base.frame.up, self.orbit_rad * (f as f64 - 1.0));
+            rotation = orbit * rotation;
+            translation = orbit * translation;
+        }
+        (rotation, translation)
+    }
+
+    fn at(&self, f: u32, world: &World) -> Moved<'a> {
+        let (rotation, translation) = self.motion(f, world);
+        let clip_radius = (world.radius as f64).max(1e-9) * 1.001;
+        Moved { inner: self.base.camera.as_ref(), rotation, translation, clip_radius }
+    }
+}
+
+/// A key frame after the layout frame's (`FramesParams::rekey`): its data and facets.
+struct Chained {
+    frame: u32,
+    key: KeyData,
+    map: FacetMap,
+}
+
+/// The key frame of frame `f`: the last multiple of `every` frames from the layout frame at
+/// or before `f` (after it, for frames before the layout frame).
+fn key_frame_of(f: u32, layout: u32, every: u32) -> u32 {
+    if f >= layout { layout + (f - layout) / every * every } else { layout - (layout - f) / every * every }
+}
+
+/// Brings `chain` to key frame `target`, stepping `every` frames at a time from where it is
+/// (when on the way) or from the layout frame: each key frame's facets carried from the one
+/// before it. The same steps whatever frames were rendered before: deterministic.
+#[allow(clippy::too_many_arguments)]
+fn advance_chain<'a>(
+    chain: &mut Option<Chained>,
+    target: u32,
+    frames: &FramesParams,
+    layout_key: &KeyData,
+    layout_map: &FacetMap,
+    poser: &mut Poser<'a>,
+    cameras: &Cameras,
+    trace: &TraceParams,
+) {
+    let layout = frames.layout_frame;
+    let on_the_way = |c: u32| (c >= layout) == (target >= layout) && c.abs_diff(layout) <= target.abs_diff(layout);
+    if chain.as_ref().is_some_and(|c| !on_the_way(c.frame)) || target == layout {
+        *chain = None;
+    }
+    loop {
+        let at = chain.as_ref().map_or(layout, |c| c.frame);
+        if at == target {
+            return;
+        }
+        let next = if target > at { at + frames.rekey } else { at - frames.rekey };
+        let geometry = poser.geometry(frames, next, None);
+        let (world, accel) = (geometry.world(), geometry.accel());
+        let camera = cameras.at(next, world);
+        let pre = prepass(world, accel, &camera, trace);
+        let carried = match chain.as_ref() {
+            Some(c) => motion::carry(&c.key.key(&c.map), &pre),
+            None => motion::carry(&layout_key.key(layout_map), &pre),
+        };
+        let key = key_of(&pre, world, &camera, trace);
+        *chain = Some(Chained { frame: next, key, map: carried.map });
+    }
+}
+
+/// What every frame shares, decided once at the layout frame.
+struct Keep {
+    faceted: bool,
+    /// The layout at the frames' size (static facets use it as it is).
+    map: FacetMap,
+    /// The key frame facets follow from.
+    key: Option<KeyData>,
+}
+
+/// One centre ray per pixel, hits only: what the saliency map, the facets' motion and the key
+/// frame read of a frame.
+fn prepass(world: &World, accel: &Accel, camera: &dyn Camera, trace: &TraceParams) -> Film {
+    let tracer = Tracer { world, accel, rig: None, background: Vec3::ZERO, seed: trace.seed };
+    let mut film = Film::new(trace.width, trace.height, 1);
+    tracer.render(&mut film, &|_, p| camera.ray(p), None, &Progress::silent());
+    film
+}
+
+/// The key frame of facets that follow: its pre-pass's per-pixel triangles and depths, its
+/// geometry and camera.
+pub fn key_data(world: &World, accel: &Accel, camera: &dyn Camera, trace: &TraceParams) -> KeyData {
+    key_of(&prepass(world, accel, camera, trace), world, camera, trace)
+}
+
+/// Key data from a frame's pre-pass film.
+fn key_of(film: &Film, world: &World, camera: &dyn Camera, trace: &TraceParams) -> KeyData {
+    let (w, h) = (trace.width, trace.height);
+    let skipped = |i: usize| {
+        let (x, y) = (i as u32 % w, i as u32 / w);
+        camera.ray(screen_point(x, y, DVec2::splat(0.5), w, h)).skipped
+    };
+    let (tri, depth) = motion::key_buffers(film, skipped);
+    KeyData {
+        width: w,
+        height: h,
+        tri,
+        depth,
+        positions: (0..world.triangle_count()).map(|t| world.triangle(t as u32)).collect(),
+        camera: camera.model(),
+    }
+}
+
+/// The layout (loaded, or made from the layout frame's full pre-render) and, for facets that
+/// follow, the key frame: loaded beside a loaded layout when saved there, else made here.
+fn key_frame(
+    prep: &Prepared,
+    params: &StageParams,
+    frames: &FramesParams,
+    geometry: &Geometry,
+    cameras: &Cameras,
+    warnings: &mut Vec<String>,
+) -> Result<Keep> {
+    let plan = Plan::new(params);
+    let faceted = plan.faceting;
+    let (world, accel) = (geometry.world(), geometry.accel());
+    let camera = cameras.at(frames.layout_frame, world);
+    let trace = &params.trace;
+    let computes_segments = params.facets.method == FacetMethod::Segment && params.facets.layout_file.is_none();
+    // Only Segment faceting reads the picture; the other methods (and a loaded layout) make
+    // their layout from their parameters, so no pre-render is traced for them.
+    let film = if faceted && computes_segments {
+        let rig = LightRig::new(world, &camera.frame(&cameras.base.frame), trace.shadows, trace.exposure);
+        let tracer =
+            Tracer { world, accel, rig: Some(&rig), background: Vec3::from(trace.background), seed: trace.seed };
+        let mut film = Film::new(trace.width, trace.height, trace.spp);
+        tracer.render(&mut film, &|_, p| camera.ray(p), None, &Progress::silent());
+        if plan.saliency {
+            let sal = saliency::for_film(&prep.scene, world, &prep.saliency, &film, &params.saliency)?;
+            film.saliency = Some(saliency::saliency_map(world, &sal, &film));
+        }
+        film
+    } else {
+        // Read by no faceting method but Segment's.
+        Film::new(1, 1, 1)
+    };
+    let (layout, map) = layout_stage(&params.facets, &film, &Progress::silent(), &mut Timings::default(), warnings)?;
+    let key = if faceted && params.motion == FacetMotion::Follow {
+        let saved = params.facets.layout_file.as_deref().map(follow_file::path_for).filter(|p| p.is_file());
+        let key = match saved {
+            Some(p) => follow_file::load(&p)?,
+            None => key_data(world, accel, &camera, trace),
+        };
+        check_key(&key, trace, world)?;
+        Some(key)
+    } else {
+        None
+    };
+    if let Some(path) = &params.save_facets {
+        facets::io::save(path, &layout, &map)?;
+        if let Some(key) = &key {
+            follow_file::save(&follow_file::path_for(path), key)?;
+        }
+    }
+    Ok(Keep { faceted, map, key })
+}
+
+/// A key frame must match the frames it is carried to: same picture size, same triangles.
+pub fn check_key(key: &KeyData, trace: &TraceParams, world: &World) -> Result<()> {
+    if (key.width, key.height) != (trace.width, trace.height) {
+        return Err(Error::setting(
+            "facets",
+            format!(
+                "the follow data is {}x{}, this render {}x{}: facets follow at the layout frame's size",
+                key.width, key.height, trace.width, trace.height
+            ),
+        ));
+    }
+    if key.positions.len() != world.triangle_count() {
+        return Err(Error::setting(
+            "facets",
+            format!(
+                "the layout frame had {} triangles, this frame has {}: facets follow the same meshes from frame to frame",
+                key.positions.len(),
+                world.triangle_count()
+            ),
+        ));
+    }
+    Ok(())
+}
+
+#[allow(clippy::too_many_arguments)]
+fn render_frame(
+    prep: &Prepared,
+    params: &StageParams,
+    keep: &Keep,
+    key: Option<(&KeyData, &FacetMap)>,
+    painter: &Painter,
+    geometry: &Geometry,
+    camera: &Moved,
+    base: &Framed,
+    frame: u32,
+    measure: bool,
+    mut timings: Timings,
+    progress: &Progress,
+) -> Result<FrameOutput> {
+    let (world, accel) = (geometry.world(), geometry.accel());
+    let trace = &params.trace;
+    let plan = Plan::new(params);
+    let pre = timings.time("pre-pass", || prepass(world, accel, camera, trace));
+
+    let wants_map = params.passes.contains(&Pass::Saliency) || params.passes.contains(&Pass::Facets);
+    let saliency = if (plan.imprecision && params.aim.reads_saliency()) || wants_map {
+        let map = timings.time(Stage::Saliency.name(), || -> Result<Vec<f32>> {
+            let sal = saliency::for_film(&prep.scene, world, &prep.saliency, &pre, &params.saliency)?;
+            Ok(saliency::saliency_map(world, &sal, &pre))
+        })?;
+        Some(map)
+    } else {
+        None
+    };
+
+    let (map, revealed) = match key {
+        Some((key, key_map)) => {
+            let carried = timings.time("facet motion", || motion::carry(&key.key(key_map), &pre));
+            (carried.map, Some(carried.revealed))
+        }
+        None => (keep.map.clone(), None),
+    };
+    if keep.faceted && params.aim.neighborhood > 0.0 && saliency.is_some() {
+        imprecision::check_neighbourhood(&map, params.aim.neighbourhood_px())?;
+    }
+
+    let ctx = AimContext { camera, accel, width: trace.width, height: trace.height, clip_radius: camera.clip_radius };
+    let aims: Vec<FacetAim> = if plan.imprecision {
+        timings
+            .time(Stage::Imprecision.name(), || imprecision::aim_facets(&ctx, &map, saliency.as_deref(), &params.aim))
+    } else {
+        Vec::new()
+    };
+
+    let view = camera.frame(&base.frame);
+    let rig = LightRig::new(world, &view, trace.shadows, trace.exposure);
+    let tracer = Tracer { world, accel, rig: Some(&rig), background: Vec3::from(trace.background), seed: trace.seed };
+    let mut film = Film::new(trace.width, trace.height, trace.spp);
+    let rays = |i: usize, p: DVec2| {
+        let ray = camera.ray(p);
+        match aims.get(map.ids[i] as usize) {
+            Some(aim) if aim.moved() => aim.apply(ray, ctx.pixel_pos(p), ctx.clip_radius),
+            _ => ray,
+        }
+    };
+    timings.time("trace", || tracer.render(&mut film, &rays, None, progress));
+    film.saliency = saliency;
+
+    if plan.paint {
+        let axes = ViewAxes { right: view.right.as_vec3(), up: view.up.as_vec3(), forward: view.forward.as_vec3() };
+        let lighting = Lighting { world, rig: &rig, view: axes };
+        timings
+            .time(Stage::Paint.name(), || painter.apply(&mut film, keep.faceted.then_some(&map), Some(&lighting)))?;
+    }
+    let (image, passes, passes16) = encode_stage(&film, &map, &aims, params, &mut timings);
+    let surface = measure.then(|| Surface::new(key_of(&pre, world, camera, trace), &pre));
+    Ok(FrameOutput { frame, image, passes, passes16, facets: map, timings, revealed, surface })
+}
