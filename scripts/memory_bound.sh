@@ -3,7 +3,7 @@
 # under /usr/bin/time and its peak resident memory is printed beside the estimate the
 # settings were checked against (`Settings::memory_estimate`, bound `MAX_JOB_MEMORY`, 6 GiB).
 # Too slow for CI (minutes each on two cores); tests/memory_bound.rs checks the same estimate
-# per pixel at 1 Mpx on every run. Figures: BENCHMARKS.md, "Memory bound".
+# per pixel at 1 Mpx on every run. Figures: README.md, "Limits".
 #   bash scripts/memory_bound.sh [BINARY]
 set -euo pipefail
 cd "$(dirname "$0")/.."

@@ -87,6 +87,16 @@ fn assert_refused(r: &Run, code: i32, names: &[&str], what: &str) {
     assert!(line.starts_with("error: "), "{what}: {}", r.stderr);
     assert!(names.iter().any(|n| line.contains(n)), "{what}: the error does not name {names:?}: {line}");
     assert!(line.chars().count() < 1000, "{what}: a {}-character message", line.chars().count());
+    assert_no_long_number(line, what);
+}
+
+/// Huge numbers are shortened (`1e300`, not 301 digits): no run of 25 or more digits.
+fn assert_no_long_number(line: &str, what: &str) {
+    let mut run = 0;
+    for c in line.chars() {
+        run = if c.is_ascii_digit() { run + 1 } else { 0 };
+        assert!(run < 25, "{what}: a number echoed in full: {line}");
+    }
 }
 
 // ---- 1. panics: every numeric setting at every extreme
@@ -160,6 +170,7 @@ fn every_numeric_setting_at_every_extreme_is_refused_or_rendered() {
                     let m = e.to_string();
                     assert!(m.contains(&format!("`{}`", f.key)), "{what}: the error does not name the key: {m}");
                     assert!(m.chars().count() < 400 && !m.contains('\n'), "{what}: {m}");
+                    assert_no_long_number(&m, &what);
                 }
                 Ok(mut s) => {
                     if s.width as u64 * s.height as u64 * s.spp as u64 > 4096 {
@@ -212,6 +223,16 @@ fn non_finite_and_huge_flag_values_name_the_flag() {
     // A vector blamed on the right key, and wrong lengths.
     let r = cubist(dir.path(), &["settings", "--camera-position=1e300,1e300,1e300"], 30);
     assert_refused(&r, 2, &["camera_position"], "camera position 1e300");
+    for (args, key) in [
+        (["--stroke-length", "1e300"], "stroke_length"),
+        (["--stroke-width", "0"], "stroke_width"),
+        (["--brushwork", "nan"], "--brushwork"),
+        (["--canvas-grain", "1e40"], "canvas_grain"),
+        (["--border-style", "1e300"], "--border-style"),
+    ] {
+        let r = cubist(dir.path(), &["settings", args[0], args[1]], 30);
+        assert_refused(&r, 2, &[key], &args.join(" "));
+    }
     let r = cubist(dir.path(), &["settings", "--camera-up=1,2"], 30);
     assert_refused(&r, 2, &["camera_up"], "camera up of two numbers");
     let r = cubist(dir.path(), &["settings", "--segments", "1000,2000,3000", "--thresholds", "0,0,0"], 30);
@@ -233,12 +254,48 @@ fn config_values_name_their_key() {
         ("camera_up", json!([1, 2])),
         ("exposure", json!(1e39)),
         ("segments", json!([100000])),
+        // The painterly keys (issue 13), added after the hardening: the same classes hold.
+        ("stroke_length", json!(1e300)),
+        ("stroke_length", json!(-1.0)),
+        ("stroke_width", json!(0.0)),
+        ("stroke_width", json!(-0.0)),
+        ("brushwork", json!(1e39)),
+        ("brushwork", json!(null)),
+        ("plane_light", json!(-1e-300)),
+        ("canvas_grain", json!(f64::MAX)),
+        ("border_style", json!("x")),
+        ("border_style", json!(1e300)),
     ] {
         let cfg = dir.path().join("c.json");
         std::fs::write(&cfg, json!({ key: value }).to_string()).unwrap();
         let r = cubist(dir.path(), &["settings", "--config", cfg.to_str().unwrap()], 30);
         assert_refused(&r, 2, &[&format!("`{key}`")], &format!("config {key} = {value}"));
     }
+    // Every numeric key of the schema (new ones included) at hostile values: refused naming
+    // the key, or accepted; never a panic, an error blaming another key, or a long echo.
+    let mut cases = 0;
+    for f in FIELDS {
+        let kind = f.items.unwrap_or(f.kind);
+        if !matches!(kind, Kind::Integer | Kind::Number) {
+            continue;
+        }
+        for x in [json!(1e300), json!(-1e300), json!(f64::MIN_POSITIVE), json!("nan"), json!(u64::MAX)] {
+            let value = match (f.kind, f.length) {
+                (Kind::Array, Some(n)) => json!(vec![x.clone(); n]),
+                (Kind::Array, None) => json!([x.clone()]),
+                _ => x.clone(),
+            };
+            let cfg = dir.path().join("c.json");
+            std::fs::write(&cfg, json!({ f.key: value }).to_string()).unwrap();
+            let r = cubist(dir.path(), &["settings", "--config", cfg.to_str().unwrap()], 30);
+            let what = format!("config {} = {value}", f.key);
+            if r.code != Some(0) {
+                assert_refused(&r, 2, &[&format!("`{}`", f.key)], &what);
+            }
+            cases += 1;
+        }
+    }
+    assert!(cases >= 200, "{cases}");
 }
 
 /// stderr closed or its reader gone: an error, a warning or a `-v` line never panics.

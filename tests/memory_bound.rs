@@ -4,7 +4,7 @@
 //! ru_maxrss) and compared with the estimate, for every kind of job at 1 Mpx: the estimate is
 //! bytes per pixel, so holding here it holds at any size. The largest allowed jobs themselves
 //! (8192 x 8192) take minutes: `scripts/memory_bound.sh` runs them, with its figures in
-//! BENCHMARKS.md.
+//! README.md, "Limits".
 #![cfg(target_os = "linux")]
 
 use std::process::{Command, Stdio};

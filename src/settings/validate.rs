@@ -201,7 +201,7 @@ impl Settings {
         unit("canvas_grain", s.canvas_grain)?;
         for (key, v) in [("stroke_length", s.stroke_length), ("stroke_width", s.stroke_width)] {
             if !(v.is_finite() && v > 0.0 && v <= 1000.0) {
-                return Err(Error::setting(key, format!("{v} must be in (0, 1000] pixels at 1000 px")));
+                return Err(Error::setting(key, format!("{} must be in (0, 1000] pixels at 1000 px", num(v))));
             }
         }
         if !(s.facet_fov.is_finite() && (0.0..180.0).contains(&s.facet_fov)) {
