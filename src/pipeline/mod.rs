@@ -38,6 +38,7 @@ use crate::film::Film;
 use crate::imprecision::{self, AimContext, AimParams, FacetAim};
 use crate::output::passes::{facet_ids_pass, facets_pass, geometry_pass};
 use crate::output::{Gray16, Pass, encode};
+use crate::paint::chiaroscuro::ViewAxes;
 use crate::paint::{Lighting, Painter};
 use crate::progress::Progress;
 use crate::saliency::{MeshSaliency, SaliencyParams};
@@ -61,6 +62,8 @@ pub struct Rendered {
     pub passes16: Vec<(Pass, Gray16)>,
     /// The facet id of every pixel (a single facet when unfaceted); painterly effects read it.
     pub facets: FacetMap,
+    /// The facet layout `facets` was rasterised from (what `save_facets` saves).
+    pub layout: FacetLayout,
     /// Each facet's centres and re-aim, when the imprecision stage ran (else empty).
     pub aims: Vec<FacetAim>,
     pub timings: Timings,
@@ -84,6 +87,7 @@ pub fn render_with(
 ) -> Result<Rendered> {
     settings.validate()?;
     let params = StageParams::new(settings);
+    check_work(&params)?;
     let plan = Plan::new(&params);
     let mut timings = Timings::default();
 
@@ -124,7 +128,9 @@ pub fn render_with(
 
     if plan.paint {
         // An unfaceted image has no facet borders or corners: no facet map for the painter.
-        let lighting = view.rig.as_ref().map(|rig| Lighting { world: &prep.world, rig });
+        let f = &view.framed.frame;
+        let axes = ViewAxes { right: f.right.as_vec3(), up: f.up.as_vec3(), forward: f.forward.as_vec3() };
+        let lighting = view.rig.as_ref().map(|rig| Lighting { world: &prep.world, rig, view: axes });
         progress.begin(Stage::Paint.name(), 1);
         timings.time(Stage::Paint.name(), || painter.apply(&mut film, faceted.then_some(&map), lighting.as_ref()))?;
     }
@@ -138,12 +144,22 @@ pub fn render_with(
         passes,
         passes16,
         facets: map,
+        layout,
         aims,
         timings,
         warnings,
         camera: view.describe_camera(prep),
         film,
     })
+}
+
+/// Work that would take hours, refused before anything runs (issue 18): the Segment
+/// faceting's eigenvectors. (The lights' work depends on the scene: `prerender` checks it.)
+pub fn check_work(params: &StageParams) -> Result<()> {
+    if params.facets.method == facets::FacetMethod::Segment && params.facets.layout_file.is_none() {
+        facets::segment::check_work(params.facets.width, params.facets.height, &params.facets.segment)?;
+    }
+    Ok(())
 }
 
 /// Mesh saliency (SPEC "Mesh saliency") of the meshes the pre-render hit, and the saliency
