@@ -439,6 +439,109 @@ mod tests {
         assert_eq!(p, DVec2::new(-0.25, 0.25));
     }
 
+    /// A film of `w x h` one-sample pixels, every one a hit on object 0 in mid grey.
+    fn grey_film(w: u32, h: u32) -> Film {
+        let mut film = Film::new(w, h, 1);
+        for (c, hit) in film.color.iter_mut().zip(&mut film.hits) {
+            *c = Vec4::new(0.2, 0.2, 0.2, 1.0);
+            *hit = PixelHit { tri: 0, object: 0, t: 1.0, normal: Vec3::Z, u: 0.0, v: 0.0 };
+        }
+        film
+    }
+
+    #[test]
+    fn only_pixels_whose_facet_neighbours_disagree_are_refined() {
+        let (w, h) = (8u32, 6u32);
+        let one_facet = vec![0u32; 48];
+        let mut film = grey_film(w, h);
+        assert!(pixels_to_refine(&film, &one_facet, 0.02).is_empty(), "a flat film needs no samples");
+        assert_eq!(pixels_to_refine(&film, &one_facet, 0.0).len(), 48, "threshold 0: every pixel");
+        // A change below the threshold (sRGB) is not refined; one above it refines the pixel
+        // and its 8 neighbours.
+        film.color[2 * 8 + 3] = Vec4::new(0.201, 0.2, 0.2, 1.0);
+        assert!(pixels_to_refine(&film, &one_facet, 0.02).is_empty());
+        film.color[2 * 8 + 3] = Vec4::new(0.5, 0.2, 0.2, 1.0);
+        let want: Vec<u32> = (1..=3).flat_map(|y| (2..=4).map(move |x| y * 8 + x)).collect();
+        assert_eq!(pixels_to_refine(&film, &one_facet, 0.02), want);
+        // Another object (same colour) is a silhouette: refined with its neighbours.
+        let mut film = grey_film(w, h);
+        film.hits[0].object = 1;
+        assert_eq!(pixels_to_refine(&film, &one_facet, 0.02), vec![0, 1, 8, 9]);
+        // Across a facet border nothing is compared: columns 0..4 facet 0, 4..8 facet 1, each
+        // flat but of different colours.
+        let mut film = grey_film(w, h);
+        let facets: Vec<u32> = (0..48).map(|i| (i % 8 >= 4) as u32).collect();
+        for i in 0..48 {
+            if facets[i] == 1 {
+                film.color[i] = Vec4::new(0.9, 0.1, 0.1, 1.0);
+            }
+        }
+        assert!(pixels_to_refine(&film, &facets, 0.02).is_empty());
+    }
+
+    #[test]
+    fn occlusion_is_known_only_where_neighbours_agree() {
+        let mut film = grey_film(4, 4);
+        let facets = vec![0u32; 16];
+        // Light 0 blocked everywhere, light 1 blocked at one pixel only.
+        film.occlusion.iter_mut().for_each(|o| *o = 0b01);
+        film.occlusion[5] = 0b11;
+        let k = agreed_occlusion(&film, &facets, 15);
+        assert_eq!(k.occlusion.known & 0b11, 0b11, "pixel 15's neighbourhood agrees on both lights");
+        assert_eq!(k.occlusion.blocked & 0b11, 0b01);
+        let k = agreed_occlusion(&film, &facets, 10);
+        assert_eq!(k.occlusion.known & 0b11, 0b01, "pixel 10 sees pixel 5: light 1 must be traced");
+        assert_eq!(k.occlusion.blocked & 0b01, 0b01);
+        // Only for samples on the same object.
+        let other = Hit { t: 1.0, tri: 0, object: 3, u: 0.0, v: 0.0 };
+        assert_eq!(k.for_hit(&other), Occlusion::TRACE);
+        // Neighbours on two objects: nothing known.
+        film.hits[1].object = 2;
+        assert_eq!(agreed_occlusion(&film, &facets, 0).occlusion, Occlusion::TRACE);
+    }
+
+    /// The coarse-grid shadow rays (one sample per pixel: shadow rays only where coarse
+    /// neighbours disagree) against casting every one, on the default still life with its
+    /// cast shadows: the grid pixels are exact, and the others differ only at a few.
+    #[test]
+    fn coarse_shadow_rays_match_casting_every_one() {
+        use crate::pipeline::{Prepared, Shading, StageParams, Timings, prerender};
+        use crate::settings::Settings;
+        let prep = Prepared::load(None).unwrap();
+        let s = Settings { width: 160, height: 120, spp: 1, ..Settings::default() };
+        let params = StageParams::new(&s);
+        assert!(params.trace.shadows);
+        let pre = prerender(
+            &prep,
+            &params.framing,
+            &params.trace,
+            Shading::Lit,
+            &Progress::silent(),
+            &mut Timings::default(),
+        )
+        .unwrap();
+        let coarse = pre.film;
+        let tracer = pre.view.tracer(&prep, &params.trace);
+        let camera = pre.view.framed.camera.as_ref();
+        let mut full = Film::new(160, 120, 1);
+        tracer.render_all(&mut full, &|_, p| camera.ray(p), &Progress::silent());
+        let blocked = full.occlusion.iter().filter(|&&o| o != 0).count();
+        let lit = full.occlusion.iter().zip(&full.hits).filter(|(o, h)| **o == 0 && h.is_hit()).count();
+        assert!(blocked > 200 && lit > 200, "the still life has shadows and light: {blocked} blocked, {lit} lit");
+        let mut wrong = 0;
+        for i in 0..full.pixel_count() {
+            let on_grid = (i % 160) % 2 == 0 && (i / 160) % 2 == 0;
+            assert_eq!(coarse.hits[i].tri, full.hits[i].tri);
+            if on_grid {
+                assert_eq!(coarse.color[i], full.color[i], "grid pixel {i}");
+                assert_eq!(coarse.occlusion[i], full.occlusion[i], "grid pixel {i}");
+            } else if coarse.occlusion[i] != full.occlusion[i] {
+                wrong += 1;
+            }
+        }
+        assert!(wrong * 200 < full.pixel_count(), "{wrong} pixels' shadows differ (of {})", full.pixel_count());
+    }
+
     #[test]
     fn seeds_change_the_jitter() {
         assert_ne!(sample_offset(1, 5, 0, 4), sample_offset(2, 5, 0, 4));
