@@ -237,6 +237,7 @@ fn main() {
         "faceting",
         "imprecision",
         "re-trace",
+        "anti-aliasing",
         "paint",
         "encode",
         "write",
