@@ -5,8 +5,8 @@ Imports a glTF scene into headless Blender (bpy 5.0.1 from .venv: `bash scripts/
 places a custom (OSL) camera whose rays start on a sphere of radius d around the focal centre C
 and point at it, rotated by x * alpha_x about up and y * alpha_y about right (alpha_y = alpha /
 aspect, as the thesis's listing), and renders once with Cycles on the CPU at the given samples.
-Prints one JSON line: the render's wall and CPU seconds (bpy.ops.render.render alone: scene
-import, Blender start-up and the image write are not counted, which favours Cycles) and the
+Prints one JSON line: the render's wall and CPU seconds (bpy.ops.render.render with its PNG write: scene
+import and Blender start-up are not counted, which favours Cycles) and the
 settings used.
 
     .venv/bin/python eval/cycles_cubist_camera.py ../shared/models/venus_11k.glb \
@@ -118,7 +118,7 @@ def main():
 
     usage = lambda: resource.getrusage(resource.RUSAGE_SELF)  # noqa: E731
     u0, t0 = usage(), time.perf_counter()
-    bpy.ops.render.render(write_still=args.output is not None)
+    bpy.ops.render.render(write_still=True)
     wall = time.perf_counter() - t0
     u1 = usage()
     cpu = (u1.ru_utime - u0.ru_utime) + (u1.ru_stime - u0.ru_stime)
