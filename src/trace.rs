@@ -178,18 +178,22 @@ impl Tracer<'_> {
             return;
         }
         let w = film.width as usize;
-        let on_grid = |i: u32| (i as usize % w).is_multiple_of(2) && (i as usize / w).is_multiple_of(2);
-        let all: Vec<u32>;
-        let list = match pixels {
-            Some(l) => l,
-            None => {
-                all = (0..film.pixel_count() as u32).collect();
-                &all
-            }
-        };
-        let (grid, rest): (Vec<u32>, Vec<u32>) = list.iter().partition(|&&i| on_grid(i));
-        self.render_subset(film, rays, &grid, None, progress);
+        let on_grid = |i: usize| (i % w).is_multiple_of(2) && (i / w).is_multiple_of(2);
         let ids = facets.unwrap_or(&[]);
+        let Some(list) = pixels else {
+            // The whole film, in place (no copy of its buffers): the grid, then the others
+            // with what their grid neighbours agree on.
+            self.render_rows(film, rays, progress, on_grid, |_| Known::NONE);
+            let traced = &*film;
+            let known: Vec<Known> = (0..traced.pixel_count())
+                .into_par_iter()
+                .map(|i| if on_grid(i) { Known::NONE } else { coarse_occlusion(traced, ids, i) })
+                .collect();
+            self.render_rows(film, rays, progress, |i| !on_grid(i), |i| known[i]);
+            return;
+        };
+        let (grid, rest): (Vec<u32>, Vec<u32>) = list.iter().partition(|&&i| on_grid(i as usize));
+        self.render_subset(film, rays, &grid, None, progress);
         let traced = &*film;
         let known: Vec<Known> = rest.par_iter().map(|&i| coarse_occlusion(traced, ids, i as usize)).collect();
         self.render_subset(film, rays, &rest, Some(&known), progress);
@@ -197,6 +201,19 @@ impl Tracer<'_> {
 
     /// Every pixel, rows in parallel, every shadow ray cast.
     fn render_all(&self, film: &mut Film, rays: &Rays, progress: &Progress) {
+        self.render_rows(film, rays, progress, |_| true, |_| Known::NONE);
+    }
+
+    /// The pixels `pick` chooses, rows in parallel, in place, with what `known(i)` says of
+    /// the lights of pixel `i`.
+    fn render_rows(
+        &self,
+        film: &mut Film,
+        rays: &Rays,
+        progress: &Progress,
+        pick: impl Fn(usize) -> bool + Sync,
+        known: impl Fn(usize) -> Known + Sync,
+    ) {
         let (w, h, spp) = (film.width, film.height, film.spp as usize);
         let wu = w as usize;
         film.color
@@ -206,15 +223,20 @@ impl Tracer<'_> {
             .zip(film.samples.par_chunks_mut(wu * spp))
             .enumerate()
             .for_each(|(y, (((c, hrow), orow), srow))| {
+                let mut traced = 0u64;
                 for x in 0..wu {
                     let i = y * wu + x;
+                    if !pick(i) {
+                        continue;
+                    }
                     let (col, hit, blocked) =
-                        self.trace_pixel(i, w, h, &mut srow[x * spp..(x + 1) * spp], rays, Known::NONE);
+                        self.trace_pixel(i, w, h, &mut srow[x * spp..(x + 1) * spp], rays, known(i));
                     c[x] = col;
                     hrow[x] = hit;
                     orow[x] = blocked;
+                    traced += 1;
                 }
-                progress.add(wu as u64);
+                progress.add(traced);
             });
     }
 
