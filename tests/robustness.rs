@@ -692,7 +692,9 @@ fn the_analytic_preset_does_not_depend_on_units_or_placement() {
             // (k-means superpixels, eigenvectors, discretisation) turns such ulps into ~1% of the
             // pixels changing facet. A 1e-6 scale 1e6 away leaves f64 only 1e-4 of the object's
             // size as resolution: the geometry itself moves, ~4% of the pixels change facet.
-            let (facets, diff) = if scale != 1.0 && offset != DVec3::ZERO { (0.93, 4.0) } else { (0.97, 1.5) };
+            // The Segment layout reads the one-sample pre-render (issue 16): its aliased edges
+            // move with the geometry, so the far-offset case's facets, and colours, move more.
+            let (facets, diff) = if scale != 1.0 && offset != DVec3::ZERO { (0.93, 6.0) } else { (0.97, 1.5) };
             assert!(same_facet > facets, "{name}: only {:.1}% of pixels keep their facet", same_facet * 100.0);
             assert!(mean < diff, "{name}: mean difference {mean:.3} / 255");
         }

@@ -291,9 +291,18 @@ pub fn antialias_stage(
     };
     let tracer = view.tracer(prep, trace);
     timings.time(Stage::AntiAliasing.name(), || {
-        let pixels = crate::trace::pixels_to_refine(film, &map.ids, trace.aa_threshold);
+        // Where no facet moved, every ray is the camera's: facet borders are no edges of the
+        // picture, and the image is the unfaceted one (one facet for the comparisons).
+        let one_facet;
+        let ids: &[u32] = if aims.iter().any(|a| a.moved()) {
+            &map.ids
+        } else {
+            one_facet = vec![0u32; map.ids.len()];
+            &one_facet
+        };
+        let pixels = crate::trace::pixels_to_refine(film, ids, trace.aa_threshold);
         progress.begin(Stage::AntiAliasing.name(), pixels.len() as u64);
-        tracer.antialias(film, &rays, &pixels, &map.ids, trace.spp, progress);
+        tracer.antialias(film, &rays, &pixels, ids, trace.spp, progress);
     });
     progress.finish();
 }
