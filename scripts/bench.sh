@@ -4,9 +4,9 @@
 # About 5 minutes on 2 idle cores; --quick about 2 (fewer runs and seeds, smaller figures).
 #   bash scripts/bench.sh [--quick] [SCENE]      (SCENE: the pipeline tables' scene, default venus_11k)
 # Benchmarks, not tests: nothing here fails on a slow machine. Run it on a quiet machine when
-# you can; the tables give CPU times too, which hold up on a shared one. The exact saliency
-# of the 1.25M-vertex mesh takes 5-10 minutes: it comes from an earlier
-# `cargo bench --bench saliency` (without --quick) when one left its result in target/.
+# you can; the tables give CPU times too, which hold up on a shared one. Exact saliency of
+# meshes over 3e8 pairs comes from an earlier `cargo bench --bench saliency` (without
+# --quick) when one left its result in target/; otherwise its error is sampled.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 quick=()
@@ -88,12 +88,13 @@ tmp=BENCHMARKS.md.tmp
     echo
     body pipeline
     echo
-    echo "## Issue 3: mesh saliency (\`benches/saliency.rs --quick\`)"
+    echo "## Issues 3 and 16: mesh saliency (\`benches/saliency.rs --quick\`)"
     echo
-    echo "Exact sums against the clustered approximation (cells of sigma / beta), error of the final"
-    echo "[0, 1] saliency against exact. The 1.25M-vertex mesh is bunny_full refined by PN triangles"
-    echo "(36 sub-triangles each); its exact row comes from an earlier full run (\`cargo bench --bench"
-    echo "saliency\`), when there was one."
+    echo "Per mesh class (generated uniform, adaptive, scanned-like, CAD-like meshes; shared models;"
+    echo "glTF samples; bunny_full refined by PN triangles) and size up to 2M vertices: the exact"
+    echo "sums' work counted on the mesh, the method \`auto\` picks, its time, and the error of the"
+    echo "final [0, 1] saliency against the exact method (full, or sampled where the exact sums"
+    echo "are too long; an earlier full run's exact results are reused from target/saliency-bench)."
     echo
     body saliency
     echo

@@ -13,6 +13,7 @@
 //! there is best known from the nearest complete rings.
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use super::surface::Surface;
 
@@ -30,48 +31,91 @@ pub struct Curvature {
 /// degenerate: its cotangents are meaningless, so it contributes nothing.
 const DEGENERATE: f64 = 1e-12;
 
+/// One triangle's contribution to one corner: the cotangent Laplacian's terms, the mixed area,
+/// the (area-weighted) face normal.
+struct Corner {
+    lap: DVec3,
+    area: f64,
+    normal: DVec3,
+}
+
+/// The three corners' contributions of triangle `t`, None when it is degenerate: its cotangents
+/// are meaningless, so it contributes nothing.
+fn corners(s: &Surface, t: &[u32; 3]) -> Option<[Corner; 3]> {
+    let [i, j, k] = t.map(|x| x as usize);
+    let (pi, pj, pk) = (s.positions[i], s.positions[j], s.positions[k]);
+    let (eij, eik, ejk) = (pj - pi, pk - pi, pk - pj);
+    let cross = eij.cross(eik);
+    let c2 = cross.length();
+    let scale = eij.length_squared() + eik.length_squared() + ejk.length_squared();
+    if !(c2 > DEGENERATE * scale) {
+        return None;
+    }
+    // Cotangent of the angle at each corner: dot / |cross| of the two edges leaving it.
+    let cot_i = eij.dot(eik) / c2;
+    let cot_j = (-eij).dot(ejk) / c2;
+    let cot_k = eik.dot(ejk) / c2;
+    let lap = [
+        cot_k * (pi - pj) + cot_j * (pi - pk),
+        cot_k * (pj - pi) + cot_i * (pj - pk),
+        cot_j * (pk - pi) + cot_i * (pk - pj),
+    ];
+    let a = 0.5 * c2;
+    // Mixed area (Meyer Fig. 4): Voronoi area for non-obtuse triangles, else A/2 at the
+    // obtuse corner and A/4 at the others.
+    let area = if cot_i < 0.0 || cot_j < 0.0 || cot_k < 0.0 {
+        [cot_i, cot_j, cot_k].map(|c| if c < 0.0 { a / 2.0 } else { a / 4.0 })
+    } else {
+        let (lij, lik, ljk) = (eij.length_squared(), eik.length_squared(), ejk.length_squared());
+        [(lij * cot_k + lik * cot_j) / 8.0, (lij * cot_k + ljk * cot_i) / 8.0, (lik * cot_j + ljk * cot_i) / 8.0]
+    };
+    Some([0, 1, 2].map(|c| Corner { lap: lap[c], area: area[c], normal: cross }))
+}
+
 /// Cotangent-Laplacian mean curvature (Meyer et al. 2003, eq. 8 with the mixed area of Fig. 4),
 /// `H = (K . n) / 2` with `K = L / (2 A_mixed)`, `L = sum_j (cot a_ij + cot b_ij)(x_i - x_j)` and
 /// `n` the area-weighted normal. See the module doc for why.
 pub fn mean_curvature(s: &Surface, edges: &[(u32, u32, u32)]) -> Curvature {
     let n = s.len();
-    let mut lap = vec![DVec3::ZERO; n];
-    let mut area = vec![0.0f64; n];
-    let mut normal = vec![DVec3::ZERO; n];
+    // Each triangle's contribution to its three corners (None: degenerate), in parallel.
+    let per_triangle: Vec<Option<[Corner; 3]>> = s.triangles.par_iter().map(|t| corners(s, t)).collect();
+    // Each vertex sums its triangles' contributions in triangle order (what a sequential loop
+    // over the triangles adds), in parallel over vertices: the same bits on any thread count.
+    let mut start = vec![0u32; n + 1];
     for t in &s.triangles {
-        let [i, j, k] = t.map(|x| x as usize);
-        let (pi, pj, pk) = (s.positions[i], s.positions[j], s.positions[k]);
-        let (eij, eik, ejk) = (pj - pi, pk - pi, pk - pj);
-        let cross = eij.cross(eik);
-        let c2 = cross.length();
-        let scale = eij.length_squared() + eik.length_squared() + ejk.length_squared();
-        if !(c2 > DEGENERATE * scale) {
-            continue;
-        }
-        // Cotangent of the angle at each corner: dot / |cross| of the two edges leaving it.
-        let cot_i = eij.dot(eik) / c2;
-        let cot_j = (-eij).dot(ejk) / c2;
-        let cot_k = eik.dot(ejk) / c2;
-        lap[i] += cot_k * (pi - pj) + cot_j * (pi - pk);
-        lap[j] += cot_k * (pj - pi) + cot_i * (pj - pk);
-        lap[k] += cot_j * (pk - pi) + cot_i * (pk - pj);
-        normal[i] += cross;
-        normal[j] += cross;
-        normal[k] += cross;
-        let a = 0.5 * c2;
-        // Mixed area (Meyer Fig. 4): Voronoi area for non-obtuse triangles, else A/2 at the
-        // obtuse corner and A/4 at the others.
-        if cot_i < 0.0 || cot_j < 0.0 || cot_k < 0.0 {
-            area[i] += if cot_i < 0.0 { a / 2.0 } else { a / 4.0 };
-            area[j] += if cot_j < 0.0 { a / 2.0 } else { a / 4.0 };
-            area[k] += if cot_k < 0.0 { a / 2.0 } else { a / 4.0 };
-        } else {
-            let (lij, lik, ljk) = (eij.length_squared(), eik.length_squared(), ejk.length_squared());
-            area[i] += (lij * cot_k + lik * cot_j) / 8.0;
-            area[j] += (lij * cot_k + ljk * cot_i) / 8.0;
-            area[k] += (lik * cot_j + ljk * cot_i) / 8.0;
+        for &i in t {
+            start[i as usize + 1] += 1;
         }
     }
+    for i in 0..n {
+        start[i + 1] += start[i];
+    }
+    let mut fill = start.clone();
+    let mut incident = vec![0u32; s.triangles.len() * 3];
+    for (ti, t) in s.triangles.iter().enumerate() {
+        for (k, &i) in t.iter().enumerate() {
+            incident[fill[i as usize] as usize] = (ti * 3 + k) as u32;
+            fill[i as usize] += 1;
+        }
+    }
+    let sums: Vec<(DVec3, f64, DVec3)> = (0..n)
+        .into_par_iter()
+        .map(|v| {
+            let (mut lap, mut area, mut normal) = (DVec3::ZERO, 0.0f64, DVec3::ZERO);
+            for &c in &incident[start[v] as usize..start[v + 1] as usize] {
+                if let Some(cs) = &per_triangle[c as usize / 3] {
+                    let corner = &cs[c as usize % 3];
+                    lap += corner.lap;
+                    normal += corner.normal;
+                    area += corner.area;
+                }
+            }
+            (lap, area, normal)
+        })
+        .collect();
+    let lap: Vec<DVec3> = sums.iter().map(|s| s.0).collect();
+    let area: Vec<f64> = sums.iter().map(|s| s.1).collect();
+    let normal: Vec<DVec3> = sums.iter().map(|s| s.2).collect();
     let mut boundary = vec![false; n];
     for &(a, b, count) in edges {
         if count == 1 {

@@ -113,6 +113,13 @@ pub fn gaussian_means(points: &[DVec3], h: &[f64], sigmas: &[f64]) -> Vec<f64> {
     means
 }
 
+/// Candidate pairs `gaussian_means` visits when its largest sigma is `sigma_max`: the same
+/// grid, counted without computing a distance.
+pub fn exact_work(points: &[DVec3], sigma_max: f64) -> u64 {
+    let rmax = 2.0 * sigma_max;
+    Grid::new(points, rmax / 3.0).candidate_pairs(rmax)
+}
+
 /// A cell's candidates copied into contiguous arrays.
 #[derive(Default)]
 struct Buffers {
@@ -219,17 +226,15 @@ pub fn combine(points: &[DVec3], adjacency: &Adjacency, h: &[f64], means: &[f64]
     let mut any_level = false;
     let mut any_weight = false;
     for (li, &(fine, coarse)) in LEVEL_PAIRS.iter().enumerate() {
-        let mut s: Vec<f64> =
-            (0..n).map(|v| ((means[v * ns + fine] - means[v * ns + coarse]).abs() - floor).max(0.0)).collect();
-        let max = s.iter().cloned().fold(0.0f64, f64::max);
+        // Element-wise steps and maxima run in parallel (same bits: no sum changes order).
+        let mut s: Vec<f64> = means.par_chunks(ns).map(|m| ((m[fine] - m[coarse]).abs() - floor).max(0.0)).collect();
+        let max = s.par_iter().cloned().reduce(|| 0.0f64, f64::max);
         if !(max > 0.0) || !max.is_finite() {
             continue;
         }
         any_level = true;
-        for x in &mut s {
-            *x /= max;
-        }
-        let argmax = s.iter().position(|&x| x == 1.0);
+        s.par_iter_mut().for_each(|x| *x /= max);
+        let argmax = s.par_iter().position_first(|&x| x == 1.0);
         let peaks = local_maxima(points, &s, LEVEL_SCALES[li] * eps, Some(adjacency));
         let (mut sum, mut count) = (0.0f64, 0usize);
         for v in 0..n {
@@ -241,20 +246,18 @@ pub fn combine(points: &[DVec3], adjacency: &Adjacency, h: &[f64], means: &[f64]
         let mbar = if count > 0 { sum / count as f64 } else { 0.0 };
         let weight = (1.0 - mbar).powi(2);
         any_weight |= weight > 0.0;
-        for v in 0..n {
-            total[v] += weight * s[v];
-            plain[v] += s[v];
-        }
+        total.par_iter_mut().zip(plain.par_iter_mut()).zip(s.par_iter()).for_each(|((t, p), x)| {
+            *t += weight * x;
+            *p += x;
+        });
     }
     if !any_level {
         return vec![0.0; n];
     }
     let mut out = if any_weight { total } else { plain };
-    let max = out.iter().cloned().fold(0.0f64, f64::max);
+    let max = out.par_iter().cloned().reduce(|| 0.0f64, f64::max);
     if max > 0.0 && max.is_finite() {
-        for x in &mut out {
-            *x /= max;
-        }
+        out.par_iter_mut().for_each(|x| *x /= max);
     } else {
         out.iter_mut().for_each(|x| *x = 0.0);
     }

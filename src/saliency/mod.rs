@@ -4,8 +4,9 @@
 //! Stages: `surface` (weld by position, canonical order) -> `curvature` (cotangent mean
 //! curvature) -> `levels` (Gaussian means through `neighbourhood` grids, centre-surround,
 //! normalisation, suppression) -> `map` (per-pixel interpolation). `approx` offers a clustered
-//! evaluation of the Gaussian means for meshes too large for the exact sums; `cache` keeps
-//! results on disk across processes (the Blender add-on runs once per animation frame).
+//! evaluation of the Gaussian means with a bounded cost (its inner loops in `kernels`) for
+//! meshes too large for the exact sums; `cache` keeps results on disk across processes (the
+//! Blender add-on runs once per animation frame).
 //!
 //! Choices the SPEC leaves open, each documented where it is made: H = (K . n) / 2 from the
 //! cotangent Laplacian with mixed areas, rim and zero-area vertices filled from their
@@ -18,6 +19,7 @@
 pub mod approx;
 pub mod cache;
 pub mod curvature;
+pub mod kernels;
 pub mod levels;
 pub mod map;
 pub mod neighbourhood;
@@ -39,11 +41,11 @@ use crate::scene::{Mesh, Scene, World};
 /// How mesh saliency's Gaussian means are evaluated (SPEC "Mesh saliency").
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum SaliencyMethod {
-    /// Exact while the neighbour sums stay affordable (`EXACT_PAIR_BUDGET`), clustered above.
+    /// Exact while the exact sums' work counted on the mesh stays within `EXACT_BUDGET`, clustered above.
     Auto,
     /// The definition's exact sums, whatever the mesh's size.
     Exact,
-    /// Clustered sources and targets (`approx`): fast on huge meshes, approximate.
+    /// Each block of vertices exact or by clusters, whichever is cheaper (`approx`): bounded cost, approximate.
     Clustered,
 }
 
@@ -67,11 +69,12 @@ pub struct SaliencyParams {
 }
 
 /// Bumped whenever the definition or its numbers change, so stale cache entries are ignored.
-pub const ALGORITHM_VERSION: u32 = 1;
+pub const ALGORITHM_VERSION: u32 = 2;
 
-/// `Auto` uses the exact sums while they cost at most this many neighbour pairs (a few seconds
-/// on 2 cores: bunny_full's 35K vertices visit ~2e7), the clustered approximation above.
-pub const EXACT_PAIR_BUDGET: f64 = 5e8;
+/// `Auto` uses the exact sums while they visit at most this many candidate pairs (counted on
+/// the mesh, `Analysed::exact_work`: under a second of CPU, half a second on two cores; meshes
+/// up to ~35K vertices of even density), the clustered approximation above.
+pub const EXACT_BUDGET: u64 = 50_000_000;
 
 /// Per-vertex saliency of the meshes a frame needs.
 #[derive(Clone, Debug, Default)]
@@ -129,16 +132,14 @@ pub fn analyse(positions: &[Vec3], triangles: &[[u32; 3]]) -> Analysed {
 }
 
 impl Analysed {
-    /// Expected number of (vertex, neighbour) pairs the exact sums visit: each vertex's disk of
-    /// radius 24 eps (twice the largest sigma) on a surface of uniform density.
-    pub fn exact_pairs(&self) -> f64 {
-        let n = self.surface.len() as f64;
-        let area = self.surface.area();
-        if area <= 0.0 {
-            return 0.0;
+    /// Candidate pairs the exact sums visit on this mesh, counted on their own grid (what they
+    /// cost, whatever the tessellation; not an estimate from the vertex count and area, which
+    /// is off by 20x on meshes of uneven density).
+    pub fn exact_work(&self) -> u64 {
+        if self.surface.is_empty() || !(self.eps > 0.0) {
+            return 0;
         }
-        let r = 2.0 * levels::SIGMA_SCALES[7] * self.eps;
-        n * (n * std::f64::consts::PI * r * r / area).min(n)
+        levels::exact_work(&self.surface.positions, levels::SIGMA_SCALES[7] * self.eps)
     }
 
     /// Whether `method` resolves to the exact sums for this mesh.
@@ -146,7 +147,7 @@ impl Analysed {
         match method {
             SaliencyMethod::Exact => true,
             SaliencyMethod::Clustered => false,
-            SaliencyMethod::Auto => self.exact_pairs() <= EXACT_PAIR_BUDGET,
+            SaliencyMethod::Auto => self.exact_work() <= EXACT_BUDGET,
         }
     }
 
@@ -160,7 +161,7 @@ impl Analysed {
         let means = if self.uses_exact(method) {
             levels::gaussian_means(pts, &self.h, &sigmas)
         } else {
-            approx::clustered_means(pts, &self.h, &sigmas, approx::BETA)
+            approx::clustered_means(pts, &self.h, &sigmas)
         };
         levels::combine(pts, &self.adjacency, &self.h, &means, self.eps)
     }

@@ -6,6 +6,7 @@
 //! are bit-identical under reordering (a tested property), not merely close.
 
 use glam::{DVec3, Vec3};
+use rayon::prelude::*;
 
 use crate::util::csr::Csr;
 
@@ -29,8 +30,13 @@ fn key(p: Vec3) -> [f32; 3] {
     [p.x + 0.0, p.y + 0.0, p.z + 0.0]
 }
 
-fn cmp_pos(a: &[f32; 3], b: &[f32; 3]) -> std::cmp::Ordering {
-    a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])).then(a[2].total_cmp(&b[2]))
+/// An integer ordered as `(x, y, z)` by `f32::total_cmp`: one comparison instead of three.
+fn sort_key(p: &[f32; 3]) -> u128 {
+    let ordered = |x: f32| {
+        let b = x.to_bits();
+        if b >> 31 == 1 { !b } else { b | 0x8000_0000 }
+    };
+    (ordered(p[0]) as u128) << 64 | (ordered(p[1]) as u128) << 32 | ordered(p[2]) as u128
 }
 
 impl Surface {
@@ -46,7 +52,8 @@ impl Surface {
             }
         }
         let mut order: Vec<u32> = (0..n as u32).filter(|&i| used[i as usize]).collect();
-        order.sort_unstable_by(|&a, &b| cmp_pos(&key(positions[a as usize]), &key(positions[b as usize])));
+        // Ties (equal positions) keep no particular order: they are welded into one vertex.
+        order.par_sort_unstable_by_key(|&i| sort_key(&key(positions[i as usize])));
         let mut vertex_of = vec![NOT_ON_SURFACE; n];
         let mut welded: Vec<DVec3> = Vec::new();
         let mut last: Option<[f32; 3]> = None;
@@ -59,7 +66,7 @@ impl Surface {
             vertex_of[i as usize] = (welded.len() - 1) as u32;
         }
         let mut tris: Vec<[u32; 3]> = triangles
-            .iter()
+            .par_iter()
             .filter(|t| usable(t))
             .map(|t| t.map(|i| vertex_of[i as usize]))
             .filter(|[a, b, c]| a != b && b != c && a != c)
@@ -73,7 +80,7 @@ impl Surface {
                 }
             })
             .collect();
-        tris.sort_unstable();
+        tris.par_sort_unstable();
         Surface { positions: welded, triangles: tris, vertex_of }
     }
 
@@ -101,16 +108,20 @@ impl Surface {
 
     /// Each undirected edge once, as (smaller id, larger id, number of triangles using it), sorted.
     pub fn edges(&self) -> Vec<(u32, u32, u32)> {
-        let mut e: Vec<(u32, u32)> = Vec::with_capacity(self.triangles.len() * 3);
-        for t in &self.triangles {
-            for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                e.push((a.min(b), a.max(b)));
-            }
-        }
-        e.sort_unstable();
+        // (a, b) packed as a << 32 | b: a plain integer sort.
+        let mut e: Vec<u64> = self
+            .triangles
+            .par_iter()
+            .flat_map_iter(|t| {
+                (0..3).map(move |k| {
+                    let (a, b) = (t[k], t[(k + 1) % 3]);
+                    (a.min(b) as u64) << 32 | a.max(b) as u64
+                })
+            })
+            .collect();
+        e.par_sort_unstable();
         let mut out: Vec<(u32, u32, u32)> = Vec::with_capacity(e.len() / 2 + 1);
-        for (a, b) in e {
+        for (a, b) in e.into_iter().map(|k| ((k >> 32) as u32, k as u32)) {
             match out.last_mut() {
                 Some(l) if l.0 == a && l.1 == b => l.2 += 1,
                 _ => out.push((a, b, 1)),

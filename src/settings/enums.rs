@@ -99,11 +99,11 @@ kebab_enum!(
 kebab_enum!(
     /// How mesh saliency's Gaussian means are evaluated (SPEC "Mesh saliency").
     SaliencyMethod {
-        /// Exact while the neighbour sums stay affordable (~5e8 pairs, a few seconds), clustered above.
+        /// Exact while the exact sums' work, counted on the mesh, stays under 5e7 pairs (~0.5 s), clustered above.
         Auto = "auto",
         /// The definition's exact sums, whatever the mesh's size.
         Exact = "exact",
-        /// Clustered sources and targets (cells of sigma / 4): fast on huge meshes, approximate.
+        /// Each block of vertices exact or by clusters (cells of sigma / 4), whichever is cheaper: bounded cost, approximate.
         Clustered = "clustered",
     }
 );

@@ -84,8 +84,8 @@ fn check_elements(
     for_each_element(what, view, offset, count, elem, buffers, None)
 }
 
-/// A visitor of each element: (index, its bytes).
-type ElementFn<'a> = dyn FnMut(usize, &[u8]) + 'a;
+/// A visitor of one accessor element: its index and its bytes.
+type ElementFn<'a> = &'a mut dyn FnMut(usize, &[u8]);
 
 /// Calls `f(i, element_bytes)` for `count` elements of `elem` bytes in `view` at `offset`
 /// (only checks the range when `f` is None).
@@ -96,7 +96,7 @@ fn for_each_element(
     count: usize,
     elem: usize,
     buffers: &Buffers,
-    f: Option<&mut ElementFn<'_>>,
+    f: Option<ElementFn<'_>>,
 ) -> Result<(), String> {
     let bytes = view_bytes(view, buffers)?;
     let stride = view.stride().unwrap_or(elem);
