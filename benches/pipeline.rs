@@ -181,7 +181,7 @@ fn primary_rays(prep: &Prepared, s: &Settings, repeat: usize) -> (Timed, Timed, 
     let mut film = Film::new(w, h, 1);
     // Warm up (page in the buffers, spin up rayon's threads), then alternate the two.
     let mut hits = bare();
-    tracer.render(&mut film, &|_, p| framed.camera.ray(p), None, &Progress::silent());
+    tracer.render(&mut film, &|_, p| framed.camera.ray(p), None, None, &Progress::silent());
     let (mut bw, mut lw) = (Vec::new(), Vec::new());
     let (mut bc, mut lc) = (Some(Duration::ZERO), Some(Duration::ZERO));
     for _ in 0..repeat {
@@ -189,7 +189,7 @@ fn primary_rays(prep: &Prepared, s: &Settings, repeat: usize) -> (Timed, Timed, 
         bw.push(wall);
         bc = bc.zip(cpu).map(|(a, b)| a + b);
         let (wall, cpu) =
-            measure(1, || tracer.render(&mut film, &|_, p| framed.camera.ray(p), None, &Progress::silent()));
+            measure(1, || tracer.render(&mut film, &|_, p| framed.camera.ray(p), None, None, &Progress::silent()));
         lw.push(wall);
         lc = lc.zip(cpu).map(|(a, b)| a + b);
     }

@@ -267,6 +267,7 @@ class CUBIST_PT_sampling(CubistPanel, bpy.types.Panel):
         layout = self.layout
         layout.use_property_split = True
         layout.prop(c, "spp")
+        layout.prop(c, "aa_threshold")
         layout.prop(c, "seed")
         layout.prop(c, "animate_seed")
 

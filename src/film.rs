@@ -59,6 +59,9 @@ pub struct Film {
     pub hits: Vec<PixelHit>,
     /// Every sample's hit, `spp` per pixel, pixel-major.
     pub samples: Vec<SampleHit>,
+    /// Lights the pixel's representative sample found blocked, one bit per light (the first
+    /// 8; `shading::Occlusion`): where neighbours agree, anti-aliasing casts no shadow ray.
+    pub occlusion: Vec<u8>,
     /// Per-pixel saliency in [0, 1] (SPEC "Mesh saliency", the saliency map), when computed.
     pub saliency: Option<Vec<f32>>,
 }
@@ -73,6 +76,7 @@ impl Film {
             color: vec![Vec4::ZERO; n],
             hits: vec![PixelHit::MISS; n],
             samples: vec![SampleHit::MISS; n * spp as usize],
+            occlusion: vec![0; n],
             saliency: None,
         }
     }

@@ -177,8 +177,10 @@ fn run_render(args: RenderArgs) -> anyhow::Result<()> {
         );
         say!("camera: {}", rendered.camera);
         say!("{:>14}: {:>9.1} ms", "load+bvh", prep.build_time.as_secs_f64() * 1e3);
-        for (stage, t) in &rendered.timings.0 {
-            say!("{stage:>14}: {:>9.1} ms", t.as_secs_f64() * 1e3);
+        for (i, (stage, t)) in rendered.timings.0.iter().enumerate() {
+            let cpu =
+                rendered.timings.cpu(i).map_or(String::new(), |c| format!(" ({:.1} ms CPU)", c.as_secs_f64() * 1e3));
+            say!("{stage:>14}: {:>9.1} ms{cpu}", t.as_secs_f64() * 1e3);
         }
     }
     Ok(())

@@ -88,10 +88,17 @@ pub struct Settings {
     pub width: u32,
     /// Output height, pixels.
     pub height: u32,
-    /// Samples per pixel (stratified, seeded).
+    /// Samples per pixel of the final image (stratified, seeded); the pre-render that facets
+    /// and saliency read traces one, at each pixel's centre.
     pub spp: u32,
     /// Seed of every random choice (sampling, facets, gradients).
     pub seed: u64,
+
+    // ---- sampling (issue 16)
+    /// Adaptive anti-aliasing: only pixels that differ from a neighbour of their facet by
+    /// more than this (sRGB, 0..1, any channel), or show another object, get `spp` samples;
+    /// the others keep their centre sample. 0: every pixel gets `spp`.
+    pub aa_threshold: f32,
 
     // ---- camera (SPEC "Cameras")
     pub camera: CameraKind,

@@ -160,16 +160,41 @@ pub fn surface(world: &World, hit: &Hit, origin: Vec3, dir: Vec3) -> SurfacePoin
 
 /// Radiance towards the viewer (linear RGB).
 pub fn shade(accel: &Accel, rig: &LightRig, s: &SurfacePoint, view_dir: Vec3) -> Vec3 {
+    shade_with(accel, rig, s, view_dir, Occlusion::TRACE).0
+}
+
+/// What a shading already knows about the lights' occlusion, one bit per light (the first
+/// `Occlusion::LIGHTS`): the lights whose shadow ray need not be cast (`known`) and, of
+/// those, the ones that are blocked (`blocked`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Occlusion {
+    pub known: u8,
+    pub blocked: u8,
+}
+
+impl Occlusion {
+    /// Lights that have a bit; shadow rays to any further light are always cast.
+    pub const LIGHTS: usize = 8;
+    /// Nothing known: every shadow ray is cast.
+    pub const TRACE: Occlusion = Occlusion { known: 0, blocked: 0 };
+}
+
+/// `shade`, skipping the shadow rays `occlusion` already answers (the adaptive sampler knows a
+/// light is wholly visible or wholly blocked across a pixel whose neighbours agree). Also
+/// returns which of the first `Occlusion::LIGHTS` lights were blocked (known or traced; a
+/// light facing away counts as not blocked).
+pub fn shade_with(accel: &Accel, rig: &LightRig, s: &SurfacePoint, view_dir: Vec3, occlusion: Occlusion) -> (Vec3, u8) {
     let albedo = s.albedo.truncate();
+    let mut blocked_bits = 0u8;
     if s.unlit {
-        return albedo;
+        return (albedo, 0);
     }
     let to_eye = -view_dir;
     let shininess = 2.0 / (s.roughness * s.roughness).max(1e-3) - 2.0;
     let spec_weight = 0.25 * (1.0 - s.roughness);
     let origin = s.position + s.geometric * SURFACE_EPSILON;
     let mut c = albedo * rig.ambient;
-    for l in &rig.lights {
+    for (index, l) in rig.lights.iter().enumerate() {
         let (to_light, dist, radiance) = match *l {
             RigLight::Directional { to_light, radiance } => (to_light, f32::INFINITY, radiance),
             RigLight::Point { position, intensity } => {
@@ -190,12 +215,21 @@ pub fn shade(accel: &Accel, rig: &LightRig, s: &SurfacePoint, view_dir: Vec3) ->
         if ndl <= 0.0 || s.geometric.dot(to_light) <= 0.0 {
             continue;
         }
-        if rig.shadows && accel.occluded(origin, to_light, 0.0, dist * (1.0 - 1e-4)) {
-            continue;
+        if rig.shadows {
+            let bit = if index < Occlusion::LIGHTS { 1u8 << index } else { 0 };
+            let blocked = if occlusion.known & bit != 0 {
+                occlusion.blocked & bit != 0
+            } else {
+                accel.occluded(origin, to_light, 0.0, dist * (1.0 - 1e-4))
+            };
+            if blocked {
+                blocked_bits |= bit;
+                continue;
+            }
         }
         let h = (to_light + to_eye).try_normalize().unwrap_or(s.normal);
         let spec = spec_weight * s.normal.dot(h).max(0.0).powf(shininess) * (shininess + 8.0) / 8.0;
         c += radiance * (albedo * ndl + Vec3::splat(spec * ndl));
     }
-    if c.is_finite() { c } else { Vec3::ZERO }
+    (if c.is_finite() { c } else { Vec3::ZERO }, blocked_bits)
 }

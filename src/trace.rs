@@ -1,17 +1,19 @@
 //! The trace loop: stratified, seeded samples per pixel, rayon over rows (or over chunks of a
-//! pixel subset for the re-trace of moved facets), writing colour and every hit buffer.
-//! Each sample's randomness is a hash of (seed, pixel, sample), so images are identical for
-//! any thread count.
+//! pixel subset for the re-trace of moved facets), writing colour and every hit buffer; and
+//! the adaptive anti-aliasing that gives more samples only to pixels whose neighbours
+//! disagree. Each sample's randomness is a hash of (seed, pixel, sample), so images are
+//! identical for any thread count.
 
 use glam::{DVec2, Vec3, Vec4};
 use rayon::prelude::*;
 
-use crate::accel::Accel;
+use crate::accel::{Accel, Hit};
 use crate::camera::CameraRay;
 use crate::film::{Film, NO_HIT, PixelHit, SampleHit};
 use crate::progress::Progress;
 use crate::scene::World;
-use crate::shading::{LightRig, shade, surface};
+use crate::scene::texture::linear_to_srgb;
+use crate::shading::{LightRig, Occlusion, SurfacePoint, shade_with, surface};
 use crate::util::rng::{splitmix64, unit_f64};
 
 /// Strata of `spp` samples: a `nx x ny` grid with nx * ny = spp, as square as spp allows.
@@ -43,8 +45,9 @@ pub fn screen_point(x: u32, y: u32, offset: DVec2, width: u32, height: u32) -> D
     DVec2::new((x as f64 + offset.x) / width as f64 - 0.5, 0.5 - (y as f64 + offset.y) / height as f64)
 }
 
-/// One chunk of a pixel-subset re-trace: each pixel's colour and hit, then its samples' hits.
-type SubsetChunk = (Vec<(Vec4, PixelHit)>, Vec<SampleHit>);
+/// One chunk of a pixel-subset re-trace: each pixel's colour, hit and lights blocked, then its
+/// samples' hits.
+type SubsetChunk = (Vec<(Vec4, PixelHit, u8)>, Vec<SampleHit>);
 
 /// What a trace needs from the settings: the film's size and samples, the seed, the lights'
 /// options and the background.
@@ -52,8 +55,14 @@ type SubsetChunk = (Vec<(Vec4, PixelHit)>, Vec<SampleHit>);
 pub struct TraceParams {
     pub width: u32,
     pub height: u32,
-    /// Samples per pixel (stratified, see `sample_offset`).
+    /// Samples per pixel of the final image (stratified, see `sample_offset`). The pre-render
+    /// the facets and saliency read traces one, at each pixel's centre; the anti-aliasing
+    /// stage gives `spp` to every pixel (`aa_threshold` 0) or to those that need them.
     pub spp: u32,
+    /// Adaptive anti-aliasing: a pixel gets `spp` samples only where it differs from a
+    /// neighbour of its facet by more than this (sRGB, 0..1, any channel) or shows another
+    /// object or the background; elsewhere it keeps its centre sample. 0: every pixel.
+    pub aa_threshold: f32,
     pub seed: u64,
     /// Cast one shadow ray per light per hit.
     pub shadows: bool,
@@ -76,7 +85,27 @@ pub struct Tracer<'a> {
 /// A source of rays: (pixel index, screen point) -> ray.
 pub type Rays<'r> = dyn Fn(usize, DVec2) -> CameraRay + Sync + 'r;
 
+/// Pixels per parallel work item of the subset traces.
+const CHUNK: usize = 256;
+
 impl Tracer<'_> {
+    /// One sample's radiance (the background on a miss), its hit and the lights it found
+    /// blocked.
+    #[inline]
+    fn sample(&self, ray: &CameraRay, known: Known) -> (Vec3, Option<(Hit, Option<SurfacePoint>)>, u8) {
+        let Some(h) = self.accel.closest(ray.origin, ray.dir, 0.0, f32::INFINITY) else {
+            return (self.background, None, 0);
+        };
+        match self.rig {
+            Some(rig) => {
+                let sp = surface(self.world, &h, ray.origin, ray.dir);
+                let (c, blocked) = shade_with(self.accel, rig, &sp, ray.dir, known.for_hit(&h));
+                (c, Some((h, Some(sp))), blocked)
+            }
+            None => (Vec3::ZERO, Some((h, None)), 0),
+        }
+    }
+
     fn trace_pixel(
         &self,
         i: usize,
@@ -84,98 +113,317 @@ impl Tracer<'_> {
         height: u32,
         samples: &mut [SampleHit],
         rays: &Rays,
-    ) -> (Vec4, PixelHit) {
+        known: Known,
+    ) -> (Vec4, PixelHit, u8) {
         let spp = samples.len() as u32;
         let (x, y) = (i as u32 % width, i as u32 / width);
         let mut color = Vec3::ZERO;
         let mut covered = 0u32;
-        let mut best = (f64::INFINITY, PixelHit::MISS);
+        let mut best = (f64::INFINITY, PixelHit::MISS, 0u8);
         for s in 0..spp {
             let off = sample_offset(self.seed, i as u64, s, spp);
             let ray = rays(i, screen_point(x, y, off, width, height));
-            let hit = self.accel.closest(ray.origin, ray.dir, 0.0, f32::INFINITY);
             let centre_dist = (off - DVec2::splat(0.5)).length_squared();
+            let nearest = centre_dist < best.0;
+            let (c, hit, blocked) = self.sample(&ray, known);
+            color += c;
             match hit {
-                Some(h) => {
+                Some((h, sp)) => {
                     samples[s as usize] = SampleHit { tri: h.tri, u: h.u, v: h.v };
                     covered += 1;
-                    // The surface is needed to shade, or for the pixel's representative hit.
-                    let nearest = centre_dist < best.0;
-                    if self.rig.is_some() || nearest {
-                        let sp = surface(self.world, &h, ray.origin, ray.dir);
-                        if let Some(rig) = self.rig {
-                            color += shade(self.accel, rig, &sp, ray.dir);
-                        }
-                        if nearest {
-                            let hit =
-                                PixelHit { tri: h.tri, object: h.object, t: h.t, normal: sp.normal, u: h.u, v: h.v };
-                            best = (centre_dist, hit);
-                        }
+                    if nearest {
+                        // The surface is needed for the pixel's representative hit.
+                        let sp = sp.unwrap_or_else(|| surface(self.world, &h, ray.origin, ray.dir));
+                        let hit = PixelHit { tri: h.tri, object: h.object, t: h.t, normal: sp.normal, u: h.u, v: h.v };
+                        best = (centre_dist, hit, blocked);
                     }
                 }
                 None => {
                     samples[s as usize] = SampleHit::MISS;
-                    color += self.background;
-                    if centre_dist < best.0 {
-                        best = (centre_dist, PixelHit::MISS);
+                    if nearest {
+                        best = (centre_dist, PixelHit::MISS, 0);
                     }
                 }
             }
         }
         let hit = best.1;
         debug_assert!(hit.tri == NO_HIT || hit.object != NO_HIT);
-        ((color / spp as f32).extend(covered as f32 / spp as f32), hit)
+        ((color / spp as f32).extend(covered as f32 / spp as f32), hit, best.2)
     }
 
-    /// Traces `pixels` (all when None) of `frame` with `rays`, overwriting their colour, hit
-    /// and sample buffers.
-    pub fn render(&self, film: &mut Film, rays: &Rays, pixels: Option<&[u32]>, progress: &Progress) {
-        let (w, h, spp) = (film.width, film.height, film.spp as usize);
-        match pixels {
-            None => {
-                let wu = w as usize;
-                film.color
-                    .par_chunks_mut(wu)
-                    .zip(film.hits.par_chunks_mut(wu))
-                    .zip(film.samples.par_chunks_mut(wu * spp))
-                    .enumerate()
-                    .for_each(|(y, ((c, hrow), srow))| {
-                        for x in 0..wu {
-                            let i = y * wu + x;
-                            let (col, hit) = self.trace_pixel(i, w, h, &mut srow[x * spp..(x + 1) * spp], rays);
-                            c[x] = col;
-                            hrow[x] = hit;
-                        }
-                        progress.add(wu as u64);
-                    });
+    /// Traces `pixels` (all when None) of `frame` with `rays`, overwriting their colour, hit,
+    /// occlusion and sample buffers. `facets`: each pixel's facet (None: one facet); `pixels`
+    /// must be whole facets.
+    ///
+    /// With one sample per pixel, lights and shadows on, shadow rays are cast only where a
+    /// light may be partly occluded: first at every other pixel of every other row (the
+    /// coarse grid), then at the others only for the lights their coarse neighbours (same
+    /// facet, same object) disagree on; the rest take the neighbours' answer. A shadow
+    /// narrower than two pixels between coarse samples can be missed: `benches/pipeline.rs`
+    /// measures the error against a 64-sample reference.
+    pub fn render(
+        &self,
+        film: &mut Film,
+        rays: &Rays,
+        pixels: Option<&[u32]>,
+        facets: Option<&[u32]>,
+        progress: &Progress,
+    ) {
+        let coarse_first = film.spp == 1 && self.rig.is_some_and(|r| r.shadows && !r.lights.is_empty());
+        if !coarse_first {
+            match pixels {
+                None => self.render_all(film, rays, progress),
+                Some(list) => self.render_subset(film, rays, list, None, progress),
             }
-            Some(list) => {
-                let chunks: Vec<SubsetChunk> = list
-                    .par_chunks(256)
-                    .map(|chunk| {
-                        let mut samples = vec![SampleHit::MISS; chunk.len() * spp];
-                        let out = chunk
-                            .iter()
-                            .enumerate()
-                            .map(|(k, &i)| {
-                                self.trace_pixel(i as usize, w, h, &mut samples[k * spp..(k + 1) * spp], rays)
-                            })
-                            .collect();
-                        progress.add(chunk.len() as u64);
-                        (out, samples)
+            return;
+        }
+        let w = film.width as usize;
+        let on_grid = |i: usize| (i % w).is_multiple_of(2) && (i / w).is_multiple_of(2);
+        let ids = facets.unwrap_or(&[]);
+        let Some(list) = pixels else {
+            // The whole film, in place (no copy of its buffers): the grid, then the others
+            // with what their grid neighbours agree on.
+            self.render_rows(film, rays, progress, on_grid, |_| Known::NONE);
+            let traced = &*film;
+            let known: Vec<Known> = (0..traced.pixel_count())
+                .into_par_iter()
+                .map(|i| if on_grid(i) { Known::NONE } else { coarse_occlusion(traced, ids, i) })
+                .collect();
+            self.render_rows(film, rays, progress, |i| !on_grid(i), |i| known[i]);
+            return;
+        };
+        let (grid, rest): (Vec<u32>, Vec<u32>) = list.iter().partition(|&&i| on_grid(i as usize));
+        self.render_subset(film, rays, &grid, None, progress);
+        let traced = &*film;
+        let known: Vec<Known> = rest.par_iter().map(|&i| coarse_occlusion(traced, ids, i as usize)).collect();
+        self.render_subset(film, rays, &rest, Some(&known), progress);
+    }
+
+    /// Every pixel, rows in parallel, every shadow ray cast.
+    fn render_all(&self, film: &mut Film, rays: &Rays, progress: &Progress) {
+        self.render_rows(film, rays, progress, |_| true, |_| Known::NONE);
+    }
+
+    /// The pixels `pick` chooses, rows in parallel, in place, with what `known(i)` says of
+    /// the lights of pixel `i`.
+    fn render_rows(
+        &self,
+        film: &mut Film,
+        rays: &Rays,
+        progress: &Progress,
+        pick: impl Fn(usize) -> bool + Sync,
+        known: impl Fn(usize) -> Known + Sync,
+    ) {
+        let (w, h, spp) = (film.width, film.height, film.spp as usize);
+        let wu = w as usize;
+        film.color
+            .par_chunks_mut(wu)
+            .zip(film.hits.par_chunks_mut(wu))
+            .zip(film.occlusion.par_chunks_mut(wu))
+            .zip(film.samples.par_chunks_mut(wu * spp))
+            .enumerate()
+            .for_each(|(y, (((c, hrow), orow), srow))| {
+                let mut traced = 0u64;
+                for x in 0..wu {
+                    let i = y * wu + x;
+                    if !pick(i) {
+                        continue;
+                    }
+                    let (col, hit, blocked) =
+                        self.trace_pixel(i, w, h, &mut srow[x * spp..(x + 1) * spp], rays, known(i));
+                    c[x] = col;
+                    hrow[x] = hit;
+                    orow[x] = blocked;
+                    traced += 1;
+                }
+                progress.add(traced);
+            });
+    }
+
+    /// The pixels of `list`, in parallel chunks, with what `known[k]` says of the lights of
+    /// `list[k]`.
+    fn render_subset(&self, film: &mut Film, rays: &Rays, list: &[u32], known: Option<&[Known]>, progress: &Progress) {
+        let (w, h, spp) = (film.width, film.height, film.spp as usize);
+        let chunks: Vec<SubsetChunk> = list
+            .par_chunks(CHUNK)
+            .enumerate()
+            .map(|(c, chunk)| {
+                let mut samples = vec![SampleHit::MISS; chunk.len() * spp];
+                let out = chunk
+                    .iter()
+                    .enumerate()
+                    .map(|(k, &i)| {
+                        let known = known.map_or(Known::NONE, |v| v[c * CHUNK + k]);
+                        self.trace_pixel(i as usize, w, h, &mut samples[k * spp..(k + 1) * spp], rays, known)
                     })
                     .collect();
-                for (chunk, (out, samples)) in list.chunks(256).zip(chunks) {
-                    for (k, &i) in chunk.iter().enumerate() {
-                        let i = i as usize;
-                        film.color[i] = out[k].0;
-                        film.hits[i] = out[k].1;
-                        film.samples[i * spp..(i + 1) * spp].copy_from_slice(&samples[k * spp..(k + 1) * spp]);
-                    }
-                }
+                progress.add(chunk.len() as u64);
+                (out, samples)
+            })
+            .collect();
+        for (chunk, (out, samples)) in list.chunks(CHUNK).zip(chunks) {
+            for (k, &i) in chunk.iter().enumerate() {
+                let i = i as usize;
+                (film.color[i], film.hits[i], film.occlusion[i]) = out[k];
+                film.samples[i * spp..(i + 1) * spp].copy_from_slice(&samples[k * spp..(k + 1) * spp]);
             }
         }
     }
+
+    /// The colour of pixel `i` from `spp` stratified samples (alpha: the fraction that hit),
+    /// with the shadow rays `occlusion` answers left out.
+    fn supersample(&self, i: usize, width: u32, height: u32, spp: u32, rays: &Rays, known: Known) -> Vec4 {
+        let (x, y) = (i as u32 % width, i as u32 / width);
+        let mut color = Vec3::ZERO;
+        let mut covered = 0u32;
+        for s in 0..spp {
+            let off = sample_offset(self.seed, i as u64, s, spp);
+            let ray = rays(i, screen_point(x, y, off, width, height));
+            let (c, hit, _) = self.sample(&ray, known);
+            color += c;
+            covered += hit.is_some() as u32;
+        }
+        (color / spp as f32).extend(covered as f32 / spp as f32)
+    }
+
+    /// Anti-aliasing (after the one-sample pre-render and re-trace): gives `pixels` `spp`
+    /// stratified samples each through `rays`, replacing their colour; hits stay those of the
+    /// pixel centre. A light whose occlusion the pixel's centre and its facet neighbours'
+    /// agree on is taken as such for every sample (`Film::occlusion`): a shadow ray is cast
+    /// only where the light is partly occluded. Each pixel's samples are seeded by the pixel,
+    /// so the image is the same on any thread count.
+    pub fn antialias(
+        &self,
+        film: &mut Film,
+        rays: &Rays,
+        pixels: &[u32],
+        facets: &[u32],
+        spp: u32,
+        progress: &Progress,
+    ) {
+        let (w, h) = (film.width, film.height);
+        let film_ref = &*film;
+        let colours: Vec<Vec<Vec4>> = pixels
+            .par_chunks(CHUNK)
+            .map(|chunk| {
+                let out = chunk
+                    .iter()
+                    .map(|&i| {
+                        let known = agreed_occlusion(film_ref, facets, i as usize);
+                        self.supersample(i as usize, w, h, spp, rays, known)
+                    })
+                    .collect();
+                progress.add(chunk.len() as u64);
+                out
+            })
+            .collect();
+        for (chunk, out) in pixels.chunks(CHUNK).zip(colours) {
+            for (&i, c) in chunk.iter().zip(out) {
+                film.color[i as usize] = c;
+            }
+        }
+    }
+}
+
+/// The 8-neighbours of pixel `i` in the same facet, and `i` itself.
+fn facet_neighbourhood(width: usize, height: usize, facets: &[u32], i: usize) -> impl Iterator<Item = usize> + '_ {
+    let (x, y) = ((i % width) as isize, (i / width) as isize);
+    let f = facets[i];
+    (-1..=1isize)
+        .flat_map(move |dy| (-1..=1isize).map(move |dx| (x + dx, y + dy)))
+        .filter(move |&(nx, ny)| nx >= 0 && ny >= 0 && (nx as usize) < width && (ny as usize) < height)
+        .map(move |(nx, ny)| ny as usize * width + nx as usize)
+        .filter(move |&j| facets[j] == f)
+}
+
+/// The occlusion of some lights, known across a pixel for samples that hit `object`.
+#[derive(Clone, Copy, Debug)]
+struct Known {
+    occlusion: Occlusion,
+    object: u32,
+}
+
+impl Known {
+    const NONE: Known = Known { occlusion: Occlusion::TRACE, object: NO_HIT };
+
+    /// What is known for a sample that hit `h` (nothing on another object).
+    #[inline]
+    fn for_hit(&self, h: &Hit) -> Occlusion {
+        if h.object == self.object { self.occlusion } else { Occlusion::TRACE }
+    }
+}
+
+/// The lights the pixels `js` that hit all agree on, when they hit one object.
+fn agree(film: &Film, js: impl Iterator<Item = usize>) -> Known {
+    let (mut all_blocked, mut any_blocked, mut object) = (u8::MAX, 0u8, NO_HIT);
+    for j in js {
+        let hit = &film.hits[j];
+        if !hit.is_hit() {
+            continue;
+        }
+        if object != NO_HIT && hit.object != object {
+            return Known::NONE;
+        }
+        object = hit.object;
+        all_blocked &= film.occlusion[j];
+        any_blocked |= film.occlusion[j];
+    }
+    if object == NO_HIT {
+        return Known::NONE;
+    }
+    let known = all_blocked | !any_blocked;
+    Known { occlusion: Occlusion { known, blocked: all_blocked & known }, object }
+}
+
+/// The lights whose occlusion pixel `i`'s centre sample and those of its facet neighbours
+/// agree on (SPEC: cast shadow rays only where a light is partly occluded).
+fn agreed_occlusion(film: &Film, facets: &[u32], i: usize) -> Known {
+    agree(film, facet_neighbourhood(film.width as usize, film.height as usize, facets, i))
+}
+
+/// What the coarse grid (even x, even y) around pixel `i` agrees on, in its facet (`facets`
+/// empty: one facet).
+fn coarse_occlusion(film: &Film, facets: &[u32], i: usize) -> Known {
+    let (w, h) = (film.width as usize, film.height as usize);
+    let (x, y) = (i % w, i / w);
+    let around = |c: usize, n: usize| {
+        let lo = c - c % 2;
+        [Some(lo), (c % 2 == 1 && lo + 2 < n).then_some(lo + 2)]
+    };
+    let (xs, ys) = (around(x, w), around(y, h));
+    let same_facet = |j: usize| facets.is_empty() || facets[j] == facets[i];
+    let js = ys.into_iter().flatten().flat_map(|cy| xs.into_iter().flatten().map(move |cx| cy * w + cx));
+    agree(film, js.filter(|&j| same_facet(j)))
+}
+
+/// The pixels adaptive anti-aliasing gives more samples: those whose one-sample colour differs
+/// from a neighbour of the same facet by more than `threshold` (sRGB, any channel), or that
+/// show another object, or hit where the neighbour misses. Pixels across a facet border are
+/// not compared: each pixel is traced through its own facet's rays, and the border is a pixel
+/// edge. All pixels when `threshold` is 0.
+pub fn pixels_to_refine(film: &Film, facets: &[u32], threshold: f32) -> Vec<u32> {
+    let n = film.pixel_count();
+    if threshold <= 0.0 {
+        return (0..n as u32).collect();
+    }
+    let srgb: Vec<[u8; 3]> = film
+        .color
+        .par_iter()
+        .map(|c| c.truncate().to_array().map(|v| (linear_to_srgb(v) * 255.0 + 0.5) as u8))
+        .collect();
+    let limit = (threshold * 255.0).round().max(1.0) as i32;
+    let (w, h) = (film.width as usize, film.height as usize);
+    (0..n as u32)
+        .into_par_iter()
+        .filter(|&i| {
+            let i = i as usize;
+            let (a, ca) = (&film.hits[i], srgb[i]);
+            facet_neighbourhood(w, h, facets, i).any(|j| {
+                let b = &film.hits[j];
+                a.object != b.object || (0..3).any(|c| (ca[c] as i32 - srgb[j][c] as i32).abs() > limit)
+            })
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -211,6 +459,109 @@ mod tests {
         assert_eq!(sample_offset(1, 2, 0, 1), DVec2::splat(0.5));
         let p = screen_point(0, 0, DVec2::splat(0.5), 2, 2);
         assert_eq!(p, DVec2::new(-0.25, 0.25));
+    }
+
+    /// A film of `w x h` one-sample pixels, every one a hit on object 0 in mid grey.
+    fn grey_film(w: u32, h: u32) -> Film {
+        let mut film = Film::new(w, h, 1);
+        for (c, hit) in film.color.iter_mut().zip(&mut film.hits) {
+            *c = Vec4::new(0.2, 0.2, 0.2, 1.0);
+            *hit = PixelHit { tri: 0, object: 0, t: 1.0, normal: Vec3::Z, u: 0.0, v: 0.0 };
+        }
+        film
+    }
+
+    #[test]
+    fn only_pixels_whose_facet_neighbours_disagree_are_refined() {
+        let (w, h) = (8u32, 6u32);
+        let one_facet = vec![0u32; 48];
+        let mut film = grey_film(w, h);
+        assert!(pixels_to_refine(&film, &one_facet, 0.02).is_empty(), "a flat film needs no samples");
+        assert_eq!(pixels_to_refine(&film, &one_facet, 0.0).len(), 48, "threshold 0: every pixel");
+        // A change below the threshold (sRGB) is not refined; one above it refines the pixel
+        // and its 8 neighbours.
+        film.color[2 * 8 + 3] = Vec4::new(0.201, 0.2, 0.2, 1.0);
+        assert!(pixels_to_refine(&film, &one_facet, 0.02).is_empty());
+        film.color[2 * 8 + 3] = Vec4::new(0.5, 0.2, 0.2, 1.0);
+        let want: Vec<u32> = (1..=3).flat_map(|y| (2..=4).map(move |x| y * 8 + x)).collect();
+        assert_eq!(pixels_to_refine(&film, &one_facet, 0.02), want);
+        // Another object (same colour) is a silhouette: refined with its neighbours.
+        let mut film = grey_film(w, h);
+        film.hits[0].object = 1;
+        assert_eq!(pixels_to_refine(&film, &one_facet, 0.02), vec![0, 1, 8, 9]);
+        // Across a facet border nothing is compared: columns 0..4 facet 0, 4..8 facet 1, each
+        // flat but of different colours.
+        let mut film = grey_film(w, h);
+        let facets: Vec<u32> = (0..48).map(|i| (i % 8 >= 4) as u32).collect();
+        for i in 0..48 {
+            if facets[i] == 1 {
+                film.color[i] = Vec4::new(0.9, 0.1, 0.1, 1.0);
+            }
+        }
+        assert!(pixels_to_refine(&film, &facets, 0.02).is_empty());
+    }
+
+    #[test]
+    fn occlusion_is_known_only_where_neighbours_agree() {
+        let mut film = grey_film(4, 4);
+        let facets = vec![0u32; 16];
+        // Light 0 blocked everywhere, light 1 blocked at one pixel only.
+        film.occlusion.iter_mut().for_each(|o| *o = 0b01);
+        film.occlusion[5] = 0b11;
+        let k = agreed_occlusion(&film, &facets, 15);
+        assert_eq!(k.occlusion.known & 0b11, 0b11, "pixel 15's neighbourhood agrees on both lights");
+        assert_eq!(k.occlusion.blocked & 0b11, 0b01);
+        let k = agreed_occlusion(&film, &facets, 10);
+        assert_eq!(k.occlusion.known & 0b11, 0b01, "pixel 10 sees pixel 5: light 1 must be traced");
+        assert_eq!(k.occlusion.blocked & 0b01, 0b01);
+        // Only for samples on the same object.
+        let other = Hit { t: 1.0, tri: 0, object: 3, u: 0.0, v: 0.0 };
+        assert_eq!(k.for_hit(&other), Occlusion::TRACE);
+        // Neighbours on two objects: nothing known.
+        film.hits[1].object = 2;
+        assert_eq!(agreed_occlusion(&film, &facets, 0).occlusion, Occlusion::TRACE);
+    }
+
+    /// The coarse-grid shadow rays (one sample per pixel: shadow rays only where coarse
+    /// neighbours disagree) against casting every one, on the default still life with its
+    /// cast shadows: the grid pixels are exact, and the others differ only at a few.
+    #[test]
+    fn coarse_shadow_rays_match_casting_every_one() {
+        use crate::pipeline::{Prepared, Shading, StageParams, Timings, prerender};
+        use crate::settings::Settings;
+        let prep = Prepared::load(None).unwrap();
+        let s = Settings { width: 160, height: 120, spp: 1, ..Settings::default() };
+        let params = StageParams::new(&s);
+        assert!(params.trace.shadows);
+        let pre = prerender(
+            &prep,
+            &params.framing,
+            &params.trace,
+            Shading::Lit,
+            &Progress::silent(),
+            &mut Timings::default(),
+        )
+        .unwrap();
+        let coarse = pre.film;
+        let tracer = pre.view.tracer(&prep, &params.trace);
+        let camera = pre.view.framed.camera.as_ref();
+        let mut full = Film::new(160, 120, 1);
+        tracer.render_all(&mut full, &|_, p| camera.ray(p), &Progress::silent());
+        let blocked = full.occlusion.iter().filter(|&&o| o != 0).count();
+        let lit = full.occlusion.iter().zip(&full.hits).filter(|(o, h)| **o == 0 && h.is_hit()).count();
+        assert!(blocked > 200 && lit > 200, "the still life has shadows and light: {blocked} blocked, {lit} lit");
+        let mut wrong = 0;
+        for i in 0..full.pixel_count() {
+            let on_grid = (i % 160) % 2 == 0 && (i / 160) % 2 == 0;
+            assert_eq!(coarse.hits[i].tri, full.hits[i].tri);
+            if on_grid {
+                assert_eq!(coarse.color[i], full.color[i], "grid pixel {i}");
+                assert_eq!(coarse.occlusion[i], full.occlusion[i], "grid pixel {i}");
+            } else if coarse.occlusion[i] != full.occlusion[i] {
+                wrong += 1;
+            }
+        }
+        assert!(wrong * 200 < full.pixel_count(), "{wrong} pixels' shadows differ (of {})", full.pixel_count());
     }
 
     #[test]

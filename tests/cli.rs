@@ -255,7 +255,18 @@ fn settings_schema_describes_every_key_the_stages_and_the_presets() {
     let stages: Vec<&str> = schema["stages"].as_array().unwrap().iter().map(|s| s["name"].as_str().unwrap()).collect();
     assert_eq!(
         stages,
-        ["loading", "pre-render", "saliency", "faceting", "imprecision", "re-trace", "paint", "writing", "done"]
+        [
+            "loading",
+            "pre-render",
+            "saliency",
+            "faceting",
+            "imprecision",
+            "re-trace",
+            "anti-aliasing",
+            "paint",
+            "writing",
+            "done"
+        ]
     );
     let presets: Vec<&str> =
         schema["presets"].as_array().unwrap().iter().map(|p| p["name"].as_str().unwrap()).collect();
@@ -272,17 +283,30 @@ fn settings_stages_are_the_stages_a_render_reports() {
         assert_eq!(code, 0, "{err}");
         serde_json::from_str(&out).unwrap()
     };
-    assert_eq!(stages(&["--preset", "plain"]), ["loading", "pre-render", "writing", "done"]);
+    assert_eq!(stages(&["--preset", "plain"]), ["loading", "pre-render", "anti-aliasing", "writing", "done"]);
+    // One sample per pixel: the pre-render is the image, no anti-aliasing.
+    assert!(!stages(&["--spp", "1"]).contains(&"anti-aliasing".to_string()));
     let analytic = stages(&[]);
     assert_eq!(
         analytic,
-        ["loading", "pre-render", "saliency", "faceting", "imprecision", "re-trace", "paint", "writing", "done"]
+        [
+            "loading",
+            "pre-render",
+            "saliency",
+            "faceting",
+            "imprecision",
+            "re-trace",
+            "anti-aliasing",
+            "paint",
+            "writing",
+            "done"
+        ]
     );
     assert!(!stages(&["--faceting", "voronoi", "--imprecision", "random"]).contains(&"saliency".to_string()));
     assert!(stages(&["--preset", "plain", "--pass", "saliency"]).contains(&"saliency".to_string()));
     // A render reports exactly those stages, in that order.
     let (code, _, err) =
-        run(dir.path(), &["render", "--width", "48", "--height", "36", "--spp", "1", "--progress", "lines"]);
+        run(dir.path(), &["render", "--width", "48", "--height", "36", "--spp", "2", "--progress", "lines"]);
     assert_eq!(code, 0, "{err}");
     let mut reported: Vec<String> = Vec::new();
     for l in err.lines().filter_map(|l| l.strip_prefix("PROGRESS ")) {

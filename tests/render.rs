@@ -108,6 +108,47 @@ fn same_image_on_any_thread_count() {
     assert_eq!(one, render_with(5));
 }
 
+/// The default pipeline (facets, re-aimed facets re-traced, adaptive anti-aliasing, coarse
+/// shadow rays, paint) gives the same image on 1 and 2 threads.
+#[test]
+fn default_pipeline_same_image_on_one_and_two_threads() {
+    let prep = Prepared::load(None).unwrap();
+    let s = Settings { width: 120, height: 90, ..Settings::default() };
+    assert!(s.aa_threshold > 0.0 && s.spp > 1, "the defaults sample adaptively");
+    let render_with = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| cubist::render(&prep, &s, &Progress::silent()).unwrap().image)
+    };
+    assert_eq!(render_with(1), render_with(2));
+}
+
+/// Adaptive anti-aliasing (the default threshold) against `spp` samples at every pixel
+/// (threshold 0), bare camera so that paint does not hide differences: close in PSNR, and
+/// different from one sample per pixel (it does anti-alias).
+#[test]
+fn adaptive_antialiasing_is_close_to_uniform_sampling() {
+    let prep = Prepared::load(None).unwrap();
+    let render = |spp: u32, aa_threshold: f32| {
+        let s = Settings { aa_threshold, ..plain(160, 120, spp) };
+        cubist::render(&prep, &s, &Progress::silent()).unwrap().image
+    };
+    let psnr = |a: &image::RgbaImage, b: &image::RgbaImage| {
+        let mut se = 0.0f64;
+        for (p, q) in a.pixels().zip(b.pixels()) {
+            for k in 0..3 {
+                se += (p.0[k] as f64 - q.0[k] as f64).powi(2);
+            }
+        }
+        10.0 * (255.0f64.powi(2) / (se / (a.len() as f64 * 0.75))).log10()
+    };
+    let uniform = render(16, 0.0);
+    let adaptive = render(16, Settings::default().aa_threshold);
+    let single = render(1, 0.0);
+    let (pa, p1) = (psnr(&adaptive, &uniform), psnr(&single, &uniform));
+    assert!(pa >= 38.0, "adaptive vs uniform 16 spp: {pa:.1} dB");
+    assert!(pa > p1 + 5.0, "adaptive {pa:.1} dB is not better than 1 spp ({p1:.1} dB)");
+}
+
 #[test]
 fn seeds_change_only_the_sampling() {
     let prep = Prepared::load(None).unwrap();

@@ -30,12 +30,15 @@ pub struct SettingsArgs {
     /// Image height, pixels [default: 600]
     #[arg(long, help_heading = "Image")]
     pub height: Option<u32>,
-    /// Samples per pixel, stratified [default: 4]
+    /// Samples per pixel of the final image, stratified (the pre-render traces each pixel's centre once) [default: 4]
     #[arg(long, help_heading = "Image")]
     pub spp: Option<u32>,
     /// Seed of every random choice [default: 0]
     #[arg(long, help_heading = "Image")]
     pub seed: Option<u64>,
+    /// Adaptive anti-aliasing: only pixels differing from a neighbour by more than this (sRGB 0..1), or showing another object, get --spp samples; 0 = all pixels [default: 0.02]
+    #[arg(long, value_name = "DIFFERENCE", help_heading = "Image", value_parser = finite_f32)]
+    pub aa_threshold: Option<f32>,
 
     /// Camera model [default: auto = spherical, or cylindrical for tall scenes]
     #[arg(long, value_enum, help_heading = "Camera")]

@@ -383,7 +383,7 @@ struct Keep {
 fn prepass(world: &World, accel: &Accel, camera: &dyn Camera, trace: &TraceParams) -> Film {
     let tracer = Tracer { world, accel, rig: None, background: Vec3::ZERO, seed: trace.seed };
     let mut film = Film::new(trace.width, trace.height, 1);
-    tracer.render(&mut film, &|_, p| camera.ray(p), None, &Progress::silent());
+    tracer.render(&mut film, &|_, p| camera.ray(p), None, None, &Progress::silent());
     film
 }
 
@@ -426,22 +426,23 @@ fn key_frame(
     let (world, accel) = (geometry.world(), geometry.accel());
     let camera = cameras.at(frames.layout_frame, world);
     let trace = &params.trace;
-    let computes_segments = params.facets.method == FacetMethod::Segment && params.facets.layout_file.is_none();
-    // Only Segment faceting reads the picture; the other methods (and a loaded layout) make
-    // their layout from their parameters, so no pre-render is traced for them.
-    let film = if faceted && computes_segments {
+    let reads_picture = matches!(params.facets.method, FacetMethod::Segment | FacetMethod::Planes)
+        && params.facets.layout_file.is_none();
+    // Only Segment and Planes faceting read the picture; the other methods (and a loaded
+    // layout) make their layout from their parameters, so no pre-render is traced for them.
+    let film = if faceted && reads_picture {
         let rig = LightRig::new(world, &camera.frame(&cameras.base.frame), trace.shadows, trace.exposure);
         let tracer =
             Tracer { world, accel, rig: Some(&rig), background: Vec3::from(trace.background), seed: trace.seed };
         let mut film = Film::new(trace.width, trace.height, trace.spp);
-        tracer.render(&mut film, &|_, p| camera.ray(p), None, &Progress::silent());
+        tracer.render(&mut film, &|_, p| camera.ray(p), None, None, &Progress::silent());
         if plan.saliency {
             let sal = saliency::for_film(&prep.scene, world, &prep.saliency, &film, &params.saliency)?;
             film.saliency = Some(saliency::saliency_map(world, &sal, &film));
         }
         film
     } else {
-        // Read by no faceting method but Segment's.
+        // Read by no faceting method but Segment's and Planes'.
         Film::new(1, 1, 1)
     };
     let (layout, map) = layout_stage(&params.facets, &film, &Progress::silent(), &mut Timings::default(), warnings)?;
@@ -550,7 +551,7 @@ fn render_frame(
             _ => ray,
         }
     };
-    timings.time("trace", || tracer.render(&mut film, &rays, None, progress));
+    timings.time("trace", || tracer.render(&mut film, &rays, None, Some(&map.ids), progress));
     film.saliency = saliency;
 
     if plan.paint {

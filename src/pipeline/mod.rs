@@ -9,6 +9,7 @@
 //! | `layout_stage` | pre-render film (+ map), `FacetParams` | `FacetLayout`, its `FacetMap` |
 //! | `aims_stage` | camera, facet map, saliency map and coverage, `AimParams` | one `FacetAim` per facet |
 //! | `retrace_stage` | camera, facet map, aims, `TraceParams` | film with moved facets traced again |
+//! | `antialias_stage` | camera, facet map, aims, film, `TraceParams` | film colour with `spp` samples where needed |
 //! | `paint_stage` | film, facet map, lights, `PaintParams` | film colour painted |
 //! | `encode_stage` | film, facets, aims, passes | image and pass images |
 //!
@@ -54,7 +55,7 @@ pub use params::StageParams;
 pub use prepared::Prepared;
 pub use prerender::{PreRender, Shading, View, prerender};
 pub use saliency_map::{SaliencyRender, saliency_map};
-pub use stage::{Plan, Stage, Timings};
+pub use stage::{Plan, Stage, Timings, process_cpu};
 
 /// What a render produces.
 pub struct Rendered {
@@ -117,13 +118,16 @@ pub fn render_with(
     // Spatial imprecision (SPEC "Spatial imprecision"): re-aim facets, re-trace only the pixels
     // of facets whose rays changed; at discontinuity 0 with converging facets nothing runs.
     let mut aims = Vec::new();
+    let ctx = aim_context(prep, &view, &params.trace);
     if plan.imprecision {
         if params.aim.reads_saliency() && film.saliency.is_none() {
             warnings.push("no saliency map was computed: facets are not re-aimed (imprecision saliency)".into());
         }
-        let ctx = aim_context(prep, &view, &params.trace);
         aims = aims_stage(&ctx, &map, &film, &params.aim, progress, &mut timings);
         retrace_stage(prep, &view, &ctx, &params.trace, &map, &aims, &mut film, progress, &mut timings);
+    }
+    if plan.antialiasing {
+        antialias_stage(prep, &view, &ctx, &params.trace, &map, &aims, &mut film, progress, &mut timings);
     }
 
     if plan.paint {
@@ -270,7 +274,45 @@ pub fn retrace_stage(
     let rays = |i: usize, p: DVec2| aims[map.ids[i] as usize].apply(camera.ray(p), ctx.pixel_pos(p), ctx.clip_radius);
     let tracer = view.tracer(prep, trace);
     progress.begin(Stage::ReTrace.name(), moved.len() as u64);
-    timings.time(Stage::ReTrace.name(), || tracer.render(film, &rays, Some(&moved), progress));
+    timings.time(Stage::ReTrace.name(), || tracer.render(film, &rays, Some(&moved), Some(&map.ids), progress));
+    progress.finish();
+}
+
+/// Anti-aliasing: the pixels that need them (all with `aa_threshold` 0) get `spp` samples each
+/// through their facet's rays, the pre-render's and re-trace's single centre samples telling
+/// which (`trace::pixels_to_refine`).
+#[allow(clippy::too_many_arguments)]
+pub fn antialias_stage(
+    prep: &Prepared,
+    view: &View,
+    ctx: &AimContext,
+    trace: &TraceParams,
+    map: &FacetMap,
+    aims: &[FacetAim],
+    film: &mut Film,
+    progress: &Progress,
+    timings: &mut Timings,
+) {
+    let camera = view.framed.camera.as_ref();
+    let rays = |i: usize, p: DVec2| match aims.get(map.ids[i] as usize) {
+        Some(aim) if aim.moved() => aim.apply(camera.ray(p), ctx.pixel_pos(p), ctx.clip_radius),
+        _ => camera.ray(p),
+    };
+    let tracer = view.tracer(prep, trace);
+    timings.time(Stage::AntiAliasing.name(), || {
+        // Where no facet moved, every ray is the camera's: facet borders are no edges of the
+        // picture, and the image is the unfaceted one (one facet for the comparisons).
+        let one_facet;
+        let ids: &[u32] = if aims.iter().any(|a| a.moved()) {
+            &map.ids
+        } else {
+            one_facet = vec![0u32; map.ids.len()];
+            &one_facet
+        };
+        let pixels = crate::trace::pixels_to_refine(film, ids, trace.aa_threshold);
+        progress.begin(Stage::AntiAliasing.name(), pixels.len() as u64);
+        tracer.antialias(film, &rays, &pixels, ids, trace.spp, progress);
+    });
     progress.finish();
 }
 

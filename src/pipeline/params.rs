@@ -106,6 +106,7 @@ pub fn trace(s: &Settings) -> TraceParams {
         width: s.width,
         height: s.height,
         spp: s.spp,
+        aa_threshold: s.aa_threshold,
         seed: s.seed,
         shadows: s.shadows,
         exposure: s.exposure,

@@ -57,7 +57,8 @@ fn tracer<'a>(prep: &'a Prepared, rig: Option<&'a LightRig>, trace: &TraceParams
     Tracer { world: &prep.world, accel: &prep.accel, rig, background, seed: trace.seed }
 }
 
-/// Frames the camera for the scene and traces every pixel once (progress stage `pre-render`).
+/// Frames the camera for the scene and traces every pixel (progress stage `pre-render`): one
+/// sample at its centre when lit, `spp` for hits only.
 pub fn prerender(
     prep: &Prepared,
     framing: &FramingParams,
@@ -90,11 +91,18 @@ pub fn prerender(
             ));
         }
     }
-    let mut film = Film::new(trace.width, trace.height, trace.spp);
+    // A render's pre-render traces each pixel's centre once: faceting, saliency and the aims
+    // need no more, and the anti-aliasing stage adds samples where the picture needs them.
+    // The hits-only products (the saliency map, face counts) keep `spp` samples per pixel.
+    let spp = match shading {
+        Shading::Lit => 1,
+        Shading::HitsOnly => trace.spp,
+    };
+    let mut film = Film::new(trace.width, trace.height, spp);
     progress.begin(Stage::PreRender.name(), film.pixel_count() as u64);
     let tracer = tracer(prep, rig.as_ref(), trace);
     let camera = framed.camera.as_ref();
-    timings.time(Stage::PreRender.name(), || tracer.render(&mut film, &|_, p| camera.ray(p), None, progress));
+    timings.time(Stage::PreRender.name(), || tracer.render(&mut film, &|_, p| camera.ray(p), None, None, progress));
     progress.finish();
     Ok(PreRender { film, view: View { framed, rig }, warnings })
 }

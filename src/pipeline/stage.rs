@@ -15,6 +15,7 @@ pub enum Stage {
     Faceting,
     Imprecision,
     ReTrace,
+    AntiAliasing,
     Paint,
     Writing,
     Done,
@@ -22,13 +23,14 @@ pub enum Stage {
 
 impl Stage {
     /// Every stage in the order a render runs them.
-    pub const ALL: [Stage; 9] = [
+    pub const ALL: [Stage; 10] = [
         Stage::Loading,
         Stage::PreRender,
         Stage::Saliency,
         Stage::Faceting,
         Stage::Imprecision,
         Stage::ReTrace,
+        Stage::AntiAliasing,
         Stage::Paint,
         Stage::Writing,
         Stage::Done,
@@ -42,6 +44,7 @@ impl Stage {
             Stage::Faceting => "faceting",
             Stage::Imprecision => "imprecision",
             Stage::ReTrace => "re-trace",
+            Stage::AntiAliasing => "anti-aliasing",
             Stage::Paint => "paint",
             Stage::Writing => "writing",
             Stage::Done => "done",
@@ -57,6 +60,7 @@ impl Stage {
             Stage::Faceting => "the facet layout: computed (Segment: from the pre-render) or loaded",
             Stage::Imprecision => "facet and saliency centres, and where each facet is re-aimed",
             Stage::ReTrace => "tracing again the pixels of facets whose rays moved",
+            Stage::AntiAliasing => "more samples for the pixels whose neighbours disagree (all: aa_threshold 0)",
             Stage::Paint => "the painterly effects",
             Stage::Writing => "writing the image and its passes",
             Stage::Done => "finished",
@@ -81,6 +85,8 @@ pub struct Plan {
     pub faceting: bool,
     /// Re-aiming facets (and re-tracing those whose rays moved).
     pub imprecision: bool,
+    /// More than one sample per pixel: the anti-aliasing stage.
+    pub antialiasing: bool,
     /// Some painterly effect is on.
     pub paint: bool,
 }
@@ -92,6 +98,7 @@ impl Plan {
             saliency: params.needs_saliency(),
             faceting,
             imprecision: faceting && imprecision::changes_rays(&params.aim),
+            antialiasing: params.trace.spp > 1,
             paint: !params.paint.is_off(),
         }
     }
@@ -104,6 +111,7 @@ impl Plan {
             (Stage::Faceting, self.faceting),
             (Stage::Imprecision, self.imprecision),
             (Stage::ReTrace, self.imprecision),
+            (Stage::AntiAliasing, self.antialiasing),
             (Stage::Paint, self.paint),
         ];
         let mut stages = vec![Stage::Loading, Stage::PreRender];
@@ -114,15 +122,34 @@ impl Plan {
 }
 
 /// Named step durations, in the order they ran (`--verbose`): the stages' names, and steps
-/// within or beside them ("paint setup", "encode").
+/// within or beside them ("paint setup", "encode"). The second list holds each step's CPU
+/// time, every thread of the process counted (where Linux tells it), in the same order: on
+/// a shared machine it is the stable measure.
 #[derive(Clone, Debug, Default)]
-pub struct Timings(pub Vec<(&'static str, Duration)>);
+pub struct Timings(pub Vec<(&'static str, Duration)>, pub Vec<Option<Duration>>);
 
 impl Timings {
     pub fn time<T>(&mut self, name: &'static str, f: impl FnOnce() -> T) -> T {
-        let t = Instant::now();
+        let (t, c) = (Instant::now(), process_cpu());
         let r = f();
         self.0.push((name, t.elapsed()));
+        self.1.push(c.zip(process_cpu()).map(|(a, b)| b.saturating_sub(a)));
         r
     }
+
+    /// The CPU time of step `i`, if known.
+    pub fn cpu(&self, i: usize) -> Option<Duration> {
+        self.1.get(i).copied().flatten()
+    }
+}
+
+/// CPU time used so far by every live thread of this process (rayon's pool threads live as
+/// long as it does), from /proc/self/task/*/schedstat, nanoseconds. None off Linux.
+pub fn process_cpu() -> Option<Duration> {
+    let mut total = 0u64;
+    for task in std::fs::read_dir("/proc/self/task").ok()? {
+        let stat = std::fs::read_to_string(task.ok()?.path().join("schedstat")).ok()?;
+        total += stat.split_whitespace().next()?.parse::<u64>().ok()?;
+    }
+    Some(Duration::from_nanos(total))
 }

@@ -22,6 +22,7 @@ impl Settings {
             width: 800,
             height: 600,
             spp: 4,
+            aa_threshold: 0.02,
             seed: 0,
             camera: CameraKind::Auto,
             ambiguity: None,

@@ -153,6 +153,7 @@ pub const FIELDS: &[Field] = &[
     field("height", Integer).unit(PX).range(SIDE),
     field("spp", Integer).range(Range::at_least(1.0)),
     field("seed", Integer).range(NON_NEGATIVE),
+    field("aa_threshold", Number).range(UNIT),
     field("camera", Enum).choices(choices::<CameraKind>),
     // Planar cameras: [0, 180); perspective: (0, 180).
     field("ambiguity", Number).nullable().unit(DEGREES).range(Range::closed(0.0, 360.0)),

@@ -106,6 +106,9 @@ impl Settings {
                 ),
             ));
         }
+        if !(0.0..=1.0).contains(&s.aa_threshold) {
+            return Err(Error::setting("aa_threshold", "must be in [0, 1] (an sRGB difference; 0 = every pixel)"));
+        }
         if let Some(a) = s.ambiguity {
             if !a.is_finite() {
                 return Err(Error::setting("ambiguity", format!("{} must be a finite number of degrees", num(a))));
