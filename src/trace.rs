@@ -140,6 +140,11 @@ impl Tracer<'_> {
                     .zip(film.samples.par_chunks_mut(wu * spp))
                     .enumerate()
                     .for_each(|(y, ((c, hrow), srow))| {
+                        // Cancelled (cubist serve): the remaining rows are skipped; the caller
+                        // checks `progress.check()` and throws the film away.
+                        if progress.cancelled() {
+                            return;
+                        }
                         for x in 0..wu {
                             let i = y * wu + x;
                             let (col, hit) = self.trace_pixel(i, w, h, &mut srow[x * spp..(x + 1) * spp], rays);
@@ -154,6 +159,10 @@ impl Tracer<'_> {
                     .par_chunks(256)
                     .map(|chunk| {
                         let mut samples = vec![SampleHit::MISS; chunk.len() * spp];
+                        if progress.cancelled() {
+                            let skipped = vec![(Vec4::ZERO, PixelHit::MISS); chunk.len()];
+                            return (skipped, samples);
+                        }
                         let out = chunk
                             .iter()
                             .enumerate()

@@ -12,10 +12,13 @@
 //! | `paint_stage` | film, facet map, lights, `PaintParams` | film colour painted |
 //! | `encode_stage` | film, facets, aims, passes | image and pass images |
 //!
+//! `Session` (`session.rs`) keeps these outputs between renders, each keyed by what its stage
+//! reads, for `cubist serve` and animation frames.
+//!
 //! A stage's output depends on nothing but its inputs, so a long-lived process (a render
-//! server, the frames of an animation) may keep any stage's output and skip the stage while
-//! its inputs are unchanged: the pre-render for a new palette, the layout for a new
-//! discontinuity. Nothing is cached yet besides per-mesh saliency (`Prepared::saliency`).
+//! server, the frames of an animation) keeps any stage's output and skips the stage while
+//! its inputs are unchanged: `session` runs the stages in order, each only when its key
+//! (exactly what it reads) changed, and `render` is that same sequence with nothing kept.
 //!
 //! The other products of the pre-render: `saliency_map` (`cubist saliency`),
 //! `inspect_facets` (`cubist facets`) and `evaluate` (`cubist faces`).
@@ -26,6 +29,7 @@ pub mod params;
 mod prepared;
 mod prerender;
 mod saliency_map;
+mod session;
 mod stage;
 
 use glam::DVec2;
@@ -37,7 +41,6 @@ use crate::film::Film;
 use crate::imprecision::{self, AimContext, AimParams, FacetAim};
 use crate::output::passes::{facet_ids_pass, facets_pass, geometry_pass};
 use crate::output::{Gray16, Pass, encode};
-use crate::paint::{Lighting, Painter};
 use crate::progress::Progress;
 use crate::saliency::{MeshSaliency, SaliencyParams};
 use crate::settings::Settings;
@@ -49,6 +52,7 @@ pub use params::StageParams;
 pub use prepared::Prepared;
 pub use prerender::{PreRender, Shading, View, prerender};
 pub use saliency_map::{SaliencyRender, saliency_map};
+pub use session::{DEFAULT_BUDGET, Frame, LANES, LaneStats, SceneUpdate, Session, SessionStats};
 pub use stage::{Plan, Stage, Timings};
 
 /// What a render produces.
@@ -75,6 +79,7 @@ pub fn render(prep: &Prepared, settings: &Settings, progress: &Progress) -> Resu
 
 /// `render`, calling `after_saliency` on the film once the pre-render and saliency stages are
 /// done and before faceting: tests and evaluations use it to supply a known saliency map.
+/// The stages run in `session::run`, the sequence a `Session` runs too, here with nothing kept.
 pub fn render_with(
     prep: &Prepared,
     settings: &Settings,
@@ -83,62 +88,19 @@ pub fn render_with(
 ) -> Result<Rendered> {
     settings.validate()?;
     let params = StageParams::new(settings);
-    let plan = Plan::new(&params);
-    let mut timings = Timings::default();
-
-    // Built before tracing so a bad palette image fails before the long part; it serves every
-    // frame of an animation.
-    let painter = timings.time("paint setup", || Painter::new(&params.paint))?;
-
-    let PreRender { mut film, view, mut warnings } =
-        prerender(prep, &params.framing, &params.trace, Shading::Lit, progress, &mut timings)?;
-
-    if plan.saliency {
-        film.saliency = Some(saliency_stage(prep, &film, &params.saliency, progress, &mut timings)?.1);
-    }
-    after_saliency(prep, &mut film);
-
-    let faceted = plan.faceting;
-    let (layout, map) = layout_stage(&params.facets, &film, progress, &mut timings, &mut warnings)?;
-
-    // Saliency centres count pixels within `neighborhood` of a facet: bounded work, or an error.
-    if faceted && params.aim.neighborhood > 0.0 && film.saliency.is_some() {
-        imprecision::check_neighbourhood(&map, params.aim.neighbourhood_px())?;
-    }
-
-    // Spatial imprecision (SPEC "Spatial imprecision"): re-aim facets, re-trace only the pixels
-    // of facets whose rays changed; at discontinuity 0 with converging facets nothing runs.
-    let mut aims = Vec::new();
-    if plan.imprecision {
-        if params.aim.reads_saliency() && film.saliency.is_none() {
-            warnings.push("no saliency map was computed: facets are not re-aimed (imprecision saliency)".into());
-        }
-        let ctx = aim_context(prep, &view, &params.trace);
-        aims = aims_stage(&ctx, &map, film.saliency.as_deref(), &params.aim, progress, &mut timings);
-        retrace_stage(prep, &view, &ctx, &params.trace, &map, &aims, &mut film, progress, &mut timings);
-    }
-
-    if plan.paint {
-        // An unfaceted image has no facet borders or corners: no facet map for the painter.
-        let lighting = view.rig.as_ref().map(|rig| Lighting { world: &prep.world, rig });
-        progress.begin(Stage::Paint.name(), 1);
-        timings.time(Stage::Paint.name(), || painter.apply(&mut film, faceted.then_some(&map), lighting.as_ref()))?;
-    }
-
-    let (image, passes, passes16) = encode_stage(&film, &map, &aims, &params, &mut timings);
-    if let Some(path) = &params.save_facets {
-        facets::io::save(path, &layout, &map)?;
-    }
+    let mut lane = session::Lane::new(params.trace.width, params.trace.height, false);
+    let frame = session::run(prep, 0, &mut lane, &mut 0, &params, progress, Some(after_saliency))?;
+    let (film, facets, aims) = lane.into_products()?;
     Ok(Rendered {
-        image,
-        passes,
-        passes16,
-        facets: map,
-        aims,
-        timings,
-        warnings,
-        camera: view.describe_camera(prep),
         film,
+        image: frame.image,
+        passes: frame.passes,
+        passes16: frame.passes16,
+        facets,
+        aims,
+        timings: frame.timings,
+        warnings: frame.warnings,
+        camera: frame.camera,
     })
 }
 
@@ -223,8 +185,13 @@ pub fn aims_stage(
     timings.time(Stage::Imprecision.name(), || imprecision::aim_facets(ctx, map, saliency, params))
 }
 
-/// Traces again the pixels of the facets whose rays moved, with the pre-render's tracer (the
-/// same lights, background and samples), overwriting their colour and hits in `film`.
+/// The pixels of the facets whose rays moved (what the re-trace traces again).
+pub fn moved_pixels(map: &FacetMap, aims: &[FacetAim]) -> Vec<u32> {
+    (0..map.ids.len() as u32).filter(|&i| aims[map.ids[i as usize] as usize].moved()).collect()
+}
+
+/// Traces again the `moved` pixels (`moved_pixels`) with the pre-render's tracer (the same
+/// lights, background and samples), overwriting their colour, hits and samples in `film`.
 #[allow(clippy::too_many_arguments)]
 pub fn retrace_stage(
     prep: &Prepared,
@@ -233,11 +200,11 @@ pub fn retrace_stage(
     trace: &TraceParams,
     map: &FacetMap,
     aims: &[FacetAim],
+    moved: &[u32],
     film: &mut Film,
     progress: &Progress,
     timings: &mut Timings,
 ) {
-    let moved: Vec<u32> = (0..map.ids.len() as u32).filter(|&i| aims[map.ids[i as usize] as usize].moved()).collect();
     if moved.is_empty() {
         return;
     }
@@ -245,7 +212,7 @@ pub fn retrace_stage(
     let rays = |i: usize, p: DVec2| aims[map.ids[i] as usize].apply(camera.ray(p), ctx.pixel_pos(p), ctx.clip_radius);
     let tracer = view.tracer(prep, trace);
     progress.begin(Stage::ReTrace.name(), moved.len() as u64);
-    timings.time(Stage::ReTrace.name(), || tracer.render(film, &rays, Some(&moved), progress));
+    timings.time(Stage::ReTrace.name(), || tracer.render(film, &rays, Some(moved), progress));
     progress.finish();
 }
 
