@@ -6,7 +6,9 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::Parser;
-use cubist::cli::{Cli, Command, FacesArgs, FacetsArgs, ProgressMode, RenderArgs, SaliencyArgs, SettingsCmdArgs};
+use cubist::cli::{
+    Cli, Command, FacesArgs, FacetsArgs, ProgressMode, RenderArgs, SaliencyArgs, ServeArgs, SettingsCmdArgs,
+};
 use cubist::output::{pass_path, write_png, write_png16};
 use cubist::pipeline::{self, Plan, Stage, StageParams, evaluate};
 use cubist::progress::Progress;
@@ -27,6 +29,7 @@ fn main() -> ExitCode {
         Command::Saliency(args) => run_saliency(args),
         Command::Facets(args) => run_facets(args),
         Command::Settings(args) => run_settings(args),
+        Command::Serve(args) => run_serve(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -102,6 +105,13 @@ fn run_render(args: RenderArgs) -> anyhow::Result<()> {
             eprintln!("{stage:>14}: {:>9.1} ms", t.as_secs_f64() * 1e3);
         }
     }
+    Ok(())
+}
+
+fn run_serve(args: ServeArgs) -> anyhow::Result<()> {
+    let options = cubist::serve::Options { budget: args.cache_memory << 20, ..Default::default() };
+    let stdin = std::io::stdin().lock();
+    cubist::serve::serve(stdin, Box::new(std::io::stdout()), options)?;
     Ok(())
 }
 

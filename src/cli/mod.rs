@@ -40,6 +40,18 @@ pub enum Command {
     /// per scene, see each flag's help). Nothing is rendered. With --schema, what every
     /// setting is (for front ends); with --stages, the stages a render of these settings runs.
     Settings(SettingsCmdArgs),
+    /// Keep running and render on request: JSON lines on stdin, one reply per line on stdout
+    /// (docs/serve.md). The scene, its BVH, saliency and every stage's output are kept between
+    /// requests, so a change re-runs only the stages it invalidates. Ends on `shutdown`, at the
+    /// end of stdin, or when the parent process dies.
+    Serve(ServeArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct ServeArgs {
+    /// Memory the kept stage outputs may use, MiB (the image size in use is always kept).
+    #[arg(long, value_name = "MIB", default_value_t = crate::pipeline::DEFAULT_BUDGET >> 20)]
+    pub cache_memory: u64,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
