@@ -533,6 +533,7 @@ fn after_saliency_stages(
                 std::mem::swap(&mut film.color, &mut colour);
                 r.map(|()| colour)
             })?;
+            progress.check()?;
             lane.paint = Some(Entry { key, id: next(), value: painted });
         }
         colour_gen = gen_of(&lane.paint);
@@ -950,9 +951,9 @@ mod tests {
         let a = Scene::default_scene();
         let (c, g, m) = fingerprints(&a);
         assert_eq!((c, g, m.clone()), fingerprints(&a.clone()));
-        // A light moved: the content changes, not the geometry.
+        // A material changed: the content changes, not the geometry.
         let mut lit = a.clone();
-        lit.lights[0].intensity *= 2.0;
+        lit.materials[0].roughness *= 0.5;
         let (c2, g2, m2) = fingerprints(&lit);
         assert_ne!(c, c2);
         assert_eq!((g, &m), (g2, &m2));
