@@ -109,7 +109,7 @@ fn run_render(args: RenderArgs) -> anyhow::Result<()> {
 }
 
 fn run_serve(args: ServeArgs) -> anyhow::Result<()> {
-    let options = cubist::serve::Options { budget: args.cache_memory << 20, ..Default::default() };
+    let options = cubist::serve::Options { budget: args.cache_memory << 20, parent: args.parent, ..Default::default() };
     let stdin = std::io::stdin().lock();
     cubist::serve::serve(stdin, Box::new(std::io::stdout()), options)?;
     Ok(())

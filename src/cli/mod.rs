@@ -52,6 +52,10 @@ pub struct ServeArgs {
     /// Memory the kept stage outputs may use, MiB (the image size in use is always kept).
     #[arg(long, value_name = "MIB", default_value_t = crate::pipeline::DEFAULT_BUDGET >> 20)]
     pub cache_memory: u64,
+    /// The process id of the program driving the server: the server ends when that process
+    /// is no longer its parent (Unix; elsewhere the end of stdin ends it) [default: the parent at start]
+    #[arg(long, value_name = "PID")]
+    pub parent: Option<u32>,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]

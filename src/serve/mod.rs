@@ -41,11 +41,14 @@ pub struct Options {
     pub budget: u64,
     /// How often the watchdog looks at the parent process.
     pub parent_poll: Duration,
+    /// The parent's process id, when the caller knows it (`--parent`): a parent gone before
+    /// the server started is then noticed too. None: the parent at start.
+    pub parent: Option<u32>,
 }
 
 impl Default for Options {
     fn default() -> Self {
-        Options { budget: crate::pipeline::DEFAULT_BUDGET, parent_poll: Duration::from_millis(500) }
+        Options { budget: crate::pipeline::DEFAULT_BUDGET, parent_poll: Duration::from_millis(500), parent: None }
     }
 }
 
@@ -132,7 +135,7 @@ pub fn serve(input: impl BufRead, output: Box<dyn Write + Send>, options: Option
             .spawn(move || work(&shared, Session::new().with_budget(budget)))
             .map_err(|e| Error::Internal(format!("cannot start the render thread: {e}")))?
     };
-    watch_parent(shared.clone(), options.parent_poll);
+    watch_parent(shared.clone(), options.parent, options.parent_poll);
     let shutdown = read_requests(input, &shared);
     shared.finish();
     let _ = worker.join();
@@ -387,13 +390,16 @@ fn render(session: &mut Session, job: &Job) -> Result<Value> {
 
 /// Ends the server when the process that started it is gone (Unix: this process is given to
 /// another parent). Elsewhere the end of stdin, which a dead parent's pipe gives, does it.
-fn watch_parent(shared: Arc<Shared>, every: Duration) {
+fn watch_parent(shared: Arc<Shared>, parent: Option<u32>, every: Duration) {
     #[cfg(unix)]
     {
-        let parent = std::os::unix::process::parent_id();
+        let parent = parent.unwrap_or_else(std::os::unix::process::parent_id);
         let _ = std::thread::Builder::new().name("cubist-parent-watch".into()).spawn(move || {
+            let mut first = true;
             loop {
-                std::thread::sleep(every);
+                if !std::mem::take(&mut first) {
+                    std::thread::sleep(every);
+                }
                 if shared.state().stopping {
                     return;
                 }
@@ -412,6 +418,6 @@ fn watch_parent(shared: Arc<Shared>, every: Duration) {
     }
     #[cfg(not(unix))]
     {
-        let _ = (shared, every);
+        let _ = (shared, parent, every);
     }
 }
