@@ -76,16 +76,21 @@ class ServeClient:
 
     _ids = itertools.count(1)
 
-    def __init__(self, binary: Path, cache_mib: Optional[int] = None):
+    def __init__(self, binary: Path, cache_mib: Optional[int] = None, nice: int = 0):
+        """Starts `binary serve`. `nice` > 0 (POSIX) lowers its CPU priority: the viewport's
+        server then yields the cores to Blender's interface when both want them."""
         self.binary = Path(binary)
         self.workspace = Path(tempfile.mkdtemp(prefix="cubist-serve-"))
         argv = [str(self.binary), "serve", "--parent", str(os.getpid())]
         if cache_mib is not None:
             argv += ["--cache-memory", str(int(cache_mib))]
+        extra = dict(popen_platform_args())
+        if nice > 0 and hasattr(os, "nice"):
+            extra["preexec_fn"] = lambda: os.nice(nice)
         try:
             self.proc = subprocess.Popen(argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                          stderr=subprocess.PIPE, text=True, encoding="utf-8",
-                                         errors="replace", bufsize=1, **popen_platform_args())
+                                         errors="replace", bufsize=1, **extra)
         except OSError as e:
             shutil.rmtree(self.workspace, ignore_errors=True)
             raise ServerGone(f"cannot start `{self.binary} serve`: {e.strerror or e}") from None

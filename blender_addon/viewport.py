@@ -46,11 +46,13 @@ from .serve_client import ServeClient, read_rgba
 # smaller than MIN_SIDE pixels are skipped.
 PASSES = (0.25, 0.5, 1.0)
 MIN_SIDE = 16
+# The viewport server's CPU priority below Blender's (POSIX nice): the interface comes first.
+NICE = 5
 # How often the main-thread timer looks for new images (seconds).
 TICK = 0.05
-# A session whose view has not been drawn for this long is ended by the timer (its view is
-# gone without its engine being freed yet).
-FORGOTTEN_AFTER = 10.0
+# A session never drawn this long after it started is ended by the timer (its view went
+# away before drawing, without its engine being freed yet).
+FORGOTTEN_AFTER = 30.0
 
 # Every open session, for the timer, `server_for` and closing them all.
 _sessions: set = set()
@@ -119,7 +121,7 @@ class ViewportSession:
     """One viewport's server, its worker thread and its latest image."""
 
     def __init__(self, binary: Path):
-        self.client = ServeClient(binary)
+        self.client = ServeClient(binary, nice=NICE)
         self.cond = threading.Condition()
         self.generation = 0
         self.job: Optional[Job] = None
@@ -141,6 +143,7 @@ class ViewportSession:
         self.counts = {"jobs": 0, "requests": 0, "images": 0, "cancelled": 0, "errors": 0, "exports": 0,
                        "draws": 0, "uploads": 0}
         self.history: list = []  # (generation, scale, seconds, reused) per image, the newest last
+        self.main_thread: dict = {}  # the longest view_update and view_draw, seconds
         self.draws: list = []
         self.thread = threading.Thread(target=self._work, name="cubist-viewport", daemon=True)
         self.thread.start()
@@ -401,14 +404,24 @@ def session_of(engine, create: bool) -> Optional[ViewportSession]:
 
 
 def view_update(engine, context, depsgraph) -> None:
+    t0 = time.perf_counter()
     session = session_of(engine, create=True)
     if session is None:
         return
     changed = content_changed(depsgraph)
     update(session, depsgraph, view_of(context, depsgraph), changed)
+    _main_thread_time(session, "view_update", t0)
+
+
+def _main_thread_time(session: ViewportSession, what: str, t0: float) -> None:
+    """The longest time a view_update or view_draw held the main thread (the panel, tests)."""
+    dt = time.perf_counter() - t0
+    key = f"longest_{what}"
+    session.main_thread[key] = max(session.main_thread.get(key, 0.0), dt)
 
 
 def view_draw(engine, context, depsgraph) -> None:
+    t0 = time.perf_counter()
     session = session_of(engine, create=False)
     region = context.region
     if session is None:
@@ -432,6 +445,7 @@ def view_draw(engine, context, depsgraph) -> None:
     if lines:
         draw_text(region, lines)
     session.counts["draws"] += 1
+    _main_thread_time(session, "view_draw", t0)
 
 
 def free(engine_id: int) -> None:
@@ -556,17 +570,21 @@ def _tick():
     redraw = False
     now = time.monotonic()
     for s in sessions:
-        seen = s.last_draw if s.last_draw is not None else s.created
-        if (s.area is not None and s.area not in rendered) or now - seen > FORGOTTEN_AFTER:
+        never_drawn = s.last_draw is None and now - s.created > FORGOTTEN_AFTER
+        if (s.area is not None and s.area not in rendered) or never_drawn:
             s.close()
         elif s.image_new:
             redraw = True
     if redraw:
-        for window in bpy.context.window_manager.windows:
-            for area in window.screen.areas:
-                if area.type == "VIEW_3D":
-                    area.tag_redraw()
+        _redraw_views()
     return TICK
+
+
+def _redraw_views() -> None:
+    for window in bpy.context.window_manager.windows:
+        for area in window.screen.areas:
+            if area.type == "VIEW_3D":
+                area.tag_redraw()
 
 
 def _ensure_timer() -> None:
