@@ -243,15 +243,14 @@ class CubistRenderEngine(bpy.types.RenderEngine):
                 layout = runner.layout_path(folder, scene.name, {**settings, "seed": panel["seed"]},
                                             props.layout_frame)
             cache = Path(panel["saliency_cache"]) if panel["saliency_cache"] else folder / "saliency"
-            if props.use_saliency_cache and runner.needs_saliency(settings):
+            # The renderer uses (and creates) the cache only when it computes mesh saliency.
+            if props.use_saliency_cache:
                 settings["saliency_cache"] = str(cache)
             # A binary set in the preferences may be older than the add-on.
             settings = runner.settings_for_binary(binary, settings)
             try:
                 if layout is not None:
                     folder.mkdir(parents=True, exist_ok=True)
-                if "saliency_cache" in settings:
-                    cache.mkdir(parents=True, exist_ok=True)
             except OSError as e:
                 where = folder if layout is not None and not folder.is_dir() else cache
                 raise runner.CubistError(f"cannot create the folder {where}: {e.strerror}") from None

@@ -233,6 +233,7 @@ class CUBIST_PT_painterly(CubistPanel, bpy.types.Panel):
         layout = self.layout
         layout.use_property_split = True
         col = layout.column(align=True)
+        col.prop(c, "border_style")
         col.prop(c, "border_width")
         col.prop(c, "border_strength")
         col = layout.column(align=True)
@@ -242,7 +243,13 @@ class CUBIST_PT_painterly(CubistPanel, bpy.types.Panel):
         layout.prop(c, "palette_image")
         layout.prop(c, "colors")
         layout.prop(c, "gradients")
+        layout.prop(c, "plane_light")
         layout.prop(c, "chiaroscuro")
+        col = layout.column(align=True)
+        col.prop(c, "brushwork")
+        col.prop(c, "stroke_length")
+        col.prop(c, "stroke_width")
+        layout.prop(c, "canvas_grain")
 
 
 class CUBIST_PT_sampling(CubistPanel, bpy.types.Panel):

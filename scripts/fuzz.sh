@@ -15,7 +15,7 @@ cd "$(dirname "$0")/.."
 secs=${1:-120}
 shift || true
 targets=("$@")
-[ ${#targets[@]} -eq 0 ] && targets=(gltf_loader settings_json)
+[ ${#targets[@]} -eq 0 ] && targets=(gltf_loader settings_json settings_scene layout_file)
 
 if rustup toolchain list 2>/dev/null | grep -q '^nightly'; then
     tc=(+nightly)

@@ -1,18 +1,25 @@
-//! Ray queries against the scene's triangles: the only user of obvhs (BVH2 build, closest hit,
-//! occlusion).
+//! Ray queries against the scene's triangles: the only user of obvhs. A two-level BVH (a BVH2
+//! per geometry, a BVH2 over the placed objects): closest hit, occlusion, and the updates an
+//! animation or a changed scene needs (see `Accel`).
 
 use std::time::Duration;
 
-use glam::{Vec3, Vec3A};
-use obvhs::{BvhBuildParams, bvh2::Bvh2, bvh2::builder::build_bvh2_from_tris, ray::Ray, triangle::Triangle};
+use glam::{Affine3A, Vec3, Vec3A};
+use obvhs::aabb::Aabb;
+use obvhs::bvh2::Bvh2;
+use obvhs::bvh2::builder::{build_bvh2, build_bvh2_from_tris};
+use obvhs::{BvhBuildParams, ray::Ray, triangle::Triangle};
+use rayon::prelude::*;
 
 use crate::scene::World;
+use crate::scene::world::Geometry;
 
-/// A closest hit: `tri` indexes `World::positions`; the hit point is
-/// `(1 - u - v) p0 + u p1 + v p2`.
+/// A closest hit: `tri` is the global triangle id (`World::triangle`), `object` indexes
+/// `World::objects`; the hit point is `(1 - u - v) p0 + u p1 + v p2`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
     pub tri: u32,
+    pub object: u32,
     pub t: f32,
     pub u: f32,
     pub v: f32,
@@ -51,11 +58,37 @@ impl ShearedRay {
     }
 }
 
-/// A triangle's corners exactly as in the world (not v0 + edge: rounding would open cracks
-/// between neighbours, which must compute their shared edge from identical numbers).
+/// Smallest magnitude of a direction component we trace. obvhs replaces 1/d by 1/EPSILON for
+/// |d| <= f32::EPSILON (to avoid infinities), so its slab test follows a different line than
+/// the ray for nearly axis-aligned directions and culls boxes the ray does cross: a ray with
+/// d = (1e-7, 0, -1) fell through a floor. We trace such rays with the component set to
+/// +-MIN_COMPONENT instead (the inverse is then exact), a tilt of under 5e-7 radians: a shift
+/// of 1.5e-6 render units at the far side of the scene, far below a pixel. Traversal and
+/// triangle test use the same direction, so they agree.
+const MIN_COMPONENT: f32 = 4.0 * f32::EPSILON;
+
+#[inline(always)]
+fn traced_direction(d: Vec3A) -> Vec3A {
+    let fix = |x: f32| if x.abs() < MIN_COMPONENT { MIN_COMPONENT.copysign(x) } else { x };
+    Vec3A::new(fix(d.x), fix(d.y), fix(d.z))
+}
+
+/// obvhs's medium preset without reinsertion: reinsertion's branch-and-bound search cannot
+/// prune among heavily overlapping triangles and turns quadratic there (30,000 overlapping
+/// boxes, 360K triangles: 38 s; 100,000: over 2 min). Without it the same scenes build in
+/// well under a second, and primary rays on the test meshes trace as fast (BENCHMARKS.md).
+const BUILD: BvhBuildParams = BvhBuildParams {
+    reinsertion_batch_ratio: 0.0,
+    post_collapse_reinsertion_batch_ratio_multiplier: 0.0,
+    ..BvhBuildParams::medium_build()
+};
+
+/// A triangle in a BLAS's leaf order: its corners in base space (see `scene::world`) and its
+/// index within its geometry. 40 bytes (corners kept unaligned: the watertight test reads
+/// them once, and aligned they cost 64).
 #[derive(Clone, Copy)]
 struct Tri {
-    p: [Vec3A; 3],
+    p: [Vec3; 3],
     id: u32,
 }
 
@@ -69,9 +102,9 @@ impl Tri {
     fn intersect(&self, r: &ShearedRay, tmin: f32, tmax: f32) -> Option<(f32, f32, f32)> {
         let [kx, ky, kz] = r.k;
         let [sx, sy, sz] = r.s;
-        let a = self.p[0] - r.o;
-        let b = self.p[1] - r.o;
-        let c = self.p[2] - r.o;
+        let a = Vec3A::from(self.p[0]) - r.o;
+        let b = Vec3A::from(self.p[1]) - r.o;
+        let c = Vec3A::from(self.p[2]) - r.o;
         let (ax, ay) = (a[kx] - sx * a[kz], a[ky] - sy * a[kz]);
         let (bx, by) = (b[kx] - sx * b[kz], b[ky] - sy * b[kz]);
         let (cx, cy) = (c[kx] - sx * c[kz], c[ky] - sy * c[kz]);
@@ -101,106 +134,137 @@ impl Tri {
     }
 }
 
-/// Smallest magnitude of a direction component we trace. obvhs replaces 1/d by 1/EPSILON for
-/// |d| <= f32::EPSILON (to avoid infinities), so its slab test follows a different line than
-/// the ray for nearly axis-aligned directions and culls boxes the ray does cross: a ray with
-/// d = (1e-7, 0, -1) fell through a floor. We trace such rays with the component set to
-/// +-MIN_COMPONENT instead (the inverse is then exact), a tilt of under 5e-7 radians: a shift
-/// of 1.5e-6 render units at the far side of the scene, far below a pixel. Traversal and
-/// triangle test use the same direction, so they agree.
-const MIN_COMPONENT: f32 = 4.0 * f32::EPSILON;
-
-#[inline(always)]
-fn traced_direction(d: Vec3A) -> Vec3A {
-    let fix = |x: f32| if x.abs() < MIN_COMPONENT { MIN_COMPONENT.copysign(x) } else { x };
-    Vec3A::new(fix(d.x), fix(d.y), fix(d.z))
+/// Whether a triangle can ever be hit: finite corners, no two equal (the watertight test's
+/// determinant is exactly 0 then).
+fn hittable([a, b, c]: [Vec3; 3]) -> bool {
+    a.is_finite() && b.is_finite() && c.is_finite() && a != b && b != c && a != c
 }
 
-/// obvhs's medium preset without reinsertion: reinsertion's branch-and-bound search cannot
-/// prune among heavily overlapping triangles and turns quadratic there (30,000 overlapping
-/// boxes, 360K triangles: 38 s; 100,000: over 2 min). Without it the same scenes build in
-/// well under a second, and primary rays on the test meshes trace as fast (BENCHMARKS.md).
-const BUILD: BvhBuildParams = BvhBuildParams {
-    reinsertion_batch_ratio: 0.0,
-    post_collapse_reinsertion_batch_ratio_multiplier: 0.0,
-    ..BvhBuildParams::medium_build()
-};
-
-pub struct Accel {
-    bvh: Option<Bvh2>,
-    /// Triangles in BVH leaf order (so leaves index them directly).
+/// A bottom-level BVH: one geometry's triangles in their base space.
+struct Blas {
+    bvh: Bvh2,
+    /// Triangles in leaf order (leaves index them directly).
     tris: Vec<Tri>,
+    /// Bounds of the triangles, base space.
+    bounds: Aabb,
+    /// Content key: a hash of the geometry's positions and triangles (`content_key`).
+    key: u128,
 }
 
-impl Accel {
-    /// Builds a BVH2 over the world's triangles (medium preset: no spatial splits, so each
-    /// triangle appears once). The build is deterministic for a given triangle list.
-    ///
-    /// Left out, as no query could ever return them: triangles with a non-finite corner
-    /// (their NaN or infinite bounds corrupt the tree: a NaN vertex once hid a quad beside it),
-    /// triangles with two equal corners (the watertight test's determinant is exactly 0), and
-    /// exact copies of a lower-numbered triangle (ties go to the lowest id). obvhs's PLOC
-    /// build degenerates to quadratic time on coincident triangles: 30,000 instances of a
-    /// box at one place (a 0.5 MB file) took 106 s to build, now milliseconds.
-    pub fn new(world: &World) -> Accel {
+/// The key a geometry's BLAS is shared and reused by: its base-space positions and
+/// triangles, bit for bit (checked in full on a key match, see `same_content`).
+fn content_key(g: &Geometry) -> u128 {
+    let mut h = xxhash_rust::xxh3::Xxh3::new();
+    for p in &g.positions {
+        for c in p.to_array() {
+            h.update(&c.to_bits().to_le_bytes());
+        }
+    }
+    h.update(&[0xff]);
+    for t in &g.triangles {
+        for i in t {
+            h.update(&i.to_le_bytes());
+        }
+    }
+    h.digest128()
+}
+
+fn same_content(a: &Geometry, b: &Geometry) -> bool {
+    a.triangles == b.triangles
+        && a.positions.len() == b.positions.len()
+        && a.positions
+            .iter()
+            .zip(&b.positions)
+            .all(|(p, q)| p.to_array().map(f32::to_bits) == q.to_array().map(f32::to_bits))
+}
+
+impl Blas {
+    /// Builds over a geometry's hittable triangles (medium preset: no spatial splits, so each
+    /// triangle appears once; deterministic for a given triangle list). Left out, as no query
+    /// could ever return them: triangles with a non-finite corner (their NaN or infinite
+    /// bounds corrupt the tree: a NaN vertex once hid a quad beside it), triangles with two
+    /// equal corners, and exact copies of a lower-numbered triangle (ties go to the lowest
+    /// id). obvhs's PLOC build degenerates to quadratic time on coincident triangles: 30,000
+    /// copies of a box at one place took 106 s to build, now milliseconds. None when nothing
+    /// is hittable.
+    fn build(g: &Geometry, key: u128) -> Option<Blas> {
         let mut seen = std::collections::HashSet::new();
-        let ids: Vec<u32> = (0..world.positions.len() as u32)
+        let ids: Vec<u32> = (0..g.triangles.len() as u32)
             .filter(|&i| {
-                let [a, b, c] = world.positions[i as usize];
-                if !(a.is_finite() && b.is_finite() && c.is_finite()) || a == b || b == c || a == c {
+                let c = g.corners(i);
+                if !hittable(c) {
                     return false;
                 }
                 // The corners as a set (either winding, any starting corner), bit for bit.
-                let mut key = [a, b, c].map(|p| p.to_array().map(f32::to_bits));
+                let mut key = c.map(|p| p.to_array().map(f32::to_bits));
                 key.sort_unstable();
                 seen.insert(key)
             })
             .collect();
+        drop(seen);
         if ids.is_empty() {
-            return Accel { bvh: None, tris: Vec::new() };
+            return None;
         }
         let tris: Vec<Triangle> = ids
             .iter()
             .map(|&i| {
-                let [a, b, c] = world.positions[i as usize];
+                let [a, b, c] = g.corners(i);
                 Triangle { v0: a.into(), v1: b.into(), v2: c.into() }
             })
             .collect();
-        let bvh = build_bvh2_from_tris(&tris, BUILD, &mut Duration::default());
-        let ordered = bvh
-            .primitive_indices
-            .iter()
-            .map(|&i| {
-                let t = &tris[i as usize];
-                Tri { p: [t.v0, t.v1, t.v2], id: ids[i as usize] }
-            })
-            .collect();
-        Accel { bvh: Some(bvh), tris: ordered }
+        let mut bvh = build_bvh2_from_tris(&tris, BUILD, &mut Duration::default());
+        drop(tris);
+        let ordered: Vec<Tri> =
+            bvh.primitive_indices.iter().map(|&i| Tri { p: g.corners(ids[i as usize]), id: ids[i as usize] }).collect();
+        // Leaves index `ordered` directly: the mapping is not needed any more.
+        bvh.primitive_indices = Vec::new();
+        let bounds = *bvh.nodes[0].aabb();
+        Some(Blas { bvh, tris: ordered, bounds, key })
     }
 
-    /// The closest hit along `origin + t dir`, t in [tmin, tmax]. Equal distances resolve to
-    /// the lowest triangle id, so the result never depends on traversal order.
-    #[inline]
-    pub fn closest(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
-        let bvh = self.bvh.as_ref()?;
-        if !(origin.is_finite() && dir.is_finite()) || dir == Vec3::ZERO {
-            return None;
+    /// New corners from the geometry (same triangles), leaf boxes recomputed and the tree
+    /// refitted bottom-up. False (nothing changed) when the set of hittable triangles changed:
+    /// then only a rebuild is right.
+    fn refit(&mut self, g: &Geometry) -> bool {
+        let hittable_now = (0..g.triangles.len() as u32).filter(|&i| hittable(g.corners(i))).count();
+        if hittable_now != self.tris.len() || self.tris.iter().any(|t| !hittable(g.corners(t.id))) {
+            return false;
         }
-        let (o, d) = (Vec3A::from(origin), traced_direction(Vec3A::from(dir)));
-        let ray = Ray::new(o, d, tmin, tmax);
-        let sheared = ShearedRay::new(o, d);
-        let mut best: Option<Hit> = None;
+        for t in &mut self.tris {
+            t.p = g.corners(t.id);
+        }
+        for node in &mut self.bvh.nodes {
+            if node.is_leaf() {
+                let mut b = Aabb::empty();
+                for t in &self.tris[node.first_index as usize..(node.first_index + node.prim_count) as usize] {
+                    for p in t.p {
+                        b.extend(p.into());
+                    }
+                }
+                node.set_aabb(b);
+            }
+        }
+        self.bvh.refit_all();
+        self.bounds = *self.bvh.nodes[0].aabb();
+        true
+    }
+
+    /// The closest hit in this BLAS better than `best` (nearer, or as near with a lower
+    /// triangle id), for the ray `o + t d` (base space) with `tmin <= t <= tmax`.
+    #[inline(always)]
+    fn closest(&self, ray: &LocalRay, tmin: f32, tmax: f32, first_triangle: u32, object: u32, best: &mut Option<Hit>) {
         let mut hit = obvhs::ray::RayHit::none();
-        bvh.ray_traverse(ray, &mut hit, |r, slot| {
+        self.bvh.ray_traverse(Ray::new(ray.o, ray.d, tmin, tmax), &mut hit, |r, slot| {
             let tri = &self.tris[slot];
-            match tri.intersect(&sheared, tmin, r.tmax) {
+            match tri.intersect(&ray.sheared, tmin, r.tmax) {
                 Some((t, u, v)) => {
+                    let id = first_triangle + tri.id;
                     let better = match best {
                         None => true,
-                        Some(b) => t < b.t || (t == b.t && tri.id < b.tri),
+                        Some(b) => t < b.t || (t == b.t && id < b.tri),
                     };
                     if better {
-                        best = Some(Hit { tri: tri.id, t, u, v });
+                        *best = Some(Hit { tri: id, object, t, u, v });
                     }
                     // Slightly beyond t, so nodes whose entry is exactly t are still visited
                     // and an equal-distance triangle there can win the id tie-break.
@@ -209,37 +273,361 @@ impl Accel {
                 None => f32::INFINITY,
             }
         });
+    }
+
+    /// Whether any triangle lies along the ray within [tmin, tmax]; the distance of one.
+    #[inline(always)]
+    fn any_hit(&self, ray: &LocalRay, tmin: f32, tmax: f32) -> Option<f32> {
+        let mut found = None;
+        self.bvh.ray_traverse_miss(Ray::new(ray.o, ray.d, tmin, tmax), |_, slot| {
+            match self.tris[slot].intersect(&ray.sheared, tmin, tmax) {
+                Some((t, _, _)) => {
+                    found = Some(t);
+                    t
+                }
+                None => f32::INFINITY,
+            }
+        });
+        found
+    }
+}
+
+/// A ray in some BLAS's base space, ready for traversal and the watertight test.
+#[derive(Clone, Copy)]
+struct LocalRay {
+    o: Vec3A,
+    d: Vec3A,
+    sheared: ShearedRay,
+}
+
+impl LocalRay {
+    #[inline(always)]
+    fn new(o: Vec3A, d: Vec3A) -> LocalRay {
+        let d = traced_direction(d);
+        LocalRay { o, d, sheared: ShearedRay::new(o, d) }
+    }
+}
+
+/// A placed object in the top-level BVH.
+#[derive(Clone, Copy)]
+struct Instance {
+    blas: u32,
+    object: u32,
+    first_triangle: u32,
+    /// Render space -> base space; None: the identity (the geometry is baked for this object).
+    to_base: Option<Affine3A>,
+}
+
+impl Instance {
+    /// The render-space ray `world` in this instance's base space.
+    #[inline(always)]
+    fn ray(&self, world: &LocalRay) -> LocalRay {
+        match &self.to_base {
+            None => *world,
+            Some(m) => LocalRay::new(m.transform_point3a(world.o), m.transform_vector3a(world.d)),
+        }
+    }
+}
+
+/// Ray queries against the world: a two-level BVH. Each geometry (one per mesh, see
+/// `scene::world`) has a bottom-level BVH (BLAS) over its triangles, built once per distinct
+/// content; a top-level BVH (TLAS) over the objects' boxes places them. An instanced mesh
+/// costs one BLAS however many objects place it; an object that moves costs a TLAS rebuild
+/// (`update_instances`); a mesh whose vertices changed costs a refit or rebuild of its BLAS
+/// alone (`refit_mesh`, `rebuild_mesh`); a changed scene reuses every BLAS whose content is
+/// unchanged (`update`).
+///
+/// Queries answer exactly as one BVH over the flattened triangles would: the closest hit,
+/// ties to the lowest triangle id, whatever the traversal order. An object whose geometry is
+/// baked for it (every object of a scene without instancing) is traced with the render-space
+/// ray itself, bit for bit as before the two levels; instances trace the ray carried into
+/// their base space by an f32 affine map (hits within f32 rounding of the flattened ones).
+#[derive(Default)]
+pub struct Accel {
+    /// BLASes by index; `geometry_blas` maps geometries onto them (None: nothing hittable).
+    blas: Vec<Blas>,
+    geometry_blas: Vec<Option<u32>>,
+    /// TLAS leaves in leaf order.
+    instances: Vec<Instance>,
+    tlas: Option<Bvh2>,
+}
+
+/// What `Accel::update` did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct UpdateStats {
+    /// BLASes built.
+    pub built: usize,
+    /// BLASes kept from before (same content).
+    pub reused: usize,
+}
+
+impl Accel {
+    /// Builds a BLAS per distinct geometry content (in parallel) and the TLAS.
+    pub fn new(world: &World) -> Accel {
+        let mut a = Accel::default();
+        a.update(world);
+        a
+    }
+
+    /// Brings the BVHs up to `world`, which may be a different world altogether (a changed
+    /// scene file): every geometry whose content (base-space positions and triangles) has a
+    /// BLAS already keeps it, only new content is built, and the TLAS is rebuilt. Costs a
+    /// hash of every geometry's vertices; use `update_instances` when only transforms moved.
+    pub fn update(&mut self, world: &World) -> UpdateStats {
+        let keys: Vec<u128> = world.geometries.par_iter().map(content_key).collect();
+        let old: std::collections::HashMap<u128, usize> =
+            self.blas.iter().enumerate().map(|(i, b)| (b.key, i)).collect();
+        // Geometries sharing a key share a BLAS (checked in full, so a hash collision only
+        // costs a second BLAS).
+        let mut owner: Vec<usize> = (0..keys.len()).collect();
+        let mut first_of: std::collections::HashMap<u128, usize> = std::collections::HashMap::new();
+        for (g, k) in keys.iter().enumerate() {
+            match first_of.get(k) {
+                Some(&f) if same_content(&world.geometries[f], &world.geometries[g]) => owner[g] = f,
+                Some(_) => {}
+                None => {
+                    first_of.insert(*k, g);
+                }
+            }
+        }
+        let mut stats = UpdateStats::default();
+        let to_build: Vec<usize> = (0..keys.len()).filter(|&g| owner[g] == g && !old.contains_key(&keys[g])).collect();
+        stats.built = to_build.len();
+        let built: Vec<Option<Blas>> =
+            to_build.par_iter().map(|&g| Blas::build(&world.geometries[g], keys[g])).collect();
+        let mut new_built: std::collections::HashMap<usize, Option<Blas>> = to_build.into_iter().zip(built).collect();
+        let mut previous: Vec<Option<Blas>> = std::mem::take(&mut self.blas).into_iter().map(Some).collect();
+        let mut blas = Vec::new();
+        let mut index_of_owner: std::collections::HashMap<usize, Option<u32>> = std::collections::HashMap::new();
+        let mut geometry_blas = vec![None; keys.len()];
+        for g in 0..keys.len() {
+            let o = owner[g];
+            let slot = match index_of_owner.get(&o) {
+                Some(s) => *s,
+                None => {
+                    let b = match new_built.remove(&o) {
+                        Some(b) => b,
+                        None => {
+                            stats.reused += 1;
+                            previous[old[&keys[o]]].take()
+                        }
+                    };
+                    let s = b.map(|b| {
+                        blas.push(b);
+                        (blas.len() - 1) as u32
+                    });
+                    index_of_owner.insert(o, s);
+                    s
+                }
+            };
+            geometry_blas[g] = slot;
+        }
+        self.blas = blas;
+        self.geometry_blas = geometry_blas;
+        self.update_instances(world);
+        stats
+    }
+
+    /// Rebuilds the TLAS from the objects' current placements (after
+    /// `World::set_transforms`): no triangle is touched. Geometries added since the last
+    /// build (an object given its own copy) get their BLAS first.
+    pub fn update_instances(&mut self, world: &World) {
+        if self.geometry_blas.len() < world.geometries.len() {
+            for g in self.geometry_blas.len()..world.geometries.len() {
+                let geometry = &world.geometries[g];
+                let b = Blas::build(geometry, content_key(geometry));
+                self.geometry_blas.push(b.map(|b| {
+                    self.blas.push(b);
+                    (self.blas.len() - 1) as u32
+                }));
+            }
+        }
+        // One instance per object with something hittable; exact duplicates (the same BLAS,
+        // placed the same way: coincident copies) are left out like coincident triangles, the
+        // first (lowest ids) kept. PLOC turns quadratic on thousands of equal boxes.
+        let mut seen = std::collections::HashSet::new();
+        let mut instances = Vec::new();
+        let mut boxes = Vec::new();
+        for (i, o) in world.objects.iter().enumerate() {
+            let Some(blas) = self.geometry_blas.get(o.geometry).copied().flatten() else {
+                continue;
+            };
+            let place_bits = o.placement.map(|p| {
+                let m = p.to_render.to_cols_array();
+                m.map(f32::to_bits)
+            });
+            if !seen.insert((blas, place_bits)) {
+                continue;
+            }
+            let b = self.blas[blas as usize].bounds;
+            let aabb = match &o.placement {
+                None => b,
+                Some(p) => {
+                    let mut r = Aabb::empty();
+                    for k in 0..8 {
+                        let c = Vec3A::new(
+                            if k & 1 == 0 { b.min.x } else { b.max.x },
+                            if k & 2 == 0 { b.min.y } else { b.max.y },
+                            if k & 4 == 0 { b.min.z } else { b.max.z },
+                        );
+                        r.extend(p.to_render.transform_point3a(c));
+                    }
+                    // Rounding of the f32 map must not cut off a grazing ray.
+                    let pad = (r.max - r.min).max_element() * 1e-5 + 1e-6;
+                    Aabb::new(r.min - pad, r.max + pad)
+                }
+            };
+            if !(aabb.min.is_finite() && aabb.max.is_finite()) {
+                continue;
+            }
+            instances.push(Instance {
+                blas,
+                object: i as u32,
+                first_triangle: o.first_triangle,
+                to_base: o.placement.map(|p| p.to_base),
+            });
+            boxes.push(aabb);
+        }
+        if instances.is_empty() {
+            (self.tlas, self.instances) = (None, Vec::new());
+            return;
+        }
+        let mut tlas = build_bvh2(&boxes, BUILD, &mut Duration::default());
+        self.instances = tlas.primitive_indices.iter().map(|&i| instances[i as usize]).collect();
+        tlas.primitive_indices = Vec::new();
+        self.tlas = Some(tlas);
+    }
+
+    /// After `World::set_vertices` on a small deformation (skinning, a wave): the BLAS of
+    /// geometry `g` keeps its tree and refits its boxes to the new corners, O(triangles),
+    /// then the TLAS is rebuilt. Falls back to `rebuild_mesh` when a triangle became or
+    /// stopped being hittable, or when the BLAS is shared with other geometries of the same
+    /// former content. Returns whether it refitted (false: rebuilt). Traversal slows as the
+    /// tree fits the new shape worse: rebuild after large changes.
+    pub fn refit_mesh(&mut self, world: &World, g: usize) -> bool {
+        let Some(Some(b)) = self.geometry_blas.get(g).copied() else {
+            self.rebuild_mesh(world, g);
+            return false;
+        };
+        let shared = self.geometry_blas.iter().filter(|x| **x == Some(b)).count() > 1;
+        let geometry = &world.geometries[g];
+        if shared || !self.blas[b as usize].refit(geometry) {
+            self.rebuild_mesh(world, g);
+            return false;
+        }
+        self.blas[b as usize].key = content_key(geometry);
+        self.update_instances(world);
+        true
+    }
+
+    /// Builds the BLAS of geometry `g` anew from its current vertices (after
+    /// `World::set_vertices` with a large change), then the TLAS.
+    pub fn rebuild_mesh(&mut self, world: &World, g: usize) {
+        let geometry = &world.geometries[g];
+        let built = Blas::build(geometry, content_key(geometry));
+        if self.geometry_blas.len() < world.geometries.len() {
+            self.geometry_blas.resize(world.geometries.len(), None);
+        }
+        let old = self.geometry_blas[g];
+        let shared = old.is_some() && self.geometry_blas.iter().filter(|x| **x == old).count() > 1;
+        self.geometry_blas[g] = match (old, built) {
+            (Some(b), Some(new)) if !shared => {
+                self.blas[b as usize] = new;
+                Some(b)
+            }
+            (_, Some(new)) => {
+                self.blas.push(new);
+                Some((self.blas.len() - 1) as u32)
+            }
+            (_, None) => None,
+        };
+        self.update_instances(world);
+    }
+
+    /// Triangles held by the BLASes (each distinct geometry once).
+    pub fn stored_triangles(&self) -> usize {
+        self.blas.iter().map(|b| b.tris.len()).sum()
+    }
+
+    /// Objects in the TLAS (coincident copies and objects with nothing hittable left out).
+    pub fn instance_count(&self) -> usize {
+        self.instances.len()
+    }
+
+    /// Bytes held by the BVHs and their triangles (heap, approximate).
+    pub fn memory_bytes(&self) -> usize {
+        let node = std::mem::size_of::<obvhs::bvh2::node::Bvh2Node>();
+        self.blas
+            .iter()
+            .map(|b| b.bvh.nodes.capacity() * node + b.tris.capacity() * std::mem::size_of::<Tri>())
+            .sum::<usize>()
+            + self.tlas.as_ref().map_or(0, |t| t.nodes.capacity() * node)
+            + self.instances.capacity() * std::mem::size_of::<Instance>()
+    }
+
+    /// The closest hit along `origin + t dir`, t in [tmin, tmax]. Equal distances resolve to
+    /// the lowest triangle id, so the result never depends on traversal order.
+    #[inline]
+    pub fn closest(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
+        let tlas = self.tlas.as_ref()?;
+        if !(origin.is_finite() && dir.is_finite()) || dir == Vec3::ZERO {
+            return None;
+        }
+        let world = LocalRay::new(Vec3A::from(origin), Vec3A::from(dir));
+        let mut best: Option<Hit> = None;
+        let mut hit = obvhs::ray::RayHit::none();
+        tlas.ray_traverse(Ray::new(world.o, world.d, tmin, tmax), &mut hit, |r, slot| {
+            let inst = &self.instances[slot];
+            let before = best.map(|b| (b.t, b.tri));
+            self.blas[inst.blas as usize].closest(
+                &inst.ray(&world),
+                tmin,
+                r.tmax,
+                inst.first_triangle,
+                inst.object,
+                &mut best,
+            );
+            match best {
+                Some(b) if before != Some((b.t, b.tri)) => b.t * (1.0 + 4.0 * f32::EPSILON) + f32::MIN_POSITIVE,
+                _ => f32::INFINITY,
+            }
+        });
         best
     }
 
     /// Whether anything lies along `origin + t dir` for t in [tmin, tmax] (shadow rays).
     #[inline]
     pub fn occluded(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> bool {
-        let Some(bvh) = self.bvh.as_ref() else {
+        let Some(tlas) = self.tlas.as_ref() else {
             return false;
         };
         if !(origin.is_finite() && dir.is_finite()) || dir == Vec3::ZERO {
             return false;
         }
-        let (o, d) = (Vec3A::from(origin), traced_direction(Vec3A::from(dir)));
-        let ray = Ray::new(o, d, tmin, tmax);
-        let sheared = ShearedRay::new(o, d);
-        !bvh.ray_traverse_miss(ray, |_, slot| {
-            self.tris[slot].intersect(&sheared, tmin, tmax).map_or(f32::INFINITY, |(t, _, _)| t)
+        let world = LocalRay::new(Vec3A::from(origin), Vec3A::from(dir));
+        !tlas.ray_traverse_miss(Ray::new(world.o, world.d, tmin, tmax), |_, slot| {
+            let inst = &self.instances[slot];
+            self.blas[inst.blas as usize].any_hit(&inst.ray(&world), tmin, tmax).unwrap_or(f32::INFINITY)
         })
     }
 
-    /// Closest hit with a bare obvhs traversal and its own triangle test: the baseline the
-    /// benchmark compares the pipeline against.
+    /// Closest hit with bare obvhs traversals (TLAS, then each BLAS) and our triangle test,
+    /// no tie-break: the baseline the benchmark compares the pipeline against.
     pub fn bare_traversal(&self, origin: Vec3, dir: Vec3) -> bool {
-        let Some(bvh) = self.bvh.as_ref() else {
+        let Some(tlas) = self.tlas.as_ref() else {
             return false;
         };
-        let (o, d) = (Vec3A::from(origin), traced_direction(Vec3A::from(dir)));
-        let sheared = ShearedRay::new(o, d);
+        let world = LocalRay::new(Vec3A::from(origin), Vec3A::from(dir));
         let mut hit = obvhs::ray::RayHit::none();
-        bvh.ray_traverse(Ray::new_inf(o, d), &mut hit, |r, slot| {
-            self.tris[slot].intersect(&sheared, 0.0, r.tmax).map_or(f32::INFINITY, |(t, _, _)| t)
+        tlas.ray_traverse(Ray::new_inf(world.o, world.d), &mut hit, |r, slot| {
+            let inst = &self.instances[slot];
+            let ray = inst.ray(&world);
+            let blas = &self.blas[inst.blas as usize];
+            let mut h = obvhs::ray::RayHit::none();
+            blas.bvh.ray_traverse(Ray::new(ray.o, ray.d, 0.0, r.tmax), &mut h, |r, slot| {
+                blas.tris[slot].intersect(&ray.sheared, 0.0, r.tmax).map_or(f32::INFINITY, |(t, _, _)| t)
+            });
+            h.t
         })
     }
 }
@@ -247,12 +635,10 @@ impl Accel {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{Scene, World};
+    use crate::scene::World;
 
     fn world_of(tris: Vec<[Vec3; 3]>) -> World {
-        let mut w = World::new(&Scene::default_scene());
-        w.positions = tris;
-        w
+        World::from_triangles(&tris)
     }
 
     #[test]
@@ -388,8 +774,8 @@ mod tests {
         }
         tris.push([Vec3::ZERO, Vec3::ZERO, Vec3::X]);
         let a = Accel::new(&world_of(tris));
-        assert_eq!(a.tris.len(), 12, "only the first box's triangles are built");
-        assert!(a.tris.iter().all(|t| t.id < 12));
+        assert_eq!(a.stored_triangles(), 12, "only the first box's triangles are built");
+        assert!(a.blas[0].tris.iter().all(|t| t.id < 12));
         for dir in [Vec3::NEG_Z, Vec3::new(0.3, -0.5, -0.8).normalize(), Vec3::X] {
             let o = Vec3::new(0.1, 0.2, 0.3) - dir * 5.0;
             let h = a.closest(o, dir, 0.0, f32::INFINITY).unwrap();

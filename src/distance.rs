@@ -32,7 +32,7 @@ pub fn distance_to_features(
             }
             f.clear();
             f.extend(row.iter().map(|&d| if d < limit { (d as f64) * (d as f64) } else { f64::INFINITY }));
-            envelope(f, v, z, |x, d2| row[x] = d2.sqrt() as f32);
+            envelope(f, v, z, |x, d2, _| row[x] = d2.sqrt() as f32);
         },
     );
     g
@@ -53,7 +53,7 @@ pub fn squared_distance_to_features(
     for (row, col) in out.chunks_mut(w).zip(g.chunks(w)) {
         f.clear();
         f.extend(col.iter().map(|&d| (d as f64) * (d as f64)));
-        envelope(&f, &mut v, &mut z, |x, d2| row[x] = d2);
+        envelope(&f, &mut v, &mut z, |x, d2, _| row[x] = d2);
     }
     out
 }
@@ -86,9 +86,10 @@ fn column_distances(w: usize, h: usize, is_feature: &(impl Fn(usize) -> bool + S
     g
 }
 
-/// The 1-D squared distance transform of `f` (infinite = no parabola there): `put(x, d^2)`
-/// for every x. `v` and `z` are scratch buffers.
-fn envelope(f: &[f64], v: &mut Vec<usize>, z: &mut Vec<f64>, mut put: impl FnMut(usize, f64)) {
+/// The 1-D squared distance transform of `f` (infinite = no parabola there): `put(x, d^2, q)`
+/// for every x, q being the position whose parabola is lowest there. `v` and `z` are scratch
+/// buffers.
+fn envelope(f: &[f64], v: &mut Vec<usize>, z: &mut Vec<f64>, mut put: impl FnMut(usize, f64, usize)) {
     v.clear();
     z.clear();
     for (q, &fq) in f.iter().enumerate() {
@@ -120,7 +121,7 @@ fn envelope(f: &[f64], v: &mut Vec<usize>, z: &mut Vec<f64>, mut put: impl FnMut
         }
     }
     if v.is_empty() {
-        (0..f.len()).for_each(|x| put(x, f64::INFINITY));
+        (0..f.len()).for_each(|x| put(x, f64::INFINITY, usize::MAX));
         return;
     }
     let mut k = 0;
@@ -130,8 +131,87 @@ fn envelope(f: &[f64], v: &mut Vec<usize>, z: &mut Vec<f64>, mut put: impl FnMut
             k += 1;
         }
         let d = xf - v[k] as f64;
-        put(x, d * d + f[v[k]]);
+        put(x, d * d + f[v[k]], v[k]);
     }
+}
+
+/// A pixel with no feature within the limit of `nearest_features`.
+pub const NO_FEATURE: u32 = u32::MAX;
+
+/// The nearest feature of every pixel: its index (`NO_FEATURE` when none is closer than
+/// `limit`) and the Euclidean distance to it (between pixel centres; infinite when none).
+/// The same transform as `distance_to_features`, keeping which feature each parabola comes
+/// from (a feature transform): the passage borders need the pixel across the border, not
+/// only how far it is. Ties go to one of the nearest features, the same on any thread count.
+pub fn nearest_features(
+    width: u32,
+    height: u32,
+    limit: f32,
+    is_feature: impl Fn(usize) -> bool + Sync,
+) -> (Vec<f32>, Vec<u32>) {
+    let (w, h) = (width as usize, height as usize);
+    // Pass 1: per column, the row of the nearest feature in that column (two sweeps).
+    let mut rows = vec![NO_FEATURE; w * h];
+    rows.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+        for (x, r) in row.iter_mut().enumerate() {
+            if is_feature(y * w + x) {
+                *r = y as u32;
+            }
+        }
+    });
+    let closer = |y: usize, a: u32, b: u32| -> u32 {
+        // The nearer of two candidate rows for row y (NO_FEATURE loses; ties to a).
+        match (a, b) {
+            (NO_FEATURE, b) => b,
+            (a, NO_FEATURE) => a,
+            (a, b) => {
+                if (y as i64 - b as i64).abs() < (y as i64 - a as i64).abs() {
+                    b
+                } else {
+                    a
+                }
+            }
+        }
+    };
+    for y in 1..h {
+        let (above, rest) = rows.split_at_mut(y * w);
+        let prev = &above[(y - 1) * w..];
+        for (r, p) in rest[..w].iter_mut().zip(prev) {
+            *r = closer(y, *r, *p);
+        }
+    }
+    for y in (0..h.saturating_sub(1)).rev() {
+        let (head, below) = rows.split_at_mut((y + 1) * w);
+        let row = &mut head[y * w..];
+        for (r, n) in row.iter_mut().zip(&below[..w]) {
+            *r = closer(y, *r, *n);
+        }
+    }
+    // Pass 2: per row, the lower envelope over the columns' nearest features.
+    let mut dist = vec![f32::INFINITY; w * h];
+    let mut index = vec![NO_FEATURE; w * h];
+    let limit2 = (limit as f64) * (limit as f64);
+    dist.par_chunks_mut(w).zip(index.par_chunks_mut(w)).enumerate().for_each_init(
+        || (Vec::with_capacity(w), Vec::with_capacity(w + 1), Vec::with_capacity(w)),
+        |(v, z, f): &mut (Vec<usize>, Vec<f64>, Vec<f64>), (y, (drow, irow))| {
+            f.clear();
+            f.extend(rows[y * w..(y + 1) * w].iter().map(|&r| {
+                if r == NO_FEATURE {
+                    f64::INFINITY
+                } else {
+                    let d = y as f64 - r as f64;
+                    if d * d < limit2 { d * d } else { f64::INFINITY }
+                }
+            }));
+            envelope(f, v, z, |x, d2, q| {
+                if q != usize::MAX && d2 < limit2 {
+                    drow[x] = d2.sqrt() as f32;
+                    irow[x] = rows[y * w + q] * w as u32 + q as u32;
+                }
+            });
+        },
+    );
+    (dist, index)
 }
 
 #[cfg(test)]
@@ -188,6 +268,24 @@ mod tests {
     }
 
     proptest! {
+        #[test]
+        fn nearest_features_are_nearest(w in 1usize..24, h in 1usize..24, bits in proptest::collection::vec(0u8..16, 576), limit in 0.5f32..30.0) {
+            let feat: Vec<bool> = (0..w * h).map(|i| bits[i] == 0).collect();
+            let b = brute(w, h, &feat);
+            let (d, idx) = nearest_features(w as u32, h as u32, limit, |i| feat[i]);
+            for i in 0..w * h {
+                if b[i] < limit {
+                    let j = idx[i] as usize;
+                    prop_assert!(j < w * h && feat[j], "pixel {} points at {}", i, j);
+                    let dj = (((i % w) as f32 - (j % w) as f32).powi(2) + ((i / w) as f32 - (j / w) as f32).powi(2)).sqrt();
+                    prop_assert!((dj - b[i]).abs() < 1e-4 && (d[i] - b[i]).abs() < 1e-4, "pixel {}: {} / {} vs {}", i, dj, d[i], b[i]);
+                } else {
+                    prop_assert_eq!(idx[i], NO_FEATURE);
+                    prop_assert!(d[i].is_infinite());
+                }
+            }
+        }
+
         #[test]
         fn matches_brute_force(w in 1usize..24, h in 1usize..24, bits in proptest::collection::vec(0u8..16, 576), limit in 0.5f32..30.0) {
             let feat: Vec<bool> = (0..w * h).map(|i| bits[i] == 0).collect();

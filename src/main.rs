@@ -9,18 +9,32 @@ use clap::Parser;
 use cubist::cli::{
     Cli, Command, FacesArgs, FacetsArgs, ProgressMode, RenderArgs, SaliencyArgs, ServeArgs, SettingsCmdArgs,
 };
-use cubist::output::{pass_path, write_png, write_png16};
+use cubist::output::{Outputs, pass_path, write_png};
 use cubist::pipeline::{self, Plan, Stage, StageParams, evaluate};
 use cubist::progress::Progress;
 use cubist::settings::CameraKind;
 use cubist::{Error, Prepared};
 
+/// Writes a line to stderr. Never `eprintln!`: it panics (exit 101) when stderr is closed or
+/// its reader went away; a message that cannot be written is dropped and the exit code says it.
+macro_rules! say {
+    ($($t:tt)*) => {{
+        use std::io::Write;
+        let _ = writeln!(std::io::stderr(), $($t)*);
+    }};
+}
+
 fn main() -> ExitCode {
+    handle_signals();
     let cli = match Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {
+            if e.use_stderr() {
+                say!("{}", usage_error(&e.render().to_string()));
+                return ExitCode::from(2);
+            }
             let _ = e.print();
-            return ExitCode::from(if e.use_stderr() { 2 } else { 0 });
+            return ExitCode::SUCCESS;
         }
     };
     let result = match cli.command {
@@ -35,11 +49,60 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             let usage = e.downcast_ref::<Error>().is_some_and(Error::is_usage);
-            eprintln!("error: {e:#}");
+            say!("error: {}", cubist::error::cap_message(&format!("{e:#}")));
             ExitCode::from(if usage { 2 } else { 1 })
         }
     }
 }
+
+/// clap's usage error as we print it: the first line names the problem (clap ends some first
+/// lines with a colon and lists the arguments below), and no line echoes a huge value whole.
+fn usage_error(rendered: &str) -> String {
+    let lines: Vec<&str> = rendered.trim_end().lines().collect();
+    let mut out: Vec<String> = Vec::new();
+    let mut i = 0;
+    if let Some(first) = lines.first() {
+        let mut first = first.trim_end().to_string();
+        i = 1;
+        if first.ends_with(':') {
+            // "the following required arguments were not provided:" + the indented list.
+            let mut items = Vec::new();
+            while i < lines.len() && lines[i].starts_with(' ') && !lines[i].trim().is_empty() {
+                items.push(lines[i].trim());
+                i += 1;
+            }
+            first = format!("{first} {}", items.join(", "));
+        }
+        out.push(first);
+    }
+    out.extend(lines[i..].iter().map(|l| l.to_string()));
+    out.iter().map(|l| cubist::error::cap_message(l)).collect::<Vec<_>>().join("\n")
+}
+
+/// SIGINT and SIGTERM (the add-on's cancel, a farm's job kill) and SIGHUP remove the temporary
+/// files of outputs being written, then exit with 128 + the signal: nothing partial remains.
+#[cfg(unix)]
+fn handle_signals() {
+    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+    let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP]) else { return };
+    let _ = std::thread::Builder::new().name("signals".into()).spawn(move || {
+        if let Some(sig) = signals.forever().next() {
+            cubist::util::files::remove_temporary_files();
+            std::process::exit(128 + sig);
+        }
+    });
+}
+
+#[cfg(windows)]
+fn handle_signals() {
+    let _ = ctrlc::set_handler(|| {
+        cubist::util::files::remove_temporary_files();
+        std::process::exit(130);
+    });
+}
+
+#[cfg(not(any(unix, windows)))]
+fn handle_signals() {}
 
 fn progress_for(mode: ProgressMode) -> Progress {
     let mode = match mode {
@@ -64,45 +127,49 @@ fn progress_for(mode: ProgressMode) -> Progress {
             }))
         }
         // Written without `eprintln!`, which panics if the reader (the add-on) went away.
-        ProgressMode::Lines => Progress::new(Box::new(|stage, f| {
-            use std::io::Write;
-            let _ = writeln!(std::io::stderr(), "PROGRESS {f:.4} {stage}");
-        })),
+        ProgressMode::Lines => Progress::new(Box::new(|stage, f| say!("PROGRESS {f:.4} {stage}"))),
         _ => Progress::silent(),
     }
 }
 
 fn run_render(args: RenderArgs) -> anyhow::Result<()> {
-    let settings = args.settings.resolve(args.config.as_deref())?;
+    let mut settings = args.settings.resolve(args.config.as_deref())?;
     cubist::output::check_png_path(&args.output)?;
     let progress = progress_for(args.progress);
     progress.begin(Stage::Loading.name(), 1);
-    let prep = Prepared::load(args.scene.as_deref())?;
+    let prep = Prepared::load_with(args.scene.as_deref(), pipeline::params::load_options(&settings))?;
+    // The layout is saved with the images, all or nothing, not by the render.
+    let save_facets = settings.save_facets.take();
     let rendered = cubist::render(&prep, &settings, &progress)?;
     progress.begin(Stage::Writing.name(), 1);
-    write_png(&args.output, &rendered.image)?;
+    let mut outputs = Outputs::new();
+    outputs.png(&args.output, &rendered.image)?;
     for (pass, img) in &rendered.passes {
-        write_png(&pass_path(&args.output, pass.as_str()), img)?;
+        outputs.png(&pass_path(&args.output, pass.as_str()), img)?;
     }
     for (pass, img) in &rendered.passes16 {
-        write_png16(&pass_path(&args.output, pass.as_str()), img)?;
+        outputs.png16(&pass_path(&args.output, pass.as_str()), img)?;
     }
+    if let Some(path) = &save_facets {
+        cubist::facets::io::add_to(&mut outputs, path, &rendered.layout, &rendered.facets)?;
+    }
+    outputs.commit()?;
     progress.begin(Stage::Done.name(), 1);
     progress.finish();
     for w in &rendered.warnings {
-        eprintln!("warning: {w}");
+        say!("warning: {w}");
     }
     if args.verbose {
-        eprintln!(
+        say!(
             "scene: {} ({} triangles, {} objects)",
             prep.scene.source.display(),
             prep.world.triangle_count(),
             prep.world.objects.len()
         );
-        eprintln!("camera: {}", rendered.camera);
-        eprintln!("{:>14}: {:>9.1} ms", "load+bvh", prep.build_time.as_secs_f64() * 1e3);
+        say!("camera: {}", rendered.camera);
+        say!("{:>14}: {:>9.1} ms", "load+bvh", prep.build_time.as_secs_f64() * 1e3);
         for (stage, t) in &rendered.timings.0 {
-            eprintln!("{stage:>14}: {:>9.1} ms", t.as_secs_f64() * 1e3);
+            say!("{stage:>14}: {:>9.1} ms", t.as_secs_f64() * 1e3);
         }
     }
     Ok(())
@@ -127,16 +194,16 @@ fn run_saliency(args: SaliencyArgs) -> anyhow::Result<()> {
     }
     let progress = progress_for(args.progress);
     progress.begin(Stage::Loading.name(), 1);
-    let prep = Prepared::load(args.scene.as_deref())?;
+    let prep = Prepared::load_with(args.scene.as_deref(), pipeline::params::load_options(&settings))?;
     let mut stages = Vec::new();
     if let Some(o) = &output {
         let r = pipeline::saliency_map(&prep, &settings, &progress)?;
         write_png(o, &r.image)?;
         for w in &r.warnings {
-            eprintln!("warning: {w}");
+            say!("warning: {w}");
         }
         if args.verbose {
-            eprintln!("camera: {}", r.camera);
+            say!("camera: {}", r.camera);
         }
         stages.extend(r.timings.0);
     }
@@ -149,15 +216,15 @@ fn run_saliency(args: SaliencyArgs) -> anyhow::Result<()> {
     progress.begin(Stage::Done.name(), 1);
     progress.finish();
     if args.verbose {
-        eprintln!(
+        say!(
             "scene: {} ({} triangles, {} meshes)",
             prep.scene.source.display(),
             prep.world.triangle_count(),
             prep.scene.meshes.len()
         );
-        eprintln!("{:>16}: {:>9.1} ms", "load+bvh", prep.build_time.as_secs_f64() * 1e3);
+        say!("{:>16}: {:>9.1} ms", "load+bvh", prep.build_time.as_secs_f64() * 1e3);
         for (stage, t) in &stages {
-            eprintln!("{stage:>16}: {:>9.1} ms", t.as_secs_f64() * 1e3);
+            say!("{stage:>16}: {:>9.1} ms", t.as_secs_f64() * 1e3);
         }
     }
     Ok(())
@@ -196,7 +263,7 @@ fn run_faces(args: FacesArgs) -> anyhow::Result<()> {
     }
     let mut rows = Vec::new();
     for scene in &args.scenes {
-        let prep = Prepared::load(Some(scene))?;
+        let prep = Prepared::load_with(Some(scene), pipeline::params::load_options(&base))?;
         for &(kind, angle) in &views {
             let mut s = base.clone();
             s.camera = kind;
@@ -271,34 +338,40 @@ fn run_facets(args: FacetsArgs) -> anyhow::Result<()> {
     cubist::output::check_png_path(&args.output)?;
     let progress = progress_for(args.progress);
     progress.begin(Stage::Loading.name(), 1);
-    let prep = Prepared::load(args.scene.as_deref())?;
+    let prep = Prepared::load_with(args.scene.as_deref(), pipeline::params::load_options(&settings))?;
     let out = pipeline::inspect_facets(&prep, &settings, &progress)?;
     progress.begin(Stage::Writing.name(), 1);
-    write_png(&args.output, &out.view)?;
+    let mut outputs = Outputs::new();
+    outputs.png(&args.output, &out.view)?;
     for (name, img) in &out.images {
-        write_png(&pass_path(&args.output, name), img)?;
+        outputs.png(&pass_path(&args.output, name), img)?;
     }
+    let map;
     if let Some(path) = &settings.save_facets {
-        let map = out.layout.rasterize(settings.width, settings.height);
-        cubist::facets::io::save(path, &out.layout, &map)?;
+        map = out.layout.rasterize(settings.width, settings.height);
+        cubist::facets::io::add_to(&mut outputs, path, &out.layout, &map)?;
     }
+    outputs.commit()?;
     progress.begin(Stage::Done.name(), 1);
     progress.finish();
     for w in &out.warnings {
-        eprintln!("warning: {w}");
+        say!("warning: {w}");
     }
     if args.verbose {
         for l in &out.levels.levels {
             let chosen = l.selected.iter().filter(|s| **s).count();
-            eprintln!(
+            say!(
                 "level N={}: {} segments, {} selected (mean saliency >= {})",
-                l.requested, l.count, chosen, l.threshold
+                l.requested,
+                l.count,
+                chosen,
+                l.threshold
             );
         }
-        eprintln!("superpixels: {}, facets: {}", out.levels.superpixel_count, out.layout.facet_count);
+        say!("superpixels: {}, facets: {}", out.levels.superpixel_count, out.layout.facet_count);
         let steps = out.timings.0.iter().map(|(s, t)| (s.to_string(), *t));
         for (stage, t) in steps.chain(out.levels.timings.iter().cloned()) {
-            eprintln!("{stage:>14}: {:>9.1} ms", t.as_secs_f64() * 1e3);
+            say!("{stage:>14}: {:>9.1} ms", t.as_secs_f64() * 1e3);
         }
     }
     Ok(())

@@ -42,8 +42,13 @@ mod presets;
 pub mod schema;
 mod validate;
 
-pub use enums::{CameraKind, FacetProjection, Faceting, Framing, Imprecision, Palette, Pass, SaliencyMethod};
-pub use validate::{MAX_FACETS, MAX_PIXELS, MAX_SAMPLES, MAX_SIDE};
+pub use enums::{
+    BorderStyle, CameraKind, FacetProjection, Faceting, Framing, Imprecision, Palette, Pass, SaliencyMethod,
+};
+pub use validate::{
+    MAX_EXPOSURE, MAX_FACETS, MAX_GRID_CELLS, MAX_JOB_MEMORY, MAX_OCCLUSION, MAX_PIXEL_DISTANCE, MAX_PIXELS,
+    MAX_SAMPLES, MAX_SCENE_VALUE, MAX_SEGMENT_LEVELS, MAX_SEGMENTS, MAX_SIDE, MAX_SUPERPIXELS, MAX_WEIGHT,
+};
 
 kebab_enum!(
     /// Bundles of settings; explicit flags and JSON keys override them.
@@ -175,8 +180,24 @@ pub struct Settings {
     pub colors: u32,
     /// Fraction of facets that get a gradient overlay on a corner, in [0, 1].
     pub gradients: f64,
-    /// Per-facet variation of light direction and intensity, in [0, 1]; 0 = off.
+    /// Per-facet relighting, each facet's lights turned towards its plane's lit side, in
+    /// [0, 1]; 0 = off.
     pub chiaroscuro: f64,
+
+    // ---- per-plane light, passage and brushwork (issue 13; `paint::plane_light`,
+    // `paint::passage`, `paint::brushwork`, `paint::canvas`)
+    /// Light-to-dark ramp across each facet (each plane lit on its own), in [0, 1]; 0 = off.
+    pub plane_light: f64,
+    /// How facet borders are drawn: `symmetric` (eq 4.8) or `passage`.
+    pub border_style: BorderStyle,
+    /// Opacity of the brush-stroke layer, in [0, 1]; 0 = off.
+    pub brushwork: f64,
+    /// Brush stroke length, pixels at 1000 px.
+    pub stroke_length: f64,
+    /// Brush stroke width, pixels at 1000 px.
+    pub stroke_width: f64,
+    /// Canvas weave showing through the paint, in [0, 1]; 0 = off.
+    pub canvas_grain: f64,
 
     // ---- saliency (SPEC "Mesh saliency")
     pub saliency_method: SaliencyMethod,
@@ -187,6 +208,11 @@ pub struct Settings {
     // ---- outputs
     /// Extra passes written beside the output as `<stem>.<pass>.png`.
     pub passes: Vec<Pass>,
+
+    // ---- inputs (README "Security")
+    /// Let the scene's image and buffer URIs name files outside its folder (absolute paths,
+    /// `../`). Off: a scene rendered on a farm reads nothing but its own folder.
+    pub allow_external_files: bool,
 }
 
 impl Settings {

@@ -119,36 +119,41 @@ pub struct SurfacePoint {
     pub unlit: bool,
 }
 
-/// Interpolates the hit's attributes and looks up its material and texture.
+/// Interpolates the hit's attributes and looks up its material and texture. Vertex data is
+/// read in the geometry's base space; normals of a placed instance are carried to render
+/// space by its normal matrix (an object its geometry is baked for reads them as they are).
 pub fn surface(world: &World, hit: &Hit, origin: Vec3, dir: Vec3) -> SurfacePoint {
-    let i = hit.tri as usize;
-    let [p0, p1, p2] = world.positions[i];
+    let object = &world.objects[hit.object as usize];
+    let g = &world.geometries[object.geometry];
+    let local = hit.tri - object.first_triangle;
+    let [i0, i1, i2] = g.triangles[local as usize].map(|i| i as usize);
+    let (p0, p1, p2) = (g.positions[i0], g.positions[i1], g.positions[i2]);
     let w = Vec3::new(1.0 - hit.u - hit.v, hit.u, hit.v);
     let position = origin + dir * hit.t;
-    let mut geometric = (p1 - p0).cross(p2 - p0).try_normalize().unwrap_or(-dir);
+    let mut geometric = object.normal((p1 - p0).cross(p2 - p0)).try_normalize().unwrap_or(-dir);
     if geometric.dot(dir) > 0.0 {
         geometric = -geometric;
     }
-    let [n0, n1, n2] = world.normals[i];
-    let mut normal = (n0 * w.x + n1 * w.y + n2 * w.z).try_normalize().unwrap_or(geometric);
+    let (n0, n1, n2) = (g.normals[i0], g.normals[i1], g.normals[i2]);
+    let mut normal = object.normal(n0 * w.x + n1 * w.y + n2 * w.z).try_normalize().unwrap_or(geometric);
     if normal.dot(geometric) < 0.0 {
         normal = -normal;
     }
-    let object = &world.objects[world.triangle_object[i] as usize];
     let material = &world.materials[object.material];
     let mut albedo = material.base_color;
     if let Some(tex) = material.base_color_texture {
-        let [a, b, c] = world.uvs[i];
-        let uv = a * w.x + b * w.y + c * w.z;
+        let uv = match &g.uvs {
+            Some(uv) => uv[i0] * w.x + uv[i1] * w.y + uv[i2] * w.z,
+            None => Vec2::ZERO,
+        };
         let m = tex.uv_transform;
         let uv = Vec2::new(m[0] * uv.x + m[1] * uv.y + m[2], m[3] * uv.x + m[4] * uv.y + m[5]);
         if let Some(t) = world.textures.get(tex.texture) {
             albedo *= t.sample(uv);
         }
     }
-    if !world.colors.is_empty() {
-        let [a, b, c] = world.colors[i];
-        albedo *= a * w.x + b * w.y + c * w.z;
+    if let Some(c) = &g.colors {
+        albedo *= c[i0] * w.x + c[i1] * w.y + c[i2] * w.z;
     }
     SurfacePoint { position, geometric, normal, albedo, roughness: material.roughness, unlit: material.unlit }
 }

@@ -107,8 +107,8 @@ impl Tracer<'_> {
                             color += shade(self.accel, rig, &sp, ray.dir);
                         }
                         if nearest {
-                            let object = self.world.triangle_object[h.tri as usize];
-                            let hit = PixelHit { tri: h.tri, object, t: h.t, normal: sp.normal, u: h.u, v: h.v };
+                            let hit =
+                                PixelHit { tri: h.tri, object: h.object, t: h.t, normal: sp.normal, u: h.u, v: h.v };
                             best = (centre_dist, hit);
                         }
                     }

@@ -32,7 +32,7 @@ fn base_settings() -> Settings {
 
 /// The hit point of a sample, render space.
 fn hit_point(prep: &Prepared, tri: u32, u: f32, v: f32) -> Vec3 {
-    let p = prep.world.positions[tri as usize];
+    let p = prep.world.triangle(tri);
     p[0] * (1.0 - u - v) + p[1] * u + p[2] * v
 }
 
@@ -40,9 +40,9 @@ fn hit_point(prep: &Prepared, tri: u32, u: f32, v: f32) -> Vec3 {
 /// zero elsewhere (so facets away from it have no saliency at all).
 fn bump(prep: &Prepared, object: usize) -> impl Fn(Vec3) -> f32 + '_ {
     let o = &prep.world.objects[object];
-    let tris = o.first_triangle as usize..(o.first_triangle + o.triangle_count) as usize;
+    let tris = o.first_triangle..o.first_triangle + o.triangle_count;
     let n = (tris.len() * 3) as f32;
-    let centre = prep.world.positions[tris].iter().flatten().fold(Vec3::ZERO, |a, p| a + *p) / n;
+    let centre = tris.flat_map(|t| prep.world.triangle(t)).fold(Vec3::ZERO, |a, p| a + p) / n;
     move |p: Vec3| (1.0 - (p - centre).length_squared() / (0.35 * 0.35)).max(0.0)
 }
 

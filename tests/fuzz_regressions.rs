@@ -113,6 +113,88 @@ fn settings_json_regressions() {
     assert!(cases > 5, "only {cases} of {} settings inputs are JSON", files.len());
 }
 
+/// The settings_scene target's inputs (issue 18): settings JSON, a NUL, a glTF document; what
+/// the target does, with a watchdog.
+#[test]
+fn settings_scene_regressions() {
+    let files = regression_files("settings_scene");
+    let mut rendered = 0;
+    for f in &files {
+        let bytes = std::fs::read(f).unwrap();
+        let what = f.display().to_string();
+        rendered += within(120, &what.clone(), move || {
+            let (settings, scene) = match bytes.iter().position(|&b| b == 0) {
+                Some(i) => (bytes[..i].to_vec(), bytes[i + 1..].to_vec()),
+                None => (bytes.clone(), Vec::new()),
+            };
+            let Ok(Value::Object(mut map)) = serde_json::from_slice::<Value>(&settings) else { return 0 };
+            for (k, max) in [("width", 24u64), ("height", 24), ("spp", 2)] {
+                if map.get(k).and_then(Value::as_u64).is_none_or(|v| v > max) {
+                    map.insert(k.into(), Value::from(max.min(16)));
+                }
+            }
+            for k in ["facets", "save_facets", "facet_map", "palette_image", "saliency_cache"] {
+                map.remove(k);
+            }
+            let s = match Settings::from_layers(Some((Path::new("fuzz.json"), Value::Object(map))), Map::new()) {
+                Ok(s) => s,
+                Err(e) => {
+                    assert!(!e.to_string().contains('\n'), "{what}: {e}");
+                    return 0;
+                }
+            };
+            let prep = if scene.is_empty() {
+                Prepared::new(Scene::default_scene())
+            } else {
+                match Scene::from_slice(&scene) {
+                    Ok(sc) => Prepared::new(sc),
+                    Err(e) => {
+                        assert!(!e.to_string().contains("the parser failed") && !e.to_string().contains('\n'));
+                        return 0;
+                    }
+                }
+            };
+            match render(&prep, &s, &Progress::silent()) {
+                Ok(r) => {
+                    assert!(r.film.color.iter().all(|c| c.is_finite()), "{what}: NaN pixel");
+                    1
+                }
+                Err(e) => {
+                    assert!(!e.to_string().contains('\n'), "{what}: {e}");
+                    0
+                }
+            }
+        });
+    }
+    assert!(rendered * 2 > files.len(), "{rendered} of {} inputs rendered", files.len());
+}
+
+/// The layout_file target's inputs (issue 18): JSON and PNG layouts, rasterised.
+#[test]
+fn layout_file_regressions() {
+    let files = regression_files("layout_file");
+    let mut loaded = 0;
+    for f in &files {
+        let bytes = std::fs::read(f).unwrap();
+        let what = f.display().to_string();
+        loaded += within(60, &what.clone(), move || {
+            let layout = if bytes.starts_with(b"\x89PNG") {
+                let img = cubist::util::files::decode_image(&bytes, cubist::util::limits::MAX_IMAGE_PIXELS).ok()?;
+                cubist::facets::io::from_image(&img, Path::new(&what)).ok()?
+            } else {
+                cubist::facets::io::from_json(std::str::from_utf8(&bytes).ok()?).ok()?
+            };
+            for (w, h) in [(17, 11), (64, 48)] {
+                let map = layout.rasterize(w, h);
+                assert!(map.ids.iter().all(|&id| id < layout.facet_count), "{what}");
+            }
+            Some(())
+        })
+        .is_some() as usize;
+    }
+    assert!(loaded * 2 > files.len(), "{loaded} of {} layouts loaded", files.len());
+}
+
 /// Found by the fuzzer (12 bytes: "glTF", version 0, length 0): the gltf crate computed
 /// `length - 12` unchecked. Release builds wrapped around into a length error; builds with
 /// overflow checks panicked. Now refused up front, by name.

@@ -5,7 +5,7 @@
 use cubist::pipeline::{Frame, Session};
 use cubist::progress::Progress;
 use cubist::scene::Scene;
-use cubist::settings::{CameraKind, FacetProjection, Faceting, Imprecision, Palette, Pass};
+use cubist::settings::{BorderStyle, CameraKind, FacetProjection, Faceting, Imprecision, Palette, Pass};
 use cubist::{Prepared, Settings};
 
 fn base() -> Settings {
@@ -82,6 +82,36 @@ fn each_change_reruns_only_what_it_invalidates_and_gives_a_fresh_renders_pixels(
     let with_saliency = Settings { passes: vec![Pass::Saliency, Pass::Facets, Pass::Objects], ..random };
     let reused = same(&mut session, &scene, &with_saliency, "saliency passes");
     assert!(reused.contains(&"faceting") && reused.contains(&"imprecision"), "{reused:?}");
+}
+
+#[test]
+fn each_painterly_setting_of_issue_13_reruns_paint_only() {
+    // Per-plane light, passage, brushwork and canvas: each one alone re-runs paint only, and
+    // each changes the picture (else a key that missed it would go unnoticed). 720x540: the
+    // canvas weave fades out on smaller images.
+    let scene = Scene::default_scene();
+    let mut session = Session::new();
+    session.set_scene(scene.clone());
+    let mut last = Settings { width: 720, height: 540, spp: 1, ..base() };
+    // The default preset, Analytic, has them all on.
+    assert!(last.brushwork > 0.0 && last.canvas_grain > 0.0 && last.border_style == BorderStyle::Passage);
+    let painterly: [(&str, fn(&mut Settings)); 6] = [
+        ("plane_light", |s| s.plane_light = 0.3),
+        ("border_style", |s| s.border_style = BorderStyle::Symmetric),
+        ("brushwork", |s| s.brushwork = 0.4),
+        ("stroke_length", |s| s.stroke_length = 40.0),
+        ("stroke_width", |s| s.stroke_width = 12.0),
+        ("canvas_grain", |s| s.canvas_grain = 0.2),
+    ];
+    let mut before = session.render(&last, &Progress::silent()).unwrap().image;
+    for (what, change) in painterly {
+        let mut next = last.clone();
+        change(&mut next);
+        assert_eq!(same(&mut session, &scene, &next, what), reused_up_to("re-trace"), "{what}");
+        let after = session.render(&next, &Progress::silent()).unwrap().image;
+        assert!(before != after, "{what}: the picture did not change");
+        (before, last) = (after, next);
+    }
 }
 
 #[test]

@@ -54,7 +54,6 @@ from .settings import (
     SETTINGS_KEYS,
     clean_settings,
     f32_decimal,
-    needs_saliency,
     parse_number_list,
     write_settings,
 )
@@ -68,6 +67,6 @@ __all__ = [
     "layout_prepass", "layout_source", "plan_layout", "record_source", "source_path", "uses_layout",
     "RunResult", "Workspace", "build_argv", "pass_path", "run",
     "STAGE_WEIGHTS", "Line", "ProgressTracker", "parse_line",
-    "OPTIONAL_KEYS", "SETTINGS_KEYS", "clean_settings", "f32_decimal", "needs_saliency", "parse_number_list",
+    "OPTIONAL_KEYS", "SETTINGS_KEYS", "clean_settings", "f32_decimal", "parse_number_list",
     "write_settings",
 ]

@@ -5,19 +5,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-# Renderer stages in pipeline order with their rough share of a frame's time, for one
-# progress bar that only moves forward. Unknown stages keep the bar where it is.
-# Names as src/pipeline.rs and src/main.rs report them (`--progress lines`).
-STAGE_WEIGHTS = (
-    ("loading", 0.05),
-    ("pre-render", 0.30),
-    ("saliency", 0.15),
-    ("faceting", 0.20),
-    ("imprecision", 0.05),
-    ("re-trace", 0.15),
-    ("paint", 0.05),
-    ("writing", 0.05),
-)
+from .. import schema
+
+# The add-on's guess of each stage's share of a frame's time, for one progress bar that only
+# moves forward. The stages and their order are the renderer's (`cubist settings --schema`);
+# a stage without a guess here gets a small share, "done" ends the bar.
+_GUESS = {"loading": 0.05, "pre-render": 0.30, "saliency": 0.15, "faceting": 0.20, "imprecision": 0.05,
+          "re-trace": 0.15, "paint": 0.05, "writing": 0.05}
+STAGE_WEIGHTS = tuple((name, _GUESS.get(name, 0.05)) for name in schema.STAGES if name != "done")
 
 
 @dataclass

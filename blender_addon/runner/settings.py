@@ -1,5 +1,5 @@
-"""The settings JSON the binary reads (`cubist render --config SETTINGS.json`): its keys, how
-panel values become its values, and the rule deciding when mesh saliency is computed."""
+"""The settings JSON the binary reads (`cubist render --config SETTINGS.json`): its keys and how
+panel values become its values."""
 
 from __future__ import annotations
 
@@ -9,19 +9,12 @@ import struct
 from pathlib import Path
 from typing import Iterable, Mapping
 
+from .. import schema
 from .errors import SettingError
 
-# Every key of `Settings` in src/settings.rs (the JSON the binary accepts; unknown keys are
-# an error there). tests/python/test_addon_runner.py checks this list against settings.rs.
-SETTINGS_KEYS = frozenset(
-    """preset width height spp seed camera ambiguity framing focus_distance camera_position
-    camera_target camera_up camera_size fill shadows background transparent exposure faceting
-    facet_map facets save_facets facet_count grid_cells patch_count occlusion segments
-    thresholds superpixels weight_colour weight_normal weight_depth weight_object weight_saliency
-    imprecision discontinuity neighborhood facet_projection facet_fov border_width
-    border_strength silhouette_width silhouette_strength palette palette_image colors gradients
-    chiaroscuro saliency_method saliency_cache passes""".split()
-)
+# Every key the renderer accepts (`cubist settings --schema`, kept in renderer_schema.json;
+# unknown keys are an error there).
+SETTINGS_KEYS = schema.SETTINGS_KEYS
 # Keys that only save time (the picture is the same without them): left out, rather than
 # refused, for a binary that does not know them (`binary.settings_for_binary`).
 OPTIONAL_KEYS = frozenset({"saliency_cache"})
@@ -84,14 +77,3 @@ def clean_settings(values: Mapping[str, object], extra_keys: Iterable[str] = ())
 def write_settings(path: Path, settings: Mapping[str, object]) -> None:
     path.write_text(json.dumps(settings, indent=2, sort_keys=True), encoding="utf-8")
 
-
-def needs_saliency(settings: Mapping[str, object]) -> bool:
-    """Whether the renderer computes mesh saliency for these settings (mirrors
-    `Settings::needs_saliency` in src/settings.rs): only then is a saliency cache useful."""
-    faceting = settings.get("faceting", "none")
-    faceted = faceting != "none" or bool(settings.get("facets"))
-    reaims = (settings.get("imprecision", "saliency") == "saliency" and faceted
-              and float(settings.get("discontinuity", 0.0)) > 0.0)
-    segments = faceting == "segment" and not settings.get("facets")
-    passes = settings.get("passes", [])
-    return reaims or segments or "saliency" in passes or "facets" in passes

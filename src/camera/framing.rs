@@ -103,9 +103,9 @@ impl Framed {
 
 /// Scene vertices (a bounded sample) in render space; non-finite ones (never hit) skipped.
 fn sample_points(world: &World) -> Vec<DVec3> {
-    let n = world.positions.len() * 3;
+    let n = world.triangle_count() * 3;
     let step = n.div_ceil(FIT_SAMPLES).max(1);
-    world.positions.iter().flatten().step_by(step).filter(|p| p.is_finite()).map(|p| p.as_dvec3()).collect()
+    (0..n).step_by(step).map(|k| world.corner(k)).filter(|p| p.is_finite()).map(|p| p.as_dvec3()).collect()
 }
 
 /// Angles (horizontal, vertical) from the view axis at which a camera with focal centre `c`

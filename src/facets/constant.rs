@@ -46,13 +46,10 @@ pub fn labels_from_image(img: &image::DynamicImage, path: &Path) -> Result<Label
     Ok(LabelImage { width, height, labels })
 }
 
-/// Reads an image file (PNG or JPEG) with a one-line error naming it.
+/// Reads an image file (PNG or JPEG) with a one-line error naming it, within the image limits
+/// (`util::files::read_image`: a regular file, its size checked before decoding).
 pub fn read_image(path: &Path) -> Result<image::DynamicImage> {
-    let reader = image::ImageReader::open(path)
-        .map_err(|e| Error::input(path, format!("cannot open: {e}")))?
-        .with_guessed_format()
-        .map_err(|e| Error::input(path, format!("cannot read: {e}")))?;
-    reader.decode().map_err(|e| Error::input(path, format!("not a readable image: {e}")))
+    crate::util::files::read_image(path, crate::util::limits::MAX_IMAGE_PIXELS)
 }
 
 /// The layout of a facet map image: its colours as the base label image.

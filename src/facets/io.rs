@@ -15,8 +15,10 @@ use serde::{Deserialize, Serialize};
 
 use super::constant::{labels_from_image, read_image};
 use super::{FacetLayout, FacetMap, FacetPolygon, LabelImage};
+use crate::error::short_path;
 use crate::error::{Error, Result};
-use crate::util::files::{write_png16, write_text};
+use crate::util::files::{Outputs, read_text_bounded};
+use crate::util::limits::{MAX_LAYOUT_COVERAGE, MAX_LAYOUT_FILE, MAX_LAYOUT_POINTS, MAX_LAYOUT_POLYGONS};
 
 /// Names our JSON layouts, so another JSON file given by mistake gets a clear error.
 pub const FORMAT: &str = "cubist-facet-layout";
@@ -89,20 +91,92 @@ pub fn to_json(layout: &FacetLayout) -> String {
 
 /// Parses JSON text written by `to_json`; the error says what is wrong (not the path).
 pub fn from_json(text: &str) -> std::result::Result<FacetLayout, String> {
-    let value: serde_json::Value = serde_json::from_str(text).map_err(|e| format!("not valid JSON: {e}"))?;
-    match value.get("format").and_then(|f| f.as_str()) {
-        Some(FORMAT) => {}
-        _ => return Err(format!("not a facet layout (no \"format\": \"{FORMAT}\")")),
+    // The header first, skipping the rest without building it (a generic JSON tree of a big
+    // layout takes ten times its size), then the typed layout.
+    #[derive(Deserialize)]
+    struct Header {
+        format: Option<serde::de::IgnoredAny>,
+        version: Option<serde_json::Number>,
     }
-    match value.get("version").and_then(|v| v.as_u64()) {
-        Some(v) if v == VERSION as u64 => {}
-        Some(v) => return Err(format!("layout format version {v}; this cubist reads version {VERSION}")),
+    #[derive(Deserialize)]
+    struct Format {
+        format: Option<String>,
+    }
+    let header: Header = serde_json::from_str(text).map_err(|e| format!("not valid JSON: {e}"))?;
+    let format = header.format.and_then(|_| serde_json::from_str::<Format>(text).ok()).and_then(|f| f.format);
+    if format.as_deref() != Some(FORMAT) {
+        return Err(format!("not a facet layout (no \"format\": \"{FORMAT}\")"));
+    }
+    match header.version.as_ref().map(|v| v.as_u64()) {
+        Some(Some(v)) if v == VERSION as u64 => {}
+        Some(_) => {
+            return Err(format!(
+                "layout format version {}; this cubist reads version {VERSION}",
+                crate::error::shorten(&header.version.map(|v| v.to_string()).unwrap_or_default())
+            ));
+        }
         None => return Err("layout has no format version".into()),
     }
-    let file: LayoutFile = serde_json::from_value(value).map_err(|e| format!("malformed layout: {e}"))?;
+    let file: LayoutFile = serde_json::from_str(text).map_err(|e| format!("malformed layout: {e}"))?;
+    check_work(&file)?;
     let base = file.base.as_ref().map(decode_runs).transpose()?;
     let layout = FacetLayout { facet_count: file.facet_count, base, sites: file.sites, polygons: file.polygons };
     layout.validate()?;
+    Ok(layout)
+}
+
+/// The bounds on a loaded layout's work: rasterising costs each polygon's rows times its
+/// points plus its area, and Voronoi sites must lie in the image (`MAX_LAYOUT_*`). Layouts
+/// the renderer makes stay far inside them.
+fn check_work(file: &LayoutFile) -> std::result::Result<(), String> {
+    if file.polygons.len() > MAX_LAYOUT_POLYGONS {
+        return Err(format!("{} polygons: at most {MAX_LAYOUT_POLYGONS}", file.polygons.len()));
+    }
+    let points: usize = file.polygons.iter().map(|p| p.points.len()).sum();
+    if points > MAX_LAYOUT_POINTS {
+        return Err(format!("{points} polygon points: at most {MAX_LAYOUT_POINTS}"));
+    }
+    let mut coverage = 0.0;
+    let mut row_work = 0.0;
+    for p in &file.polygons {
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for q in &p.points {
+            for k in 0..2 {
+                let v = q[k].clamp(0.0, 1.0);
+                (lo[k], hi[k]) = (lo[k].min(v), hi[k].max(v));
+            }
+        }
+        if lo[0] <= hi[0] {
+            coverage += (hi[0] - lo[0]) * (hi[1] - lo[1]);
+            row_work += (hi[1] - lo[1]) * p.points.len() as f64;
+        }
+    }
+    if !(coverage <= MAX_LAYOUT_COVERAGE) || !(row_work <= MAX_LAYOUT_POINTS as f64 / 16.0) {
+        return Err(format!(
+            "the polygons cover the image {coverage:.1} times over (at most {MAX_LAYOUT_COVERAGE}) with {points} points: too much work to rasterise"
+        ));
+    }
+    if let Some(s) = file.sites.iter().find(|s| !(0.0..=1.0).contains(&s[0]) || !(0.0..=1.0).contains(&s[1])) {
+        return Err(format!("Voronoi site ({:?}, {:?}) lies outside the image ([0, 1] x [0, 1])", s[0], s[1]));
+    }
+    Ok(())
+}
+
+/// A layout from a decoded PNG: 16-bit grey values are facet ids, any other image a facet map
+/// (one facet per distinct colour). Errors name `path`.
+pub fn from_image(img: &image::DynamicImage, path: &Path) -> Result<FacetLayout> {
+    let base = match img {
+        image::DynamicImage::ImageLuma16(g) => {
+            LabelImage { width: g.width(), height: g.height(), labels: g.pixels().map(|p| p.0[0] as u32).collect() }
+        }
+        _ => labels_from_image(img, path)?,
+    };
+    if base.width == 0 || base.height == 0 {
+        return Err(Error::input(path, "the facet layout image is empty"));
+    }
+    let facet_count = base.labels.iter().max().map_or(1, |m| m + 1);
+    let layout = FacetLayout { facet_count, base: Some(base), sites: Vec::new(), polygons: Vec::new() };
+    layout.validate().map_err(|m| Error::input(path, format!("bad facet layout: {m}")))?;
     Ok(layout)
 }
 
@@ -113,17 +187,25 @@ fn extension(path: &Path) -> Option<String> {
 /// Saves `layout` to `path` (.json: the layout; .png: `map`, its rasterisation at the render's
 /// size), atomically.
 pub fn save(path: &Path, layout: &FacetLayout, map: &FacetMap) -> Result<()> {
+    let mut outputs = Outputs::new();
+    add_to(&mut outputs, path, layout, map)?;
+    outputs.commit()
+}
+
+/// Adds the saved layout to a set of outputs written together (all or nothing).
+pub fn add_to(outputs: &mut Outputs, path: &Path, layout: &FacetLayout, map: &FacetMap) -> Result<()> {
     match extension(path).as_deref() {
-        Some("json") => write_text(path, &to_json(layout)),
+        Some("json") => outputs.text(path, to_json(layout)),
         Some("png") => {
             let img: ImageBuffer<Luma<u16>, Vec<u16>> = ImageBuffer::from_fn(map.width, map.height, |x, y| {
                 Luma([map.ids[(y * map.width + x) as usize] as u16])
             });
-            write_png16(path, &img)
+            outputs.add(path, move |f| img.write_to(f, image::ImageFormat::Png).map_err(|e| e.to_string()))
         }
-        _ => {
-            Err(Error::setting("save_facets", format!("{}: a facet layout is saved as .json or .png", path.display())))
-        }
+        _ => Err(Error::setting(
+            "save_facets",
+            format!("{}: a facet layout is saved as .json or .png", short_path(path)),
+        )),
     }
 }
 
@@ -131,29 +213,12 @@ pub fn save(path: &Path, layout: &FacetLayout, map: &FacetMap) -> Result<()> {
 pub fn load(path: &Path) -> Result<FacetLayout> {
     match extension(path).as_deref() {
         Some("json") => {
-            let text = std::fs::read_to_string(path)
+            let text = read_text_bounded(path, MAX_LAYOUT_FILE)
                 .map_err(|e| Error::input(path, format!("cannot read facet layout: {e}")))?;
             from_json(&text).map_err(|m| Error::input(path, format!("bad facet layout: {m}")))
         }
-        Some("png") => {
-            let img = read_image(path)?;
-            let base = match &img {
-                image::DynamicImage::ImageLuma16(g) => LabelImage {
-                    width: g.width(),
-                    height: g.height(),
-                    labels: g.pixels().map(|p| p.0[0] as u32).collect(),
-                },
-                _ => labels_from_image(&img, path)?,
-            };
-            if base.width == 0 || base.height == 0 {
-                return Err(Error::input(path, "the facet layout image is empty"));
-            }
-            let facet_count = base.labels.iter().max().map_or(1, |m| m + 1);
-            let layout = FacetLayout { facet_count, base: Some(base), sites: Vec::new(), polygons: Vec::new() };
-            layout.validate().map_err(|m| Error::input(path, format!("bad facet layout: {m}")))?;
-            Ok(layout)
-        }
-        _ => Err(Error::setting("facets", format!("{}: a facet layout is a .json or .png file", path.display()))),
+        Some("png") => from_image(&read_image(path)?, path),
+        _ => Err(Error::setting("facets", format!("{}: a facet layout is a .json or .png file", short_path(path)))),
     }
 }
 

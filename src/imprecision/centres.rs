@@ -120,7 +120,8 @@ fn neighbourhood_sum(map: &FacetMap, own: &[u32], radius: f64, weight: &dyn Fn(u
         let (x, y) = (i as i64 % w, i as i64 / w);
         (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x), y1.max(y));
     }
-    let r = radius.ceil() as i64;
+    // No wider than the image: a huge radius must not overflow the box arithmetic.
+    let r = radius.ceil().clamp(0.0, (w + h) as f64) as i64;
     let (x0, y0, x1, y1) = ((x0 - r).max(0), (y0 - r).max(0), (x1 + r).min(w - 1), (y1 + r).min(h - 1));
     let (bw, bh) = ((x1 - x0 + 1) as usize, (y1 - y0 + 1) as usize);
     let mut is_own = vec![false; bw * bh];

@@ -5,6 +5,8 @@
 pub mod encode;
 pub mod passes;
 
-pub use crate::util::files::{Gray16, check_png_path, pass_path, write_atomic, write_png, write_png16, write_text};
+pub use crate::util::files::{
+    Gray16, Outputs, check_png_path, pass_path, write_atomic, write_png, write_png16, write_text,
+};
 pub use encode::encode;
 pub use passes::Pass;

@@ -2,34 +2,52 @@
 //! view projections, chiaroscuro - use of light and shadow - is also manipulated"): every facet
 //! is relit as if the lights had been turned and dimmed or brightened for it alone.
 //!
+//! The turn matches the per-plane light (`plane_light`, ART.md "Each plane has its own
+//! light"): each facet's lights turn about the view axis until the key light comes from the
+//! side its plane is lit from (`planes::Plane::light_side`; the key seen from the camera
+//! comes from `planes::KEY`), by `amount` of that turn, so the relit shading and the ramp
+//! across the plane tell the same story. The gain varies within 1 +- `amount` x 0.4.
+//!
 //! Ratio relighting: a pixel's colour is albedo x (ambient + sum of radiance x max(0, n.l))
-//! times its shadowing; each facet gets a seeded rotation R_f and gain g_f of the light rig, and
-//! the pixel's foreground colour is multiplied, per channel, by
+//! times its shadowing; the pixel's foreground colour is multiplied, per channel, by
 //! (ambient + g_f sum radiance max(0, n.R_f l)) / (ambient + sum radiance max(0, n.l)),
 //! n being the pixel's shading normal. The albedo cancels, so textures, anti-aliasing and the
 //! shadows already rendered survive (the shadow factor is kept, not recast), and no ray is
-//! traced. Highlights scale with the diffuse term. Bounded: the rotation is at most
-//! `amount` x 70 degrees and the gain within 1 +- `amount` x 0.4; unlit materials keep their
-//! colour.
+//! traced. Highlights scale with the diffuse term. Unlit materials keep their colour.
 
-use glam::{Quat, Vec3};
+use glam::{Quat, Vec2, Vec3};
 use rayon::prelude::*;
 
+use super::planes::{KEY, Plane, planes};
 use super::{Canvas, Effect, PaintContext};
 use crate::error::{Error, Result};
 use crate::shading::RigLight;
 use crate::util::rng::{splitmix64, sub_seed, unit_f64};
 
 const SALT: u64 = 0x6368_6961_726f_7363; // "chiarosc"
-/// Largest rotation of a facet's lights at amount 1, degrees.
-pub const MAX_ANGLE_DEG: f32 = 70.0;
 /// Largest relative change of a facet's light intensity at amount 1.
 pub const MAX_GAIN: f32 = 0.4;
+
+/// The camera's axes in world space: the picture's right and up, and the view direction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ViewAxes {
+    pub right: Vec3,
+    pub up: Vec3,
+    pub forward: Vec3,
+}
+
+impl ViewAxes {
+    /// The world direction of image direction `d` (x right, y down) in the picture plane.
+    pub fn world(&self, d: Vec2) -> Vec3 {
+        self.right * d.x - self.up * d.y
+    }
+}
 
 /// Per-facet relighting.
 pub struct Chiaroscuro {
     /// In [0, 1].
     pub amount: f32,
+    /// The planes' seed (the render's): the same planes as the per-plane light.
     pub seed: u64,
 }
 
@@ -38,18 +56,22 @@ impl Chiaroscuro {
         Chiaroscuro { amount, seed }
     }
 
-    /// The rotation and gain of facet `f`'s lights: a uniform random axis, an angle in
-    /// [1/2, 1] x amount x MAX_ANGLE_DEG, a gain in 1 +- amount x MAX_GAIN.
-    pub fn facet_light(&self, f: u32) -> (Quat, f32) {
+    /// The rotation and gain of facet `f`'s lights: about the view axis, `amount` of the
+    /// turn taking the key's side (`KEY`) to the plane's light side; a gain in
+    /// 1 +- amount x MAX_GAIN.
+    pub fn facet_light(&self, plane: &Plane, f: u32, view: &ViewAxes) -> (Quat, f32) {
+        let (from, to) = (view.world(KEY).normalize_or_zero(), view.world(plane.light_side()).normalize_or_zero());
+        // About the view axis (both directions lie in the picture plane), by `amount` of the
+        // angle between them.
+        let turn = if from == Vec3::ZERO || to == Vec3::ZERO {
+            Quat::IDENTITY
+        } else {
+            let axis = from.cross(to).try_normalize().unwrap_or(view.forward.normalize_or(Vec3::Z));
+            Quat::from_axis_angle(axis, self.amount * from.angle_between(to))
+        };
         let h = splitmix64(sub_seed(self.seed, SALT) ^ splitmix64(f as u64));
-        let u: [f32; 4] = std::array::from_fn(|k| unit_f64(splitmix64(h.wrapping_add(k as u64))) as f32);
-        let z = 2.0 * u[0] - 1.0;
-        let r = (1.0 - z * z).max(0.0).sqrt();
-        let phi = std::f32::consts::TAU * u[1];
-        let axis = Vec3::new(r * phi.cos(), r * phi.sin(), z);
-        let angle = self.amount * MAX_ANGLE_DEG.to_radians() * (0.5 + 0.5 * u[2]);
-        let gain = 1.0 + self.amount * MAX_GAIN * (2.0 * u[3] - 1.0);
-        (Quat::from_axis_angle(axis.normalize(), angle), gain)
+        let gain = 1.0 + self.amount * MAX_GAIN * (2.0 * unit_f64(h) as f32 - 1.0);
+        (turn, gain)
     }
 }
 
@@ -85,11 +107,16 @@ impl Effect for Chiaroscuro {
             return Err(Error::Internal("chiaroscuro: relighting needs the scene's lights; none were given".into()));
         };
         let (world, rig) = (lighting.world, lighting.rig);
+        // The planes the per-plane light ramps (one plane without a facet map).
+        let planes = match ctx.facets {
+            Some(f) => planes(canvas.width, &f.ids, ctx.facet_count(), self.seed),
+            None => planes(canvas.width, &vec![0; canvas.pixel_count()], 1, self.seed),
+        };
         // Per facet: the rotation, the gain and the rotated directions of directional lights
         // (the other lights' directions depend on the pixel).
         let facets: Vec<(Quat, f32, Vec<Vec3>)> = (0..ctx.facet_count() as u32)
             .map(|f| {
-                let (q, gain) = self.facet_light(f);
+                let (q, gain) = self.facet_light(&planes[f as usize], f, &lighting.view);
                 let dirs = rig
                     .lights
                     .iter()
@@ -121,7 +148,7 @@ impl Effect for Chiaroscuro {
                         after += *radiance * n.dot(*rotated).max(0.0);
                     }
                     _ => {
-                        let [p0, p1, p2] = world.positions[hit.tri as usize];
+                        let [p0, p1, p2] = world.triangle(hit.tri);
                         let position = p0 * (1.0 - hit.u - hit.v) + p1 * hit.u + p2 * hit.v;
                         let (to_light, radiance) = incident(l, position);
                         before += radiance * n.dot(to_light).max(0.0);

@@ -3,10 +3,13 @@
 //! `Effect` trait and left out of the chain when its setting is off.
 //!
 //! Order (fixed): chiaroscuro (relights the shading, so it must see the unmodified render) ->
-//! silhouettes -> facet borders -> gradient overlays (the geometric darkenings and
-//! lightenings) -> colour transfer / palette (maps the final luminance onto the painter's
-//! colours, so borders and gradients come out in palette colours too) -> quantisation (last,
-//! so the image really has at most K colours).
+//! silhouettes -> facet borders, symmetric or passage -> gradient overlays (the geometric
+//! darkenings and lightenings) -> colour transfer / palette (maps the final luminance onto the
+//! painter's colours, so borders and gradients come out in palette colours too) ->
+//! quantisation (so the paint has at most K colours) -> per-plane light (the ramp across each
+//! plane, after the palette: the palette ranks luminance, and ramps spread over a large
+//! backdrop would push a small subject's values to the ends of the ramp) -> brushwork (strokes
+//! of the finished colours) -> canvas grain (last: the weave shows through the paint).
 //!
 //! Background and alpha. An opaque image's background is part of the canvas: every effect
 //! paints it (borders cross it, the palette colours it). A transparent image has no background
@@ -22,6 +25,14 @@ pub mod gradients;
 pub mod palette;
 pub mod quantise;
 pub mod silhouettes;
+// Issue 13: per-plane light, passage, brushwork, canvas grain, and their measure.
+pub mod brushwork;
+pub mod canvas;
+pub mod measure;
+pub mod noise;
+pub mod passage;
+pub mod plane_light;
+pub mod planes;
 
 use glam::{Vec3, Vec4};
 use rayon::prelude::*;
@@ -32,6 +43,7 @@ use crate::film::{Film, PixelHit};
 use crate::scene::World;
 use crate::shading::LightRig;
 pub use palette::Palette;
+pub use passage::BorderStyle;
 
 /// The image the effects work on, in place on the frame's colour buffer (row 0 at the top).
 /// Each pixel's `xyz` is, on an opaque canvas, the composited colour (linear RGB) and, on a
@@ -138,6 +150,8 @@ pub fn darken_background(p: &mut Vec4, coverage: f32, f: f32, bg: Vec3, transpar
 pub struct Lighting<'a> {
     pub world: &'a World,
     pub rig: &'a LightRig,
+    /// The camera's axes: chiaroscuro turns each facet's lights about the view axis.
+    pub view: chiaroscuro::ViewAxes,
 }
 
 /// What the effects read besides the canvas.
@@ -190,6 +204,14 @@ pub struct PaintParams {
     pub palette_image: Option<std::path::PathBuf>,
     /// Quantise to this many colours; 0 = off.
     pub colors: u32,
+    /// Issue 13: the light-to-dark ramp across each facet (0 = off), how borders are drawn,
+    /// the stroke layer's opacity (0 = off) and stroke size, the canvas weave (0 = off).
+    pub plane_light: f64,
+    pub border_style: BorderStyle,
+    pub brushwork: f64,
+    pub stroke_length: f64,
+    pub stroke_width: f64,
+    pub canvas_grain: f64,
     pub scale: f64,
     pub seed: u64,
     /// The render's background, linear RGB, and whether the output is transparent.
@@ -206,6 +228,9 @@ enum Step {
     Gradients,
     Palette,
     Quantise,
+    PlaneLight,
+    Brushwork,
+    CanvasGrain,
 }
 
 impl PaintParams {
@@ -218,6 +243,9 @@ impl PaintParams {
             (Step::Gradients, self.gradients > 0.0),
             (Step::Palette, self.palette_image.is_some() || palette::ramp(self.palette).is_some()),
             (Step::Quantise, self.colors > 0),
+            (Step::PlaneLight, self.plane_light > 0.0),
+            (Step::Brushwork, self.brushwork > 0.0),
+            (Step::CanvasGrain, self.canvas_grain > 0.0),
         ];
         on.into_iter().filter(|(_, on)| *on).map(|(step, _)| step).collect()
     }
@@ -249,10 +277,18 @@ impl Painter {
                     width: (p.silhouette_width * p.scale) as f32,
                     strength: p.silhouette_strength as f32,
                 }),
-                Step::Borders => Box::new(borders::Borders {
-                    width: (p.border_width * p.scale) as f32,
-                    strength: p.border_strength as f32,
-                }),
+                Step::Borders => {
+                    let (width, strength) = ((p.border_width * p.scale) as f32, p.border_strength as f32);
+                    match p.border_style {
+                        BorderStyle::Symmetric => Box::new(borders::Borders { width, strength }),
+                        BorderStyle::Passage => Box::new(passage::Passage {
+                            width,
+                            strength,
+                            seed: p.seed,
+                            plane_light: p.plane_light as f32,
+                        }),
+                    }
+                }
                 Step::Gradients => Box::new(gradients::Gradients { fraction: p.gradients, seed: p.seed }),
                 Step::Palette => match (&p.palette_image, palette::ramp(p.palette)) {
                     (Some(path), _) => Box::new(palette::ColourTransfer::from_image(path)?),
@@ -260,6 +296,18 @@ impl Painter {
                     (None, None) => unreachable!("chain() leaves the palette out without one"),
                 },
                 Step::Quantise => Box::new(quantise::Quantise { colors: p.colors }),
+                Step::PlaneLight => Box::new(plane_light::PlaneLight { amount: p.plane_light as f32, seed: p.seed }),
+                Step::Brushwork => Box::new(brushwork::Brushwork {
+                    opacity: p.brushwork as f32,
+                    length: (p.stroke_length * p.scale) as f32,
+                    width: (p.stroke_width * p.scale) as f32,
+                    seed: p.seed,
+                }),
+                Step::CanvasGrain => Box::new(canvas::CanvasGrain {
+                    amount: p.canvas_grain as f32,
+                    period: (canvas::PERIOD as f64 * p.scale) as f32,
+                    seed: p.seed,
+                }),
             });
         }
         Ok(Painter { effects, background: p.background, transparent: p.transparent })
@@ -372,3 +420,5 @@ impl LuminanceKeys {
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_plane;

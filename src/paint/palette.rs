@@ -151,12 +151,11 @@ impl ColourTransfer {
 
     /// A painting (PNG or JPEG, any size); fully transparent pixels are not part of it.
     pub fn from_image(path: &Path) -> Result<ColourTransfer> {
-        let img = image::ImageReader::open(path)
-            .map_err(|e| Error::input(path, format!("cannot open the palette image: {e}")))?
-            .with_guessed_format()
-            .map_err(|e| Error::input(path, format!("cannot read the palette image: {e}")))?
-            .decode()
-            .map_err(|e| Error::input(path, format!("cannot decode the palette image: {e}")))?
+        // Bounded (issue 18): a regular file, its size checked before decoding.
+        let bytes = crate::util::files::read_bounded(path, crate::util::limits::MAX_IMAGE_FILE)
+            .map_err(|m| Error::input(path, format!("the palette image: {m}")))?;
+        let img = crate::util::files::decode_image(&bytes, crate::util::limits::MAX_IMAGE_PIXELS)
+            .map_err(|m| Error::input(path, format!("the palette image: {m}")))?
             .to_rgba8();
         let lut: Vec<f32> = (0..256).map(|v| srgb_to_linear(v as f32 / 255.0)).collect();
         let colours: Vec<Vec3> = img

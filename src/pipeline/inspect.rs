@@ -44,6 +44,7 @@ pub fn faceting_input(
 pub fn inspect_facets(prep: &Prepared, settings: &Settings, progress: &Progress) -> Result<Inspection> {
     settings.validate()?;
     let params = StageParams::new(settings);
+    super::check_work(&params)?;
     let mut timings = Timings::default();
     let PreRender { film, mut warnings, .. } = faceting_input(prep, &params, progress, &mut timings)?;
 

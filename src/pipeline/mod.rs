@@ -64,6 +64,8 @@ pub struct Rendered {
     pub passes16: Vec<(Pass, Gray16)>,
     /// The facet id of every pixel (a single facet when unfaceted); painterly effects read it.
     pub facets: FacetMap,
+    /// The facet layout `facets` was rasterised from (what `save_facets` saves).
+    pub layout: FacetLayout,
     /// Each facet's centres and re-aim, when the imprecision stage ran (else empty).
     pub aims: Vec<FacetAim>,
     pub timings: Timings,
@@ -90,18 +92,28 @@ pub fn render_with(
     let params = StageParams::new(settings);
     let mut lane = session::Lane::new(params.trace.width, params.trace.height, false);
     let frame = session::run(prep, 0, &mut lane, &mut 0, &params, progress, Some(after_saliency))?;
-    let (film, facets, aims) = lane.into_products()?;
+    let (film, facets, layout, aims) = lane.into_products()?;
     Ok(Rendered {
         film,
         image: frame.image,
         passes: frame.passes,
         passes16: frame.passes16,
         facets,
+        layout,
         aims,
         timings: frame.timings,
         warnings: frame.warnings,
         camera: frame.camera,
     })
+}
+
+/// Work that would take hours, refused before anything runs (issue 18): the Segment
+/// faceting's eigenvectors. (The lights' work depends on the scene: `prerender` checks it.)
+pub fn check_work(params: &StageParams) -> Result<()> {
+    if params.facets.method == facets::FacetMethod::Segment && params.facets.layout_file.is_none() {
+        facets::segment::check_work(params.facets.width, params.facets.height, &params.facets.segment)?;
+    }
+    Ok(())
 }
 
 /// Mesh saliency (SPEC "Mesh saliency") of the meshes the pre-render hit, and the saliency

@@ -7,7 +7,7 @@ use crate::facets::segment::{SegmentParams, SegmentWeights};
 use crate::facets::{self, FacetMethod, FacetParams};
 use crate::imprecision::{AimMode, AimParams, FacetProjection};
 use crate::output::Pass;
-use crate::paint::{PaintParams, Palette};
+use crate::paint::{BorderStyle, PaintParams, Palette};
 use crate::saliency::{SaliencyMethod, SaliencyParams};
 use crate::settings::{self, Settings};
 use crate::trace::TraceParams;
@@ -185,11 +185,25 @@ pub fn paint(s: &Settings) -> PaintParams {
         },
         palette_image: s.palette_image.clone(),
         colors: s.colors,
+        plane_light: s.plane_light,
+        border_style: match s.border_style {
+            settings::BorderStyle::Symmetric => BorderStyle::Symmetric,
+            settings::BorderStyle::Passage => BorderStyle::Passage,
+        },
+        brushwork: s.brushwork,
+        stroke_length: s.stroke_length,
+        stroke_width: s.stroke_width,
+        canvas_grain: s.canvas_grain,
         scale: s.pixel_scale(),
         seed: s.seed,
         background: s.background,
         transparent: s.transparent,
     }
+}
+
+/// How the scene file may reach other files (README "Security").
+pub fn load_options(s: &Settings) -> crate::scene::LoadOptions {
+    crate::scene::LoadOptions { allow_external_files: s.allow_external_files }
 }
 
 pub fn pass(p: settings::Pass) -> Pass {

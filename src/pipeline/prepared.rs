@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 use crate::accel::Accel;
 use crate::error::Result;
 use crate::saliency::Memo;
-use crate::scene::{Scene, World};
+use crate::scene::{LoadOptions, Scene, World};
 
 /// A loaded scene, flattened into render space, with its BVH, and the per-mesh saliency
 /// computed so far (by content), reused by every view and frame rendered from it.
@@ -29,8 +29,13 @@ impl Prepared {
 
     /// Loads `path`, or the built-in still life when None.
     pub fn load(path: Option<&Path>) -> Result<Prepared> {
+        Prepared::load_with(path, LoadOptions::default())
+    }
+
+    /// Loads `path` with `options` (`params::load_options`), or the built-in still life.
+    pub fn load_with(path: Option<&Path>, options: LoadOptions) -> Result<Prepared> {
         let scene = match path {
-            Some(p) => Scene::load(p)?,
+            Some(p) => Scene::load_with(p, options)?,
             None => Scene::default_scene(),
         };
         Ok(Prepared::new(scene))

@@ -73,6 +73,23 @@ pub fn prerender(
         Shading::Lit => Some(LightRig::new(&prep.world, &framed.frame, trace.shadows, trace.exposure)),
         Shading::HitsOnly => None,
     };
+    // Issue 18: every light is evaluated at every sample; hours of work are refused up front.
+    if let Some(rig) = &rig {
+        let work = rig.lights.len() as u64 * trace.width as u64 * trace.height as u64 * trace.spp as u64;
+        if work > crate::util::limits::MAX_LIGHT_SAMPLES {
+            return Err(crate::error::Error::scene(
+                &prep.scene.source,
+                format!(
+                    "{} lights x {} samples is {:.2e} light evaluations, more than the limit of {:.0e}: \
+                     fewer lights, pixels or samples per pixel",
+                    rig.lights.len(),
+                    trace.width as u64 * trace.height as u64 * trace.spp as u64,
+                    work as f64,
+                    crate::util::limits::MAX_LIGHT_SAMPLES as f64
+                ),
+            ));
+        }
+    }
     let mut film = Film::new(trace.width, trace.height, trace.spp);
     progress.begin(Stage::PreRender.name(), film.pixel_count() as u64);
     let tracer = tracer(prep, rig.as_ref(), trace);

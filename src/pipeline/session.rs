@@ -46,10 +46,11 @@ use crate::facets::{self, FacetLayout, FacetMap, FacetMethod, FacetParams};
 use crate::film::{Film, PixelHit, SampleHit};
 use crate::imprecision::{self, AimMode, AimParams, FacetAim};
 use crate::output::{Gray16, Pass};
+use crate::paint::chiaroscuro::ViewAxes;
 use crate::paint::{Lighting, PaintParams, Painter};
 use crate::progress::Progress;
 use crate::saliency::{self, SaliencyMethod};
-use crate::scene::{Scene, World};
+use crate::scene::{LoadOptions, Scene, World};
 use crate::settings::Settings;
 use crate::trace::TraceParams;
 
@@ -289,7 +290,7 @@ impl Lane {
 
     /// The final film of a one-off render (what `Rendered` holds): the pre-render's film with
     /// the re-traced pixels, the painted colour and the saliency map; the facet map; the aims.
-    pub(super) fn into_products(mut self) -> Result<(Film, FacetMap, Vec<FacetAim>)> {
+    pub(super) fn into_products(mut self) -> Result<(Film, FacetMap, FacetLayout, Vec<FacetAim>)> {
         let missing = || Error::Internal("a render's outputs are missing".into());
         let mut film = self.pre.take().ok_or_else(missing)?.value.film;
         if let Some(mut d) = self.retrace.take() {
@@ -299,8 +300,8 @@ impl Lane {
             film.color = p.value;
         }
         film.saliency = self.saliency.take().map(|e| e.value).filter(|v| !v.is_empty());
-        let map = self.layout.take().ok_or_else(missing)?.value.map;
-        Ok((film, map, self.aims.take().map(|e| e.value).unwrap_or_default()))
+        let LayoutOut { layout, map, .. } = self.layout.take().ok_or_else(missing)?.value;
+        Ok((film, map, layout, self.aims.take().map(|e| e.value).unwrap_or_default()))
     }
 }
 
@@ -348,6 +349,7 @@ pub(super) fn run(
     progress: &Progress,
     after_saliency: Option<&dyn Fn(&Prepared, &mut Film)>,
 ) -> Result<Frame> {
+    super::check_work(params)?;
     let plan = super::Plan::new(params);
     let mut next = || {
         *gens += 1;
@@ -523,7 +525,9 @@ fn after_saliency_stages(
         } else {
             lane.paint = None;
             // An unfaceted image has no facet borders or corners: no facet map for the painter.
-            let lighting = view.rig.as_ref().map(|rig| Lighting { world: &prep.world, rig });
+            let f = &view.framed.frame;
+            let axes = ViewAxes { right: f.right.as_vec3(), up: f.up.as_vec3(), forward: f.forward.as_vec3() };
+            let lighting = view.rig.as_ref().map(|rig| Lighting { world: &prep.world, rig, view: axes });
             let facets = plan.faceting.then_some(map);
             progress.begin(Stage::Paint.name(), 1);
             let painted = with_film(film, delta.as_deref_mut(), None, |film| {
@@ -594,6 +598,8 @@ pub struct SceneUpdate {
 #[derive(Clone, Debug, PartialEq)]
 struct FileStamp {
     path: std::path::PathBuf,
+    /// What the file was allowed to reach (a change loads it again).
+    options: LoadOptions,
     bytes: u128,
     self_contained: bool,
 }
@@ -682,6 +688,11 @@ impl Session {
     /// with the same bytes (and reads no other file), then `set_scene`. On an error the
     /// previous scene and outputs stay.
     pub fn load_scene(&mut self, path: Option<&Path>) -> Result<SceneUpdate> {
+        self.load_scene_with(path, LoadOptions::default())
+    }
+
+    /// `load_scene` with what the file may reach besides itself (`params::load_options`).
+    pub fn load_scene_with(&mut self, path: Option<&Path>, options: LoadOptions) -> Result<SceneUpdate> {
         let Some(path) = path else {
             if self.scene.as_ref().is_some_and(|s| s.builtin) {
                 return Ok(self.unchanged(false));
@@ -693,14 +704,14 @@ impl Session {
             }
             return Ok(update);
         };
-        let stamp = stamp(path);
+        let stamp = stamp(path, options);
         if let (Some(s), Some(st)) = (&self.scene, &stamp)
             && st.self_contained
             && s.file.as_ref() == Some(st)
         {
             return Ok(self.unchanged(false));
         }
-        let scene = Scene::load(path)?;
+        let scene = Scene::load_with(path, options)?;
         let mut update = self.set_scene(scene);
         update.reloaded = true;
         if let Some(s) = self.scene.as_mut() {
@@ -826,7 +837,7 @@ impl Session {
 /// The bytes of a scene file and whether they are all the scene reads: a .glb whose buffers
 /// and images are in the file (or `data:` URIs). Other files (.gltf with .bin and textures
 /// beside it) are always read again. None when the file cannot be read (loading says why).
-fn stamp(path: &Path) -> Option<FileStamp> {
+fn stamp(path: &Path, options: LoadOptions) -> Option<FileStamp> {
     use std::io::Read;
     let mut f = std::fs::File::open(path).ok()?;
     let mut hasher = Xxh3::new();
@@ -850,7 +861,7 @@ fn stamp(path: &Path) -> Option<FileStamp> {
         };
         !external("buffers") && !external("images")
     });
-    Some(FileStamp { path: path.to_path_buf(), bytes: hasher.digest128(), self_contained })
+    Some(FileStamp { path: path.to_path_buf(), options, bytes: hasher.digest128(), self_contained })
 }
 
 /// The JSON chunk of a binary glTF (`head`: its first 20 bytes), if it is one.

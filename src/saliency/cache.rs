@@ -18,7 +18,9 @@ pub fn entry_path(dir: &Path, key: u128) -> PathBuf {
 
 /// The cached values of `key`, if a valid entry for `vertices` vertices exists.
 pub fn load(dir: &Path, key: u128, vertices: usize) -> Option<Vec<f32>> {
-    let bytes = std::fs::read(entry_path(dir, key)).ok()?;
+    // A regular file of the size this entry must have (a symlink to /dev/zero or a huge file
+    // is ignored and rewritten, never read whole).
+    let bytes = crate::util::files::read_bounded(&entry_path(dir, key), 16 + 4 * vertices as u64).ok()?;
     let body = bytes.strip_prefix(MAGIC.as_slice())?;
     let (count, values) = body.split_first_chunk::<8>()?;
     if u64::from_le_bytes(*count) != vertices as u64 || values.len() != vertices * 4 {

@@ -268,8 +268,8 @@ pub fn cached_mesh_saliency(
 pub fn visible_meshes(scene: &Scene, world: &World, film: &Film) -> Vec<bool> {
     let mut seen_objects = vec![false; world.objects.len()];
     for s in film.samples.iter().filter(|s| s.is_hit()) {
-        if let Some(&o) = world.triangle_object.get(s.tri as usize) {
-            seen_objects[o as usize] = true;
+        if (s.tri as usize) < world.triangle_count() {
+            seen_objects[world.object_of(s.tri) as usize] = true;
         }
     }
     let mut meshes = vec![false; scene.meshes.len()];

@@ -135,10 +135,24 @@ pub struct Scene {
     pub warnings: Vec<String>,
 }
 
+/// What a scene file may reach besides itself (README "Security").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LoadOptions {
+    /// Let image and buffer URIs name files outside the scene file's folder (absolute paths,
+    /// `../`, symlinks leading out). Off by default: a file rendered on a farm or a web
+    /// service must not make the renderer read the machine's other files.
+    pub allow_external_files: bool,
+}
+
 impl Scene {
-    /// Loads a .gltf or .glb file.
+    /// Loads a .gltf or .glb file; its URIs may only name files in its own folder.
     pub fn load(path: &Path) -> Result<Scene> {
-        gltf::load(path)
+        gltf::load(path, LoadOptions::default())
+    }
+
+    /// Loads a .gltf or .glb file with `options`.
+    pub fn load_with(path: &Path, options: LoadOptions) -> Result<Scene> {
+        gltf::load(path, options)
     }
 
     /// Reads a glTF document from memory (a .glb, or a .gltf whose buffers are data: URIs).

@@ -19,8 +19,10 @@ pub enum Filter {
 pub struct Texture {
     pub width: u32,
     pub height: u32,
-    /// Linear RGBA, row 0 at the top (glTF UV (0, 0) is the top-left corner).
-    pub pixels: Vec<Vec4>,
+    /// 8-bit sRGB RGBA as decoded, row 0 at the top (glTF UV (0, 0) is the top-left corner);
+    /// decoded to linear per texel read (4 bytes a texel instead of 16: a scene's textures
+    /// may hold `util::limits::MAX_SCENE_TEXELS`).
+    pub pixels: Vec<[u8; 4]>,
     pub wrap_s: Wrap,
     pub wrap_t: Wrap,
     pub filter: Filter,
@@ -29,6 +31,12 @@ pub struct Texture {
 /// sRGB transfer function, decoding (IEC 61966-2-1).
 pub fn srgb_to_linear(c: f32) -> f32 {
     if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+}
+
+/// The sRGB decoding of every 8-bit value, computed once.
+fn srgb_lut() -> &'static [f32; 256] {
+    static LUT: std::sync::OnceLock<[f32; 256]> = std::sync::OnceLock::new();
+    LUT.get_or_init(|| std::array::from_fn(|i| srgb_to_linear(i as f32 / 255.0)))
 }
 
 /// sRGB transfer function, encoding.
@@ -40,18 +48,28 @@ pub fn linear_to_srgb(c: f32) -> f32 {
 impl Texture {
     /// From 8-bit sRGB RGBA rows (colour channels decoded to linear, alpha kept linear).
     pub fn from_srgba8(width: u32, height: u32, rgba: &[u8], wrap_s: Wrap, wrap_t: Wrap, filter: Filter) -> Self {
-        let lut: Vec<f32> = (0..256).map(|i| srgb_to_linear(i as f32 / 255.0)).collect();
-        let pixels = rgba
-            .chunks_exact(4)
-            .map(|p| Vec4::new(lut[p[0] as usize], lut[p[1] as usize], lut[p[2] as usize], p[3] as f32 / 255.0))
-            .collect();
+        let pixels = rgba.chunks_exact(4).map(|p| [p[0], p[1], p[2], p[3]]).collect();
+        Texture { width, height, pixels, wrap_s, wrap_t, filter }
+    }
+
+    /// From decoded 8-bit sRGB RGBA texels (moved, not copied).
+    pub fn from_texels(
+        width: u32,
+        height: u32,
+        pixels: Vec<[u8; 4]>,
+        wrap_s: Wrap,
+        wrap_t: Wrap,
+        filter: Filter,
+    ) -> Self {
         Texture { width, height, pixels, wrap_s, wrap_t, filter }
     }
 
     fn texel(&self, x: i64, y: i64) -> Vec4 {
         let x = wrap(x, self.width as i64, self.wrap_s);
         let y = wrap(y, self.height as i64, self.wrap_t);
-        self.pixels[(y * self.width as i64 + x) as usize]
+        let p = self.pixels[(y * self.width as i64 + x) as usize];
+        let lut = srgb_lut();
+        Vec4::new(lut[p[0] as usize], lut[p[1] as usize], lut[p[2] as usize], p[3] as f32 / 255.0)
     }
 
     /// Samples at `uv` (any real value; wrapped). Non-finite UVs read texel (0, 0).

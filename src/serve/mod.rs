@@ -25,11 +25,11 @@ use serde_json::{Map, Value, json};
 pub use protocol::{BadRequest, Command, MAX_LINE, RenderRequest, Request, parse};
 
 use crate::error::{Error, Result};
-use crate::output::{pass_path, write_png, write_png16};
+use crate::output::{Outputs, pass_path};
+use crate::pipeline::params::load_options;
 use crate::pipeline::{Session, Stage};
 use crate::progress::Progress;
 use crate::settings::Settings;
-use crate::util::files::write_atomic;
 
 /// Renders waiting behind the running one at most; more are refused (bounded memory).
 pub const MAX_QUEUED: usize = 64;
@@ -329,6 +329,8 @@ fn render(session: &mut Session, job: &Job) -> Result<Value> {
         settings.passes = passes.clone();
         settings.validate()?;
     }
+    // The layout is saved with the images, all or nothing, not by the render.
+    let save_facets = settings.save_facets.take();
     let progress = if req.progress {
         Progress::new(Box::new(|stage, f| {
             let _ = writeln!(std::io::stderr(), "PROGRESS {f:.4} {stage}");
@@ -339,29 +341,36 @@ fn render(session: &mut Session, job: &Job) -> Result<Value> {
     let progress = progress.with_cancel(job.cancel.clone());
     progress.begin(Stage::Loading.name(), 1);
     let t = Instant::now();
-    let scene = session.load_scene(req.scene.as_deref())?;
+    let scene = session.load_scene_with(req.scene.as_deref(), load_options(&settings))?;
     let load = t.elapsed();
     progress.check()?;
     let frame = session.render(&settings, &progress)?;
     progress.begin(Stage::Writing.name(), 1);
     let t = Instant::now();
+    // The image, its passes and the saved layout: all written, or none (README "Security").
+    let mut outputs = Outputs::new();
     match format {
-        Format::Png => write_png(&req.output, &frame.image)?,
-        Format::Rgba => {
-            write_atomic(&req.output, |tmp| std::fs::write(tmp, frame.image.as_raw()).map_err(|e| e.to_string()))?
-        }
+        Format::Png => outputs.png(&req.output, &frame.image)?,
+        Format::Rgba => outputs.add(&req.output, |f| f.write_all(frame.image.as_raw()).map_err(|e| e.to_string()))?,
     }
     let mut passes = Map::new();
     for (pass, img) in &frame.passes {
         let p = pass_path(&req.output, pass.as_str());
-        write_png(&p, img)?;
+        outputs.png(&p, img)?;
         passes.insert(pass.as_str().into(), json!(p));
     }
     for (pass, img) in &frame.passes16 {
         let p = pass_path(&req.output, pass.as_str());
-        write_png16(&p, img)?;
+        outputs.png16(&p, img)?;
         passes.insert(pass.as_str().into(), json!(p));
     }
+    if let Some(path) = &save_facets {
+        let (w, h) = (frame.image.width(), frame.image.height());
+        let (layout, map, _) =
+            session.facets(w, h).ok_or_else(|| Error::Internal("the render's facet layout is missing".into()))?;
+        crate::facets::io::add_to(&mut outputs, path, layout, map)?;
+    }
+    outputs.commit()?;
     let write = t.elapsed();
     progress.begin(Stage::Done.name(), 1);
     progress.finish();

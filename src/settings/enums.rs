@@ -86,6 +86,17 @@ kebab_enum!(
 );
 
 kebab_enum!(
+    /// How facet borders are drawn (`border_width`, `border_strength`).
+    BorderStyle {
+        /// Eq 4.8 on both sides of every facet border, as the thesis prints it.
+        Symmetric = "symmetric",
+        /// Facet borders and object silhouettes darkened on one side only, the darker one,
+        /// with a hard edge; lines come and go, and where they go the planes blend (passage).
+        Passage = "passage",
+    }
+);
+
+kebab_enum!(
     /// How mesh saliency's Gaussian means are evaluated (SPEC "Mesh saliency").
     SaliencyMethod {
         /// Exact while the neighbour sums stay affordable (~5e8 pairs, a few seconds), clustered above.

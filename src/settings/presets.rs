@@ -1,7 +1,9 @@
 //! The values before any preset (the bare cubist camera) and what each preset sets. The
 //! defaults of `Settings` are the `analytic` preset's.
 
-use super::{CameraKind, FacetProjection, Faceting, Framing, Imprecision, Palette, Preset, SaliencyMethod, Settings};
+use super::{
+    BorderStyle, CameraKind, FacetProjection, Faceting, Framing, Imprecision, Palette, Preset, SaliencyMethod, Settings,
+};
 
 impl Default for Settings {
     fn default() -> Self {
@@ -63,9 +65,16 @@ impl Settings {
             colors: 0,
             gradients: 0.0,
             chiaroscuro: 0.0,
+            plane_light: 0.0,
+            border_style: BorderStyle::Symmetric,
+            brushwork: 0.0,
+            stroke_length: 26.0,
+            stroke_width: 7.0,
+            canvas_grain: 0.0,
             saliency_method: SaliencyMethod::Auto,
             saliency_cache: None,
             passes: Vec::new(),
+            allow_external_files: false,
         }
     }
 
@@ -92,12 +101,19 @@ impl Preset {
                 s.discontinuity = 200.0;
                 s.border_width = 12.0;
                 s.border_strength = 0.85;
-                s.silhouette_width = 40.0;
+                // Passage draws the silhouettes (no halo); the planes' own ramps replace the
+                // corner gradients.
+                s.silhouette_width = 0.0;
                 s.silhouette_strength = 0.5;
                 s.palette = Palette::Ochre;
-                s.gradients = 0.3;
+                s.gradients = 0.0;
                 s.colors = 0;
-                s.chiaroscuro = 0.0;
+                s.chiaroscuro = 0.3;
+                // Each plane lit on its own, passage, brushwork (issue 13; ART.md).
+                s.plane_light = 0.7;
+                s.border_style = BorderStyle::Passage;
+                s.brushwork = 0.8;
+                s.canvas_grain = 0.5;
             }
             Preset::Braque => {
                 s.camera = CameraKind::Auto;
@@ -109,9 +125,17 @@ impl Preset {
                 s.silhouette_width = 20.0;
                 s.silhouette_strength = 0.5;
                 s.palette = Palette::Olive;
-                s.gradients = 0.5;
+                s.gradients = 0.3;
                 s.colors = 8;
                 s.chiaroscuro = 0.5;
+                // Heavier paint: broad strokes over the eight colours, so they read as paint,
+                // not a print (ART.md's panel).
+                s.plane_light = 0.6;
+                s.border_style = BorderStyle::Passage;
+                s.brushwork = 0.9;
+                s.stroke_length = 30.0;
+                s.stroke_width = 9.0;
+                s.canvas_grain = 0.6;
             }
             Preset::BluePeriod => {
                 s.camera = CameraKind::Auto;
@@ -120,12 +144,19 @@ impl Preset {
                 s.discontinuity = 100.0;
                 s.border_width = 8.0;
                 s.border_strength = 0.7;
-                s.silhouette_width = 40.0;
-                s.silhouette_strength = 0.5;
+                s.silhouette_width = 20.0;
+                s.silhouette_strength = 0.4;
                 s.palette = Palette::BluePeriod;
                 s.gradients = 0.2;
                 s.colors = 0;
                 s.chiaroscuro = 0.25;
+                // Softer planes, long thin strokes.
+                s.plane_light = 0.5;
+                s.border_style = BorderStyle::Passage;
+                s.brushwork = 0.7;
+                s.stroke_length = 34.0;
+                s.stroke_width = 6.0;
+                s.canvas_grain = 0.4;
             }
             Preset::Grisaille => {
                 s.camera = CameraKind::Auto;
@@ -137,9 +168,13 @@ impl Preset {
                 s.silhouette_width = 25.0;
                 s.silhouette_strength = 0.4;
                 s.palette = Palette::Grey;
-                s.gradients = 0.35;
+                s.gradients = 0.2;
                 s.colors = 6;
                 s.chiaroscuro = 0.3;
+                s.plane_light = 0.7;
+                s.border_style = BorderStyle::Passage;
+                s.brushwork = 0.8;
+                s.canvas_grain = 0.6;
             }
         }
     }

@@ -8,7 +8,13 @@
 use clap::ValueEnum;
 use serde::Serialize;
 
-use super::{CameraKind, FacetProjection, Faceting, Framing, Imprecision, Palette, Pass, Preset, SaliencyMethod};
+use super::validate::{
+    MAX_EXPOSURE, MAX_GRID_CELLS, MAX_OCCLUSION, MAX_PIXEL_DISTANCE, MAX_SCENE_VALUE, MAX_SEGMENTS, MAX_SUPERPIXELS,
+    MAX_WEIGHT,
+};
+use super::{
+    BorderStyle, CameraKind, FacetProjection, Faceting, Framing, Imprecision, Palette, Pass, Preset, SaliencyMethod,
+};
 use super::{MAX_FACETS, MAX_SIDE};
 
 /// The JSON type of a key's value.
@@ -132,7 +138,10 @@ use Kind::{Array, Boolean, Enum, Integer, Number, Path};
 
 const UNIT: Range = Range::closed(0.0, 1.0);
 const NON_NEGATIVE: Range = Range::at_least(0.0);
-const POSITIVE: Range = Range::above(0.0);
+const WEIGHT: Range = Range::closed(0.0, MAX_WEIGHT);
+const DISTANCE_PX: Range = Range::closed(0.0, MAX_PIXEL_DISTANCE);
+const SCENE_LENGTH: Range = Range::closed(0.0, MAX_SCENE_VALUE).open_min();
+const SCENE_POINT: Range = Range::closed(-MAX_SCENE_VALUE, MAX_SCENE_VALUE);
 const SIDE: Range = Range::closed(1.0, MAX_SIDE as f64);
 const FACETS: Range = Range::closed(1.0, MAX_FACETS as f64);
 
@@ -147,40 +156,40 @@ pub const FIELDS: &[Field] = &[
     // Planar cameras: [0, 180); perspective: (0, 180).
     field("ambiguity", Number).nullable().unit(DEGREES).range(Range::closed(0.0, 360.0)),
     field("framing", Enum).choices(choices::<Framing>),
-    field("focus_distance", Number).nullable().unit(SCENE_UNITS).range(POSITIVE),
-    field("camera_position", Array).of(Number).length(3).nullable().unit(SCENE_UNITS),
-    field("camera_target", Array).of(Number).length(3).nullable().unit(SCENE_UNITS),
-    field("camera_up", Array).of(Number).length(3).nullable(),
-    field("camera_size", Number).nullable().unit(SCENE_UNITS).range(POSITIVE),
+    field("focus_distance", Number).nullable().unit(SCENE_UNITS).range(SCENE_LENGTH),
+    field("camera_position", Array).of(Number).length(3).nullable().unit(SCENE_UNITS).range(SCENE_POINT),
+    field("camera_target", Array).of(Number).length(3).nullable().unit(SCENE_UNITS).range(SCENE_POINT),
+    field("camera_up", Array).of(Number).length(3).nullable().range(SCENE_POINT),
+    field("camera_size", Number).nullable().unit(SCENE_UNITS).range(SCENE_LENGTH),
     field("fill", Number).nullable().range(UNIT.open_min()),
     field("shadows", Boolean),
-    field("background", Array).of(Number).length(3).unit(LINEAR_RGB).range(NON_NEGATIVE),
+    field("background", Array).of(Number).length(3).unit(LINEAR_RGB).range(Range::closed(0.0, MAX_EXPOSURE)),
     field("transparent", Boolean),
-    field("exposure", Number).range(NON_NEGATIVE),
+    field("exposure", Number).range(Range::closed(0.0, MAX_EXPOSURE)),
     field("faceting", Enum).choices(choices::<Faceting>),
     field("facet_map", Path).nullable(),
     field("facets", Path).nullable(),
     field("save_facets", Path).nullable(),
     field("facet_count", Integer).range(FACETS),
-    field("grid_cells", Integer).range(Range::at_least(1.0)),
+    field("grid_cells", Integer).range(Range::closed(1.0, MAX_GRID_CELLS as f64)),
     field("patch_count", Integer).range(FACETS),
-    field("occlusion", Number).range(POSITIVE),
-    field("segments", Array).of(Integer).range(Range::at_least(1.0)),
+    field("occlusion", Number).range(Range::closed(0.0, MAX_OCCLUSION).open_min()),
+    field("segments", Array).of(Integer).range(Range::closed(1.0, MAX_SEGMENTS as f64)),
     field("thresholds", Array).of(Number).range(UNIT),
-    field("superpixels", Integer).range(Range::closed(0.0, 1_000_000.0)),
-    field("weight_colour", Number).range(NON_NEGATIVE),
-    field("weight_normal", Number).range(NON_NEGATIVE),
-    field("weight_depth", Number).range(NON_NEGATIVE),
+    field("superpixels", Integer).range(Range::closed(0.0, MAX_SUPERPIXELS as f64)),
+    field("weight_colour", Number).range(WEIGHT),
+    field("weight_normal", Number).range(WEIGHT),
+    field("weight_depth", Number).range(WEIGHT),
     field("weight_object", Number).range(UNIT),
-    field("weight_saliency", Number).range(NON_NEGATIVE),
+    field("weight_saliency", Number).range(WEIGHT),
     field("imprecision", Enum).choices(choices::<Imprecision>),
-    field("discontinuity", Number).unit(PX_AT_1000).range(NON_NEGATIVE),
-    field("neighborhood", Number).unit(PX_AT_1000).range(NON_NEGATIVE),
+    field("discontinuity", Number).unit(PX_AT_1000).range(DISTANCE_PX),
+    field("neighborhood", Number).unit(PX_AT_1000).range(DISTANCE_PX),
     field("facet_projection", Enum).choices(choices::<FacetProjection>),
     field("facet_fov", Number).unit(DEGREES).range(Range::closed(0.0, 180.0).open_max()),
-    field("border_width", Number).unit(PX_AT_1000).range(NON_NEGATIVE),
+    field("border_width", Number).unit(PX_AT_1000).range(DISTANCE_PX),
     field("border_strength", Number).range(UNIT),
-    field("silhouette_width", Number).unit(PX_AT_1000).range(NON_NEGATIVE),
+    field("silhouette_width", Number).unit(PX_AT_1000).range(DISTANCE_PX),
     field("silhouette_strength", Number).range(UNIT),
     field("palette", Enum).choices(choices::<Palette>),
     field("palette_image", Path).nullable(),
@@ -188,9 +197,16 @@ pub const FIELDS: &[Field] = &[
     field("colors", Integer).range(Range::closed(0.0, 4096.0)),
     field("gradients", Number).range(UNIT),
     field("chiaroscuro", Number).range(UNIT),
+    field("plane_light", Number).range(UNIT),
+    field("border_style", Enum).choices(choices::<BorderStyle>),
+    field("brushwork", Number).range(UNIT),
+    field("stroke_length", Number).unit(PX_AT_1000).range(Range::closed(0.0, 1000.0).open_min()),
+    field("stroke_width", Number).unit(PX_AT_1000).range(Range::closed(0.0, 1000.0).open_min()),
+    field("canvas_grain", Number).range(UNIT),
     field("saliency_method", Enum).choices(choices::<SaliencyMethod>),
     field("saliency_cache", Path).nullable(),
     field("passes", Array).of(Enum).choices(choices::<Pass>),
+    field("allow_external_files", Boolean),
 ];
 
 /// The field of `key`.

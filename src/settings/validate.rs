@@ -1,7 +1,11 @@
 //! Every value's range, checked once after the layers are merged; the error names the key.
 
 use super::{CameraKind, Faceting, Settings};
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, short_num as num, short_path};
+
+fn length(v: [f64; 3]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
 
 /// Largest image side we accept, pixels.
 pub const MAX_SIDE: u32 = 16384;
@@ -13,8 +17,53 @@ pub const MAX_SAMPLES: u64 = 256 * 1024 * 1024;
 /// Most facets a layout may have: facet ids fit the 16-bit `facet-ids` pass and PNG layouts
 /// (`facets::MAX_FACETS`, checked equal where both are known, in `pipeline::params`).
 pub const MAX_FACETS: u32 = 65536;
+/// Largest pixel distance (discontinuity, neighborhood, border and silhouette widths), pixels
+/// at 1000 px: ten images wide. Larger values mean nothing more, and f32 casts of them overflow.
+pub const MAX_PIXEL_DISTANCE: f64 = 10_000.0;
+/// Largest weight of a Segment cue: the cues' squared distances stay finite in f32.
+pub const MAX_WEIGHT: f64 = 1000.0;
+/// Largest scene-units value (camera position, target, size, focus distance): 1e15, far beyond
+/// any scene, so vector arithmetic in f64 never overflows.
+pub const MAX_SCENE_VALUE: f64 = 1e15;
+/// Largest exposure and background value.
+pub const MAX_EXPOSURE: f64 = 1000.0;
+/// Largest occlusion ratio of Patch faceting (eq 4.3): 1000 covers the image with one quad.
+pub const MAX_OCCLUSION: f64 = 1000.0;
+/// Most Segment levels, and most segments in a level: the normalized cut computes as many
+/// eigenvectors as the largest level's segments over thousands of superpixels (time and memory
+/// grow with their product; 500 takes about a minute at 1000 x 1000).
+pub const MAX_SEGMENT_LEVELS: usize = 8;
+pub const MAX_SEGMENTS: u32 = 500;
+/// Most superpixels the normalized cut may group.
+pub const MAX_SUPERPIXELS: u32 = 200_000;
+/// The memory bound of a job (README "Limits"): its settings' estimated memory, without the
+/// scene's own, may not exceed this. The estimate is bytes per pixel of every buffer the
+/// stages it runs hold at their peak (`memory_estimate`, measured: `tests/memory_bound.rs`,
+/// `scripts/memory_bound.sh`).
+pub const MAX_JOB_MEMORY: u64 = 6 << 30;
+/// Most Voronoi grid cells.
+pub const MAX_GRID_CELLS: u32 = 1 << 20;
 
 impl Settings {
+    /// Bytes a job of these settings holds at its peak, besides the scene, an upper estimate:
+    /// per pixel, the film (colour, hit and 12 bytes per sample) and the encoded image, plus
+    /// the facet map, imprecision and painting buffers of a faceted render, plus the Segment
+    /// features, superpixels and level labels. Measured at 4 Mpx: plain 70 + 12 (spp - 1)
+    /// bytes a pixel, Voronoi 91, analytic (3 levels) 136, 8 levels 160; the estimate is 5-15%
+    /// above each.
+    pub fn memory_estimate(&self) -> u64 {
+        let pixels = self.width as u64 * self.height as u64;
+        let mut per_pixel = 72 + 12 * self.spp as u64;
+        let loaded = self.facets.is_some();
+        if self.faceting != Faceting::None || loaded {
+            per_pixel += 28;
+        }
+        if self.faceting == Faceting::Segment && !loaded {
+            per_pixel += 28 + 6 * self.segments.len() as u64;
+        }
+        pixels.saturating_mul(per_pixel).saturating_add(64 << 20)
+    }
+
     /// Checks every value's range; the error names the key.
     pub fn validate(&self) -> Result<()> {
         let s = self;
@@ -50,105 +99,125 @@ impl Settings {
         }
         if let Some(a) = s.ambiguity {
             if !a.is_finite() {
-                return Err(Error::setting("ambiguity", "must be a finite number of degrees"));
+                return Err(Error::setting("ambiguity", format!("{} must be a finite number of degrees", num(a))));
             }
             match s.camera {
                 CameraKind::Planar if !(0.0..180.0).contains(&a) => {
                     return Err(Error::setting(
                         "ambiguity",
                         format!(
-                            "{a} deg is impossible for the planar camera: its convergence angle must be in [0, 180)"
+                            "{} deg is impossible for the planar camera: its convergence angle must be in [0, 180)",
+                            num(a)
                         ),
                     ));
                 }
                 CameraKind::Perspective if !(a > 0.0 && a < 180.0) => {
                     return Err(Error::setting(
                         "ambiguity",
-                        format!("{a} deg is not a field of view: the perspective camera needs (0, 180)"),
+                        format!("{} deg is not a field of view: the perspective camera needs (0, 180)", num(a)),
                     ));
                 }
                 _ if !(0.0..=360.0).contains(&a) => {
                     return Err(Error::setting(
                         "ambiguity",
-                        format!("{a} deg is out of range: the convergence angle must be in [0, 360]"),
+                        format!("{} deg is out of range: the convergence angle must be in [0, 360]", num(a)),
                     ));
                 }
                 _ => {}
             }
         }
-        if let Some(f) = s.focus_distance
-            && !(f.is_finite() && f > 0.0)
-        {
-            return Err(Error::setting("focus_distance", format!("{f} must be a positive distance")));
-        }
-        if let Some(c) = s.camera_size
-            && !(c.is_finite() && c > 0.0)
-        {
-            return Err(Error::setting("camera_size", format!("{c} must be a positive size")));
+        // Scene-unit values: positive and finite (NaN or infinity is an error, never "auto").
+        for (key, v) in [("focus_distance", s.focus_distance), ("camera_size", s.camera_size)] {
+            if let Some(v) = v
+                && !(v > 0.0 && v <= MAX_SCENE_VALUE)
+            {
+                return Err(Error::setting(
+                    key,
+                    format!("{} must be a positive distance up to {MAX_SCENE_VALUE:e}", num(v)),
+                ));
+            }
         }
         if let Some(f) = s.fill
-            && !(f.is_finite() && f > 0.0 && f <= 1.0)
+            && !(f > 0.0 && f <= 1.0)
         {
-            return Err(Error::setting("fill", format!("{f} must be in (0, 1]")));
+            return Err(Error::setting("fill", format!("{} must be in (0, 1]", num(f))));
         }
         for (key, v) in [("camera_position", s.camera_position), ("camera_target", s.camera_target)] {
             if let Some(v) = v
-                && v.iter().any(|x| !x.is_finite())
+                && v.iter().any(|x| !(x.abs() <= MAX_SCENE_VALUE))
             {
-                return Err(Error::setting(key, "must be three finite numbers"));
+                return Err(Error::setting(key, format!("must be three finite numbers within +-{MAX_SCENE_VALUE:e}")));
             }
         }
         if let Some(u) = s.camera_up
-            && (u.iter().any(|x| !x.is_finite()) || u.iter().all(|x| *x == 0.0))
+            && (u.iter().any(|x| !(x.abs() <= MAX_SCENE_VALUE)) || !(length(u) > 1e-100))
         {
             return Err(Error::setting("camera_up", "must be a finite, non-zero vector"));
         }
-        if let (Some(p), Some(t)) = (s.camera_position, s.camera_target)
-            && p == t
-        {
-            return Err(Error::setting("camera_target", "coincides with camera_position: no view direction"));
+        if let (Some(p), Some(t)) = (s.camera_position, s.camera_target) {
+            let d = [t[0] - p[0], t[1] - p[1], t[2] - p[2]];
+            let scale = p.iter().chain(&t).fold(1.0f64, |m, x| m.max(x.abs()));
+            if !(length(d) > 1e-12 * scale) {
+                return Err(Error::setting("camera_target", "coincides with camera_position: no view direction"));
+            }
         }
-        if s.background.iter().any(|c| !c.is_finite() || *c < 0.0) {
-            return Err(Error::setting("background", "must be three finite, non-negative numbers"));
+        if s.background.iter().any(|c| !(*c >= 0.0 && *c as f64 <= MAX_EXPOSURE)) {
+            return Err(Error::setting("background", format!("must be three numbers in [0, {MAX_EXPOSURE}]")));
         }
-        if !(s.exposure.is_finite() && s.exposure >= 0.0) {
-            return Err(Error::setting("exposure", "must be a finite, non-negative number"));
+        if !(s.exposure >= 0.0 && s.exposure as f64 <= MAX_EXPOSURE) {
+            return Err(Error::setting(
+                "exposure",
+                format!("{} must be a number in [0, {MAX_EXPOSURE}]", num(s.exposure as f64)),
+            ));
         }
-        let nonneg = |key: &'static str, v: f64| -> Result<()> {
-            if v.is_finite() && v >= 0.0 {
+        let within = |key: &'static str, v: f64, max: f64| -> Result<()> {
+            if v >= 0.0 && v <= max {
                 Ok(())
             } else {
-                Err(Error::setting(key, format!("{v} must be a finite number >= 0")))
+                Err(Error::setting(key, format!("{} must be a number in [0, {max}]", num(v))))
             }
         };
-        let unit = |key: &'static str, v: f64| -> Result<()> {
-            if (0.0..=1.0).contains(&v) { Ok(()) } else { Err(Error::setting(key, format!("{v} must be in [0, 1]"))) }
-        };
-        nonneg("discontinuity", s.discontinuity)?;
-        nonneg("neighborhood", s.neighborhood)?;
-        nonneg("border_width", s.border_width)?;
-        nonneg("silhouette_width", s.silhouette_width)?;
+        let nonneg = |key: &'static str, v: f64| within(key, v, MAX_WEIGHT);
+        let unit = |key: &'static str, v: f64| within(key, v, 1.0);
+        within("discontinuity", s.discontinuity, MAX_PIXEL_DISTANCE)?;
+        within("neighborhood", s.neighborhood, MAX_PIXEL_DISTANCE)?;
+        within("border_width", s.border_width, MAX_PIXEL_DISTANCE)?;
+        within("silhouette_width", s.silhouette_width, MAX_PIXEL_DISTANCE)?;
         unit("border_strength", s.border_strength)?;
         unit("silhouette_strength", s.silhouette_strength)?;
         unit("gradients", s.gradients)?;
         unit("chiaroscuro", s.chiaroscuro)?;
+        unit("plane_light", s.plane_light)?;
+        unit("brushwork", s.brushwork)?;
+        unit("canvas_grain", s.canvas_grain)?;
+        for (key, v) in [("stroke_length", s.stroke_length), ("stroke_width", s.stroke_width)] {
+            if !(v.is_finite() && v > 0.0 && v <= 1000.0) {
+                return Err(Error::setting(key, format!("{v} must be in (0, 1000] pixels at 1000 px")));
+            }
+        }
         if !(s.facet_fov.is_finite() && (0.0..180.0).contains(&s.facet_fov)) {
-            return Err(Error::setting("facet_fov", format!("{} must be in [0, 180) degrees", s.facet_fov)));
+            return Err(Error::setting("facet_fov", format!("{} must be in [0, 180) degrees", num(s.facet_fov))));
         }
         if s.facet_count == 0 || s.facet_count > MAX_FACETS {
             return Err(Error::setting("facet_count", format!("must be in 1..={}", MAX_FACETS)));
         }
-        if s.grid_cells == 0 {
-            return Err(Error::setting("grid_cells", "must be at least 1"));
+        if s.grid_cells == 0 || s.grid_cells > MAX_GRID_CELLS {
+            return Err(Error::setting("grid_cells", format!("must be in 1..={MAX_GRID_CELLS}")));
         }
         if s.patch_count == 0 || s.patch_count > MAX_FACETS {
             return Err(Error::setting("patch_count", format!("must be in 1..={}", MAX_FACETS)));
         }
-        if !(s.occlusion.is_finite() && s.occlusion > 0.0) {
-            return Err(Error::setting("occlusion", "must be a positive number"));
+        if !(s.occlusion > 0.0 && s.occlusion <= MAX_OCCLUSION) {
+            return Err(Error::setting("occlusion", format!("must be a number in (0, {MAX_OCCLUSION}]")));
         }
         if s.segments.is_empty() || s.segments.contains(&0) {
             return Err(Error::setting("segments", "needs one or more levels, each of at least 1 segment"));
+        }
+        if s.segments.len() > MAX_SEGMENT_LEVELS || s.segments.iter().any(|&n| n > MAX_SEGMENTS) {
+            return Err(Error::setting(
+                "segments",
+                format!("at most {MAX_SEGMENT_LEVELS} levels of at most {MAX_SEGMENTS} segments each"),
+            ));
         }
         if s.thresholds.len() != s.segments.len() {
             return Err(Error::setting(
@@ -159,8 +228,8 @@ impl Settings {
         for t in &s.thresholds {
             unit("thresholds", *t)?;
         }
-        if s.superpixels > 1_000_000 {
-            return Err(Error::setting("superpixels", "at most 1000000 (0 = automatic)"));
+        if s.superpixels > MAX_SUPERPIXELS {
+            return Err(Error::setting("superpixels", format!("at most {MAX_SUPERPIXELS} (0 = automatic)")));
         }
         nonneg("weight_colour", s.weight_colour)?;
         nonneg("weight_normal", s.weight_normal)?;
@@ -177,10 +246,27 @@ impl Settings {
             && dir.exists()
             && !dir.is_dir()
         {
-            return Err(Error::setting("saliency_cache", format!("{} is not a directory", dir.display())));
+            return Err(Error::setting("saliency_cache", format!("{} is not a directory", short_path(dir))));
         }
         if s.faceting == Faceting::Constant && s.facet_map.is_none() && s.facets.is_none() {
             return Err(Error::setting("facet_map", "constant faceting needs a facet map image (--facet-map)"));
+        }
+        // Last: every value is in range, so the estimate is of a job that could run.
+        let need = s.memory_estimate();
+        if need > MAX_JOB_MEMORY {
+            let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
+            return Err(Error::setting(
+                if s.spp > 1 { "spp" } else { "width" },
+                format!(
+                    "{}x{} at {} spp with these stages needs about {:.1} GiB, more than the {:.0} GiB memory bound: \
+                     fewer pixels or samples per pixel (or fewer Segment levels)",
+                    s.width,
+                    s.height,
+                    s.spp,
+                    gib(need),
+                    gib(MAX_JOB_MEMORY)
+                ),
+            ));
         }
         Ok(())
     }

@@ -5,4 +5,5 @@
 pub mod csr;
 pub mod files;
 pub mod grid;
+pub mod limits;
 pub mod rng;

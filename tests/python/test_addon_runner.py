@@ -46,7 +46,7 @@ def settings_rs_keys():
 
 def test_settings_keys_match_settings_rs():
     """Every key the renderer accepts is known to the add-on and vice versa (a renamed or
-    added setting must reach the panel)."""
+    added setting must reach the panel): the schema the add-on reads lists the struct's fields."""
     assert runner.SETTINGS_KEYS == settings_rs_keys()
 
 
@@ -234,6 +234,11 @@ def test_presets_set_every_look_value_and_nothing_else():
     ("colors", 12, "colors", 12),
     ("gradients", 0.4, "gradients", 0.4),
     ("chiaroscuro", 0.2, "chiaroscuro", 0.2),
+    ("plane_light", 0.4, "plane_light", 0.4),
+    ("border_style", "SYMMETRIC", "border_style", "symmetric"),
+    ("brushwork", 0.5, "brushwork", 0.5),
+    ("stroke_length", 40.0, "stroke_length", 40.0),
+    ("canvas_grain", 0.3, "canvas_grain", 0.3),
     ("shadows", False, "shadows", False),
     ("pass_facet_ids", True, "passes", ["facet-ids"]),
     ("camera_size", 2.5, "camera_size", 2.5),
@@ -663,19 +668,6 @@ def test_progress_stages_are_the_binarys(cubist_binary, tmp_path):
 # ---------------------------------------------------------------------------------------------
 # Facet layouts across frames
 
-
-def test_saliency_is_needed_exactly_when_the_renderer_computes_it():
-    base = {"faceting": "none", "imprecision": "saliency", "discontinuity": 0.0, "passes": []}
-    assert not runner.needs_saliency(base)
-    assert not runner.needs_saliency(dict(base, discontinuity=100.0))  # no facets to re-aim
-    assert runner.needs_saliency(dict(base, faceting="voronoi", discontinuity=100.0))
-    assert not runner.needs_saliency(dict(base, faceting="voronoi", discontinuity=100.0, imprecision="random"))
-    assert runner.needs_saliency(dict(base, faceting="segment"))
-    assert runner.needs_saliency(dict(base, passes=["saliency"]))
-    assert runner.needs_saliency(dict(base, passes=["facets"]))
-    # A loaded layout replaces the segmentation; re-aiming still needs saliency.
-    assert not runner.needs_saliency(dict(base, faceting="segment", facets="/l.json"))
-    assert runner.needs_saliency(dict(base, faceting="none", facets="/l.json", discontinuity=50.0))
 
 
 def test_layout_plan(tmp_path):

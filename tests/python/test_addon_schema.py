@@ -67,7 +67,7 @@ def test_passes_are_the_renderers():
 
 def test_progress_stages_are_the_schemas(cubist_binary, tmp_path):
     """The stages the binary reports are the schema's, in its order, and the add-on's progress
-    bar knows each (runner.STAGE_WEIGHTS, until it reads schema.STAGES)."""
+    bar knows each (runner.STAGE_WEIGHTS, built from schema.STAGES)."""
     r = subprocess.run([str(cubist_binary), "render", "--width", "40", "--height", "30", "--spp", "1", "-o",
                         str(tmp_path / "o.png"), "--progress", "lines"], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
@@ -80,19 +80,22 @@ def test_progress_stages_are_the_schemas(cubist_binary, tmp_path):
 
 
 def test_the_renderer_says_which_stages_run(cubist_binary, tmp_path):
-    """`cubist settings --stages` replaces the add-on's copy of the saliency rule
-    (runner.needs_saliency): both agree on every case it was written for."""
+    """`cubist settings --stages` says when mesh saliency is computed (the add-on keeps no copy
+    of that rule): only for saliency re-aiming of facets, Segment facets and the passes that
+    show saliency; a loaded layout replaces the segmentation, re-aiming still needs saliency."""
     base = {"faceting": "none", "imprecision": "saliency", "discontinuity": 0.0, "passes": []}
-    cases = [base, dict(base, discontinuity=100.0), dict(base, faceting="voronoi", discontinuity=100.0),
-             dict(base, faceting="voronoi", discontinuity=100.0, imprecision="random"),
-             dict(base, faceting="segment"), dict(base, passes=["saliency"]), dict(base, passes=["facets"])]
-    for s in cases:
+    cases = [(base, False), (dict(base, discontinuity=100.0), False),
+             (dict(base, faceting="voronoi", discontinuity=100.0), True),
+             (dict(base, faceting="voronoi", discontinuity=100.0, imprecision="random"), False),
+             (dict(base, faceting="segment"), True), (dict(base, passes=["saliency"]), True),
+             (dict(base, passes=["facets"]), True)]
+    for s, expected in cases:
         cfg = tmp_path / "s.json"
         cfg.write_text(json.dumps(s))
         r = subprocess.run([str(cubist_binary), "settings", "--stages", "--config", str(cfg)], capture_output=True,
                            text=True)
         assert r.returncode == 0, r.stderr
-        assert ("saliency" in json.loads(r.stdout)) == runner.needs_saliency(s), s
+        assert ("saliency" in json.loads(r.stdout)) == expected, s
 
 
 # ---------------------------------------------------------------------------------------------

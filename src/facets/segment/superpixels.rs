@@ -262,8 +262,11 @@ fn assign(
             let fp = &features.values[p];
             let op = features.object[p];
             let xf = x as f32;
-            let (mut best, mut best_d) = (0u32, f32::INFINITY);
-            for c in [cy * grid.gx + cx, cy * grid.gx + ox, oy * grid.gx + cx, oy * grid.gx + ox] {
+            // The pixel's own cell's seed unless a nearer one is found: a distance that
+            // overflows to infinity or NaN never leaves a label outside this pixel's band.
+            let own = cy * grid.gx + cx;
+            let (mut best, mut best_d) = (own as u32, f32::INFINITY);
+            for c in [own, cy * grid.gx + ox, oy * grid.gx + cx, oy * grid.gx + ox] {
                 let ce = &centres[c];
                 let (dx, dy) = (xf - ce.x, yf - ce.y);
                 let mut d = feature_distance(fp, &ce.f) + spatial * (dx * dx + dy * dy);

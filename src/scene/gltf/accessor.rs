@@ -6,8 +6,7 @@
 
 use gltf::accessor::{DataType, Dimensions};
 
-/// Largest accessor we read, elements: bounds the memory a hostile file can make us allocate.
-const MAX_COUNT: usize = 1 << 28;
+use crate::util::limits::MAX_ACCESSOR_ELEMENTS as MAX_COUNT;
 
 pub(super) type Buffers = [Vec<u8>];
 
@@ -72,7 +71,21 @@ fn view_bytes<'b>(view: &gltf::buffer::View, buffers: &'b Buffers) -> Result<&'b
     Ok(&data[view.offset()..end])
 }
 
-/// Calls `f(i, element_bytes)` for `count` elements of `elem` bytes in `view` at `offset`.
+/// Checks that `count` elements of `elem` bytes fit in `view` at `offset`, before anything
+/// is allocated for them: a count is only believed once the bytes that hold it exist.
+fn check_elements(
+    what: &str,
+    view: &gltf::buffer::View,
+    offset: usize,
+    count: usize,
+    elem: usize,
+    buffers: &Buffers,
+) -> Result<(), String> {
+    for_each_element(what, view, offset, count, elem, buffers, None)
+}
+
+/// Calls `f(i, element_bytes)` for `count` elements of `elem` bytes in `view` at `offset`
+/// (only checks the range when `f` is None).
 fn for_each_element(
     what: &str,
     view: &gltf::buffer::View,
@@ -80,7 +93,7 @@ fn for_each_element(
     count: usize,
     elem: usize,
     buffers: &Buffers,
-    mut f: impl FnMut(usize, &[u8]),
+    f: Option<&mut dyn FnMut(usize, &[u8])>,
 ) -> Result<(), String> {
     let bytes = view_bytes(view, buffers)?;
     let stride = view.stride().unwrap_or(elem);
@@ -102,9 +115,11 @@ fn for_each_element(
             bytes.len()
         ));
     }
-    for i in 0..count {
-        let start = offset + i * stride;
-        f(i, &bytes[start..start + elem]);
+    if let Some(f) = f {
+        for i in 0..count {
+            let start = offset + i * stride;
+            f(i, &bytes[start..start + elem]);
+        }
     }
     Ok(())
 }
@@ -126,43 +141,55 @@ pub(super) fn read_floats<const N: usize>(
     let t = acc.data_type();
     let cs = component_size(t);
     let normalized = acc.normalized();
-    let mut out = vec![[0.0f32; N]; count];
     let decode = |bytes: &[u8]| -> [f32; N] { std::array::from_fn(|k| component(&bytes[k * cs..], t, normalized)) };
+    // Every range first, then the allocations.
     if let Some(view) = acc.view() {
-        for_each_element(what, &view, acc.offset(), count, cs * N, buffers, |i, b| out[i] = decode(b))?;
+        check_elements(what, &view, acc.offset(), count, cs * N, buffers)?;
     }
-    if let Some(sparse) = acc.sparse() {
-        let n = sparse.count();
-        if n > count {
-            return Err(format!("{what}: sparse substitution of {n} elements in an accessor of {count}"));
+    let sparse = match acc.sparse() {
+        Some(sparse) => {
+            let n = sparse.count();
+            if n > count {
+                return Err(format!("{what}: sparse substitution of {n} elements in an accessor of {count}"));
+            }
+            let it = match sparse.indices().index_type() {
+                gltf::accessor::sparse::IndexType::U8 => DataType::U8,
+                gltf::accessor::sparse::IndexType::U16 => DataType::U16,
+                gltf::accessor::sparse::IndexType::U32 => DataType::U32,
+            };
+            let (iv, vv) = (sparse.indices().view(), sparse.values().view());
+            let indices_what = format!("{what} sparse indices");
+            let values_what = format!("{what} sparse values");
+            check_elements(&indices_what, &iv, sparse.indices().offset(), n, component_size(it), buffers)?;
+            check_elements(&values_what, &vv, sparse.values().offset(), n, cs * N, buffers)?;
+            Some((sparse, n, it, iv, vv, indices_what, values_what))
         }
-        let it = sparse.indices().index_type();
-        let it = match it {
-            gltf::accessor::sparse::IndexType::U8 => DataType::U8,
-            gltf::accessor::sparse::IndexType::U16 => DataType::U16,
-            gltf::accessor::sparse::IndexType::U32 => DataType::U32,
-        };
+        None => None,
+    };
+    let mut out = vec![[0.0f32; N]; count];
+    if let Some(view) = acc.view() {
+        for_each_element(what, &view, acc.offset(), count, cs * N, buffers, Some(&mut |i, b| out[i] = decode(b)))?;
+    }
+    if let Some((sparse, n, it, iv, vv, indices_what, values_what)) = sparse {
         let mut indices = vec![0usize; n];
-        let iv = sparse.indices().view();
         for_each_element(
-            &format!("{what} sparse indices"),
+            &indices_what,
             &iv,
             sparse.indices().offset(),
             n,
             component_size(it),
             buffers,
-            |i, b| indices[i] = integer(b, it).unwrap_or(u32::MAX) as usize,
+            Some(&mut |i, b| indices[i] = integer(b, it).unwrap_or(u32::MAX) as usize),
         )?;
         let mut values = vec![[0.0f32; N]; n];
-        let vv = sparse.values().view();
         for_each_element(
-            &format!("{what} sparse values"),
+            &values_what,
             &vv,
             sparse.values().offset(),
             n,
             cs * N,
             buffers,
-            |i, b| values[i] = decode(b),
+            Some(&mut |i, b| values[i] = decode(b)),
         )?;
         for (idx, v) in indices.into_iter().zip(values) {
             let slot = out.get_mut(idx).ok_or_else(|| format!("{what}: sparse index {idx} >= count {count}"))?;
@@ -193,9 +220,15 @@ pub(super) fn read_indices(
     let values = if acc.data_type() == DataType::U32 {
         let mut exact = vec![0u32; acc.count()];
         if let Some(view) = acc.view() {
-            for_each_element(what, &view, acc.offset(), acc.count(), 4, buffers, |i, b| {
-                exact[i] = u32::from_le_bytes([b[0], b[1], b[2], b[3]])
-            })?;
+            for_each_element(
+                what,
+                &view,
+                acc.offset(),
+                acc.count(),
+                4,
+                buffers,
+                Some(&mut |i, b| exact[i] = u32::from_le_bytes([b[0], b[1], b[2], b[3]])),
+            )?;
         }
         if acc.sparse().is_some() {
             return Err(format!("{what}: sparse u32 index accessors are not supported"));

@@ -1,11 +1,13 @@
 //! The file's binary data: the GLB chunk, external files and `data:` URIs.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use base64::Engine;
 
 use super::Loader;
-use crate::error::Result;
+use crate::error::{Result, shorten};
+use crate::util::files::read_bounded;
+use crate::util::limits::{MAX_SCENE_BUFFERS, MAX_SCENE_FILE};
 
 impl Loader<'_> {
     pub(super) fn load_buffers(&mut self, mut blob: Option<Vec<u8>>) -> Result<()> {
@@ -18,6 +20,12 @@ impl Loader<'_> {
                 })?,
                 gltf::buffer::Source::Uri(uri) => self.read_uri(uri, &format!("buffer {i}"))?,
             };
+            self.buffer_bytes += data.len() as u64;
+            if self.buffer_bytes > MAX_SCENE_BUFFERS {
+                return Err(self.err(format!(
+                    "buffer {i}: the scene's buffers hold more than the limit of {MAX_SCENE_BUFFERS} bytes"
+                )));
+            }
             if data.len() < buffer.length() {
                 return Err(self.err(format!(
                     "buffer {i} holds {} bytes but declares byteLength {}",
@@ -30,29 +38,81 @@ impl Loader<'_> {
         Ok(())
     }
 
-    /// Reads a `data:` URI or a file relative to the glTF file.
+    /// Reads a `data:` URI or a file relative to the glTF file. Files must be regular files in
+    /// the scene file's folder or below it (symlinks resolved), unless the options allow
+    /// external files; either way at most `MAX_SCENE_FILE` bytes, and FIFOs or devices are
+    /// refused without blocking.
     pub(super) fn read_uri(&self, uri: &str, what: &str) -> Result<Vec<u8>> {
+        let budget = MAX_SCENE_BUFFERS.saturating_sub(self.buffer_bytes);
         if let Some(rest) = uri.strip_prefix("data:") {
             let (header, payload) =
                 rest.split_once(',').ok_or_else(|| self.err(format!("{what}: malformed data: URI (no comma)")))?;
             if !header.ends_with(";base64") || header.contains(";;") {
-                return Err(self.err(format!("{what}: data: URI is not base64 (\"data:{header},...\")")));
+                return Err(self.err(format!("{what}: data: URI is not base64 (\"data:{},...\")", shorten(header))));
+            }
+            let payload = payload.trim();
+            if payload.len() as u64 / 4 * 3 > budget {
+                return Err(self.err(format!(
+                    "{what}: the scene's buffers and images hold more than the limit of {MAX_SCENE_BUFFERS} bytes"
+                )));
             }
             return base64::engine::general_purpose::STANDARD
-                .decode(payload.trim())
+                .decode(payload)
                 .map_err(|e| self.err(format!("{what}: data: URI holds invalid base64 ({e})")));
         }
+        let shown = shorten(uri);
         if uri.is_empty() || uri.contains("://") || uri.starts_with(':') {
             return Err(
-                self.err(format!("{what}: unsupported URI \"{uri}\" (only relative file paths and data: URIs)"))
+                self.err(format!("{what}: unsupported URI \"{shown}\" (only relative file paths and data: URIs)"))
             );
         }
         let Some(base) = self.base else {
-            return Err(self.err(format!("{what}: external file \"{uri}\" cannot be read from an in-memory document")));
+            return Err(
+                self.err(format!("{what}: external file \"{shown}\" cannot be read from an in-memory document"))
+            );
         };
         let rel = percent_decode(uri);
         let file: PathBuf = base.join(&rel);
-        std::fs::read(&file).map_err(|e| self.err(format!("{what}: cannot read \"{}\": {e}", file.display())))
+        if !self.options.allow_external_files {
+            self.check_inside(base, &rel, &file, what, &shown)?;
+        }
+        read_bounded(&file, MAX_SCENE_FILE.min(budget)).map_err(|m| self.err(format!("{what}: \"{shown}\": {m}")))
+    }
+
+    /// Refuses a URI that resolves outside the scene file's folder (README "Security").
+    fn check_inside(&self, base: &Path, rel: &str, file: &Path, what: &str, shown: &str) -> Result<()> {
+        let outside = |why: &str| {
+            self.err(format!(
+                "{what}: \"{shown}\" {why}; glTF URIs are relative references inside the scene's folder \
+                 (--allow-external-files permits others)"
+            ))
+        };
+        let rel_path = Path::new(rel);
+        if rel_path.is_absolute() || rel.starts_with('/') || rel.starts_with('\\') || rel_path.has_root() {
+            return Err(outside("is an absolute path"));
+        }
+        let root = std::fs::canonicalize(if base.as_os_str().is_empty() { Path::new(".") } else { base })
+            .map_err(|e| self.err(format!("{what}: cannot resolve the scene's folder: {e}")))?;
+        match std::fs::canonicalize(file) {
+            Ok(real) if real.starts_with(&root) => Ok(()),
+            Ok(_) => Err(outside("resolves outside the scene's folder")),
+            // A missing file: refuse `..` components that would leave the folder, else let the
+            // read report it.
+            Err(_) => {
+                let mut depth = 0i64;
+                for c in rel_path.components() {
+                    match c {
+                        std::path::Component::ParentDir => depth -= 1,
+                        std::path::Component::Normal(_) => depth += 1,
+                        _ => {}
+                    }
+                    if depth < 0 {
+                        return Err(outside("resolves outside the scene's folder"));
+                    }
+                }
+                Ok(())
+            }
+        }
     }
 }
 

@@ -5,6 +5,8 @@ use glam::Vec4;
 use super::Loader;
 use crate::error::Result;
 use crate::scene::{Filter, Material, Texture, TextureRef, Wrap};
+use crate::util::files::decode_image;
+use crate::util::limits::{MAX_IMAGE_PIXELS, MAX_SCENE_TEXELS};
 
 impl Loader<'_> {
     pub(super) fn material(&mut self, m: gltf::Material) -> Result<usize> {
@@ -78,8 +80,17 @@ impl Loader<'_> {
             }
             gltf::image::Source::Uri { uri, .. } => self.read_uri(uri, &what)?,
         };
-        let decoded = image::load_from_memory(&bytes).map_err(|e| self.err(format!("{what}: cannot decode: {e}")))?;
-        let rgba = decoded.to_rgba8();
+        // The size is checked against the scene's texel budget before decoding (a 66 KB
+        // 1-bit PNG may declare 23000 x 23000), and texels are kept as 8-bit RGBA.
+        let budget = MAX_SCENE_TEXELS.saturating_sub(self.texels).min(MAX_IMAGE_PIXELS);
+        let decoded = decode_image(&bytes, budget).map_err(|e| {
+            self.err(format!(
+                "{what}: cannot decode: {e} (the scene's textures may hold {MAX_SCENE_TEXELS} texels in all)"
+            ))
+        })?;
+        drop(bytes);
+        self.texels += decoded.width() as u64 * decoded.height() as u64;
+        let rgba = decoded.into_rgba8();
         let sampler = t.sampler();
         let wrap = |w: gltf::texture::WrappingMode| match w {
             gltf::texture::WrappingMode::ClampToEdge => Wrap::Clamp,
@@ -90,14 +101,9 @@ impl Loader<'_> {
             Some(gltf::texture::MagFilter::Nearest) => Filter::Nearest,
             _ => Filter::Linear,
         };
-        let tex = Texture::from_srgba8(
-            rgba.width(),
-            rgba.height(),
-            rgba.as_raw(),
-            wrap(sampler.wrap_s()),
-            wrap(sampler.wrap_t()),
-            filter,
-        );
+        let (width, height) = rgba.dimensions();
+        let texels = rgba.into_raw().chunks_exact(4).map(|p| [p[0], p[1], p[2], p[3]]).collect();
+        let tex = Texture::from_texels(width, height, texels, wrap(sampler.wrap_s()), wrap(sampler.wrap_t()), filter);
         if tex.width == 0 || tex.height == 0 {
             return Err(self.err(format!("{what}: image is empty")));
         }

@@ -22,9 +22,11 @@ use std::path::Path;
 
 use glam::DMat4;
 
-use super::Scene;
+use super::{LoadOptions, Scene};
 use crate::error::{Error, Result};
-use validate::{check_references, check_required_extensions, describe_gltf_error};
+use crate::util::files::read_bounded;
+use crate::util::limits::MAX_SCENE_FILE;
+use validate::{check_indices, check_references, check_required_extensions, describe_gltf_error};
 
 /// Extensions whose data we read. Anything else listed in `extensionsRequired` is refused.
 const SUPPORTED_REQUIRED: &[&str] = &[
@@ -39,35 +41,29 @@ const SUPPORTED_REQUIRED: &[&str] = &[
     "KHR_materials_sheen",
 ];
 
-/// Largest file we read into memory, bytes.
-const MAX_FILE: u64 = 2 << 30;
 /// Most triangles a scene may expand to once instanced: about 100 bytes each in the render
 /// space plus the BVH, so ~6 GB at this bound.
 pub const MAX_TRIANGLES: usize = 50_000_000;
 
-pub(super) fn load(path: &Path) -> Result<Scene> {
-    let meta = std::fs::metadata(path).map_err(|e| Error::scene(path, format!("cannot read: {e}")))?;
-    if meta.is_dir() {
+pub(super) fn load(path: &Path, options: LoadOptions) -> Result<Scene> {
+    if path.is_dir() {
         return Err(Error::scene(path, "is a directory, not a .gltf or .glb file"));
     }
-    if meta.len() > MAX_FILE {
-        return Err(Error::scene(path, format!("{} bytes is larger than the {MAX_FILE}-byte limit", meta.len())));
-    }
-    let bytes = std::fs::read(path).map_err(|e| Error::scene(path, format!("cannot read: {e}")))?;
+    let bytes = read_bounded(path, MAX_SCENE_FILE).map_err(|m| Error::scene(path, m))?;
     let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    load_bytes(&bytes, path, Some(&base))
+    load_bytes(&bytes, path, Some(&base), options)
 }
 
 pub(super) fn load_slice(bytes: &[u8], name: &Path) -> Result<Scene> {
-    load_bytes(bytes, name, None)
+    load_bytes(bytes, name, None, LoadOptions::default())
 }
 
-fn load_bytes(bytes: &[u8], path: &Path, base: Option<&Path>) -> Result<Scene> {
+fn load_bytes(bytes: &[u8], path: &Path, base: Option<&Path>, options: LoadOptions) -> Result<Scene> {
     // The gltf crate is trusted not to panic on malformed input, but a panic must never
     // reach the user: turn one into an error naming the file.
     let hook = std::panic::take_hook();
     std::panic::set_hook(Box::new(|_| {}));
-    let result = std::panic::catch_unwind(|| Loader::parse(bytes, path, base));
+    let result = std::panic::catch_unwind(|| Loader::parse(bytes, path, base, options));
     std::panic::set_hook(hook);
     match result {
         Ok(r) => r,
@@ -78,6 +74,15 @@ fn load_bytes(bytes: &[u8], path: &Path, base: Option<&Path>) -> Result<Scene> {
 struct Loader<'a> {
     path: &'a Path,
     base: Option<&'a Path>,
+    options: LoadOptions,
+    /// Bytes of binary buffers read so far (bounded by `MAX_SCENE_BUFFERS`).
+    buffer_bytes: u64,
+    /// Texels of textures decoded so far (bounded by `MAX_SCENE_TEXELS`).
+    texels: u64,
+    /// Vertices of meshes read so far (bounded by `MAX_SCENE_VERTICES`).
+    vertices: usize,
+    /// Morph deltas applied and joints composed so far (bounded by `MAX_LOAD_WORK`).
+    work: usize,
     doc: &'a gltf::Document,
     /// extensionsRequired as in the file (the validated copy drops those we vetted).
     required: Vec<String>,
@@ -99,13 +104,25 @@ impl<'a> Loader<'a> {
         Error::scene(self.path, message)
     }
 
+    /// Counts `n` more elements of work against `MAX_LOAD_WORK`.
+    fn add_work(&mut self, n: usize, what: &str) -> Result<()> {
+        self.work = self.work.saturating_add(n);
+        if self.work > crate::util::limits::MAX_LOAD_WORK {
+            return Err(self.err(format!(
+                "{what}: the scene asks for more than {} morph deltas and skin joints in all (instances counted each)",
+                crate::util::limits::MAX_LOAD_WORK
+            )));
+        }
+        Ok(())
+    }
+
     fn warn(&mut self, message: String) {
         if self.warned.insert(message.clone()) {
             self.scene.warnings.push(message);
         }
     }
 
-    fn parse(bytes: &[u8], path: &'a Path, base: Option<&'a Path>) -> Result<Scene> {
+    fn parse(bytes: &[u8], path: &'a Path, base: Option<&'a Path>, options: LoadOptions) -> Result<Scene> {
         if bytes.is_empty() {
             return Err(Error::scene(path, "the file is empty"));
         }
@@ -132,12 +149,25 @@ impl<'a> Loader<'a> {
                         ),
                     ));
                 }
+                // Bytes past the declared length would be silently ignored: a file that is not
+                // what its header says is refused.
+                Some(n) if n as usize != bytes.len() => {
+                    return Err(Error::scene(
+                        path,
+                        format!(
+                            "malformed GLB container: its header declares {n} bytes but the file has {}",
+                            bytes.len()
+                        ),
+                    ));
+                }
                 _ => {}
             }
         }
         if !is_glb && bytes.len() >= 4 && bytes[..4].contains(&0) && !bytes.starts_with(b"{") {
             return Err(Error::scene(path, "not a glTF file: neither a GLB header ('glTF' magic) nor JSON"));
         }
+        // The gltf crate wraps indices above u32::MAX (node.mesh 4294967296 became mesh 0).
+        check_indices(path, bytes, is_glb)?;
         let gltf =
             gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| Error::scene(path, describe_gltf_error(e)))?;
         let gltf::Gltf { document, blob } = gltf;
@@ -152,6 +182,11 @@ impl<'a> Loader<'a> {
         let mut loader = Loader {
             path,
             base,
+            options,
+            buffer_bytes: 0,
+            texels: 0,
+            vertices: 0,
+            work: 0,
             doc: &document,
             required,
             buffers: Vec::new(),

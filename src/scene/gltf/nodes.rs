@@ -4,8 +4,9 @@
 use glam::{DMat4, DVec3, DVec4, Vec3};
 
 use super::{Loader, MAX_TRIANGLES};
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, short_num};
 use crate::scene::{Light, LightKind, Object, Projection, SceneCamera};
+use crate::util::limits::{MAX_LIGHTS, MAX_OBJECTS};
 
 impl<'a> Loader<'a> {
     pub(super) fn load_scene(&mut self) -> Result<()> {
@@ -34,6 +35,12 @@ impl<'a> Loader<'a> {
                 }
             }
             if let Some(light) = node.light() {
+                if self.scene.lights.len() >= MAX_LIGHTS {
+                    return Err(self.err(format!(
+                        "node {}: more than {MAX_LIGHTS} lights (each is evaluated at every sample)",
+                        node.index()
+                    )));
+                }
                 let l = self.light(&node, light, world)?;
                 self.scene.lights.push(l);
             }
@@ -118,7 +125,16 @@ impl<'a> Loader<'a> {
                 if o.zfar() <= o.znear() {
                     return Err(self.err(format!("camera {}: zfar is not greater than znear", camera.index())));
                 }
-                Projection::Orthographic { ymag: (o.ymag() as f64).abs() }
+                let ymag = o.ymag() as f64;
+                if !(ymag.is_finite() && ymag != 0.0) || !(o.xmag().is_finite() && o.xmag() != 0.0) {
+                    return Err(self.err(format!(
+                        "camera {}: orthographic xmag {} / ymag {} must be finite and non-zero",
+                        camera.index(),
+                        short_num(o.xmag() as f64),
+                        short_num(ymag)
+                    )));
+                }
+                Projection::Orthographic { ymag: ymag.abs() }
             }
         };
         let f = forward.try_normalize();
@@ -166,7 +182,10 @@ impl<'a> Loader<'a> {
 
     pub(super) fn instance(&mut self, node: &gltf::Node<'a>, mesh: gltf::Mesh<'a>, world: DMat4) -> Result<()> {
         let skin_matrices = match node.skin() {
-            Some(skin) => Some(self.skin_matrices(&skin)?),
+            Some(skin) => {
+                self.add_work(skin.joints().len(), &format!("skin {}", skin.index()))?;
+                Some(self.skin_matrices(&skin)?)
+            }
             None => None,
         };
         // Morph weights: the node's, else the mesh's defaults.
@@ -192,6 +211,9 @@ impl<'a> Loader<'a> {
                 return Err(self.err(format!(
                     "the scene expands to more than {MAX_TRIANGLES} triangles (meshes instanced by many nodes)"
                 )));
+            }
+            if self.scene.objects.len() >= MAX_OBJECTS {
+                return Err(self.err(format!("the scene places more than {MAX_OBJECTS} mesh instances")));
             }
             let name = node.name().map(str::to_string).unwrap_or_else(|| format!("node {}", node.index()));
             // Skinned vertices are already in scene space (glTF ignores the node's transform).

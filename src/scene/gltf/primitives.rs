@@ -4,10 +4,11 @@
 use glam::{DMat4, Vec2, Vec3, Vec4};
 use gltf::mesh::Mode;
 
-use super::Loader;
 use super::accessor::{read_floats, read_indices};
+use super::{Loader, MAX_TRIANGLES};
 use crate::error::{Error, Result};
 use crate::scene::{Mesh, compute_normals};
+use crate::util::limits::MAX_SCENE_VERTICES;
 
 impl<'a> Loader<'a> {
     /// Reads one primitive into a `Mesh`; `None` for primitives without triangles.
@@ -51,6 +52,25 @@ impl<'a> Loader<'a> {
                 pos_acc.data_type()
             )));
         }
+        // Counts first, then the vectors: a count is checked against the limits before
+        // anything is allocated for it.
+        let count = pos_acc.count();
+        self.vertices = self.vertices.saturating_add(count);
+        if self.vertices > MAX_SCENE_VERTICES {
+            return Err(self.err(format!(
+                "{what}: {count} vertices bring the scene past the limit of {MAX_SCENE_VERTICES} vertices"
+            )));
+        }
+        let index_count = prim.indices().map_or(count, |a| a.count());
+        let triangles = match mode {
+            Mode::Triangles => index_count / 3,
+            _ => index_count.saturating_sub(2),
+        };
+        if self.triangles.saturating_add(triangles) > MAX_TRIANGLES {
+            return Err(self.err(format!(
+                "{name}: {triangles} triangles bring the scene past the limit of {MAX_TRIANGLES} triangles"
+            )));
+        }
         let raw = read_floats::<3>(&pos_acc, &self.buffers, &what).map_err(|m| self.err(m))?;
         let mut positions: Vec<Vec3> = raw.iter().map(|p| Vec3::from(*p)).collect();
         if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
@@ -76,6 +96,7 @@ impl<'a> Loader<'a> {
             if w == 0.0 {
                 continue;
             }
+            self.add_work(positions.len(), &name)?;
             if let Some(acc) = target.positions() {
                 let what = format!("accessor {} (morph target {t} POSITION of {name})", acc.index());
                 let d = read_floats::<3>(&acc, &self.buffers, &what).map_err(|m| self.err(m))?;

@@ -53,6 +53,110 @@ pub(super) fn check_references(path: &Path, root: &gltf::json::Root) -> Result<(
     Ok(())
 }
 
+/// Refuses integers above u32::MAX anywhere in the JSON but `extras` (the user's own data):
+/// glTF indices are 32-bit and the gltf crate wraps larger ones (node.mesh 4294967296 became
+/// mesh 0), and every byte count or element count above that is beyond our limits anyway.
+/// Streams through the JSON without building it. Malformed JSON is left to the gltf crate.
+pub(super) fn check_indices(path: &Path, bytes: &[u8], is_glb: bool) -> Result<()> {
+    let json = if is_glb {
+        let len = bytes.get(12..16).map(|l| u32::from_le_bytes([l[0], l[1], l[2], l[3]]) as usize);
+        match (len, bytes.get(16..20)) {
+            (Some(len), Some(b"JSON")) => match bytes.get(20..20usize.saturating_add(len)) {
+                Some(j) => j,
+                None => return Ok(()),
+            },
+            _ => return Ok(()),
+        }
+    } else {
+        bytes
+    };
+    let mut found = None;
+    let mut at = Vec::new();
+    let mut de = serde_json::Deserializer::from_slice(json);
+    let walk = Walk { at: &mut at, found: &mut found };
+    if serde::de::DeserializeSeed::deserialize(walk, &mut de).is_err() {
+        return Ok(());
+    }
+    match found {
+        Some((at, v)) => {
+            Err(Error::scene(path, format!("{at}: {v} is not a valid glTF index or count (above 4294967295)")))
+        }
+        None => Ok(()),
+    }
+}
+
+/// A JSON walk that records the first integer above u32::MAX and where it is.
+struct Walk<'w> {
+    at: &'w mut Vec<String>,
+    found: &'w mut Option<(String, u64)>,
+}
+
+impl<'de> serde::de::DeserializeSeed<'de> for Walk<'_> {
+    type Value = ();
+    fn deserialize<D: serde::Deserializer<'de>>(self, d: D) -> std::result::Result<(), D::Error> {
+        d.deserialize_any(self)
+    }
+}
+
+impl<'de> serde::de::Visitor<'de> for Walk<'_> {
+    type Value = ();
+    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str("JSON")
+    }
+    fn visit_u64<E>(self, v: u64) -> std::result::Result<(), E> {
+        if v > u32::MAX as u64 && self.found.is_none() {
+            let mut at = String::new();
+            for part in self.at.iter() {
+                if !part.starts_with('[') && !at.is_empty() {
+                    at.push('.');
+                }
+                at.push_str(part);
+            }
+            *self.found = Some((crate::error::shorten(&at), v));
+        }
+        Ok(())
+    }
+    fn visit_i64<E>(self, _: i64) -> std::result::Result<(), E> {
+        Ok(())
+    }
+    fn visit_f64<E>(self, _: f64) -> std::result::Result<(), E> {
+        Ok(())
+    }
+    fn visit_bool<E>(self, _: bool) -> std::result::Result<(), E> {
+        Ok(())
+    }
+    fn visit_str<E>(self, _: &str) -> std::result::Result<(), E> {
+        Ok(())
+    }
+    fn visit_unit<E>(self) -> std::result::Result<(), E> {
+        Ok(())
+    }
+    fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> std::result::Result<(), A::Error> {
+        let mut i = 0usize;
+        loop {
+            self.at.push(format!("[{i}]"));
+            let more = seq.next_element_seed(Walk { at: self.at, found: self.found })?;
+            self.at.pop();
+            if more.is_none() {
+                return Ok(());
+            }
+            i += 1;
+        }
+    }
+    fn visit_map<A: serde::de::MapAccess<'de>>(self, mut map: A) -> std::result::Result<(), A::Error> {
+        while let Some(key) = map.next_key::<std::borrow::Cow<'de, str>>()? {
+            if key == "extras" {
+                map.next_value::<serde::de::IgnoredAny>()?;
+                continue;
+            }
+            self.at.push(key.into_owned());
+            map.next_value_seed(Walk { at: self.at, found: self.found })?;
+            self.at.pop();
+        }
+        Ok(())
+    }
+}
+
 pub(super) fn describe_gltf_error(e: gltf::Error) -> String {
     match e {
         gltf::Error::Validation(list) => {

@@ -1,0 +1,394 @@
+//! Brushwork (ART.md "Visible brushwork", issue 13): a stroke layer that repaints each plane
+//! with short, mostly parallel strokes whose direction changes from plane to plane, as
+//! Cezanne's and the cubists' hatching.
+//!
+//! After Hertzmann ("Painterly rendering with curved brush strokes of multiple sizes", 1998):
+//! layers of strokes from coarse to fine, each stroke one colour sampled from the picture
+//! under it, the finer layer painted only where the coarser one strays from the picture by
+//! more than a threshold (so detail and the legible cues get small strokes, calm areas keep
+//! the large ones). Unlike his curved strokes, ours are straight dabs aligned per plane:
+//! every stroke takes its plane's direction (across the plane's light ramp, `planes`, plus a
+//! seeded turn per plane and a small one per stroke) and paints only the pixels of its own
+//! plane and object, so facet borders and silhouettes stay crisp and each plane reads as
+//! hatched on its own.
+//!
+//! Speed and determinism (Lu, Sander and Finkelstein 2010 splat 60,000 strokes on a GPU): the
+//! strokes sit one per cell of a jittered grid (seeded per cell), sorted once by a seeded
+//! depth key into per-cell lists (compressed rows, no allocation per stroke); then every pixel
+//! composites, in that global order, the few strokes listed for its cell. Each pixel is
+//! computed alone from the same lists, so the result is identical on any thread count.
+//!
+//! A stroke's look: a flat colour (the mean of the picture at three points along it, value
+//! jittered by a few percent), rounded ends, a crisp anti-aliased edge, bristle streaks along
+//! its length (1-D noise across it modulating value) and a dry-brush tail where only the
+//! loaded bristles still leave paint.
+
+use glam::{Vec2, Vec3, Vec4};
+use rayon::prelude::*;
+
+use super::noise::lattice1;
+use super::planes::{Plane, planes, smoothstep};
+use super::{Canvas, Coverage, Effect, PaintContext, luminance};
+use crate::error::Result;
+use crate::film::PixelHit;
+use crate::util::rng::{splitmix64, sub_seed, unit_f64};
+
+const SALT: u64 = 0x6272_7573_6877_6f72; // "brushwor"
+/// Grid spacing of stroke anchors, in stroke widths (strokes side by side, overlapping).
+pub const SPACING: f32 = 1.5;
+/// Largest seeded turn of a plane's strokes off the direction across its ramp, degrees.
+pub const PLANE_TURN_DEG: f32 = 20.0;
+/// Largest turn of one stroke off its plane's direction, degrees.
+pub const STROKE_TURN_DEG: f32 = 6.0;
+/// Largest relative change of a stroke's value.
+pub const VALUE_JITTER: f32 = 0.16;
+/// Value change across the bristle streaks (peak to peak).
+pub const BRISTLE_VALUE: f32 = 0.14;
+/// Bristle streaks across a stroke (lattice cells of the 1-D noise).
+pub const BRISTLES: usize = 4;
+/// The fine layer paints where the coarse layer strays from the picture by more than this
+/// (mean difference of the square root of luminance, roughly perceptual).
+pub const FINE_THRESHOLD: f32 = 0.025;
+/// A pixel darker than the first share of a stroke's luminance keeps its paint; the stroke
+/// covers it fully from the second share on.
+pub const DARK_KEPT: (f32, f32) = (0.45, 0.8);
+/// Strokes narrower than this (pixels) are not painted: the layer would be noise.
+pub const MIN_WIDTH: f32 = 1.5;
+
+/// A stroke layer over the picture.
+pub struct Brushwork {
+    /// Opacity of the strokes, in [0, 1].
+    pub opacity: f32,
+    /// Coarse stroke length, pixels of this image.
+    pub length: f32,
+    /// Coarse stroke width, pixels of this image.
+    pub width: f32,
+    pub seed: u64,
+}
+
+/// One stroke: a flat dab of `colour`, `2 half_len` long along `dir`, `2 half_wid` wide.
+/// The fields every pixel test reads come first (one cache line).
+#[derive(Clone, Copy, Debug)]
+struct Stroke {
+    centre: Vec2,
+    dir: Vec2,
+    half_len: f32,
+    half_wid: f32,
+    /// The plane and object it paints (see `Region`).
+    region: Region,
+    inv_half_len: f32,
+    inv_half_wid: f32,
+    colour: Vec3,
+    /// 1 / luminance of `colour` (0 for black).
+    inv_value: f32,
+    /// Luminance of `colour`.
+    value: f32,
+    /// The bristles' loads across the stroke: 1-D value noise lattice values.
+    bristles: [f32; BRISTLES + 1],
+    /// Depth key: strokes are composited in increasing key order.
+    key: u64,
+}
+
+/// What a stroke may paint: one facet of one object (the background counting as one), as
+/// facet id << 32 | object id.
+type Region = u64;
+
+/// The strokes of one layer listed per grid cell (compressed rows), each list in key order.
+struct Bins {
+    cell: f32,
+    nx: usize,
+    ny: usize,
+    start: Vec<u32>,
+    items: Vec<u32>,
+    strokes: Vec<Stroke>,
+}
+
+impl Bins {
+    fn new(mut strokes: Vec<Stroke>, cell: f32, width: usize, height: usize) -> Bins {
+        strokes.sort_unstable_by_key(|s| s.key);
+        let nx = ((width as f32 / cell).ceil() as usize).max(1);
+        let ny = ((height as f32 / cell).ceil() as usize).max(1);
+        // The cells a stroke's rectangle (widened by the anti-aliasing half pixel) overlaps:
+        // those of its bounding box that no axis separates from it (the rectangle's own two
+        // axes; the bounding box already settles x and y).
+        let cells = |s: &Stroke, mut visit: Box<dyn FnMut(usize) + '_>| {
+            let hw = s.half_wid + 1.0;
+            let ext = Vec2::new(
+                s.dir.x.abs() * s.half_len + s.dir.y.abs() * hw,
+                s.dir.y.abs() * s.half_len + s.dir.x.abs() * hw,
+            );
+            let (lo, hi) = ((s.centre - ext) / cell, (s.centre + ext) / cell);
+            let cx = (lo.x.floor().max(0.0) as usize, (hi.x.floor().max(0.0) as usize).min(nx - 1));
+            let cy = (lo.y.floor().max(0.0) as usize, (hi.y.floor().max(0.0) as usize).min(ny - 1));
+            let half = 0.5 * cell;
+            let reach = half * (s.dir.x.abs() + s.dir.y.abs());
+            for y in cy.0..=cy.1 {
+                for x in cx.0..=cx.1 {
+                    let d = Vec2::new((x as f32 + 0.5) * cell, (y as f32 + 0.5) * cell) - s.centre;
+                    if d.dot(s.dir).abs() <= s.half_len + reach && d.perp_dot(s.dir).abs() <= hw + reach {
+                        visit(y * nx + x);
+                    }
+                }
+            }
+        };
+        let mut start = vec![0u32; nx * ny + 1];
+        for s in &strokes {
+            cells(s, Box::new(|c| start[c + 1] += 1));
+        }
+        for k in 1..start.len() {
+            start[k] += start[k - 1];
+        }
+        let mut fill = start.clone();
+        let mut items = vec![0u32; *start.last().unwrap_or(&0) as usize];
+        for (k, s) in strokes.iter().enumerate() {
+            cells(
+                s,
+                Box::new(|c| {
+                    items[fill[c] as usize] = k as u32;
+                    fill[c] += 1;
+                }),
+            );
+        }
+        Bins { cell, nx, ny, start, items, strokes }
+    }
+
+    /// The strokes listed for the cell holding `p`, as indices into `strokes`.
+    fn at(&self, p: Vec2) -> &[u32] {
+        let cx = ((p.x / self.cell) as usize).min(self.nx - 1);
+        let cy = ((p.y / self.cell) as usize).min(self.ny - 1);
+        let c = cy * self.nx + cx;
+        &self.items[self.start[c] as usize..self.start[c + 1] as usize]
+    }
+}
+
+fn fade(t: f32) -> f32 {
+    t * t * (3.0 - 2.0 * t)
+}
+
+/// Paints `s` over colour `c` at pixel centre `p` (of `region`, luminance `value` before the
+/// layer), at `opacity`.
+#[inline]
+fn paint(s: &Stroke, p: Vec2, region: Region, value: f32, c: Vec3, opacity: f32) -> Vec3 {
+    let d = p - s.centre;
+    let u = d.dot(s.dir);
+    if u.abs() >= s.half_len {
+        return c;
+    }
+    let v = d.perp_dot(s.dir).abs();
+    if v >= s.half_wid + 0.5 || s.region != region {
+        return c;
+    }
+    let un = u * s.inv_half_len;
+    // Rounded ends: the half width narrows as 1 - un^6.
+    let un2 = un * un;
+    let hw = s.half_wid * (1.0 - un2 * un2 * un2);
+    let edge = (hw - v + 0.5).clamp(0.0, 1.0);
+    if edge <= 0.0 {
+        return c;
+    }
+    // The bristle under this point: 1-D value noise across the stroke (its two sides alike).
+    let x = ((v * s.inv_half_wid) * BRISTLES as f32).min(BRISTLES as f32 - 1e-3);
+    let k = x as usize;
+    let b = s.bristles[k] + (s.bristles[k + 1] - s.bristles[k]) * fade(x - k as f32);
+    let mut alpha = edge * opacity;
+    // Dry-brush tail: over the last half of the length only the loaded bristles paint.
+    if un > 0.5 {
+        let t = (un - 0.5) * 1.4 - 0.2;
+        alpha *= smoothstep(t, t + 0.2, b);
+    }
+    // Dark accents (lines, deep shadows, small dark cues) under a much lighter stroke show
+    // through: the painter's drawing stays on top.
+    if value < DARK_KEPT.1 * s.value {
+        alpha *= smoothstep(DARK_KEPT.0, DARK_KEPT.1, value * s.inv_value);
+    }
+    let shade = 1.0 + BRISTLE_VALUE * (b - 0.5);
+    c.lerp(s.colour * shade, alpha)
+}
+
+/// What the layers read: the image size, each pixel's region and whether it is painted.
+struct Surface<'a> {
+    w: usize,
+    h: usize,
+    regions: Vec<Region>,
+    coverage: Coverage<'a>,
+}
+
+impl<'a> Surface<'a> {
+    fn new(w: usize, h: usize, ids: Option<&[u32]>, hits: Option<&[PixelHit]>, coverage: Coverage<'a>) -> Self {
+        let regions = (0..w * h)
+            .into_par_iter()
+            .map(|i| ((ids.map_or(0, |d| d[i]) as u64) << 32) | hits.map_or(0, |h| h[i].object) as u64)
+            .collect();
+        Surface { w, h, regions, coverage }
+    }
+
+    fn region(&self, i: usize) -> Region {
+        self.regions[i]
+    }
+}
+
+impl Brushwork {
+    /// Each plane's stroke direction (unit, image coordinates): across its light ramp (along
+    /// the plane's iso-value lines, as hatching follows a plane), turned by a seeded angle of
+    /// at most `PLANE_TURN_DEG`.
+    pub fn directions(&self, planes: &[Plane]) -> Vec<Vec2> {
+        let seed = sub_seed(self.seed, SALT);
+        planes
+            .iter()
+            .enumerate()
+            .map(|(f, p)| {
+                let turn = (2.0 * unit_f64(splitmix64(seed ^ splitmix64(f as u64))) as f32 - 1.0)
+                    * PLANE_TURN_DEG.to_radians();
+                Vec2::from_angle(turn).rotate(p.dark.perp())
+            })
+            .collect()
+    }
+
+    /// The strokes of layer `layer` (0 coarse, 1 fine): one per grid cell, anchored at a
+    /// seeded point of the cell, on a painted pixel; `keep(anchor)` says whether the cell
+    /// gets its stroke. Colours are sampled from `source`.
+    #[allow(clippy::too_many_arguments)]
+    fn strokes(
+        &self,
+        layer: u64,
+        length: f32,
+        width: f32,
+        surface: &Surface,
+        angle: &[Vec2],
+        source: &[Vec4],
+        keep: &(dyn Fn(Vec2) -> bool + Sync),
+    ) -> Vec<Stroke> {
+        let (w, h) = (surface.w, surface.h);
+        let cell = width * SPACING;
+        let (nx, ny) = ((w as f32 / cell).ceil() as usize, (h as f32 / cell).ceil() as usize);
+        let seed = splitmix64(sub_seed(self.seed, SALT) ^ layer);
+        (0..ny)
+            .into_par_iter()
+            .flat_map_iter(|cy| {
+                (0..nx).filter_map(move |cx| {
+                    let hsh = splitmix64(seed ^ splitmix64((cy * nx + cx) as u64));
+                    let r = |k: u64| unit_f64(splitmix64(hsh ^ k)) as f32;
+                    let centre = Vec2::new((cx as f32 + r(1)) * cell, (cy as f32 + r(2)) * cell);
+                    let (x, y) = (centre.x as usize, centre.y as usize);
+                    if x >= w || y >= h {
+                        return None;
+                    }
+                    let i = y * w + x;
+                    if !surface.coverage.is_painted(i) || !keep(centre) {
+                        return None;
+                    }
+                    let region = surface.region(i);
+                    let turn = (2.0 * r(3) - 1.0) * STROKE_TURN_DEG.to_radians();
+                    let dir = Vec2::from_angle(turn).rotate(angle[(region >> 32) as usize]);
+                    let half_len = 0.5 * length * (0.8 + 0.4 * r(4));
+                    // The mean colour along the stroke, within its region.
+                    let (mut sum, mut n) = (Vec3::ZERO, 0.0f32);
+                    for k in [-0.6f32, 0.0, 0.6] {
+                        let q = centre + dir * (k * half_len);
+                        if q.x < 0.0 || q.y < 0.0 || q.x >= w as f32 || q.y >= h as f32 {
+                            continue;
+                        }
+                        let j = q.y as usize * w + q.x as usize;
+                        if surface.region(j) == region && surface.coverage.is_painted(j) {
+                            sum += source[j].truncate();
+                            n += 1.0;
+                        }
+                    }
+                    let colour = sum / n.max(1.0) * (1.0 + VALUE_JITTER * (2.0 * r(5) - 1.0));
+                    let bristle_seed = splitmix64(hsh ^ 6);
+                    Some(Stroke {
+                        centre,
+                        dir,
+                        half_len,
+                        half_wid: 0.5 * width,
+                        colour,
+                        inv_value: if luminance(colour) > 0.0 { 1.0 / luminance(colour) } else { 0.0 },
+                        value: luminance(colour),
+                        inv_half_len: 1.0 / half_len,
+                        inv_half_wid: 2.0 / width,
+                        region,
+                        bristles: std::array::from_fn(|k| lattice1(bristle_seed, k as i64)),
+                        key: splitmix64(hsh ^ 7),
+                    })
+                })
+            })
+            .collect()
+    }
+}
+
+/// Composites the strokes of `bins` over every painted pixel of `px` in place (rows in
+/// parallel; each pixel alone, strokes in key order).
+fn composite(bins: &Bins, px: &mut [Vec4], surface: &Surface, opacity: f32) {
+    let w = surface.w;
+    px.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+        for (x, p) in row.iter_mut().enumerate() {
+            let i = y * w + x;
+            if !surface.coverage.is_painted(i) {
+                continue;
+            }
+            let q = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
+            let region = surface.region(i);
+            let mut c = p.truncate();
+            let value = luminance(c);
+            for &k in bins.at(q) {
+                c = paint(&bins.strokes[k as usize], q, region, value, c, opacity);
+            }
+            *p = c.extend(p.w);
+        }
+    });
+}
+
+impl Effect for Brushwork {
+    fn name(&self) -> &'static str {
+        "brushwork"
+    }
+
+    fn apply(&self, canvas: &mut Canvas<'_>, ctx: &PaintContext) -> Result<()> {
+        let (w, h) = (canvas.width as usize, canvas.height as usize);
+        let width = self.width.max(MIN_WIDTH);
+        if w == 0 || h == 0 || !(self.opacity > 0.0) || !(self.length > 0.0) {
+            return Ok(());
+        }
+        let length = self.length.max(width);
+        let ids = ctx.facets.map(|f| &f.ids[..]);
+        let planes = match ids {
+            Some(ids) => planes(canvas.width, ids, ctx.facet_count(), self.seed),
+            None => planes(canvas.width, &vec![0; w * h], 1, self.seed),
+        };
+        let angle = self.directions(&planes);
+        let source: Vec<Vec4> = canvas.px.to_vec();
+        let opacity = self.opacity.min(1.0);
+        let (coverage, px) = canvas.coverage_and_pixels();
+        let hits = (ctx.hits.len() == w * h).then_some(ctx.hits);
+        let surface = Surface::new(w, h, ids, hits, coverage);
+        let coarse = self.strokes(0, length, width, &surface, &angle, &source, &|_| true);
+        composite(&Bins::new(coarse, 0.5 * width * SPACING, w, h), px, &surface, opacity);
+        // The fine layer (Hertzmann's next brush): half the size, where the coarse layer
+        // strays from the picture.
+        let fine_width = 0.5 * width;
+        if fine_width >= MIN_WIDTH {
+            let value = |c: Vec4| luminance(c.truncate()).max(0.0).sqrt();
+            let painted: &[Vec4] = px;
+            let r = fine_width.ceil() as isize;
+            let error = |p: Vec2| {
+                let (x, y) = (p.x as isize, p.y as isize);
+                let (mut e, mut n) = (0.0, 0.0);
+                for (dx, dy) in [(0, 0), (-r, 0), (r, 0), (0, -r), (0, r)] {
+                    let (sx, sy) = (x + dx, y + dy);
+                    if sx >= 0 && sy >= 0 && (sx as usize) < w && (sy as usize) < h {
+                        let j = sy as usize * w + sx as usize;
+                        e += (value(painted[j]) - value(source[j])).abs();
+                        n += 1.0;
+                    }
+                }
+                e / n
+            };
+            let keep = |p: Vec2| error(p) > FINE_THRESHOLD;
+            let fine = self.strokes(1, 0.5 * length, fine_width, &surface, &angle, &source, &keep);
+            if !fine.is_empty() {
+                composite(&Bins::new(fine, 0.5 * fine_width * SPACING, w, h), px, &surface, opacity);
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,105 @@
+//! Canvas grain (ART.md "Visible brushwork": "the canvas grain shows through thin paint"):
+//! the last effect, a plain-weave linen texture modulating the value of the whole painting.
+//!
+//! The weave: vertical (warp) and horizontal (weft) threads `period` pixels apart, crossing
+//! over and under each other in a checkerboard; the thread on top is bright along its middle
+//! and dark in the gaps, each thread a little thicker or thinner (seeded). How much of it
+//! shows varies slowly over the canvas (thinner and thicker paint). The period is given at
+//! 1000 px like every pixel size; when it falls under a few pixels the weave would alias, so
+//! it fades out, as a canvas photographed from further away.
+
+use rayon::prelude::*;
+
+use super::noise::{lattice1, value2};
+use super::{Canvas, Effect, PaintContext};
+use crate::error::Result;
+use crate::util::rng::sub_seed;
+
+const SALT: u64 = 0x6361_6e76_6173_3031; // "canvas01"
+/// Value change of the weave at amount 1 (peak to peak).
+pub const DEPTH: f32 = 0.22;
+/// Thread period at 1000 px, pixels.
+pub const PERIOD: f32 = 4.0;
+/// The weave fades out between these periods (pixels of the image).
+const FADE: (f32, f32) = (1.8, 3.0);
+/// How slowly the paint's thickness varies: share of sqrt(w h) per noise cell.
+const THICKNESS_PERIOD: f32 = 0.08;
+
+/// A linen weave showing through the paint.
+pub struct CanvasGrain {
+    /// In [0, 1].
+    pub amount: f32,
+    /// Thread period, pixels of this image.
+    pub period: f32,
+    pub seed: u64,
+}
+
+/// One thread crossing a row or column: its profile across it (bright in the middle, dark in
+/// the gap; a thicker thread is flatter) and its along-thread dip at the crossings.
+#[derive(Clone, Copy)]
+struct Thread {
+    /// Index of the thread (its parity decides the weave's over and under).
+    index: i64,
+    profile: f32,
+    dip: f32,
+}
+
+impl CanvasGrain {
+    /// The threads crossing `n` pixel centres along one axis (`seed` per axis): the weave is
+    /// separable, so the per-pixel work is a table look-up per axis.
+    fn threads(&self, seed: u64, n: usize) -> Vec<Thread> {
+        (0..n)
+            .map(|x| {
+                let f = (x as f32 + 0.5) / self.period;
+                let index = f.floor() as i64;
+                let t = f - index as f32;
+                let s = (std::f32::consts::PI * t).sin().max(0.0);
+                // Thickness 0.7 .. 1.3: the profile s^(0.6 / thickness).
+                let thick = 0.7 + 0.6 * lattice1(seed, index);
+                Thread { index, profile: s.powf(0.6 / thick), dip: 0.75 + 0.25 * s }
+            })
+            .collect()
+    }
+
+    /// The weave's brightness, in [0, 1], where column thread `x` crosses row thread `y`.
+    fn weave(x: &Thread, y: &Thread) -> f32 {
+        if (x.index + y.index).rem_euclid(2) == 0 { x.profile * y.dip } else { y.profile * x.dip }
+    }
+}
+
+impl Effect for CanvasGrain {
+    fn name(&self) -> &'static str {
+        "canvas grain"
+    }
+
+    fn apply(&self, canvas: &mut Canvas<'_>, _ctx: &PaintContext) -> Result<()> {
+        let fade = ((self.period - FADE.0) / (FADE.1 - FADE.0)).clamp(0.0, 1.0);
+        let depth = DEPTH * self.amount * fade;
+        if !(depth > 0.0) {
+            return Ok(());
+        }
+        let (w, h) = (canvas.width as usize, canvas.height as usize);
+        let seed = sub_seed(self.seed, SALT);
+        let (columns, rows) = (self.threads(seed, w), self.threads(seed ^ 0xfeed, h));
+        // The weave's mean (half the crossings show a column thread, half a row thread):
+        // subtracted, so the painting's value is kept on average.
+        let mean = |t: &[Thread], f: fn(&Thread) -> f32| t.iter().map(f).sum::<f32>() / t.len().max(1) as f32;
+        let mean = 0.5
+            * (mean(&columns, |t| t.profile) * mean(&rows, |t| t.dip)
+                + mean(&rows, |t| t.profile) * mean(&columns, |t| t.dip));
+        let thickness = (THICKNESS_PERIOD * ((w * h) as f32).sqrt()).max(8.0);
+        let (coverage, px) = canvas.coverage_and_pixels();
+        px.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+            let ry = &rows[y];
+            for (x, p) in row.iter_mut().enumerate() {
+                if !coverage.is_painted(y * w + x) {
+                    continue;
+                }
+                let shows = 0.5 + value2(seed ^ 1, (x as f32 + 0.5) / thickness, (y as f32 + 0.5) / thickness);
+                let f = 1.0 + depth * shows * (CanvasGrain::weave(&columns[x], ry) - mean);
+                *p = (p.truncate() * f).extend(p.w);
+            }
+        });
+        Ok(())
+    }
+}
