@@ -5,7 +5,8 @@
 //!
 //! Measured in process on a `pipeline::Session`, the object the server keeps: the server adds
 //! reading the request line and writing the output file (the PNG encode, measured apart; the
-//! raw `.rgba` output the Blender viewport reads is a plain file write). Each row: the median
+//! raw `.rgba` output the Blender viewport reads is a plain write to a temporary file, synced
+//! and renamed). Each row: the median
 //! (min-max) wall time of RUNS requests, and the CPU time they used (both cores count), which
 //! holds up better than wall time on a shared machine; "limited by" names the steps that ran
 //! and their share of the median request.
@@ -17,7 +18,7 @@ mod common;
 
 use std::time::{Duration, Instant};
 
-use cubist::output::write_png;
+use cubist::output::{write_atomic, write_png};
 use cubist::pipeline::{Frame, Session};
 use cubist::progress::Progress;
 use cubist::scene::Scene;
@@ -123,7 +124,9 @@ fn main() {
         write_png(&dir.join("f12.png"), &frame.image).unwrap();
         png.push(t.elapsed().as_secs_f64() * 1e3);
         let t = Instant::now();
-        std::fs::write(dir.join("f12.rgba"), frame.image.as_raw()).unwrap();
+        // As the server writes it: a temporary file, synced, renamed (all or nothing).
+        write_atomic(&dir.join("f12.rgba"), |tmp| std::fs::write(tmp, frame.image.as_raw()).map_err(|e| e.to_string()))
+            .unwrap();
         raw.push(t.elapsed().as_secs_f64() * 1e3);
     }
     let _ = std::fs::remove_dir_all(&dir);
