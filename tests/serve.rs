@@ -449,3 +449,62 @@ fn the_parents_death_ends_the_server() {
     let stat = std::fs::read_to_string(proc_dir.join("stat")).unwrap_or_default();
     assert!(stat.is_empty() || stat.split_whitespace().nth(2) == Some("Z"), "still running: {stat}");
 }
+
+/// Every field of every reply the server gives (nested objects too) and every request field
+/// is named in docs/serve.md, as `field`, and so is every timing step.
+#[test]
+fn docs_serve_md_names_every_request_and_reply_field() {
+    let doc = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/serve.md")).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let mut server = Server::start();
+    let settings = json!({"width": 40, "height": 30, "spp": 1});
+    let mut replies = Vec::new();
+    let mut request = render(1, None, settings.clone(), &dir.path().join("a.png"));
+    request["passes"] = json!(["depth"]);
+    request["progress"] = json!(true);
+    let requests = [
+        request,
+        json!({"id": 2, "cmd": "cancel", "target": 99}),
+        json!({"id": 3, "cmd": "stats"}),
+        json!({"id": 4, "cmd": "render", "output": dir.path().join("b.txt")}),
+    ];
+    for r in &requests {
+        replies.push(server.ask(r.clone()));
+    }
+    // A cancelled render's reply.
+    let slow = json!({"width": 600, "height": 600, "spp": 8});
+    server.send(&render(5, None, slow, &dir.path().join("c.png")));
+    std::thread::sleep(Duration::from_millis(300));
+    server.send(&json!({"id": 6, "cmd": "cancel"}));
+    replies.push(server.reply());
+    replies.push(server.reply());
+    replies.push(server.ask(json!({"id": 7, "cmd": "shutdown"})));
+    assert!(replies.iter().any(|r| r["cancelled"] == json!(true)), "{replies:?}");
+
+    fn keys(v: &Value, parent: &str, out: &mut Vec<String>) {
+        match v {
+            // Pass names and timing step names are values the docs list, not fields; settings
+            // keys are `cubist settings --schema`'s.
+            Value::Object(m) if !["passes", "timings", "settings"].contains(&parent) => {
+                for (k, v) in m {
+                    out.push(k.clone());
+                    keys(v, k, out);
+                }
+            }
+            Value::Array(items) => items.iter().for_each(|i| keys(i, parent, out)),
+            _ => {}
+        }
+    }
+    let mut fields = Vec::new();
+    for v in requests.iter().chain(&replies) {
+        keys(v, "", &mut fields);
+    }
+    for step in replies[0]["timings"].as_object().unwrap().keys() {
+        fields.push(step.clone());
+    }
+    fields.sort();
+    fields.dedup();
+    let missing: Vec<&String> = fields.iter().filter(|f| !doc.contains(&format!("`{f}`"))).collect();
+    assert!(missing.is_empty(), "docs/serve.md does not name {missing:?}");
+    assert!(fields.len() > 30, "{fields:?}");
+}
