@@ -69,13 +69,16 @@ fn main() {
     let load_before = common::load_average();
     let full = Settings { width: SIDE, height: SIDE, ..Settings::default() };
     let quarter = Settings { width: SIDE / 4, height: SIDE / 4, ..Settings::default() };
-    let paint = |s: &Settings, i: usize| Settings { border_width: if i % 2 == 0 { 11.0 } else { 12.0 }, ..s.clone() };
+    let paint =
+        |s: &Settings, i: usize| Settings { border_width: if i.is_multiple_of(2) { 11.0 } else { 12.0 }, ..s.clone() };
     let facets = |s: &Settings, i: usize| Settings {
-        segments: if i % 2 == 0 { vec![5, 31, 120] } else { vec![5, 30, 120] },
+        segments: if i.is_multiple_of(2) { vec![5, 31, 120] } else { vec![5, 30, 120] },
         ..s.clone()
     };
-    let camera =
-        |s: &Settings, i: usize| Settings { ambiguity: Some(if i % 2 == 0 { 139.0 } else { 140.0 }), ..s.clone() };
+    let camera = |s: &Settings, i: usize| Settings {
+        ambiguity: Some(if i.is_multiple_of(2) { 139.0 } else { 140.0 }),
+        ..s.clone()
+    };
 
     let mut session = Session::new();
     session.set_scene(Scene::default_scene());
@@ -94,7 +97,7 @@ fn main() {
     let mut walls = Vec::new();
     let mut last = None;
     for i in 0..runs {
-        moved.objects[1].transform.w_axis.y += if i % 2 == 0 { 0.01 } else { -0.01 };
+        moved.objects[1].transform.w_axis.y += if i.is_multiple_of(2) { 0.01 } else { -0.01 };
         let t = Instant::now();
         session.set_scene(moved.clone());
         let f = session.render(&full, &Progress::silent()).unwrap();
@@ -146,7 +149,7 @@ fn main() {
         let median = r.walls[r.walls.len() / 2];
         let total: f64 = r.steps.iter().map(|(_, d)| d.as_secs_f64()).sum::<f64>().max(1e-9);
         let mut steps: Vec<_> = r.steps.iter().collect();
-        steps.sort_by(|a, b| b.1.cmp(&a.1));
+        steps.sort_by_key(|s| std::cmp::Reverse(s.1));
         let steps: Vec<String> = steps
             .iter()
             .filter(|(_, d)| d.as_secs_f64() / total > 0.02)

@@ -13,6 +13,8 @@ use cubist::settings::Settings;
 use serde_json::{Map, Value};
 
 /// Runs the binary and returns its exit code and peak resident memory, bytes.
+// Reaped by `wait4` (which gives the peak memory), not `Child::wait`.
+#[allow(clippy::zombie_processes)]
 fn peak(args: &[&str], dir: &std::path::Path) -> (i32, u64) {
     let child = Command::new(env!("CARGO_BIN_EXE_cubist"))
         .args(args)

@@ -387,7 +387,7 @@ fn cancel_stops_a_running_render_and_drops_queued_ones() {
     // Everything else: the running one stops within seconds.
     let t = Instant::now();
     server.send(&json!({"id": 5, "cmd": "cancel"}));
-    let mut got = vec![server.reply(), server.reply(), server.reply()];
+    let mut got = [server.reply(), server.reply(), server.reply()];
     got.sort_by_key(|r| r["id"].as_u64());
     assert_eq!(got[0], json!({"id": 1, "ok": false, "error": "cancelled", "cancelled": true}));
     assert_eq!(got[1], json!({"id": 3, "ok": false, "error": "cancelled", "cancelled": true}));

@@ -95,7 +95,8 @@ fn each_painterly_setting_of_issue_13_reruns_paint_only() {
     let mut last = Settings { width: 720, height: 540, spp: 1, ..base() };
     // The default preset, Analytic, has them all on.
     assert!(last.brushwork > 0.0 && last.canvas_grain > 0.0 && last.border_style == BorderStyle::Passage);
-    let painterly: [(&str, fn(&mut Settings)); 6] = [
+    type Change = (&'static str, fn(&mut Settings));
+    let painterly: [Change; 6] = [
         ("plane_light", |s| s.plane_light = 0.3),
         ("border_style", |s| s.border_style = BorderStyle::Symmetric),
         ("brushwork", |s| s.brushwork = 0.4),

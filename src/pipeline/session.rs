@@ -337,6 +337,9 @@ fn reads_picture(params: &FacetParams) -> bool {
     }
 }
 
+/// A hook on the film once the saliency map is in (`render_with`).
+pub(super) type AfterSaliency<'a> = dyn Fn(&Prepared, &mut Film) + 'a;
+
 /// The stages of one render (SPEC Fig. 4.1, in `render`'s order), each run only when its key
 /// differs from the output `lane` holds. `after_saliency` (one-off renders only: tests supply a
 /// known saliency map with it) sees the film once the saliency map is in.
@@ -347,7 +350,7 @@ pub(super) fn run(
     gens: &mut Gen,
     params: &StageParams,
     progress: &Progress,
-    after_saliency: Option<&dyn Fn(&Prepared, &mut Film)>,
+    after_saliency: Option<&AfterSaliency<'_>>,
 ) -> Result<Frame> {
     super::check_work(params)?;
     let plan = super::Plan::new(params);

@@ -84,6 +84,9 @@ fn check_elements(
     for_each_element(what, view, offset, count, elem, buffers, None)
 }
 
+/// A callback on each element: its index and bytes.
+type ElementFn<'f> = dyn FnMut(usize, &[u8]) + 'f;
+
 /// Calls `f(i, element_bytes)` for `count` elements of `elem` bytes in `view` at `offset`
 /// (only checks the range when `f` is None).
 fn for_each_element(
@@ -93,7 +96,7 @@ fn for_each_element(
     count: usize,
     elem: usize,
     buffers: &Buffers,
-    f: Option<&mut dyn FnMut(usize, &[u8])>,
+    f: Option<&mut ElementFn<'_>>,
 ) -> Result<(), String> {
     let bytes = view_bytes(view, buffers)?;
     let stride = view.stride().unwrap_or(elem);

@@ -126,7 +126,7 @@ impl<'a> Loader<'a> {
                     return Err(self.err(format!("camera {}: zfar is not greater than znear", camera.index())));
                 }
                 let ymag = o.ymag() as f64;
-                if !(ymag.is_finite() && ymag != 0.0) || !(o.xmag().is_finite() && o.xmag() != 0.0) {
+                if !(ymag.is_finite() && ymag != 0.0 && o.xmag().is_finite() && o.xmag() != 0.0) {
                     return Err(self.err(format!(
                         "camera {}: orthographic xmag {} / ymag {} must be finite and non-zero",
                         camera.index(),
