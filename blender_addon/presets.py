@@ -50,9 +50,9 @@ PRESET_LABELS = {name: (schema.label(name), help) for name, help in schema.PRESE
 
 # Settings keys Blender decides, not the panel: the render size, Film > Transparent, the
 # active camera and its focus, the per-frame layout files (static facets), the saliency
-# cache folder (beside the layout).
+# cache folder (beside the layout), external files (the exported GLB is self-contained).
 BLENDER_KEYS = frozenset({"width", "height", "transparent", "camera_position", "camera_target", "camera_up",
-                          "focus_distance", "facets", "save_facets", "saliency_cache"})
+                          "focus_distance", "facets", "save_facets", "saliency_cache", "allow_external_files"})
 
 # Panel properties with no settings key of their own: how Blender's scene maps to settings,
 # animation, and files. The renderer has no say in these.
