@@ -508,3 +508,33 @@ fn docs_serve_md_names_every_request_and_reply_field() {
     assert!(missing.is_empty(), "docs/serve.md does not name {missing:?}");
     assert!(fields.len() > 30, "{fields:?}");
 }
+
+/// A FIFO as the scene or as the facet layout gets an error reply, without blocking the server
+/// (hashing a file to see whether it changed must not read a FIFO).
+#[cfg(unix)]
+#[test]
+fn a_fifo_as_scene_or_layout_is_refused_without_blocking() {
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("fifo.glb");
+    let fifo_png = dir.path().join("fifo.png");
+    let st = Command::new("mkfifo").arg(&fifo).arg(&fifo_png).status().expect("mkfifo");
+    assert!(st.success());
+    let mut server = Server::start();
+    let small = json!({"width": 16, "height": 12, "spp": 1});
+    server.send(&render(1, Some(&fifo), small.clone(), &dir.path().join("a.png")));
+    let mut layout = small.clone();
+    layout["facets"] = json!(fifo_png);
+    server.send(&render(2, None, layout, &dir.path().join("b.png")));
+    server.send(&render(3, None, small, &dir.path().join("c.png")));
+    for id in 1..=3 {
+        let r = server.replies.recv_timeout(Duration::from_secs(60)).expect("a reply within a minute");
+        assert_eq!(r["id"], json!(id), "{r}");
+        if id < 3 {
+            assert_eq!(r["ok"], json!(false), "{r}");
+            assert!(r["error"].as_str().unwrap().contains("not a regular file"), "{r}");
+        } else {
+            assert_eq!(r["ok"], json!(true), "{r}");
+        }
+    }
+    server.ask(json!({"id": 4, "cmd": "shutdown"}));
+}

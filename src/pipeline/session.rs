@@ -34,7 +34,7 @@ use std::time::Instant;
 use glam::Vec4;
 use image::RgbaImage;
 use serde::Serialize;
-use xxhash_rust::xxh3::{Xxh3, xxh3_128};
+use xxhash_rust::xxh3::Xxh3;
 
 use super::{
     PreRender, Prepared, Shading, Stage, StageParams, Timings, aim_context, aims_stage, encode_stage, layout_stage,
@@ -322,7 +322,25 @@ pub struct Frame {
 
 /// Hash of a file's bytes (None when it cannot be read: the stage reading it reports why).
 fn file_key(path: Option<&Path>) -> Option<u128> {
-    path.and_then(|p| std::fs::read(p).ok()).map(|b| xxh3_128(&b))
+    path.and_then(|p| hash_file(p, |_| {})).map(|h| h.digest128())
+}
+
+/// Streams a regular file's bytes into a hash, `each` seeing every chunk. None for a file that
+/// cannot be read or is not a regular file: a FIFO or a device is refused without blocking
+/// (`open_regular`), and its reader then says why.
+fn hash_file(path: &Path, mut each: impl FnMut(&[u8])) -> Option<Xxh3> {
+    use std::io::Read;
+    let (mut f, _) = crate::util::files::open_regular(path, u64::MAX).ok()?;
+    let mut hasher = Xxh3::new();
+    let mut buf = vec![0u8; 1 << 20];
+    loop {
+        let n = f.read(&mut buf).ok()?;
+        if n == 0 {
+            return Some(hasher);
+        }
+        each(&buf[..n]);
+        hasher.update(&buf[..n]);
+    }
 }
 
 /// Whether a faceting method reads the pre-render (its layout follows the picture). An
@@ -841,21 +859,12 @@ impl Session {
 /// and images are in the file (or `data:` URIs). Other files (.gltf with .bin and textures
 /// beside it) are always read again. None when the file cannot be read (loading says why).
 fn stamp(path: &Path, options: LoadOptions) -> Option<FileStamp> {
-    use std::io::Read;
-    let mut f = std::fs::File::open(path).ok()?;
-    let mut hasher = Xxh3::new();
     let mut head = Vec::new();
-    let mut buf = vec![0u8; 1 << 20];
-    loop {
-        let n = f.read(&mut buf).ok()?;
-        if n == 0 {
-            break;
-        }
+    let hasher = hash_file(path, |chunk| {
         if head.len() < 20 {
-            head.extend_from_slice(&buf[..n.min(20 - head.len())]);
+            head.extend_from_slice(&chunk[..chunk.len().min(20 - head.len())]);
         }
-        hasher.update(&buf[..n]);
-    }
+    })?;
     let self_contained = glb_json(path, &head).is_some_and(|json| {
         let external = |key: &str| {
             json.get(key).and_then(|v| v.as_array()).is_some_and(|items| {
@@ -874,8 +883,8 @@ fn glb_json(path: &Path, head: &[u8]) -> Option<serde_json::Value> {
         return None;
     }
     let len = u32::from_le_bytes(head[12..16].try_into().ok()?) as u64;
-    let mut f = std::fs::File::open(path).ok()?;
-    if len > f.metadata().ok()?.len() {
+    let (mut f, size) = crate::util::files::open_regular(path, u64::MAX).ok()?;
+    if len > size {
         return None;
     }
     f.seek(SeekFrom::Start(20)).ok()?;
