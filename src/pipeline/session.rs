@@ -296,7 +296,7 @@ impl Lane {
         if let Some(mut d) = self.retrace.take() {
             d.value.swap(&mut film);
         }
-        if let Some(p) = self.paint.take() {
+        if let Some(p) = self.paint.take().filter(|p| !p.value.is_empty()) {
             film.color = p.value;
         }
         film.saliency = self.saliency.take().map(|e| e.value).filter(|v| !v.is_empty());
@@ -523,13 +523,25 @@ fn after_saliency_stages(
         } else {
             lane.retrace = None;
             // The originals, then the re-trace in place, then swapped: the film is the
-            // pre-render's again and the delta holds the moved pixels as traced again.
-            let mut delta = Delta::gather(film, moved_pixels(map, aims));
-            if !delta.pixels.is_empty() {
-                retrace_stage(prep, view, &ctx, &params.trace, map, aims, &delta.pixels, film, progress, timings);
-                delta.swap(film);
-                progress.check()?;
-            }
+            // pre-render's again and the delta holds the moved pixels as traced again. A
+            // one-off render keeps no originals (no copy of the moved pixels'
+            // samples: tests/memory_bound.rs): its film holds the re-trace, the delta nothing.
+            let moved = moved_pixels(map, aims);
+            let delta = if lane.keep {
+                let mut delta = Delta::gather(film, moved);
+                if !delta.pixels.is_empty() {
+                    retrace_stage(prep, view, &ctx, &params.trace, map, aims, &delta.pixels, film, progress, timings);
+                    delta.swap(film);
+                    progress.check()?;
+                }
+                delta
+            } else {
+                if !moved.is_empty() {
+                    retrace_stage(prep, view, &ctx, &params.trace, map, aims, &moved, film, progress, timings);
+                    progress.check()?;
+                }
+                Delta::default()
+            };
             lane.retrace = Some(Entry { key: id, id: next(), value: delta });
         }
     }
@@ -551,7 +563,14 @@ fn after_saliency_stages(
             let lighting = view.rig.as_ref().map(|rig| Lighting { world: &prep.world, rig, view: axes });
             let facets = plan.faceting.then_some(map);
             progress.begin(Stage::Paint.name(), 1);
+            let keep = lane.keep;
             let painted = with_film(film, delta.as_deref_mut(), None, |film| {
+                if !keep {
+                    // A one-off render paints the film in place (no second colour buffer:
+                    // tests/memory_bound.rs); the painted colour is then the film's own.
+                    let r = timings.time(Stage::Paint.name(), || painter.value.apply(film, facets, lighting.as_ref()));
+                    return r.map(|()| Vec::new());
+                }
                 let mut colour = film.color.clone();
                 std::mem::swap(&mut film.color, &mut colour);
                 let r = timings.time(Stage::Paint.name(), || painter.value.apply(film, facets, lighting.as_ref()));
@@ -585,7 +604,9 @@ fn after_saliency_stages(
         lane.encoded.as_ref().expect("just checked").value.clone()
     } else {
         lane.encoded = None;
-        let colour = if plan.paint { lane.paint.as_mut().map(|e| &mut e.value) } else { None };
+        // (Empty: painted in place, the film's colour is the painted one.)
+        let colour =
+            if plan.paint { lane.paint.as_mut().map(|e| &mut e.value).filter(|c| !c.is_empty()) } else { None };
         let (image, passes, passes16) =
             with_film(film, delta, colour, |film| encode_stage(film, map, aims, params, timings));
         let encoded = Encoded { image, passes, passes16 };
