@@ -17,9 +17,9 @@ bl_info = {
 
 
 def _modules():
-    from . import colour, engine, preferences, properties, ui
+    from . import colour, engine, preferences, properties, ui, viewport
 
-    return (preferences, properties, colour, engine, ui)
+    return (preferences, properties, colour, engine, viewport, ui)
 
 
 def register():

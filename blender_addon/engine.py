@@ -16,8 +16,9 @@ from pathlib import Path
 
 import bpy
 
-from . import export, mapping, pngio, runner
+from . import export, mapping, pngio, runner, viewport
 from .properties import panel_values
+from .serve_client import ServerError, ServerGone
 
 ENGINE_ID = "CUBIST"
 
@@ -90,7 +91,17 @@ class CubistRenderEngine(bpy.types.RenderEngine):
     bl_label = "Cubist"
     bl_use_preview = False
     bl_use_postprocess = True
+    # Material Preview shading stays EEVEE's; Rendered shading is ours (view_update, view_draw).
     bl_use_eevee_viewport = True
+
+    def view_update(self, context, depsgraph):
+        viewport.view_update(self, context, depsgraph)
+
+    def view_draw(self, context, depsgraph):
+        viewport.view_draw(self, context, depsgraph)
+
+    def __del__(self):
+        viewport.free(id(self))
 
     def update_render_passes(self, scene=None, renderlayer=None):
         self.register_pass(scene, renderlayer, "Combined", 4, "RGBA", "COLOR")
@@ -151,6 +162,19 @@ class CubistRenderEngine(bpy.types.RenderEngine):
             last_run["pid"] = proc.pid
             last_run["process"] = proc
 
+        # A viewport's server holding this very scene renders it with what it kept (viewport.py).
+        server = viewport.server_for(glb)
+        if server is not None:
+            try:
+                warnings = viewport.render_on_server(server, glb, out, settings, progress, self._cancelled)
+                last_run["server"] = server.pid
+                if not out.is_file():
+                    raise runner.CubistError("the renderer finished without writing an image")
+                return warnings
+            except ServerError as e:
+                raise runner.RendererError(str(e).replace(str(glb), "the exported scene"), 1) from None
+            except ServerGone:
+                pass  # the binary runs on its own below
         try:
             result = runner.run(runner.build_argv(binary, glb, out, cfg), progress, self._cancelled,
                                 on_start=started)

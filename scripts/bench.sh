@@ -21,7 +21,7 @@ done
 if [ ! -f "$scene" ]; then
     echo "note: $scene is absent: the pipeline tables use the built-in still life" >&2
 fi
-benches=(pipeline saliency facet_stages segment paint)
+benches=(pipeline saliency facet_stages segment paint serve)
 cargo bench --locked --no-run $(printf -- '--bench %s ' "${benches[@]}") 2>/dev/null ||
     cargo bench --locked --no-run $(printf -- '--bench %s ' "${benches[@]}")
 log=$(mktemp)
@@ -109,6 +109,10 @@ tmp=BENCHMARKS.md.tmp
     echo "## Issue 6: painterly effects (\`benches/paint.rs\`)"
     echo
     body paint
+    echo
+    echo "## Issue 14: \`cubist serve\`, requests to a kept session (\`benches/serve.rs\`)"
+    echo
+    body serve
     # Kept from the current file: sections written by other scripts (issue 12's table comes
     # from scripts/bench_addon_export.py --write, which needs headless Blender).
     if grep -q '^## Issue 12: ' BENCHMARKS.md 2>/dev/null; then

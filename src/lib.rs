@@ -6,7 +6,8 @@
 //! trace into `film` buffers, `shading`), `saliency` (mesh saliency), `facets` (layouts),
 //! `imprecision` (per-facet re-aim), `paint` (painterly effects), `output` (images, files),
 //! `eval` (visible faces). Below them: `scene` (glTF loading), `accel` (BVH), `distance`,
-//! `util`, `progress`, `error`. ARCHITECTURE.md draws the map.
+//! `util`, `progress`, `error`. `serve` is the other front: a long-running renderer keeping a
+//! `pipeline::Session`. ARCHITECTURE.md draws the map.
 
 pub mod accel;
 pub mod camera;
@@ -24,6 +25,7 @@ pub mod pipeline;
 pub mod progress;
 pub mod saliency;
 pub mod scene;
+pub mod serve;
 pub mod settings;
 pub mod shading;
 pub mod trace;

@@ -7,7 +7,8 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::Parser;
 use cubist::cli::{
-    Cli, Command, FacesArgs, FacetsArgs, LookArgs, ProgressMode, RenderArgs, SaliencyArgs, SettingsCmdArgs,
+    Cli, Command, FacesArgs, FacetsArgs, LookArgs, ProgressMode, RenderArgs, SaliencyArgs, ServeArgs,
+    SettingsCmdArgs,
 };
 use cubist::output::{Outputs, pass_path, write_png};
 use cubist::pipeline::{self, Plan, Stage, StageParams, evaluate};
@@ -44,6 +45,7 @@ fn main() -> ExitCode {
         Command::Facets(args) => run_facets(args),
         Command::Settings(args) => run_settings(args),
         Command::Look(args) => run_look(args),
+        Command::Serve(args) => run_serve(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -257,6 +259,13 @@ fn run_frames(args: RenderArgs, settings: cubist::Settings) -> anyhow::Result<()
             say!("frame {frame}: {:.1} ms ({}){revealed}", total * 1e3, steps.join(", "));
         }
     }
+    Ok(())
+}
+
+fn run_serve(args: ServeArgs) -> anyhow::Result<()> {
+    let options = cubist::serve::Options { budget: args.cache_memory << 20, parent: args.parent, ..Default::default() };
+    let stdin = std::io::stdin().lock();
+    cubist::serve::serve(stdin, Box::new(std::io::stdout()), options)?;
     Ok(())
 }
 

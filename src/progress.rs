@@ -1,9 +1,13 @@
 //! Progress of a render's stages, reported through a callback the front end chooses
-//! (an indicatif bar in a terminal, `PROGRESS` lines for the Blender add-on, nothing).
+//! (an indicatif bar in a terminal, `PROGRESS` lines for the Blender add-on, nothing), and
+//! the way back: a cancel flag a front end may raise (`cubist serve`'s `cancel`), which the
+//! trace loop reads between rows and the pipeline between stages.
 
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
+
+use crate::error::{Error, Result};
 
 /// A sink for (stage name, fraction of that stage done in [0, 1]).
 pub type Sink = Box<dyn Fn(&str, f64) + Send + Sync>;
@@ -13,6 +17,7 @@ pub struct Progress {
     stage: Mutex<(String, u64)>,
     done: AtomicU64,
     last_report: Mutex<Instant>,
+    cancel: Option<Arc<AtomicBool>>,
 }
 
 impl Progress {
@@ -22,6 +27,7 @@ impl Progress {
             stage: Mutex::new((String::new(), 1)),
             done: AtomicU64::new(0),
             last_report: Mutex::new(Instant::now()),
+            cancel: None,
         }
     }
 
@@ -32,7 +38,26 @@ impl Progress {
             stage: Mutex::new((String::new(), 1)),
             done: AtomicU64::new(0),
             last_report: Mutex::new(Instant::now()),
+            cancel: None,
         }
+    }
+
+    /// This progress, cancelled once `flag` is raised (by another thread).
+    pub fn with_cancel(mut self, flag: Arc<AtomicBool>) -> Progress {
+        self.cancel = Some(flag);
+        self
+    }
+
+    /// Whether the run was cancelled: long loops stop early (their output is then thrown away).
+    #[inline]
+    pub fn cancelled(&self) -> bool {
+        self.cancel.as_ref().is_some_and(|c| c.load(Ordering::Relaxed))
+    }
+
+    /// `Err(Cancelled)` once the run was cancelled: checked after each stage, so nothing a
+    /// cancelled loop left half done is ever used or kept.
+    pub fn check(&self) -> Result<()> {
+        if self.cancelled() { Err(Error::Cancelled) } else { Ok(()) }
     }
 
     /// Starts a stage of `total` units of work.

@@ -223,6 +223,11 @@ impl Tracer<'_> {
             .zip(film.samples.par_chunks_mut(wu * spp))
             .enumerate()
             .for_each(|(y, (((c, hrow), orow), srow))| {
+                // Cancelled (cubist serve): the remaining rows are skipped; the caller checks
+                // `progress.check()` and throws the film away.
+                if progress.cancelled() {
+                    return;
+                }
                 let mut traced = 0u64;
                 for x in 0..wu {
                     let i = y * wu + x;
@@ -249,6 +254,9 @@ impl Tracer<'_> {
             .enumerate()
             .map(|(c, chunk)| {
                 let mut samples = vec![SampleHit::MISS; chunk.len() * spp];
+                if progress.cancelled() {
+                    return (vec![(Vec4::ZERO, PixelHit::MISS, 0); chunk.len()], samples);
+                }
                 let out = chunk
                     .iter()
                     .enumerate()

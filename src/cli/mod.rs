@@ -46,6 +46,11 @@ pub enum Command {
     /// whole-canvas planes, subject fill, ghosts, cues kept and per-plane light, print a
     /// markdown table (or JSON) and write a contact sheet. Default size 640 x 480.
     Look(LookArgs),
+    /// Keep running and render on request: JSON lines on stdin, one reply per line on stdout
+    /// (docs/serve.md). The scene, its BVH, saliency and every stage's output are kept between
+    /// requests, so a change re-runs only the stages it invalidates. Ends on `shutdown`, at the
+    /// end of stdin, or when the parent process dies.
+    Serve(ServeArgs),
 }
 
 #[derive(Args, Debug)]
@@ -79,6 +84,17 @@ pub struct LookArgs {
     pub config: Option<PathBuf>,
     #[command(flatten)]
     pub settings: SettingsArgs,
+}
+
+#[derive(Args, Debug)]
+pub struct ServeArgs {
+    /// Memory the kept stage outputs may use, MiB (the image size in use is always kept).
+    #[arg(long, value_name = "MIB", default_value_t = crate::pipeline::DEFAULT_BUDGET >> 20)]
+    pub cache_memory: u64,
+    /// The process id of the program driving the server: the server ends when that process
+    /// is no longer its parent (Unix; elsewhere the end of stdin ends it) [default: the parent at start]
+    #[arg(long, value_name = "PID")]
+    pub parent: Option<u32>,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]

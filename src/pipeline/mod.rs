@@ -13,10 +13,13 @@
 //! | `paint_stage` | film, facet map, lights, `PaintParams` | film colour painted |
 //! | `encode_stage` | film, facets, aims, passes | image and pass images |
 //!
+//! `Session` (`session.rs`) keeps these outputs between renders, each keyed by what its stage
+//! reads, for `cubist serve` and animation frames.
+//!
 //! A stage's output depends on nothing but its inputs, so a long-lived process (a render
-//! server, the frames of an animation) may keep any stage's output and skip the stage while
-//! its inputs are unchanged: the pre-render for a new palette, the layout for a new
-//! discontinuity. Nothing is cached yet besides per-mesh saliency (`Prepared::saliency`).
+//! server, the frames of an animation) keeps any stage's output and skips the stage while
+//! its inputs are unchanged: `session` runs the stages in order, each only when its key
+//! (exactly what it reads) changed, and `render` is that same sequence with nothing kept.
 //!
 //! The other products of the pre-render: `saliency_map` (`cubist saliency`),
 //! `inspect_facets` (`cubist facets`), `evaluate` (`cubist faces`) and `look` (`cubist look`).
@@ -29,6 +32,7 @@ pub mod params;
 mod prepared;
 mod prerender;
 mod saliency_map;
+mod session;
 mod stage;
 
 use glam::DVec2;
@@ -40,8 +44,6 @@ use crate::film::Film;
 use crate::imprecision::{self, AimContext, AimParams, FacetAim};
 use crate::output::passes::{facet_ids_pass, facets_pass, geometry_pass};
 use crate::output::{Gray16, Pass, encode};
-use crate::paint::chiaroscuro::ViewAxes;
-use crate::paint::{Lighting, Painter};
 use crate::progress::Progress;
 use crate::saliency::{MeshSaliency, SaliencyParams};
 use crate::settings::Settings;
@@ -55,6 +57,7 @@ pub use params::StageParams;
 pub use prepared::Prepared;
 pub use prerender::{PreRender, Shading, View, prerender};
 pub use saliency_map::{SaliencyRender, saliency_map};
+pub use session::{DEFAULT_BUDGET, Frame, LANES, LaneStats, SceneUpdate, Session, SessionStats};
 pub use stage::{Plan, Stage, Timings, process_cpu};
 
 /// What a render produces.
@@ -83,6 +86,7 @@ pub fn render(prep: &Prepared, settings: &Settings, progress: &Progress) -> Resu
 
 /// `render`, calling `after_saliency` on the film once the pre-render and saliency stages are
 /// done and before faceting: tests and evaluations use it to supply a known saliency map.
+/// The stages run in `session::run`, the sequence a `Session` runs too, here with nothing kept.
 pub fn render_with(
     prep: &Prepared,
     settings: &Settings,
@@ -91,69 +95,20 @@ pub fn render_with(
 ) -> Result<Rendered> {
     settings.validate()?;
     let params = StageParams::new(settings);
-    check_work(&params)?;
-    let plan = Plan::new(&params);
-    let mut timings = Timings::default();
-
-    // Built before tracing so a bad palette image fails before the long part; it serves every
-    // frame of an animation.
-    let painter = timings.time("paint setup", || Painter::new(&params.paint))?;
-
-    let PreRender { mut film, view, mut warnings } =
-        prerender(prep, &params.framing, &params.trace, Shading::Lit, progress, &mut timings)?;
-
-    if plan.saliency {
-        film.saliency = Some(saliency_stage(prep, &film, &params.saliency, progress, &mut timings)?.1);
-    }
-    after_saliency(prep, &mut film);
-
-    let faceted = plan.faceting;
-    let (layout, map) = layout_stage(&params.facets, &film, progress, &mut timings, &mut warnings)?;
-
-    // Saliency centres count pixels within `neighborhood` of a facet: bounded work, or an error.
-    if faceted && params.aim.neighborhood > 0.0 && film.saliency.is_some() {
-        imprecision::check_neighbourhood(&map, params.aim.neighbourhood_px())?;
-    }
-
-    // Spatial imprecision (SPEC "Spatial imprecision"): re-aim facets, re-trace only the pixels
-    // of facets whose rays changed; at discontinuity 0 with converging facets nothing runs.
-    let mut aims = Vec::new();
-    let ctx = aim_context(prep, &view, &params.trace);
-    if plan.imprecision {
-        if params.aim.reads_saliency() && film.saliency.is_none() {
-            warnings.push("no saliency map was computed: facets are not re-aimed (imprecision saliency)".into());
-        }
-        aims = aims_stage(&ctx, &map, &film, &params.aim, progress, &mut timings);
-        retrace_stage(prep, &view, &ctx, &params.trace, &map, &aims, &mut film, progress, &mut timings);
-    }
-    if plan.antialiasing {
-        antialias_stage(prep, &view, &ctx, &params.trace, &map, &aims, &mut film, progress, &mut timings);
-    }
-
-    if plan.paint {
-        // An unfaceted image has no facet borders or corners: no facet map for the painter.
-        let f = &view.framed.frame;
-        let axes = ViewAxes { right: f.right.as_vec3(), up: f.up.as_vec3(), forward: f.forward.as_vec3() };
-        let lighting = view.rig.as_ref().map(|rig| Lighting { world: &prep.world, rig, view: axes });
-        progress.begin(Stage::Paint.name(), 1);
-        timings.time(Stage::Paint.name(), || painter.apply(&mut film, faceted.then_some(&map), lighting.as_ref()))?;
-    }
-
-    let (image, passes, passes16) = encode_stage(&film, &map, &aims, &params, &mut timings);
-    if let Some(path) = &params.save_facets {
-        facets::io::save(path, &layout, &map)?;
-    }
+    let mut lane = session::Lane::new(params.trace.width, params.trace.height, false);
+    let frame = session::run(prep, 0, &mut lane, &mut 0, &params, progress, Some(after_saliency))?;
+    let (film, facets, layout, aims) = lane.into_products()?;
     Ok(Rendered {
-        image,
-        passes,
-        passes16,
-        facets: map,
+        film,
+        image: frame.image,
+        passes: frame.passes,
+        passes16: frame.passes16,
+        facets,
         layout,
         aims,
-        timings,
-        warnings,
-        camera: view.describe_camera(prep),
-        film,
+        timings: frame.timings,
+        warnings: frame.warnings,
+        camera: frame.camera,
     })
 }
 
@@ -252,8 +207,13 @@ pub fn aims_stage(
     })
 }
 
-/// Traces again the pixels of the facets whose rays moved, with the pre-render's tracer (the
-/// same lights, background and samples), overwriting their colour and hits in `film`.
+/// The pixels of the facets whose rays moved (what the re-trace traces again).
+pub fn moved_pixels(map: &FacetMap, aims: &[FacetAim]) -> Vec<u32> {
+    (0..map.ids.len() as u32).filter(|&i| aims[map.ids[i as usize] as usize].moved()).collect()
+}
+
+/// Traces again the `moved` pixels (`moved_pixels`) with the pre-render's tracer (the same
+/// lights, background and samples), overwriting their colour, hits and samples in `film`.
 #[allow(clippy::too_many_arguments)]
 pub fn retrace_stage(
     prep: &Prepared,
@@ -262,11 +222,11 @@ pub fn retrace_stage(
     trace: &TraceParams,
     map: &FacetMap,
     aims: &[FacetAim],
+    moved: &[u32],
     film: &mut Film,
     progress: &Progress,
     timings: &mut Timings,
 ) {
-    let moved: Vec<u32> = (0..map.ids.len() as u32).filter(|&i| aims[map.ids[i as usize] as usize].moved()).collect();
     if moved.is_empty() {
         return;
     }
@@ -274,7 +234,7 @@ pub fn retrace_stage(
     let rays = |i: usize, p: DVec2| aims[map.ids[i] as usize].apply(camera.ray(p), ctx.pixel_pos(p), ctx.clip_radius);
     let tracer = view.tracer(prep, trace);
     progress.begin(Stage::ReTrace.name(), moved.len() as u64);
-    timings.time(Stage::ReTrace.name(), || tracer.render(film, &rays, Some(&moved), Some(&map.ids), progress));
+    timings.time(Stage::ReTrace.name(), || tracer.render(film, &rays, Some(moved), Some(&map.ids), progress));
     progress.finish();
 }
 

@@ -109,6 +109,25 @@ impl MeshSaliency {
 #[derive(Debug, Default)]
 pub struct Memo(Mutex<HashMap<u128, Arc<Vec<f32>>>>);
 
+impl Memo {
+    /// Keeps the entries whose content key `keep` accepts: a render server drops the meshes
+    /// a new version of its scene no longer has (`pipeline::Session`), so memory stays bounded.
+    pub fn retain(&self, keep: impl Fn(u128) -> bool) {
+        if let Ok(mut g) = self.0.lock() {
+            g.retain(|k, _| keep(*k));
+        }
+    }
+
+    /// Number of meshes held.
+    pub fn len(&self) -> usize {
+        self.0.lock().map_or(0, |g| g.len())
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
 /// A mesh's surface, curvature and eps: the inputs of the scale space.
 #[derive(Clone, Debug)]
 pub struct Analysed {

@@ -1,0 +1,292 @@
+"""Drives the Cubist viewport in a windowed Blender, for tests/python/test_blender_viewport.py.
+
+Run inside Blender's interface (Debian's Blender 3.4.1 under Xvfb), never in background mode:
+
+    xvfb-run -a -s "-screen 0 1280x1024x24" blender --factory-startup --python viewport_driver.py -- \
+        ROOT OUT BINARY
+
+From a `bpy.app.timers` callback (the main thread), as a user would: chooses Cubist on the
+factory scene, switches the largest 3D view to Rendered shading, waits for the progressive
+images to be drawn, changes a panel value, looks through the camera, presses F12 with the scene
+unchanged, switches the view back to Solid, gives the viewport a binary that does not exist
+(the error must be drawn as text), and last switches to Rendered shading again and quits Blender
+while that view's server runs (the test then checks the server and its folder are gone). A
+second timer ticks every 20 ms all along: how often it ran says whether the interface kept
+going while the server rendered. The full-size image of the first view, the scene and settings
+it was rendered from go to OUT/rendered/ (the test renders them with `cubist render`);
+everything else to OUT/results.json. Blender quits at the end, also after a failure.
+"""
+
+import json
+import os
+import sys
+import tempfile
+import time
+import traceback
+from pathlib import Path
+
+import addon_utils
+import bpy
+import numpy as np
+
+ARGS = sys.argv[sys.argv.index("--") + 1:]
+ROOT, OUT, BINARY = Path(ARGS[0]), Path(ARGS[1]), ARGS[2]
+OUT.mkdir(parents=True, exist_ok=True)
+results: dict = {"blender": bpy.app.version_string, "background": bpy.app.background, "done": False}
+heartbeat: list = []
+
+
+def log(message):
+    print(f"VIEWPORT-TEST: {message}", flush=True)
+
+
+def beat():
+    heartbeat.append(time.monotonic())
+    return 0.02
+
+
+def view3d():
+    window = bpy.context.window_manager.windows[0]
+    areas = [a for a in window.screen.areas if a.type == "VIEW_3D"]
+    area = max(areas, key=lambda a: a.width * a.height)
+    region = next(r for r in area.regions if r.type == "WINDOW")
+    return window, area, region
+
+
+def override():
+    window, area, region = view3d()
+    return {"window": window, "screen": window.screen, "area": area, "region": region}
+
+
+def vp():
+    return sys.modules["blender_addon.viewport"]
+
+
+def session():
+    sessions = list(vp()._sessions)
+    return sessions[0] if len(sessions) == 1 else None
+
+
+def gaps(since):
+    """The longest gap between heartbeat ticks after `since` (seconds)."""
+    ticks = [t for t in heartbeat if t >= since]
+    return max((b - a for a, b in zip(ticks, ticks[1:])), default=None), len(ticks)
+
+
+def wait_for_draw(predicate, timeout, what):
+    """Yields until a drawn frame satisfies `predicate(session, draw)`; returns (session, draw)."""
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < timeout:
+        s = session()
+        if s is not None and s.draws and predicate(s, s.draws[-1]):
+            return s, s.draws[-1]
+        yield 0.05
+    state = [{"counts": s.counts, "error": s.error, "closed": s.closed, "draws": s.draws[-2:], "area": s.area}
+             for s in list(vp()._sessions)]
+    engines = {k: (v if isinstance(v, str) else "session") for k, v in vp()._by_engine.items()}
+    raise TimeoutError(f"{what}: nothing drawn within {timeout} s (sessions {state}, engines {engines}, "
+                       f"rendered areas {vp()._rendered_areas()})")
+
+
+def expected_centre(s, draw):
+    """The image pixel drawn at the centre of the draw's rect (0-1, top row first)."""
+    img = s.image
+    x, y, w, h = draw["rect"]
+    cx, cy = draw["centre"]
+    u = (cx + 0.5 - x) / w
+    v = 1.0 - (cy + 0.5 - y) / h
+    px = img.pixels[min(img.height - 1, int(v * img.height)), min(img.width - 1, int(u * img.width))]
+    return [float(c) / 255.0 for c in px]
+
+
+def setup():
+    sys.path.insert(0, str(ROOT))
+    mod = addon_utils.enable("blender_addon", default_set=True, persistent=True)
+    assert mod is not None, "the add-on did not enable"
+    prefs = bpy.context.preferences.addons["blender_addon"].preferences
+    prefs.binary_path = BINARY
+    vp().record_draws = True
+    scene = bpy.context.scene
+    scene.render.engine = "CUBIST"
+    yield 1.0  # the message bus (colour management) runs in the event loop
+    r = scene.render
+    r.resolution_x, r.resolution_y, r.resolution_percentage = 200, 150, 100
+    scene.cubist.spp = 1
+    bpy.app.timers.register(beat, first_interval=0.02)
+    results["temp_before"] = sorted(p.name for p in Path(tempfile.gettempdir()).glob("cubist-*"))
+    # The heartbeat in Solid shading, nothing rendering: this machine's baseline.
+    t0 = time.monotonic()
+    yield 3.0
+    results["idle"] = {"gap": gaps(t0)}
+
+
+def rendered_view():
+    """Rendered shading in the default perspective view: the view matrix's picture, 1/4, 1/2
+    then full size, drawn; the interface keeps ticking."""
+    window, area, region = view3d()
+    t0 = time.monotonic()
+    area.spaces.active.shading.type = "RENDERED"
+    s, draw = yield from wait_for_draw(lambda s, d: d["scale"] == 1.0, 300, "rendered view")
+    # What was drawn, and what it was rendered from, for `cubist render` in the test.
+    kept = OUT / "rendered"
+    kept.mkdir(exist_ok=True)
+    np.save(kept / "image.npy", s.image.pixels)
+    (kept / "scene.glb").write_bytes(Path(s.job.scene).read_bytes())
+    (kept / "settings.json").write_text(json.dumps(s.job.settings))
+    results["rendered"] = {
+        "saved_image": [s.image.generation, s.image.scale, s.job.generation],
+        "seconds": time.monotonic() - t0, "region": [region.width, region.height], "draw": draw,
+        "scales_drawn": sorted({d["scale"] for d in s.draws}), "history": s.history, "counts": dict(s.counts),
+        "expected_centre": expected_centre(s, draw), "server_pid": s.client.pid,
+        "through_camera": s.job.view.through_camera, "gap": gaps(t0), "main_thread": dict(s.main_thread)}
+    log(f"rendered: {results['rendered']['seconds']:.1f} s, gap {results['rendered']['gap']}")
+
+
+def panel_change():
+    """A panel value changed: a new job, paint alone re-run, drawn; the interface keeps ticking."""
+    scene = bpy.context.scene
+    s = session()
+    before = s.job.generation
+    t0 = time.monotonic()
+    # As the panel does: the value set, and the scene tagged for the depsgraph (a button's edit
+    # tags it; a Python assignment to an add-on property does not).
+    scene.cubist.border_width = 25.0
+    scene.update_tag()
+    s, draw = yield from wait_for_draw(lambda s, d: d["generation"] > before and d["scale"] == 1.0, 120,
+                                       "after the panel change")
+    results["panel_change"] = {
+        "seconds": time.monotonic() - t0, "draw": draw, "history": s.history, "counts": dict(s.counts),
+        "border_width_sent": s.job.settings.get("border_width"), "expected_centre": expected_centre(s, draw),
+        "same_server": s.client.pid == results["rendered"]["server_pid"], "gap": gaps(t0),
+        "main_thread": dict(s.main_thread)}
+    log(f"panel change: {results['panel_change']['seconds']:.1f} s")
+
+
+def camera_view():
+    """Looking through the scene camera: the render's aspect, in the camera frame."""
+    s = session()
+    before = s.job.generation
+    t0 = time.monotonic()
+    with bpy.context.temp_override(**override()):
+        bpy.ops.view3d.view_camera()
+    s, draw = yield from wait_for_draw(lambda s, d: d["generation"] > before and d["scale"] == 1.0, 120,
+                                       "camera view")
+    results["camera_view"] = {"seconds": time.monotonic() - t0, "draw": draw, "through_camera": s.job.view.through_camera,
+                              "size": [s.job.settings["width"], s.job.settings["height"]],
+                              "expected_centre": expected_centre(s, draw), "gap": gaps(t0)}
+
+
+def f12_unchanged():
+    """F12 with the scene as the viewport has it: rendered on the viewport's server."""
+    engine = sys.modules["blender_addon.engine"]
+    engine.keep_exports = str(OUT / "f12_exports")
+    s = session()
+    served = s.client.stats()["served"]
+    t0 = time.monotonic()
+    with bpy.context.temp_override(**override()):
+        started = sorted(bpy.ops.render.render("INVOKE_DEFAULT"))
+    while bpy.app.is_job_running("RENDER"):
+        if time.monotonic() - t0 > 300:
+            raise TimeoutError("F12 still runs after 300 s")
+        yield 0.1
+    out = OUT / "f12.png"
+    bpy.data.images["Render Result"].save_render(str(out), scene=bpy.context.scene)
+    results["f12"] = {"operator": started, "seconds": time.monotonic() - t0, "server": engine.last_run.get("server"),
+                      "viewport_server": s.client.pid, "error": engine.last_run.get("error"),
+                      "served_before": served, "served_after": s.client.stats()["served"],
+                      "settings": engine.last_run.get("settings"), "saved": out.is_file(), "gap": gaps(t0)}
+    engine.keep_exports = None
+    log(f"F12: {results['f12']}")
+
+
+def solid_again():
+    """Back to Solid shading: the session and its server end."""
+    window, area, region = view3d()
+    s = session()
+    pid = s.client.pid
+    workspace = s.client.workspace
+    t0 = time.monotonic()
+    area.spaces.active.shading.type = "SOLID"
+    while time.monotonic() - t0 < 30:
+        try:
+            os.kill(pid, 0)
+            alive = True
+        except ProcessLookupError:
+            alive = False
+        if not alive and not vp()._sessions:
+            break
+        yield 0.05
+    results["solid"] = {"seconds": time.monotonic() - t0, "server_alive": alive, "sessions": len(vp()._sessions),
+                        "workspace_exists": workspace.exists()}
+
+
+def error_as_text():
+    """A binary that does not exist: Rendered shading shows the error as text, no crash."""
+    prefs = bpy.context.preferences.addons["blender_addon"].preferences
+    prefs.binary_path = str(OUT / "no-such-cubist")
+    texts = []
+    original = vp().draw_text
+
+    def recording(region, lines):
+        texts.append(list(lines))
+        original(region, lines)
+
+    vp().draw_text = recording
+    window, area, region = view3d()
+    area.spaces.active.shading.type = "RENDERED"
+    t0 = time.monotonic()
+    while not texts and time.monotonic() - t0 < 30:
+        area.tag_redraw()
+        yield 0.1
+    area.spaces.active.shading.type = "SOLID"
+    yield 0.5
+    vp().draw_text = original
+    prefs.binary_path = BINARY
+    results["error_text"] = texts[:3]
+
+
+def rendered_at_quit():
+    """Rendered shading again, then Blender quits (main's end) while its server runs."""
+    window, area, region = view3d()
+    area.spaces.active.shading.type = "RENDERED"
+    s, draw = yield from wait_for_draw(lambda s, d: True, 120, "rendered again")
+    results["at_quit"] = {"server_pid": s.client.pid, "workspace": str(s.client.workspace),
+                          "workspace_exists": s.client.workspace.exists(), "draw": draw,
+                          "temp": sorted(p.name for p in Path(tempfile.gettempdir()).glob("cubist-*"))}
+
+
+def main():
+    yield from setup()
+    for step in (rendered_view, panel_change, camera_view, f12_unchanged, solid_again, error_as_text,
+                 rendered_at_quit):
+        log(f"step {step.__name__}")
+        yield from step()
+    results["heartbeat"] = {"ticks": len(heartbeat), "longest_gap": gaps(0.0)[0]}
+    results["done"] = True
+
+
+def write_results():
+    (OUT / "results.json").write_text(json.dumps(results, indent=1, default=str))
+
+
+_steps = None
+
+
+def tick():
+    global _steps
+    try:
+        if _steps is None:
+            _steps = main()
+        return next(_steps)
+    except StopIteration:
+        pass
+    except BaseException:
+        results["failure"] = traceback.format_exc()
+        log(results["failure"])
+    write_results()
+    with bpy.context.temp_override(**override()):
+        bpy.ops.wm.quit_blender()
+    return None
+
+
+bpy.app.timers.register(tick, first_interval=2.0)

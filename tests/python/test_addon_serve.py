@@ -1,0 +1,165 @@
+"""The add-on's client of `cubist serve` (blender_addon/serve_client.py) without Blender: a real
+server process, requests from several threads, replies matched by id, pictures equal to
+`cubist render`'s, progress, cancel, errors, a server that dies, an older binary without
+`serve`, and nothing left behind on close."""
+
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from addon_support import ROOT, cubist_binary  # noqa: F401 (fixture)
+
+from blender_addon import pngio
+from blender_addon.runner import Cancelled
+from blender_addon.serve_client import ServeClient, ServerError, ServerGone, read_rgba, wait_all
+
+SMALL = {"width": 64, "height": 48, "spp": 1}
+
+
+def cli(binary, settings, out: Path, tmp: Path, scene=None) -> np.ndarray:
+    cfg = tmp / f"{out.stem}.json"
+    cfg.write_text(__import__("json").dumps(settings))
+    argv = [str(binary), "render", "-o", str(out), "--config", str(cfg)]
+    if scene is not None:
+        argv.insert(2, str(scene))
+    r = subprocess.run(argv, capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    return pngio.read(out)
+
+
+@pytest.fixture
+def client(cubist_binary):
+    c = ServeClient(cubist_binary)
+    yield c
+    c.close()
+
+
+def test_client_imports_without_bpy():
+    code = ("import sys; sys.path.insert(0, %r); import blender_addon.serve_client; "
+            "assert 'bpy' not in sys.modules; print('ok')" % str(ROOT))
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert r.returncode == 0 and r.stdout.strip() == "ok", r.stderr
+
+
+def test_renders_match_the_cli_and_keep_what_does_not_change(client, cubist_binary, tmp_path):
+    out = client.workspace / "a.png"
+    reply = client.render(SMALL, out)
+    assert reply["ok"] and reply["reused"] == [] and out.is_file()
+    assert np.array_equal(pngio.read(out), cli(cubist_binary, SMALL, tmp_path / "a.png", tmp_path))
+    # A painterly change: only paint runs; the raw output holds the same pixels a PNG would.
+    paint = {**SMALL, "border_width": 3.0}
+    raw = client.workspace / "b.rgba"
+    reply = client.render(paint, raw)
+    assert reply["reused"][:5] == ["pre-render", "saliency", "faceting", "imprecision", "re-trace"], reply
+    expected = cli(cubist_binary, paint, tmp_path / "b.png", tmp_path)
+    assert np.array_equal(read_rgba(raw, reply["width"], reply["height"]), expected)
+    stats = client.stats()
+    assert stats["scene"] == "<default scene>" and stats["served"] == 2
+
+
+def test_requests_from_several_threads_get_their_own_replies(client):
+    results = {}
+
+    def one(i):
+        s = {**SMALL, "border_width": float(i)}
+        results[i] = client.render(s, client.workspace / f"t{i}.rgba")
+
+    threads = [threading.Thread(target=one, args=(i,)) for i in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(120)
+    assert sorted(results) == [0, 1, 2, 3]
+    assert len({r["id"] for r in results.values()}) == 4
+    assert all(r["output"].endswith(f"t{i}.rgba") for i, r in results.items())
+
+
+def test_progress_and_cancel(client):
+    seen = []
+    reply = client.render({**SMALL, "width": 200, "height": 150}, client.workspace / "p.png",
+                          on_progress=lambda stage, f: seen.append(stage))
+    assert reply["ok"] and "pre-render" in seen
+    # A long render, cancelled once under way: Cancelled within seconds, and the client works on.
+    started = []
+    t0 = time.monotonic()
+    with pytest.raises(Cancelled):
+        client.render({"width": 1200, "height": 1200, "spp": 4}, client.workspace / "long.png",
+                      on_progress=lambda stage, f: started.append(time.monotonic()),
+                      should_cancel=lambda: bool(started))
+    assert started and time.monotonic() - started[0] < 20
+    assert not (client.workspace / "long.png").exists()
+    assert client.render(SMALL, client.workspace / "after.png")["ok"]
+    assert time.monotonic() - t0 < 120
+
+
+def test_errors_are_one_line_and_the_server_keeps_serving(client):
+    with pytest.raises(ServerError, match="unknown key `widht`"):
+        client.render({"widht": 3}, client.workspace / "x.png")
+    with pytest.raises(ServerError, match="missing.glb"):
+        client.render(SMALL, client.workspace / "x.png", scene=client.workspace / "missing.glb")
+    with pytest.raises(ServerError, match=r"\.png or \.rgba"):
+        client.render(SMALL, client.workspace / "x.jpg")
+    assert client.render(SMALL, client.workspace / "ok.png")["ok"]
+
+
+def test_a_server_that_dies_answers_every_request_with_an_error(cubist_binary):
+    c = ServeClient(cubist_binary)
+    try:
+        pending = c.render_request({"width": 1500, "height": 1500, "spp": 8}, c.workspace / "big.png")
+        time.sleep(0.3)
+        os.kill(c.pid, signal.SIGKILL)
+        reply = pending.wait(30)
+        assert reply is not None and reply["ok"] is False and reply.get("gone"), reply
+        assert "ended" in reply["error"]
+        with pytest.raises(ServerGone):
+            c.render(SMALL, c.workspace / "x.png")
+        assert not c.alive()
+    finally:
+        c.close()
+    assert not c.workspace.exists()
+
+
+def test_close_ends_the_server_and_removes_the_workspace(cubist_binary):
+    c = ServeClient(cubist_binary)
+    pending = c.render_request({"width": 1200, "height": 1200, "spp": 4}, c.workspace / "big.png")
+    time.sleep(0.2)
+    t0 = time.monotonic()
+    c.close()
+    assert time.monotonic() - t0 < 10
+    assert c.proc.poll() is not None
+    assert not c.workspace.exists()
+    assert wait_all([pending], 10)
+    assert pending.reply["ok"] is False
+    c.close()  # twice is fine
+
+
+def test_a_binary_without_serve_is_named(tmp_path):
+    old = tmp_path / "cubist"
+    old.write_text("#!/bin/sh\necho \"error: unrecognized subcommand 'serve'\" >&2\nexit 2\n")
+    old.chmod(0o755)
+    c = ServeClient(old)
+    try:
+        with pytest.raises(ServerGone, match="no `serve` command"):
+            deadline = time.monotonic() + 10
+            while c.alive() and time.monotonic() < deadline:
+                time.sleep(0.05)
+            time.sleep(0.2)  # the stderr reader
+            c.render(SMALL, c.workspace / "x.png")
+    finally:
+        c.close()
+
+
+def test_a_missing_binary_is_a_one_line_error(tmp_path):
+    import tempfile
+
+    before = set(Path(tempfile.gettempdir()).glob("cubist-serve-*"))
+    with pytest.raises(ServerGone, match="cannot start"):
+        ServeClient(tmp_path / "nope")
+    assert set(Path(tempfile.gettempdir()).glob("cubist-serve-*")) == before
