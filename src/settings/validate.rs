@@ -252,7 +252,7 @@ impl Settings {
             return Err(Error::setting("planes", format!("must be in 1..={MAX_PLANES}")));
         }
         if !(s.plane_detail.is_finite() && (1.0..=100.0).contains(&s.plane_detail)) {
-            return Err(Error::setting("plane_detail", format!("{} must be in [1, 100]", s.plane_detail)));
+            return Err(Error::setting("plane_detail", format!("{} must be in [1, 100]", num(s.plane_detail))));
         }
         unit("aim_min_coverage", s.aim_min_coverage)?;
         within("aim_width_share", s.aim_width_share, 100.0)?;
