@@ -189,12 +189,12 @@ fn request_sequences_give_a_fresh_renders_pixels_at_each_invalidation_level() {
         (
             "unchanged",
             base.clone(),
-            vec!["pre-render", "saliency", "faceting", "imprecision", "re-trace", "paint", "encode"],
+            vec!["pre-render", "saliency", "faceting", "imprecision", "re-trace", "anti-aliasing", "paint", "encode"],
         ),
         (
             "paint",
             with(json!({"border_width": 4.0, "palette": "grey"})),
-            vec!["pre-render", "saliency", "faceting", "imprecision", "re-trace"],
+            vec!["pre-render", "saliency", "faceting", "imprecision", "re-trace", "anti-aliasing"],
         ),
         (
             "aims",

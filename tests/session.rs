@@ -36,7 +36,8 @@ fn check(frame: &Frame, fresh: &cubist::Rendered, what: &str) {
     assert_eq!(frame.camera, fresh.camera, "{what}");
 }
 
-const ALL: [&str; 7] = ["pre-render", "saliency", "faceting", "imprecision", "re-trace", "paint", "encode"];
+const ALL: [&str; 8] =
+    ["pre-render", "saliency", "faceting", "imprecision", "re-trace", "anti-aliasing", "paint", "encode"];
 
 fn reused_up_to(last: &str) -> Vec<&'static str> {
     let n = ALL.iter().position(|s| *s == last).unwrap();
@@ -54,9 +55,9 @@ fn each_change_reruns_only_what_it_invalidates_and_gives_a_fresh_renders_pixels(
 
     // Painterly: paint only.
     let paint = Settings { border_width: 9.0, palette: Palette::BluePeriod, colors: 6, ..s.clone() };
-    assert_eq!(same(&mut session, &scene, &paint, "painterly"), reused_up_to("re-trace"));
+    assert_eq!(same(&mut session, &scene, &paint, "painterly"), reused_up_to("anti-aliasing"));
     let chiaro = Settings { chiaroscuro: 0.7, gradients: 0.5, ..paint.clone() };
-    assert_eq!(same(&mut session, &scene, &chiaro, "chiaroscuro"), reused_up_to("re-trace"));
+    assert_eq!(same(&mut session, &scene, &chiaro, "chiaroscuro"), reused_up_to("anti-aliasing"));
 
     // Imprecision: aims onwards.
     let aim = Settings { discontinuity: 80.0, ..chiaro.clone() };
@@ -108,6 +109,7 @@ fn each_painterly_setting_of_issue_13_reruns_paint_only() {
     for (what, change) in painterly {
         let mut next = last.clone();
         change(&mut next);
+        // spp 1: no anti-aliasing stage.
         assert_eq!(same(&mut session, &scene, &next, what), reused_up_to("re-trace"), "{what}");
         let after = session.render(&next, &Progress::silent()).unwrap().image;
         assert!(before != after, "{what}: the picture did not change");
@@ -129,7 +131,7 @@ fn sizes_keep_their_own_outputs() {
     // The viewport's next change: each size re-runs paint only.
     for s in [&quarter, &half, &full] {
         let paint = Settings { border_width: 5.0, ..(*s).clone() };
-        assert_eq!(same(&mut session, &scene, &paint, "paint pass"), reused_up_to("re-trace"));
+        assert_eq!(same(&mut session, &scene, &paint, "paint pass"), reused_up_to("anti-aliasing"));
     }
     let stats = session.stats();
     assert_eq!(stats.lanes.iter().map(|l| (l.width, l.height)).collect::<Vec<_>>(), [(120, 90), (60, 45), (30, 22)]);
@@ -209,7 +211,7 @@ fn a_cancelled_render_keeps_nothing_half_done() {
     // Cancelled as each stage starts: the render fails with `cancelled`, and the next render
     // (which re-runs what the cancel stopped) still matches a fresh one.
     let changed = Settings { ambiguity: Some(100.0), ..s.clone() };
-    for stage in ["pre-render", "saliency", "faceting", "imprecision", "re-trace", "paint"] {
+    for stage in ["pre-render", "saliency", "faceting", "imprecision", "re-trace", "anti-aliasing", "paint"] {
         let flag = Arc::new(AtomicBool::new(false));
         let f = flag.clone();
         let progress = Progress::new(Box::new(move |name, _| {
