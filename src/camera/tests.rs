@@ -298,9 +298,12 @@ proptest! {
         let p = DVec2::new(x, y);
         let (q, depth) = point_on_ray(cam.as_ref(), p, fraction);
         let back = cam.project(q).expect("a point on a ray is seen");
-        // f32 rays: about 1e-7 of the scene's size.
-        prop_assert!((back.screen - p).length() < 2e-5, "{p:?} -> {:?}", back.screen);
-        prop_assert!((back.depth - depth).abs() < 1e-5 * depth.max(1.0), "{depth} -> {}", back.depth);
+        // f32 rays: about 1e-7 of the scene's size, up to ~3e-5 of the screen at grazing angles
+        // (a tenth of a pixel at 1000 px would be 1e-4).
+        prop_assert!((back.screen - p).length() < 1e-4, "{p:?} -> {:?}", back.screen);
+        // Depth: the planar camera near 170 degrees meets the plane at a grazing angle, which
+        // turns the f32 direction's 1e-7 into ~3e-5 of the depth (found by this test).
+        prop_assert!((back.depth - depth).abs() < 1e-4 * depth.max(1.0), "{depth} -> {}", back.depth);
         prop_assert!(back.in_view() || (back.screen.abs() - DVec2::splat(0.5)).max_element() < 2e-5);
     }
 
