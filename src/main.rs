@@ -7,8 +7,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::Parser;
 use cubist::cli::{
-    Cli, Command, FacesArgs, FacetsArgs, LookArgs, ProgressMode, RenderArgs, SaliencyArgs, ServeArgs,
-    SettingsCmdArgs,
+    Cli, Command, FacesArgs, FacetsArgs, LookArgs, ProgressMode, RenderArgs, SaliencyArgs, ServeArgs, SettingsCmdArgs,
 };
 use cubist::output::{Outputs, pass_path, write_png};
 use cubist::pipeline::{self, Plan, Stage, StageParams, evaluate};
