@@ -14,6 +14,8 @@ use std::collections::VecDeque;
 
 use glam::DVec2;
 
+use crate::util::grid::Grid;
+
 /// Background label.
 pub const BACKGROUND: u32 = u32::MAX;
 
@@ -29,6 +31,7 @@ pub const MAX_OBJECT_LAYERS: usize = 16;
 /// Connected components (4-neighbourhood, equal values) of `labels`: component id per pixel
 /// and each component's (value, area). Scan order, so deterministic.
 fn components(labels: &[u32], w: usize, h: usize) -> (Vec<u32>, Vec<(u32, usize)>) {
+    let grid = Grid { width: w, height: h };
     let mut comp = vec![u32::MAX; labels.len()];
     let mut info = Vec::new();
     let mut queue = VecDeque::new();
@@ -43,25 +46,13 @@ fn components(labels: &[u32], w: usize, h: usize) -> (Vec<u32>, Vec<(u32, usize)
         let mut area = 0;
         while let Some(i) = queue.pop_front() {
             area += 1;
-            let (x, y) = (i % w, i / w);
             let mut visit = |j: usize| {
                 if comp[j] == u32::MAX && labels[j] == value {
                     comp[j] = id;
                     queue.push_back(j);
                 }
             };
-            if x > 0 {
-                visit(i - 1);
-            }
-            if x + 1 < w {
-                visit(i + 1);
-            }
-            if y > 0 {
-                visit(i - w);
-            }
-            if y + 1 < h {
-                visit(i + w);
-            }
+            grid.neighbours4(i).for_each(&mut visit);
         }
         info.push((value, area));
     }
@@ -74,6 +65,7 @@ pub fn clean_labels(labels: &mut [u32], w: usize, h: usize, min_area: usize) {
     if min_area <= 1 {
         return;
     }
+    let grid = Grid { width: w, height: h };
     let (comp, info) = components(labels, w, h);
     let small: Vec<bool> = info.iter().map(|&(_, a)| a < min_area).collect();
     if !small.contains(&true) {
@@ -86,7 +78,6 @@ pub fn clean_labels(labels: &mut [u32], w: usize, h: usize, min_area: usize) {
         if !small[c] {
             continue;
         }
-        let (x, y) = (i % w, i / w);
         let mut count = |j: usize| {
             let v = labels[j];
             if comp[j] as usize != c {
@@ -97,18 +88,7 @@ pub fn clean_labels(labels: &mut [u32], w: usize, h: usize, min_area: usize) {
                 }
             }
         };
-        if x > 0 {
-            count(i - 1);
-        }
-        if x + 1 < w {
-            count(i + 1);
-        }
-        if y > 0 {
-            count(i - w);
-        }
-        if y + 1 < h {
-            count(i + w);
-        }
+        grid.neighbours4(i).for_each(&mut count);
     }
     let target: Vec<Option<u32>> =
         touches.iter().map(|t| t.iter().max_by(|a, b| a.1.cmp(&b.1).then(b.0.cmp(&a.0))).map(|e| e.0)).collect();
@@ -124,31 +104,20 @@ pub fn clean_labels(labels: &mut [u32], w: usize, h: usize, min_area: usize) {
 
 /// Keeps, of `mask`, the 4-connected components that contain a pixel where `seed` is true.
 fn keep_seeded(mask: &mut [bool], w: usize, h: usize, seed: impl Fn(usize) -> bool) {
+    let grid = Grid { width: w, height: h };
     let mut keep = vec![false; mask.len()];
     let mut queue: VecDeque<usize> = (0..mask.len()).filter(|&i| mask[i] && seed(i)).collect();
     for &i in &queue {
         keep[i] = true;
     }
     while let Some(i) = queue.pop_front() {
-        let (x, y) = (i % w, i / w);
         let mut visit = |j: usize| {
             if mask[j] && !keep[j] {
                 keep[j] = true;
                 queue.push_back(j);
             }
         };
-        if x > 0 {
-            visit(i - 1);
-        }
-        if x + 1 < w {
-            visit(i + 1);
-        }
-        if y > 0 {
-            visit(i - w);
-        }
-        if y + 1 < h {
-            visit(i + w);
-        }
+        grid.neighbours4(i).for_each(&mut visit);
     }
     mask.copy_from_slice(&keep);
 }
