@@ -3,6 +3,7 @@ suites in tests/python keep their own): the release binary (built when missing o
 headless Blender (bpy) with a throw-away user folder, the add-on enabled from this checkout."""
 
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -19,6 +20,19 @@ os.environ.setdefault("BLENDER_USER_RESOURCES", tempfile.mkdtemp(prefix="cubist-
 
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
+
+
+def require_windowed_blender(tools, what: str, install: str) -> None:
+    """Skips `what` (saying so on stderr) when any of `tools` is not installed, or fails it
+    when CUBIST_REQUIRE_UI_TEST=1 (.ci/run installs them and requires the windowed tests)."""
+    missing = [tool for tool in tools if shutil.which(tool) is None]
+    if not missing:
+        return
+    message = f"{what} skipped: {', '.join(missing)} not installed ({install}; .ci/run does it)"
+    if os.environ.get("CUBIST_REQUIRE_UI_TEST") == "1":
+        pytest.fail(message.replace("skipped", "required (CUBIST_REQUIRE_UI_TEST=1)"))
+    print(f"\nSKIP: {message}", file=sys.stderr)
+    pytest.skip(message)
 
 
 @pytest.fixture(scope="session")

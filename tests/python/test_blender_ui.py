@@ -8,7 +8,6 @@ blender xvfb xauth xdotool python3-numpy); without them every test here is skipp
 
 import json
 import os
-import shutil
 import subprocess
 import sys
 import time
@@ -17,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from addon_support import BINARY, ROOT, cubist_binary  # noqa: F401
+from addon_support import BINARY, ROOT, cubist_binary, require_windowed_blender  # noqa: F401
 from glb_support import Glb
 
 DRIVER = ROOT / "tests" / "blender_ui" / "driver.py"
@@ -26,14 +25,7 @@ TOOLS = {"blender": "blender", "xvfb-run": "xvfb", "xdotool": "xdotool"}
 
 @pytest.fixture(scope="module")
 def ui(cubist_binary, tmp_path_factory):
-    missing = [tool for tool in TOOLS if shutil.which(tool) is None]
-    if missing:
-        message = (f"windowed Blender test skipped: {', '.join(missing)} not installed "
-                   f"(apt-get install blender xvfb xauth xdotool python3-numpy; .ci/run does it)")
-        if os.environ.get("CUBIST_REQUIRE_UI_TEST") == "1":
-            pytest.fail(message.replace("skipped", "required (CUBIST_REQUIRE_UI_TEST=1)"))
-        print(f"\nSKIP: {message}", file=sys.stderr)
-        pytest.skip(message)
+    require_windowed_blender(TOOLS, "windowed Blender test", "apt-get install blender xvfb xauth xdotool python3-numpy")
     base = tmp_path_factory.mktemp("blender_ui")
     out, tmp = base / "out", base / "tmp"
     tmp.mkdir()

@@ -22,7 +22,6 @@ test here is skipped, saying why (CUBIST_REQUIRE_UI_TEST=1 makes that a failure)
 
 import json
 import os
-import shutil
 import subprocess
 import sys
 import time
@@ -31,7 +30,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from addon_support import BINARY, ROOT, cubist_binary  # noqa: F401
+from addon_support import BINARY, ROOT, cubist_binary, require_windowed_blender  # noqa: F401
 
 DRIVER = ROOT / "tests" / "blender_ui" / "viewport_driver.py"
 TOOLS = ("blender", "xvfb-run")
@@ -53,14 +52,7 @@ def alive(pid: int) -> bool:
 
 @pytest.fixture(scope="module")
 def ui(cubist_binary, tmp_path_factory):
-    missing = [tool for tool in TOOLS if shutil.which(tool) is None]
-    if missing:
-        message = (f"windowed Blender viewport test skipped: {', '.join(missing)} not installed "
-                   f"(apt-get install blender xvfb xauth; .ci/run does it)")
-        if os.environ.get("CUBIST_REQUIRE_UI_TEST") == "1":
-            pytest.fail(message.replace("skipped", "required (CUBIST_REQUIRE_UI_TEST=1)"))
-        print(f"\nSKIP: {message}", file=sys.stderr)
-        pytest.skip(message)
+    require_windowed_blender(TOOLS, "windowed Blender viewport test", "apt-get install blender xvfb xauth")
     base = tmp_path_factory.mktemp("blender_viewport")
     out, tmp = base / "out", base / "tmp"
     tmp.mkdir()
