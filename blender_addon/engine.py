@@ -9,6 +9,7 @@ API: no `bpy.ops`, no `bpy.context` (it belongs to the main thread's window), no
 frame (the facet layout's) is evaluated with `RenderEngine.frame_set`, which re-evaluates this
 render's own depsgraph, as Cycles does for motion blur. Images are read with pngio."""
 
+import atexit
 import shutil
 import time
 import traceback
@@ -61,11 +62,22 @@ def layout_folder(props) -> Path:
         return Path(bpy.path.abspath(props.layout_folder))
     if bpy.data.filepath:
         return Path(bpy.path.abspath("//cubist"))
+    return unsaved_folder()
+
+
+def unsaved_folder() -> Path:
+    """An unsaved file's layouts and caches: per Blender session (another unsaved scene must
+    not pick up this one's layout), removed when the file closes or Blender quits."""
     import os
     import tempfile
 
-    # Per Blender session: another unsaved scene must not pick up this one's layout.
     return Path(tempfile.gettempdir()) / f"cubist-unsaved-{os.getpid()}"
+
+
+def remove_unsaved_folder() -> None:
+    """Removes this session's unsaved-file folder: its layouts belong to a file that is being
+    closed (a new or another file is loading, or Blender quits) and that nobody can reopen."""
+    shutil.rmtree(unsaved_folder(), ignore_errors=True)
 
 
 def _panel(props) -> dict:
@@ -418,11 +430,20 @@ def _render_job_starts(*_args):
     _job_sources.clear()
 
 
+@bpy.app.handlers.persistent
+def _file_closing(*_args):
+    # load_pre: the unsaved file (if it was one) is being replaced; a saved file's layouts
+    # stay beside its .blend.
+    remove_unsaved_folder()
+
+
 def register():
     global _preferences
     _preferences = bpy.context.preferences
     bpy.utils.register_class(CubistRenderEngine)
     bpy.app.handlers.render_init.append(_render_job_starts)
+    bpy.app.handlers.load_pre.append(_file_closing)
+    atexit.register(remove_unsaved_folder)
     for panel in get_panels():
         panel.COMPAT_ENGINES.add(ENGINE_ID)
 
@@ -430,6 +451,9 @@ def register():
 def unregister():
     if _render_job_starts in bpy.app.handlers.render_init:
         bpy.app.handlers.render_init.remove(_render_job_starts)
+    if _file_closing in bpy.app.handlers.load_pre:
+        bpy.app.handlers.load_pre.remove(_file_closing)
+    atexit.unregister(remove_unsaved_folder)
     for panel in get_panels():
         panel.COMPAT_ENGINES.discard(ENGINE_ID)
     bpy.utils.unregister_class(CubistRenderEngine)
