@@ -314,7 +314,14 @@ class CubistRenderEngine(bpy.types.RenderEngine):
 
             out = tmp / "render.png"
             last_run["settings"] = dict(plan.settings)
-            warnings += self._run(binary, glb, out, plan.settings, tmp / "settings.json", frame, span)
+            try:
+                warnings += self._run(binary, glb, out, plan.settings, tmp / "settings.json", frame, span)
+            except runner.RendererError as e:
+                if follow and layout is not None and "triangles" in str(e):
+                    # What to do about it, in the panel's words.
+                    raise runner.RendererError(f"{e} (Facet Motion Follow needs the Layout Frame's meshes in "
+                                               f"every frame; Static does not)", e.returncode) from None
+                raise
             if "save_facets" in plan.settings:
                 if not Path(plan.settings["save_facets"]).is_file():
                     warnings.append("the renderer did not save a facet layout: later frames compute their own")

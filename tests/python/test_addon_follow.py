@@ -275,5 +275,5 @@ def test_a_frame_whose_triangle_count_differs_is_a_clear_error(bpy, engine, tmp_
     with pytest.raises(RuntimeError) as e:
         render_still(bpy, scene, 3, tmp_path / "3.png")
     message = str(e.value)
-    assert "triangles" in message and "\n" not in message.strip(), message
+    assert "triangles" in message and "Facet Motion Follow" in message and "\n" not in message.strip(), message
     assert "triangles" in engine.last_run["error"]
