@@ -7,7 +7,14 @@ everything reached from `render()` reads only the depsgraph it receives and the 
 API: no `bpy.ops`, no `bpy.context` (it belongs to the main thread's window), no
 `temp_override`, no `scene.frame_set`, nothing added to or removed from `bpy.data`. Another
 frame (the facet layout's) is evaluated with `RenderEngine.frame_set`, which re-evaluates this
-render's own depsgraph, as Cycles does for motion blur. Images are read with pngio."""
+render's own depsgraph, as Cycles does for motion blur. Images are read with pngio.
+
+Facets across frames. Every frame is its own `cubist` process. Static facets load the layout
+frame's layout (runner.layouts); facets that follow the scene (Facet Motion: Follow) load it
+with the follow data saved beside it, and the binary carries each frame's facets from that key
+frame in one step. A frame other than the layout frame whose layout is missing or stale first
+has it computed on the layout frame, so F12 on any frame, Render Animation and farm chunks on
+other machines render the same frame byte for byte."""
 
 import atexit
 import shutil
@@ -174,8 +181,10 @@ class CubistRenderEngine(bpy.types.RenderEngine):
             last_run["pid"] = proc.pid
             last_run["process"] = proc
 
-        # A viewport's server holding this very scene renders it with what it kept (viewport.py).
-        server = viewport.server_for(glb)
+        # A viewport's server holding this very scene renders it with what it kept (viewport.py);
+        # a frame whose facets follow a saved key frame is the binary's alone (its frames route).
+        follow_key = settings.get("facet_motion") == "follow" and ("facets" in settings or "save_facets" in settings)
+        server = None if follow_key else viewport.server_for(glb)
         if server is not None:
             try:
                 warnings = viewport.render_on_server(server, glb, out, settings, progress, self._cancelled)
@@ -249,8 +258,11 @@ class CubistRenderEngine(bpy.types.RenderEngine):
             if self._cancelled():
                 raise runner.Cancelled()
 
+            # Facets that follow the scene carry every frame's facets from the layout frame's:
+            # its layout and follow data are always shared (Static Facets or not).
+            follow = runner.follows_scene(settings)
             layout = None
-            if props.static_facets and runner.uses_layout(settings):
+            if (props.static_facets or follow) and runner.uses_layout(settings):
                 # The panel's seed, not the animated one: one layout for every frame.
                 layout = runner.layout_path(folder, scene.name, {**settings, "seed": panel["seed"]},
                                             props.layout_frame)
@@ -267,11 +279,12 @@ class CubistRenderEngine(bpy.types.RenderEngine):
                 where = folder if layout is not None and not folder.is_dir() else cache
                 raise runner.CubistError(f"cannot create the folder {where}: {e.strerror}") from None
 
-            # A Segment or planes layout follows what the layout frame shows: reused only while
-            # that is unchanged (runner.layout_source), so a moved camera or object gives new facets.
+            # A Segment or planes layout follows what the layout frame shows, and follow data
+            # is the layout frame's scene and camera: reused only while that is unchanged
+            # (runner.layout_source), so a moved camera or object gives new facets.
             source = None
             pre_glb = pre_settings = None
-            if layout is not None and runner.follows_picture(settings):
+            if layout is not None and (runner.follows_picture(settings) or follow):
                 if frame == props.layout_frame:
                     source = runner.layout_source(glb, settings)
                     _job_sources[(scene.name, frame, str(layout))] = source
@@ -279,7 +292,7 @@ class CubistRenderEngine(bpy.types.RenderEngine):
                     source, pre_glb, pre_settings = self._layout_frame_source(depsgraph, scene, panel,
                                                                               props.layout_frame, layout, tmp,
                                                                               warnings)
-            current = runner.layout_is_current(layout, source) if layout is not None else None
+            current = runner.layout_is_current(layout, source, follow) if layout is not None else None
             plan = runner.plan_layout(settings, layout, frame, props.layout_frame, current)
             if layout is not None and not current:
                 runner.forget_source(layout)
@@ -302,13 +315,25 @@ class CubistRenderEngine(bpy.types.RenderEngine):
                 if source is not None and layout.is_file():
                     runner.record_source(layout, source)
                 span = (0.5, 1.0)
+            if layout is not None and follow and "facets" in plan.settings and not (
+                    layout.is_file() and runner.follow_path(layout).is_file()):
+                # Facets computed for this frame alone would differ from the other frames'.
+                raise runner.CubistError(f"the renderer did not save the facet layout and follow data of frame "
+                                         f"{props.layout_frame} ({layout.name})")
             if "facets" in plan.settings and not Path(plan.settings["facets"]).is_file():
                 warnings.append("the renderer did not save a facet layout: facets are computed for this frame")
                 del plan.settings["facets"]
 
             out = tmp / "render.png"
             last_run["settings"] = dict(plan.settings)
-            warnings += self._run(binary, glb, out, plan.settings, tmp / "settings.json", frame, span)
+            try:
+                warnings += self._run(binary, glb, out, plan.settings, tmp / "settings.json", frame, span)
+            except runner.RendererError as e:
+                if follow and layout is not None and "triangles" in str(e):
+                    # What to do about it, in the panel's words.
+                    raise runner.RendererError(f"{e} (Facet Motion Follow needs the Layout Frame's meshes in "
+                                               f"every frame; Static does not)", e.returncode) from None
+                raise
             if "save_facets" in plan.settings:
                 if not Path(plan.settings["save_facets"]).is_file():
                     warnings.append("the renderer did not save a facet layout: later frames compute their own")

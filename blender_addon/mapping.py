@@ -189,9 +189,6 @@ def settings_from_panel(panel: Mapping[str, object], facts: SceneFacts) -> dict:
     # The add-on's exported GLB is self-contained (buffers and images inside): it never needs
     # files outside the scene's folder (issue 18's URI confinement stays on).
     s["allow_external_files"] = False
-    # Blender renders each frame of an animation in its own process, posed by Blender: facets
-    # stay where the layout frame put them (`follow` needs the renderer's frames pipeline).
-    s["facet_motion"] = "static"
 
     # Facets. A layout file of the user's replaces the computed (or static) layout.
     if p["faceting"] == "CONSTANT" or p.get("facet_map"):

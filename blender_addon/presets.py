@@ -48,14 +48,11 @@ RENDERER_PRESETS = load_renderer_presets()
 PRESET_LABELS = {name: (schema.label(name), help) for name, help in schema.PRESETS.items()}
 
 # Settings keys Blender decides, not the panel: the render size, Film > Transparent, the
-# active camera and its focus, the per-frame layout files (static facets), the saliency
-# cache folder (beside the layout), external files (the exported GLB is self-contained), and
-# how facets move between frames (the add-on renders each frame in its own process with the
-# layout frame's static facets; facets that follow the scene are the command line's
-# `--frames --facet-motion follow` for now).
+# active camera and its focus, the per-frame layout files (and the follow data saved beside
+# them), the saliency cache folder (beside the layout), and external files (the exported GLB
+# is self-contained). How facets move between frames (`facet_motion`) is the panel's.
 BLENDER_KEYS = frozenset({"width", "height", "transparent", "camera_position", "camera_target", "camera_up",
-                          "focus_distance", "facets", "save_facets", "saliency_cache", "allow_external_files",
-                          "facet_motion"})
+                          "focus_distance", "facets", "save_facets", "saliency_cache", "allow_external_files"})
 
 # The panel's enum settings (those Blender decides are not on the panel).
 ENUM_KEYS = tuple(k for k in schema.ENUM_KEYS if k not in BLENDER_KEYS)
@@ -164,12 +161,12 @@ def _ordered_defaults() -> dict:
 DEFAULTS = _ordered_defaults()
 
 # Panel values a preset does not touch: sampling and seed (quality, not look), the scene's own
-# choices (background, camera lens and focus), files, animation, passes, the saliency method
-# (accuracy, not look).
+# choices (background, camera lens and focus), files, animation (facet motion included),
+# passes, the saliency method (accuracy, not look).
 NOT_IN_PRESETS = frozenset({"spp", "seed", "animate_seed", "use_camera_lens", "use_camera_focus",
-                            "use_world_background", "background", "facet_map", "static_facets", "layout_folder",
-                            "layout_frame", "layout_file", "saliency_method", "use_saliency_cache",
-                            "saliency_cache"} | set(PASS_TOGGLES))
+                            "use_world_background", "background", "facet_map", "static_facets", "facet_motion",
+                            "layout_folder", "layout_frame", "layout_file", "saliency_method",
+                            "use_saliency_cache", "saliency_cache"} | set(PASS_TOGGLES))
 LOOK_KEYS = tuple(k for k in DEFAULTS if k not in NOT_IN_PRESETS)
 
 # Variations on a renderer preset: the thesis's other methods. (base preset, panel values.)

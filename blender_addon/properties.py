@@ -65,8 +65,16 @@ def _label(key: str) -> str:
     return LABELS.get(key) or schema.label(key.removeprefix("pass_"))
 
 
+# What a setting means in Blender, after the renderer's own help.
+BLENDER_HELP = {
+    "facet_motion": ". Every frame (F12, Render Animation, a farm chunk) carries its facets from the Layout "
+    "Frame's, saved in the Layout Folder with the layout; the scene must keep the Layout Frame's meshes "
+    "(the same triangle count) in every frame",
+}
+
+
 def _tooltip(field: dict) -> str:
-    text = field["help"]
+    text = field["help"] + BLENDER_HELP.get(field["key"], "")
     auto = field.get("automatic") or {}
     if field["nullable"] and field["type"] == "number" and field.get("null_means") and "other" not in auto:
         text += f". 0 = automatic ({field['null_means']})"
@@ -149,9 +157,10 @@ def _addon_properties() -> dict:
             "the background; off: the colour below", default=D["use_world_background"]),
         "static_facets": BoolProperty(
             name="Static Facets", description="Compute the facet layout once, on the Layout Frame, save it in the "
-            "layout folder and reuse it for every frame: camera and objects move, facets stay (thesis Ch. 6). "
-            "A Segment layout is computed again when what the Layout Frame shows changes. Frame chunks rendered "
-            "by separate processes or farm machines then match one run. Off: a new layout for every render",
+            "layout folder and reuse it for every frame (thesis Ch. 6; Facet Motion decides whether facets stay "
+            "on the image or follow the scene). A Segment or planes layout is computed again when what the Layout "
+            "Frame shows changes. Frame chunks rendered by separate processes or farm machines then match one run. "
+            "Off: a new layout for every render (Facet Motion Static only)",
             default=D["static_facets"]),
         "layout_frame": IntProperty(
             name="Layout Frame", description="The frame whose view computes the static facet layout. Every frame, "

@@ -79,6 +79,9 @@ class CUBIST_OT_recompute_layout(bpy.types.Operator):
             return {"CANCELLED"}
         if path.is_file():
             path.unlink()
+            # The follow data and the source belong to the layout.
+            runner.follow_path(path).unlink(missing_ok=True)
+            runner.source_path(path).unlink(missing_ok=True)
             self.report({"INFO"}, f"Removed {path.name}: the next render computes a new layout")
         else:
             self.report({"INFO"}, "No saved layout yet: the next render computes one")
@@ -173,19 +176,25 @@ class CUBIST_PT_facets(CubistPanel, bpy.types.Panel):
             for key in ("weight_colour", "weight_normal", "weight_depth", "weight_object", "weight_saliency"):
                 col.prop(c, key)
         layout.prop(c, "layout_file")
-        if f == "NONE" or c.layout_file:
+        if f == "NONE":
             return
+        follow = c.facet_motion == "FOLLOW"
         col = layout.column(heading="Animation")
-        col.prop(c, "static_facets")
+        col.prop(c, "facet_motion")
+        if c.layout_file:
+            return
+        row = col.row()
+        row.active = not follow  # facets that follow always share the layout frame's
+        row.prop(c, "static_facets")
         sub = layout.column()
-        sub.active = c.static_facets
+        sub.active = c.static_facets or follow
         sub.prop(c, "layout_frame")
         sub.prop(c, "layout_folder")
         try:
             path = engine.current_layout_path(context.scene)
-            if not path.is_file():
+            if not path.is_file() or (follow and not runner.follow_path(path).is_file()):
                 state = f"computed on frame {c.layout_frame} at next render"
-            elif c.faceting in ("SEGMENT", "PLANES"):
+            elif c.faceting in ("SEGMENT", "PLANES") or follow:
                 state = f"saved (again when frame {c.layout_frame}'s view changes)"
             else:
                 state = "saved"

@@ -138,6 +138,9 @@ fn run_render(args: RenderArgs) -> anyhow::Result<()> {
     if args.frames.frames.is_some() {
         return run_frames(args, settings);
     }
+    if pipeline::follows_saved_key(&settings) {
+        return run_followed(args, settings);
+    }
     cubist::output::check_png_path(&args.output)?;
     let progress = progress_for(args.progress);
     progress.begin(Stage::Loading.name(), 1);
@@ -182,6 +185,50 @@ fn run_render(args: RenderArgs) -> anyhow::Result<()> {
             let cpu =
                 rendered.timings.cpu(i).map_or(String::new(), |c| format!(" ({:.1} ms CPU)", c.as_secs_f64() * 1e3));
             say!("{stage:>14}: {:>9.1} ms{cpu}", t.as_secs_f64() * 1e3);
+        }
+    }
+    Ok(())
+}
+
+/// A still with `--facet-motion follow` and a layout file: one frame whose facets are carried
+/// from the key frame saved beside the layout (`pipeline::render_followed_frame`), or, with
+/// `--save-facets`, the key frame itself (its layout and follow data saved before the picture).
+fn run_followed(args: RenderArgs, settings: cubist::Settings) -> anyhow::Result<()> {
+    cubist::output::check_png_path(&args.output)?;
+    let progress = progress_for(args.progress);
+    progress.begin(Stage::Loading.name(), 1);
+    let prep = Prepared::load_with(args.scene.as_deref(), pipeline::params::load_options(&settings))?;
+    let (out, summary) = pipeline::render_followed_frame(&prep, &settings, &progress)?;
+    progress.begin(Stage::Writing.name(), 1);
+    let mut outputs = Outputs::new();
+    outputs.png(&args.output, &out.image)?;
+    for (pass, img) in &out.passes {
+        outputs.png(&pass_path(&args.output, pass.as_str()), img)?;
+    }
+    for (pass, img) in &out.passes16 {
+        outputs.png16(&pass_path(&args.output, pass.as_str()), img)?;
+    }
+    outputs.commit()?;
+    progress.begin(Stage::Done.name(), 1);
+    progress.finish();
+    for w in &summary.warnings {
+        say!("warning: {w}");
+    }
+    if args.verbose {
+        say!(
+            "scene: {} ({} triangles, {} objects), facets following the key frame",
+            prep.scene.source.display(),
+            prep.world.triangle_count(),
+            prep.world.objects.len()
+        );
+        say!("camera: {}", summary.camera);
+        let revealed = out.revealed.map(|r| format!(", revealed {:.1}%", r * 100.0)).unwrap_or_default();
+        say!("{:>18}: {:>9.1} ms", "load+bvh", prep.build_time.as_secs_f64() * 1e3);
+        for (step, t) in summary.setup.0.iter().chain(out.timings.0.iter()) {
+            say!("{step:>18}: {:>9.1} ms", t.as_secs_f64() * 1e3);
+        }
+        if !revealed.is_empty() {
+            say!("facets carried from the key frame{revealed}");
         }
     }
     Ok(())

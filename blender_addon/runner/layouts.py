@@ -1,6 +1,14 @@
-"""Facet layouts across frames (static facets, SPEC "Animation"): one layout file per set of
-layout-deciding settings, computed on the layout frame, reused by every frame, process and
-farm machine; a Segment layout is computed again when what the layout frame shows changes."""
+"""Facet layouts across frames (SPEC "Animation"): one layout file per set of layout-deciding
+settings, computed on the layout frame, reused by every frame, process and farm machine; a
+Segment or planes layout is computed again when what the layout frame shows changes.
+
+Facets that follow the scene (`facet_motion` follow) also need the layout frame's follow data,
+which the renderer saves beside the layout (`<layout>.follow`: the key frame's camera, its
+triangles and what each pixel showed). Every frame, rendered in its own process from its own
+exported scene, carries its facets from that key frame, so any frame rendered alone (F12, a
+farm chunk) is the same frame a whole Render Animation renders. The follow data is per image
+size and is made from the layout frame's exported scene, so a follow layout's file name also
+holds the size, and its source (the layout frame's scene) is always checked."""
 
 from __future__ import annotations
 
@@ -34,14 +42,29 @@ PRERENDER_KEYS = ("camera", "ambiguity", "framing", "focus_distance", "camera_po
                   "camera_up", "camera_size", "fill", "shadows", "background", "exposure", "spp")
 
 
+def follows_scene(settings: Mapping[str, object]) -> bool:
+    """Whether facets follow the scene (`facet_motion` follow): the layout comes with the
+    layout frame's follow data (`follow_path`), which every frame carries its facets from."""
+    return settings.get("facet_motion") == "follow" and settings.get("faceting", "none") != "none"
+
+
+def follow_path(layout: Path) -> Path:
+    """The follow data the renderer saves beside a layout (`<layout file name>.follow`)."""
+    return layout.with_name(layout.name + ".follow")
+
+
 def layout_key(settings: Mapping[str, object], layout_frame: int = 1) -> str:
     """A short hash of the settings that decide a layout, of the frame it is computed on,
     and of the image's aspect ratio (the layout is resolution-independent, so a 50% preview
-    and the final share it)."""
+    and the final share it). Facets that follow: also the image size (the follow data holds
+    a triangle and a depth per pixel), so a preview and the final keep their own."""
     w, h = settings.get("width", 800), settings.get("height", 600)
     data = {k: settings.get(k) for k in LAYOUT_KEYS}
     data["layout_frame"] = int(layout_frame)
     data["aspect"] = round(float(w) / float(h), 4)
+    if follows_scene(settings):
+        # Only then: the names of static layouts saved before stay the same.
+        data["follow"] = [int(w), int(h)]
     text = json.dumps(data, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:10]
 
@@ -105,10 +128,11 @@ def source_path(layout: Path) -> Path:
     return layout.with_name(layout.name + ".source")
 
 
-def layout_is_current(layout: Path, source: Optional[str]) -> bool:
-    """Whether the saved layout can be reused: it exists and, when its source matters
-    (`source` given: Segment faceting), was computed from that source."""
-    if not layout.is_file():
+def layout_is_current(layout: Path, source: Optional[str], follow: bool = False) -> bool:
+    """Whether the saved layout can be reused: it exists (with `follow`, its follow data too)
+    and, when its source matters (`source` given: Segment or planes faceting, facets that
+    follow), was computed from that source."""
+    if not layout.is_file() or (follow and not follow_path(layout).is_file()):
         return False
     if source is None:
         return True

@@ -13,6 +13,9 @@ from .. import schema
 _GUESS = {"loading": 0.05, "pre-render": 0.30, "saliency": 0.15, "faceting": 0.20, "imprecision": 0.05,
           "re-trace": 0.15, "paint": 0.05, "writing": 0.05}
 STAGE_WEIGHTS = tuple((name, _GUESS.get(name, 0.05)) for name in schema.STAGES if name != "done")
+# A frame whose facets follow the layout frame's is rendered by the renderer's frames pipeline,
+# which traces every pixel once in its "frames" stage: on the bar, that is the re-trace's part.
+STAGE_ALIASES = {"frames": "re-trace"}
 
 
 @dataclass
@@ -50,6 +53,7 @@ class ProgressTracker:
 
     def update(self, stage: str, fraction: float) -> float:
         self.stage = stage
+        stage = STAGE_ALIASES.get(stage, stage)
         done = 0.0
         for name, w in STAGE_WEIGHTS:
             if name == stage:

@@ -51,8 +51,10 @@ const JOB_TYPE = {
         { key: "scene", type: "string", required: true, eval: "C.scene.name", visible: "web",
           description: "Name of the scene to render" },
         { key: "static_facets", type: "bool", required: false, visible: "web",
-          eval: "C.scene.cubist.static_facets and C.scene.cubist.faceting != 'NONE' and not C.scene.cubist.layout_file",
-          description: "Whether the frames share one facet layout (the Cubist panel's Static Facets)" },
+          eval: "(C.scene.cubist.static_facets or C.scene.cubist.facet_motion == 'FOLLOW') and " +
+                "C.scene.cubist.faceting != 'NONE' and not C.scene.cubist.layout_file",
+          description: "Whether the frames share one facet layout (the Cubist panel's Static Facets, or " +
+                       "Facet Motion Follow: facets carried from the Layout Frame's)" },
         { key: "layout_frame", type: "int32", required: false, default: 1, visible: "web",
           eval: "C.scene.cubist.layout_frame",
           description: "The frame the shared facet layout is computed on (the Cubist panel's Layout Frame)" },

@@ -25,6 +25,7 @@
 //! `inspect_facets` (`cubist facets`), `evaluate` (`cubist faces`) and `look` (`cubist look`).
 
 mod faces;
+mod follow_frame;
 pub mod frames;
 mod inspect;
 mod look;
@@ -50,6 +51,7 @@ use crate::settings::Settings;
 use crate::trace::TraceParams;
 
 pub use faces::{evaluate, visible_faces};
+pub use follow_frame::{follows_saved_key, render_followed_frame};
 pub use frames::{FrameOutput, FramesParams, FramesSummary, render_frames};
 pub use inspect::{Inspection, faceting_input, inspect_facets};
 pub use look::{Look, look};

@@ -9,7 +9,8 @@ It enables the add-on from ROOT/blender_addon as a legacy add-on and, from a `bp
 callback (the main thread, between interface events), does what a user does: chooses the
 Cubist engine on the factory scene, presses F12 (`bpy.ops.render.render('INVOKE_DEFAULT')` in
 a window context) with Lock Interface off and on, renders an animation whose camera and cube
-move, renders a frame away from the facet layout's frame, presses Esc (a real key press sent
+move, renders it again with facets that follow the scene and F12 on one of its frames alone,
+renders a frame away from the facet layout's frame, presses Esc (a real key press sent
 to the X server with xdotool) during a long render, and opens a scene whose colour management
 was set deliberately. Each render runs `RenderEngine.render()` on Blender's render-job thread,
 as for users. Everything it sees goes to OUT/results.json; the pytest side checks it (and
@@ -222,6 +223,38 @@ def scene_layout_from_another_frame():
     scene.frame_set(1)
 
 
+def scene_follow_animation():
+    """Render Animation 1-3 with Facet Motion Follow (each frame's facets carried from frame 1's
+    layout and follow data), then F12 on frame 3 alone with no layout yet: frame 1 is exported
+    on the render thread (RenderEngine.frame_set) and its layout and follow data computed
+    first; the picture must be the animation's frame 3."""
+    scene = bpy.context.scene
+    scene.cubist.facet_motion = "FOLLOW"
+    scene.frame_set(1)
+    scene.render.filepath = str(OUT / "follow" / "frame_####")
+    scene.cubist.layout_folder = str(OUT / "follow_layouts")
+    engine = engine_module()
+    engine.history.clear()
+    started = invoke_render(animation=True)
+    yield from wait_for_render(600)
+    results["follow"] = {"operator": started, "frames": [h["frame"] for h in engine.history],
+                         "errors": [h["error"] for h in engine.history if h["error"]],
+                         "facet_motion": [(h["settings"] or {}).get("facet_motion") for h in engine.history],
+                         "written": sorted(p.name for p in (OUT / "follow").glob("*.png")),
+                         "layouts": sorted(p.name for p in (OUT / "follow_layouts").glob("*.facets.json*"))}
+    scene.frame_set(3)
+    scene.cubist.layout_folder = str(OUT / "follow_layouts_f12")
+    started = invoke_render()
+    yield from wait_for_render(300)
+    bpy.data.images["Render Result"].save_render(str(OUT / "follow_f12_frame3.png"), scene=scene)
+    results["follow"]["f12"] = {"operator": started, "prepass": engine.last_run.get("prepass"),
+                                "error": engine.last_run.get("error"), "frame_after": scene.frame_current,
+                                "facet_motion": (engine.last_run.get("settings") or {}).get("facet_motion")}
+    scene.cubist.facet_motion = "STATIC"
+    scene.frame_set(1)
+    log(f"follow: {results['follow']}")
+
+
 def scene_cancel():
     """Esc during a long render: a real key press (xdotool) on the X server Blender listens to."""
     scene = bpy.context.scene
@@ -288,8 +321,8 @@ def scene_configured_colours():
 
 def main():
     setup()
-    for step in (scene_f12, scene_animation, scene_layout_from_another_frame, scene_cancel,
-                 scene_configured_colours):
+    for step in (scene_f12, scene_animation, scene_layout_from_another_frame, scene_follow_animation,
+                 scene_cancel, scene_configured_colours):
         log(f"step {step.__name__}")
         yield from step()
     results["done"] = True

@@ -1,7 +1,8 @@
 """The add-on in Blender's interactive UI, where F12 runs render() on the render-job thread
 (issue 12): a windowed Blender (Debian's 3.4.1) under Xvfb, driven by tests/blender_ui/driver.py
-as a user: F12 with Lock Interface off and on, Render Animation with a moving camera and cube,
-a frame away from the facet layout's frame, Esc during a render, colour management.
+as a user: F12 with Lock Interface off and on, Render Animation with a moving camera and cube
+(static facets, then facets that follow and F12 on one frame alone), a frame away from the
+facet layout's frame, Esc during a render, colour management.
 
 Needs `blender`, `xvfb-run` and `xdotool` on PATH (`.ci/run` installs them: apt-get install
 blender xvfb xauth xdotool python3-numpy); without them every test here is skipped, saying why."""
@@ -138,6 +139,25 @@ def test_ui_layout_frame_evaluated_from_another_frame(ui):
     saved = read(out / "prepass_frame3.png")
     expected = cli(exports / "frame_0003.glb", exports / "settings_0003.json", out / "cli_prepass.png")
     assert np.abs(saved - expected).max() <= 1
+
+
+def test_ui_render_animation_with_facets_that_follow_matches_f12_on_a_frame(ui):
+    """Render Animation with Facet Motion Follow in the interface (render thread), then F12 on
+    frame 3 alone in a fresh layout folder (frame 1's layout and follow data computed first,
+    frame 1 exported on the render thread): the same picture as the animation's frame 3."""
+    r, out = ui["results"], ui["out"]
+    f = r["follow"]
+    assert f["errors"] == [] and f["frames"] == [1, 2, 3] and f["facet_motion"] == ["follow"] * 3, f
+    assert f["written"] == ["frame_0001.png", "frame_0002.png", "frame_0003.png"]
+    name = f["layouts"][0]
+    assert f["layouts"] == [name, name + ".follow", name + ".source"], f["layouts"]
+    f12 = f["f12"]
+    assert f12["operator"] == ["RUNNING_MODAL"] and f12["error"] is None, f12
+    assert f12["prepass"] == 1 and f12["frame_after"] == 3 and f12["facet_motion"] == "follow", f12
+    alone, in_run = read(out / "follow_f12_frame3.png"), read(out / "follow" / "frame_0003.png")
+    assert np.array_equal(alone, in_run), f"{np.abs(alone - in_run).max()}/255"
+    # Facets that follow are not the static facets' frame 3.
+    assert np.abs(in_run - read(out / "anim" / "frame_0003.png")).max() > 0
 
 
 def test_ui_esc_stops_the_renderer_and_leaves_no_temp_files(ui):

@@ -119,6 +119,10 @@ def test_the_evals_read_the_cubist_panel(node, tmp_path, addon, bpy_module):
             setattr(scene.cubist, k, v)
         assert not eval(evals["static_facets"], names), change
         scene.cubist.faceting, scene.cubist.static_facets, scene.cubist.layout_file = "VORONOI", True, ""
+    # Facets that follow the scene share the Layout Frame's layout and follow data, Static
+    # Facets or not.
+    scene.cubist.static_facets, scene.cubist.facet_motion = False, "FOLLOW"
+    assert eval(evals["static_facets"], names)
 
 
 # ---------------------------------------------------------------------------------------------
