@@ -1,25 +1,30 @@
 //! The film's colour as an 8-bit sRGB image.
 
 use image::RgbaImage;
+use rayon::prelude::*;
 
 use crate::film::Film;
 use crate::scene::texture::linear_to_srgb;
 
 /// Encodes a film's colour. Opaque: the background is already blended in. Transparent: the
-/// background is un-blended using the coverage alpha, so edges composite correctly.
+/// background is un-blended using the coverage alpha, so edges composite correctly. Rows in
+/// parallel (each pixel alone: the same bytes on any thread count).
 pub fn encode(film: &Film, background: [f32; 3], transparent: bool) -> RgbaImage {
     let bg = glam::Vec3::from(background);
     let mut img = RgbaImage::new(film.width, film.height);
-    for (px, c) in img.pixels_mut().zip(&film.color) {
-        let (rgb, a) = if transparent {
-            let a = c.w;
-            let rgb = if a > 0.0 { (c.truncate() - bg * (1.0 - a)) / a } else { glam::Vec3::ZERO };
-            (rgb, a)
-        } else {
-            (c.truncate(), 1.0)
-        };
-        let q = |v: f32| (linear_to_srgb(v) * 255.0 + 0.5) as u8;
-        px.0 = [q(rgb.x), q(rgb.y), q(rgb.z), (a.clamp(0.0, 1.0) * 255.0 + 0.5) as u8];
-    }
+    let raw: &mut [u8] = &mut img;
+    raw.par_chunks_mut(4 * 1024).zip(film.color.par_chunks(1024)).for_each(|(out, colour)| {
+        for (px, c) in out.chunks_exact_mut(4).zip(colour) {
+            let (rgb, a) = if transparent {
+                let a = c.w;
+                let rgb = if a > 0.0 { (c.truncate() - bg * (1.0 - a)) / a } else { glam::Vec3::ZERO };
+                (rgb, a)
+            } else {
+                (c.truncate(), 1.0)
+            };
+            let q = |v: f32| (linear_to_srgb(v) * 255.0 + 0.5) as u8;
+            px.copy_from_slice(&[q(rgb.x), q(rgb.y), q(rgb.z), (a.clamp(0.0, 1.0) * 255.0 + 0.5) as u8]);
+        }
+    });
     img
 }

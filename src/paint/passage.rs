@@ -25,11 +25,11 @@ use glam::{Vec2, Vec4};
 use rayon::prelude::*;
 
 use super::borders::border_factor;
-use super::noise::value2;
+use super::noise::Grid2;
 use super::plane_light::PlaneLight;
-use super::planes::{planes, smoothstep};
+use super::planes::smoothstep;
 use super::{Canvas, Effect, PaintContext, darken, luminance};
-use crate::distance::{NO_FEATURE, nearest_features};
+use crate::distance::NO_FEATURE;
 use crate::error::Result;
 use crate::util::rng::sub_seed;
 
@@ -87,19 +87,13 @@ impl Effect for Passage {
             return Ok(());
         }
         let ids = ctx.facets.map(|f| &f.ids[..]);
-        let hits = (ctx.hits.len() == w * h).then_some(ctx.hits);
-        let same =
-            |i: usize, j: usize| ids.is_none_or(|d| d[i] == d[j]) && hits.is_none_or(|o| o[i].object == o[j].object);
-        // Regions ordered by (facet, object): the tie-break when both sides match in value.
-        let key = |i: usize| (ids.map_or(0, |d| d[i]), hits.map_or(0, |o| o[i].object));
-        let is_edge = |i: usize| {
-            let (x, y) = (i % w, i / w);
-            (x > 0 && !same(i, i - 1))
-                || (x + 1 < w && !same(i, i + 1))
-                || (y > 0 && !same(i, i - w))
-                || (y + 1 < h && !same(i, i + w))
-        };
-        let (dist, near) = nearest_features(w as u32, h as u32, md, is_edge);
+        // Regions (facet << 32 | object): ordered by (facet, object), the tie-break when both
+        // sides match in value.
+        let regions = ctx.regions(w * h);
+        let same = |i: usize, j: usize| regions[i] == regions[j];
+        let key = |i: usize| regions[i];
+        let edges = ctx.edges(w as u32, h as u32, md);
+        let (dist, near) = (&edges.dist, &edges.near);
         let before: Vec<Vec4> = canvas.px.to_vec();
         let lum: Vec<f32> = before.par_iter().map(|p| luminance(p.truncate()).max(0.0)).collect();
         // A 4-neighbour of q (right, down, left, up: fixed order) that is (`want` = true) or
@@ -123,10 +117,7 @@ impl Effect for Passage {
         };
         // The per-plane light's factor at a pixel (1 when it is off).
         let ramps = (self.plane_light > 0.0).then(|| {
-            (
-                PlaneLight { amount: self.plane_light, seed: self.seed },
-                planes(w as u32, ids.unwrap_or(&[]), ctx.facet_count(), self.seed),
-            )
+            (PlaneLight { amount: self.plane_light, seed: self.seed }, ctx.planes(w as u32, w * h, self.seed))
         });
         let ramp = |i: usize| match (&ramps, ids) {
             (Some((light, planes)), Some(ids)) => {
@@ -136,6 +127,7 @@ impl Effect for Passage {
         };
         let seed = sub_seed(self.seed, SALT);
         let period = (LOST_PERIOD * ((w * h) as f32).sqrt()).max(4.0);
+        let grid = Grid2::new(seed, (0.0, w as f32 / period), (0.0, h as f32 / period));
         let transparent = canvas.transparent;
         let (coverage, px) = canvas.coverage_and_pixels();
         px.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
@@ -161,7 +153,8 @@ impl Effect for Passage {
                 let va = 0.5 * (lum[a] + lum[a_in]) * ramp(a);
                 let vb = 0.5 * (lum[b] + lum[b_in]) * ramp(b);
                 let dark_side = if va != vb { va < vb } else { key(i) < key(b) };
-                let lost_found = smoothstep(0.25, 0.75, value2(seed, (q % w) as f32 / period, (q / w) as f32 / period));
+                let lost_found =
+                    smoothstep(0.25, 0.75, grid.value2(seed, (q % w) as f32 / period, (q / w) as f32 / period));
                 let line = Passage::line(va, vb, lost_found);
                 // Passage: the sides blend where the line is lost, within md / 2 of the edge.
                 let wb = 0.5 * md;
