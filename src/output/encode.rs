@@ -22,9 +22,67 @@ pub fn encode(film: &Film, background: [f32; 3], transparent: bool) -> RgbaImage
             } else {
                 (c.truncate(), 1.0)
             };
-            let q = |v: f32| (linear_to_srgb(v) * 255.0 + 0.5) as u8;
-            px.copy_from_slice(&[q(rgb.x), q(rgb.y), q(rgb.z), (a.clamp(0.0, 1.0) * 255.0 + 0.5) as u8]);
+            px.copy_from_slice(&[srgb8(rgb.x), srgb8(rgb.y), srgb8(rgb.z), (a.clamp(0.0, 1.0) * 255.0 + 0.5) as u8]);
         }
     });
     img
+}
+
+/// The 8-bit sRGB code of a linear value by the formula (`linear_to_srgb`, rounded).
+fn srgb8_formula(v: f32) -> u8 {
+    (linear_to_srgb(v) * 255.0 + 0.5) as u8
+}
+
+/// The least value in [0, 1] of each code 1..=255 (`srgb8_formula`), by bisection on the
+/// bit patterns of the non-negative floats (ordered as the integers).
+fn srgb8_thresholds() -> &'static [f32; 255] {
+    static T: std::sync::OnceLock<[f32; 255]> = std::sync::OnceLock::new();
+    T.get_or_init(|| {
+        std::array::from_fn(|k| {
+            let want = k as u8 + 1;
+            let (mut lo, mut hi) = (0u32, 1.0f32.to_bits());
+            while lo < hi {
+                let mid = lo + (hi - lo) / 2;
+                if srgb8_formula(f32::from_bits(mid)) >= want { hi = mid } else { lo = mid + 1 }
+            }
+            f32::from_bits(lo)
+        })
+    })
+}
+
+/// `srgb8_formula(v)` without a power per channel: the number of code thresholds at or below
+/// `v`. The same code wherever the rounded formula is monotone (`srgb_codes_match_the_formula`
+/// checks every float near every threshold); NaN and values at or below 0 give 0.
+fn srgb8(v: f32) -> u8 {
+    if !(v > 0.0) {
+        return 0;
+    }
+    srgb8_thresholds().partition_point(|&t| t <= v) as u8
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn srgb_codes_match_the_formula() {
+        for &t in srgb8_thresholds() {
+            let b = t.to_bits();
+            for bits in b.saturating_sub(4096)..b + 4096 {
+                let v = f32::from_bits(bits);
+                assert_eq!(srgb8(v), srgb8_formula(v), "{v:e}");
+            }
+        }
+        let mut x = 0x2545_f491_4f6c_dd1du64;
+        for _ in 0..200_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let v = (x >> 40) as f32 / (1u64 << 24) as f32 * 1.2 - 0.1;
+            assert_eq!(srgb8(v), srgb8_formula(v), "{v:e}");
+        }
+        for v in [0.0, -0.0, -1.0, 1.0, 2.0, f32::INFINITY, f32::NEG_INFINITY, f32::NAN, f32::MIN_POSITIVE, 1e-45] {
+            assert_eq!(srgb8(v), srgb8_formula(v), "{v:e}");
+        }
+    }
 }

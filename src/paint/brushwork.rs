@@ -86,6 +86,8 @@ struct Stroke {
     bristles: [f32; BRISTLES + 1],
     /// Depth key: strokes are composited in increasing key order.
     key: u64,
+    /// 1 / dir, per axis (`span`).
+    inv_dir: Vec2,
 }
 
 /// What a stroke may paint: one facet of one object (the background counting as one), as
@@ -293,6 +295,7 @@ impl Brushwork {
                         region,
                         bristles: std::array::from_fn(|k| lattice1(bristle_seed, k as i64)),
                         key: splitmix64(hsh ^ 7),
+                        inv_dir: dir.recip(),
                     })
                 })
             })
@@ -370,7 +373,7 @@ fn span(s: &Stroke, py: f32, x0: usize, x1: usize) -> Option<(usize, usize)> {
     let (mut lo, mut hi) = (f32::NEG_INFINITY, f32::INFINITY);
     // u = dx dir.x + dy dir.y in (-half_len, half_len).
     if s.dir.x.abs() >= 0.01 {
-        let (a, b) = ((-s.half_len - dy * s.dir.y) / s.dir.x, (s.half_len - dy * s.dir.y) / s.dir.x);
+        let (a, b) = ((-s.half_len - dy * s.dir.y) * s.inv_dir.x, (s.half_len - dy * s.dir.y) * s.inv_dir.x);
         (lo, hi) = (lo.max(a.min(b)), hi.min(a.max(b)));
     } else if (dy * s.dir.y).abs() >= s.half_len + 1.0 {
         return None;
@@ -378,7 +381,7 @@ fn span(s: &Stroke, py: f32, x0: usize, x1: usize) -> Option<(usize, usize)> {
     // v = dx dir.y - dy dir.x in (-(half_wid + 0.5), half_wid + 0.5).
     let hw = s.half_wid + 0.5;
     if s.dir.y.abs() >= 0.01 {
-        let (a, b) = ((-hw + dy * s.dir.x) / s.dir.y, (hw + dy * s.dir.x) / s.dir.y);
+        let (a, b) = ((-hw + dy * s.dir.x) * s.inv_dir.y, (hw + dy * s.dir.x) * s.inv_dir.y);
         (lo, hi) = (lo.max(a.min(b)), hi.min(a.max(b)));
     } else if (dy * s.dir.x).abs() >= hw + 1.0 {
         return None;

@@ -128,6 +128,74 @@ impl Effect for Passage {
         let seed = sub_seed(self.seed, SALT);
         let period = (LOST_PERIOD * ((w * h) as f32).sqrt()).max(4.0);
         let grid = Grid2::new(seed, (0.0, w as f32 / period), (0.0, h as f32 / period));
+        // What a pair (a, b) facing each other across an edge gives: b's inward pixel and
+        // the two sides' values (a on the pixel's side; the tie-break's region of the pixel
+        // is a's); and the lost-and-found value of each edge pixel q. Each depends on the
+        // pair or the edge pixel alone, so it is computed once per edge pixel (`memo` for
+        // the four neighbours b of an edge pixel a) instead of once per pixel near it.
+        let sides = |a: usize, b: usize| -> (usize, f32, f32) {
+            let (dx, dy) = ((b % w) as i64 - (a % w) as i64, (b / w) as i64 - (a / w) as i64);
+            let (nx, ny) = if dx.abs() >= dy.abs() { (dx.signum(), 0) } else { (0, dy.signum()) };
+            let (a_in, b_in) = (inward(a, -nx, -ny), inward(b, nx, ny));
+            let va = 0.5 * (lum[a] + lum[a_in]) * ramp(a);
+            let vb = 0.5 * (lum[b] + lum[b_in]) * ramp(b);
+            (b_in, va, vb)
+        };
+        let lost_found =
+            |q: usize| smoothstep(0.25, 0.75, grid.value2(seed, (q % w) as f32 / period, (q / w) as f32 / period));
+        // Edge pixels are their own nearest edge pixel.
+        let mut slot = vec![u32::MAX; w * h];
+        let mut edge_pixels = Vec::new();
+        for (i, s) in slot.iter_mut().enumerate() {
+            if near[i] as usize == i {
+                *s = edge_pixels.len() as u32;
+                edge_pixels.push(i);
+            }
+        }
+        struct Memo {
+            lost_found: f32,
+            /// Per neighbour b (right, down, left, up) of a: (b_in, va, vb); b_in u32::MAX
+            /// where there is no such neighbour in another region.
+            pairs: [(u32, f32, f32); 4],
+        }
+        let memo: Vec<Memo> = edge_pixels
+            .par_iter()
+            .map(|&a| {
+                let (x, y) = (a % w, a / w);
+                let nb = [
+                    (x + 1 < w).then(|| a + 1),
+                    (y + 1 < h).then(|| a + w),
+                    (x > 0).then(|| a - 1),
+                    (y > 0).then(|| a - w),
+                ];
+                Memo {
+                    lost_found: lost_found(a),
+                    pairs: nb.map(|b| {
+                        b.filter(|&b| !same(a, b)).map_or((u32::MAX, 0.0, 0.0), |b| {
+                            let (b_in, va, vb) = sides(a, b);
+                            (b_in as u32, va, vb)
+                        })
+                    }),
+                }
+            })
+            .collect();
+        // The memo of adjacent pixels a, b in different regions, or None.
+        let memo_of = |a: usize, b: usize| -> Option<(usize, f32, f32)> {
+            let m = memo.get(slot[a] as usize)?;
+            let k = if b == a + 1 {
+                0
+            } else if b == a + w {
+                1
+            } else if b + 1 == a {
+                2
+            } else if b + w == a {
+                3
+            } else {
+                return None;
+            };
+            let (b_in, va, vb) = m.pairs[k];
+            (b_in != u32::MAX).then_some((b_in as usize, va, vb))
+        };
         let transparent = canvas.transparent;
         let (coverage, px) = canvas.coverage_and_pixels();
         px.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
@@ -147,15 +215,11 @@ impl Effect for Passage {
                 } else {
                     (neighbour(q, i, true).unwrap_or(i), q)
                 };
-                let (dx, dy) = ((b % w) as i64 - (a % w) as i64, (b / w) as i64 - (a / w) as i64);
-                let (nx, ny) = if dx.abs() >= dy.abs() { (dx.signum(), 0) } else { (0, dy.signum()) };
-                let (a_in, b_in) = (inward(a, -nx, -ny), inward(b, nx, ny));
-                let va = 0.5 * (lum[a] + lum[a_in]) * ramp(a);
-                let vb = 0.5 * (lum[b] + lum[b_in]) * ramp(b);
-                let dark_side = if va != vb { va < vb } else { key(i) < key(b) };
-                let lost_found =
-                    smoothstep(0.25, 0.75, grid.value2(seed, (q % w) as f32 / period, (q / w) as f32 / period));
-                let line = Passage::line(va, vb, lost_found);
+                // key(i) is key(a): a is this pixel or a pixel of its region.
+                let (b_in, va, vb) = memo_of(a, b).unwrap_or_else(|| sides(a, b));
+                let dark_side = if va != vb { va < vb } else { key(a) < key(b) };
+                let lf = memo.get(slot[q] as usize).map_or_else(|| lost_found(q), |m| m.lost_found);
+                let line = Passage::line(va, vb, lf);
                 // Passage: the sides blend where the line is lost, within md / 2 of the edge.
                 let wb = 0.5 * md;
                 if d < wb && coverage.is_painted(i) && coverage.is_painted(b_in) {
