@@ -411,7 +411,8 @@ impl Effect for Brushwork {
         let source: Vec<Vec4> = canvas.px.to_vec();
         let opacity = self.opacity.min(1.0);
         let (coverage, px) = canvas.coverage_and_pixels();
-        let surface = Surface { w, h, regions: ctx.regions(w * h), coverage };
+        let regions = ctx.regions(w * h);
+        let surface = Surface { w, h, regions: &regions, coverage };
         let coarse = self.strokes(0, length, width, &surface, &angle, &source, &|_| true);
         let bins = Bins::new(coarse, 0.5 * width * SPACING, w, h);
         composite(&bins, px, &surface, opacity);

@@ -170,10 +170,13 @@ pub struct PaintContext<'a> {
 /// region edges. Computed on first use and shared by the effects of a chain; a session keeps
 /// it across paint-only changes (`Painter::apply_with`), since the film and the facet map it
 /// was made from did not change. Each entry holds the last value asked for (one seed, one
-/// border width), so its memory stays bounded.
+/// border width), so its memory stays bounded. A one-off render's (`Default`) keeps only
+/// the planes (small): each effect's regions and edge distances are freed after it, as
+/// before they were shared (tests/memory_bound.rs).
 #[derive(Default)]
 pub struct PaintInputs {
-    regions: std::sync::OnceLock<Vec<u64>>,
+    keep: bool,
+    regions: std::sync::Mutex<Option<std::sync::Arc<Vec<u64>>>>,
     planes: std::sync::Mutex<Option<(u64, std::sync::Arc<Vec<planes::Plane>>)>>,
     edges: std::sync::Mutex<Option<(u32, std::sync::Arc<Edges>)>>,
 }
@@ -185,9 +188,14 @@ pub struct Edges {
 }
 
 impl PaintInputs {
+    /// Inputs kept from chain to chain (a session's).
+    pub fn kept() -> PaintInputs {
+        PaintInputs { keep: true, ..PaintInputs::default() }
+    }
+
     /// Bytes held.
     pub fn bytes(&self) -> u64 {
-        let regions = self.regions.get().map_or(0, |r| r.len() * 8);
+        let regions = self.regions.lock().map_or(0, |r| r.as_ref().map_or(0, |r| r.len() * 8));
         let planes =
             self.planes.lock().map_or(0, |p| p.as_ref().map_or(0, |(_, p)| p.len() * size_of::<planes::Plane>()));
         let edges = self.edges.lock().map_or(0, |e| e.as_ref().map_or(0, |(_, e)| e.dist.len() * 4 + e.near.len() * 4));
@@ -198,16 +206,32 @@ impl PaintInputs {
 impl<'a> PaintContext<'a> {
     /// Each pixel's region: facet id << 32 | object id (0 without a facet map, 0 without
     /// hits), the background counting as one object; `pixels` of them.
-    pub fn regions(&self, pixels: usize) -> &'a [u64] {
-        self.inputs.regions.get_or_init(|| {
-            let n = pixels;
-            let ids = self.facets.map(|f| &f.ids[..]).filter(|d| d.len() == n);
-            let hits = (self.hits.len() == n).then_some(self.hits);
+    pub fn regions(&self, pixels: usize) -> std::sync::Arc<Vec<u64>> {
+        if let Some(r) = self.inputs.regions.lock().ok().and_then(|g| g.clone()) {
+            return r;
+        }
+        let n = pixels;
+        let ids = self.facets.map(|f| &f.ids[..]).filter(|d| d.len() == n);
+        let hits = (self.hits.len() == n).then_some(self.hits);
+        let r: std::sync::Arc<Vec<u64>> = std::sync::Arc::new(
             (0..n)
                 .into_par_iter()
                 .map(|i| ((ids.map_or(0, |d| d[i]) as u64) << 32) | hits.map_or(0, |h| h[i].object) as u64)
-                .collect()
-        })
+                .collect(),
+        );
+        if self.inputs.keep
+            && let Ok(mut g) = self.inputs.regions.lock()
+        {
+            *g = Some(r.clone());
+        }
+        r
+    }
+
+    /// Whether the inputs are kept beyond this chain (a session's): then the regions are
+    /// worth keeping in memory while an effect runs; otherwise an effect may read the facet
+    /// map and the hits instead.
+    pub fn inputs_kept(&self) -> bool {
+        self.inputs.keep
     }
 
     /// The facets as planes (`planes::planes`; one plane without a facet map) for `seed`.
@@ -245,8 +269,11 @@ impl<'a> PaintContext<'a> {
                 || (y + 1 < h && r[i] != r[i + w])
         };
         let (dist, near) = crate::distance::nearest_features(width, height, limit, is_edge);
+        drop(r);
         let e = std::sync::Arc::new(Edges { dist, near });
-        if let Ok(mut g) = self.inputs.edges.lock() {
+        if self.inputs.keep
+            && let Ok(mut g) = self.inputs.edges.lock()
+        {
             *g = Some((limit.to_bits(), e.clone()));
         }
         e

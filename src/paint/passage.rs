@@ -21,7 +21,7 @@
 //! The side decision counts the ramp the per-plane light will lay on each side (it runs after
 //! the palette), so a plane's dark end takes the line against its neighbour's light end.
 
-use glam::{Vec2, Vec4};
+use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::borders::border_factor;
@@ -89,13 +89,23 @@ impl Effect for Passage {
         let ids = ctx.facets.map(|f| &f.ids[..]);
         // Regions (facet << 32 | object): ordered by (facet, object), the tie-break when both
         // sides match in value.
-        let regions = ctx.regions(w * h);
-        let same = |i: usize, j: usize| regions[i] == regions[j];
-        let key = |i: usize| regions[i];
+        // (A one-off render reads the facet ids and hits instead: no regions buffer held.)
+        let regions = ctx.inputs_kept().then(|| ctx.regions(w * h));
+        let hits = (ctx.hits.len() == w * h).then_some(ctx.hits);
+        let ids = ids.filter(|d| d.len() == w * h);
+        let key = |i: usize| match &regions {
+            Some(r) => r[i],
+            None => ((ids.map_or(0, |d| d[i]) as u64) << 32) | hits.map_or(0, |o| o[i].object) as u64,
+        };
+        let same = |i: usize, j: usize| match &regions {
+            Some(r) => r[i] == r[j],
+            None => ids.is_none_or(|d| d[i] == d[j]) && hits.is_none_or(|o| o[i].object == o[j].object),
+        };
         let edges = ctx.edges(w as u32, h as u32, md);
         let (dist, near) = (&edges.dist, &edges.near);
-        let before: Vec<Vec4> = canvas.px.to_vec();
-        let lum: Vec<f32> = before.par_iter().map(|p| luminance(p.truncate()).max(0.0)).collect();
+        // The colours before (what the other side blends in; alpha is not read).
+        let before: Vec<Vec3> = canvas.px.par_iter().map(|p| p.truncate()).collect();
+        let lum: Vec<f32> = before.par_iter().map(|p| luminance(*p).max(0.0)).collect();
         // A 4-neighbour of q (right, down, left, up: fixed order) that is (`want` = true) or
         // is not in the region of `of`.
         let neighbour = |q: usize, of: usize, want: bool| -> Option<usize> {
@@ -224,7 +234,7 @@ impl Effect for Passage {
                 let wb = 0.5 * md;
                 if d < wb && coverage.is_painted(i) && coverage.is_painted(b_in) {
                     let beta = BLEND * (1.0 - line) * (1.0 - d / wb).powi(2);
-                    *p = p.truncate().lerp(before[b_in].truncate(), beta).extend(p.w);
+                    *p = p.truncate().lerp(before[b_in], beta).extend(p.w);
                 }
                 if dark_side && self.strength > 0.0 {
                     darken(p, 1.0 - self.strength * line * (1.0 - border_factor(d, md)), transparent);

@@ -684,7 +684,7 @@ fn after_saliency_stages(
             // What the effects derive from the film's hits and the facet map alone.
             let inputs_key = (traced_gen, plan.faceting.then_some(layout_gen));
             if !keep || !hit(&lane.paint_inputs, &inputs_key) {
-                lane.paint_inputs = Some(Entry { key: inputs_key, id: next(), value: PaintInputs::default() });
+                lane.paint_inputs = Some(Entry { key: inputs_key, id: next(), value: PaintInputs::kept() });
             }
             let inputs = &lane.paint_inputs.as_ref().expect("just made").value;
             // The chain from the first effect whose parameters changed since the last paint
