@@ -51,6 +51,8 @@ fn main() {
     let save = args.iter().position(|a| a == "--save").and_then(|i| args.get(i + 1)).map(PathBuf::from);
     // `--only NAME`: just the rows whose name starts with NAME (for profiling one effect).
     let only_row = args.iter().position(|a| a == "--only").and_then(|i| args.get(i + 1)).cloned();
+    // `--dump DIR`: each row's painted colour buffer as raw f32 (to compare two builds bit for bit).
+    let dump = args.iter().position(|a| a == "--dump").and_then(|i| args.get(i + 1)).map(PathBuf::from);
 
     let prep = Prepared::new(Scene::default_scene());
     let mut base = Settings::preset(Preset::Plain);
@@ -186,6 +188,11 @@ fn main() {
                 &format!("{median:.1} ms"),
                 Some(median < 100.0),
             );
+        }
+        if let Some(dir) = &dump {
+            let file = name.replace([' ', '(', ')'], "_").replace("__", "_");
+            std::fs::write(dir.join(format!("{}.f32", file.trim_matches('_'))), bytemuck::cast_slice(&out.color))
+                .expect("dump");
         }
         if let Some(dir) = &save {
             let file = name.replace([' ', '(', ')'], "_").replace("__", "_");

@@ -232,3 +232,50 @@ fn a_session_without_a_scene_says_so() {
     let err = Session::new().render(&base(), &Progress::silent()).err().unwrap().to_string();
     assert!(err.contains("no scene"), "{err}");
 }
+
+#[test]
+fn a_paint_only_change_resumes_the_chain_before_the_first_effect_it_changes() {
+    // The session keeps the canvas before the first effect whose parameters changed (the
+    // analytic chain: chiaroscuro, passage, palette, plane light, brushwork, canvas grain)
+    // and paints the next change of that effect from there: the pixels stay a fresh render's
+    // through changes of later, earlier and first effects, a transparent background, and a
+    // facet change (another film under the kept canvas).
+    let scene = Scene::default_scene();
+    let mut session = Session::new();
+    session.set_scene(scene.clone());
+    let s = Settings { width: 200, height: 150, spp: 1, ..base() };
+    let prefix = |session: &Session| session.stats().lanes[0].outputs.contains(&"paint prefix");
+    same(&mut session, &scene, &s, "first");
+    assert!(!prefix(&session), "nothing changed yet: nothing kept part-way");
+    let steps: Vec<(&str, Settings)> = vec![
+        ("brushwork 0.5", Settings { brushwork: 0.5, ..s.clone() }),
+        ("brushwork 0.6", Settings { brushwork: 0.6, ..s.clone() }),
+        ("brushwork 0.5 again", Settings { brushwork: 0.5, ..s.clone() }),
+        ("canvas grain", Settings { brushwork: 0.5, canvas_grain: 0.9, ..s.clone() }),
+        ("border width", Settings { border_width: 9.0, ..s.clone() }),
+        ("border width again", Settings { border_width: 10.0, ..s.clone() }),
+        ("brushwork after a border change", Settings { border_width: 10.0, brushwork: 0.3, ..s.clone() }),
+        ("chiaroscuro (the first effect)", Settings { chiaroscuro: 0.6, ..s.clone() }),
+        ("chiaroscuro again", Settings { chiaroscuro: 0.5, ..s.clone() }),
+        ("plane light (passage reads it too)", Settings { plane_light: 0.4, ..s.clone() }),
+        ("seed (every effect)", Settings { seed: 7, ..s.clone() }),
+        ("transparent", Settings { transparent: true, ..s.clone() }),
+        ("transparent, brushwork", Settings { transparent: true, brushwork: 0.4, ..s.clone() }),
+        ("transparent, brushwork again", Settings { transparent: true, brushwork: 0.2, ..s.clone() }),
+        ("opaque, brushwork", Settings { brushwork: 0.2, ..s.clone() }),
+        ("facet change", Settings { brushwork: 0.3, segments: vec![5, 20, 80], ..s.clone() }),
+        ("facet change, brushwork", Settings { brushwork: 0.4, segments: vec![5, 20, 80], ..s.clone() }),
+    ];
+    let mut held = 0;
+    for (what, next) in &steps {
+        let reused = same(&mut session, &scene, next, what);
+        // spp 1: no anti-aliasing stage; paint-only changes re-run paint alone.
+        if !["seed", "transparent", "opaque", "facet"].iter().any(|w| what.starts_with(w)) {
+            assert_eq!(reused, reused_up_to("re-trace"), "{what}");
+        }
+        held += prefix(&session) as usize;
+    }
+    // Once an effect changed, the canvas before it is kept (not after a change of the first
+    // effect, whose canvas is the film's own, nor after a new film).
+    assert!(held >= 10, "the canvas part-way was kept after {held} of {} changes", steps.len());
+}

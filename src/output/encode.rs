@@ -1,25 +1,88 @@
 //! The film's colour as an 8-bit sRGB image.
 
 use image::RgbaImage;
+use rayon::prelude::*;
 
 use crate::film::Film;
 use crate::scene::texture::linear_to_srgb;
 
 /// Encodes a film's colour. Opaque: the background is already blended in. Transparent: the
-/// background is un-blended using the coverage alpha, so edges composite correctly.
+/// background is un-blended using the coverage alpha, so edges composite correctly. Rows in
+/// parallel (each pixel alone: the same bytes on any thread count).
 pub fn encode(film: &Film, background: [f32; 3], transparent: bool) -> RgbaImage {
     let bg = glam::Vec3::from(background);
     let mut img = RgbaImage::new(film.width, film.height);
-    for (px, c) in img.pixels_mut().zip(&film.color) {
-        let (rgb, a) = if transparent {
-            let a = c.w;
-            let rgb = if a > 0.0 { (c.truncate() - bg * (1.0 - a)) / a } else { glam::Vec3::ZERO };
-            (rgb, a)
-        } else {
-            (c.truncate(), 1.0)
-        };
-        let q = |v: f32| (linear_to_srgb(v) * 255.0 + 0.5) as u8;
-        px.0 = [q(rgb.x), q(rgb.y), q(rgb.z), (a.clamp(0.0, 1.0) * 255.0 + 0.5) as u8];
-    }
+    let raw: &mut [u8] = &mut img;
+    raw.par_chunks_mut(4 * 1024).zip(film.color.par_chunks(1024)).for_each(|(out, colour)| {
+        for (px, c) in out.chunks_exact_mut(4).zip(colour) {
+            let (rgb, a) = if transparent {
+                let a = c.w;
+                let rgb = if a > 0.0 { (c.truncate() - bg * (1.0 - a)) / a } else { glam::Vec3::ZERO };
+                (rgb, a)
+            } else {
+                (c.truncate(), 1.0)
+            };
+            px.copy_from_slice(&[srgb8(rgb.x), srgb8(rgb.y), srgb8(rgb.z), (a.clamp(0.0, 1.0) * 255.0 + 0.5) as u8]);
+        }
+    });
     img
+}
+
+/// The 8-bit sRGB code of a linear value by the formula (`linear_to_srgb`, rounded).
+fn srgb8_formula(v: f32) -> u8 {
+    (linear_to_srgb(v) * 255.0 + 0.5) as u8
+}
+
+/// The least value in [0, 1] of each code 1..=255 (`srgb8_formula`), by bisection on the
+/// bit patterns of the non-negative floats (ordered as the integers).
+fn srgb8_thresholds() -> &'static [f32; 255] {
+    static T: std::sync::OnceLock<[f32; 255]> = std::sync::OnceLock::new();
+    T.get_or_init(|| {
+        std::array::from_fn(|k| {
+            let want = k as u8 + 1;
+            let (mut lo, mut hi) = (0u32, 1.0f32.to_bits());
+            while lo < hi {
+                let mid = lo + (hi - lo) / 2;
+                if srgb8_formula(f32::from_bits(mid)) >= want { hi = mid } else { lo = mid + 1 }
+            }
+            f32::from_bits(lo)
+        })
+    })
+}
+
+/// `srgb8_formula(v)` without a power per channel: the number of code thresholds at or below
+/// `v`. The same code wherever the rounded formula is monotone (`srgb_codes_match_the_formula`
+/// checks every float near every threshold); NaN and values at or below 0 give 0.
+fn srgb8(v: f32) -> u8 {
+    if !(v > 0.0) {
+        return 0;
+    }
+    srgb8_thresholds().partition_point(|&t| t <= v) as u8
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn srgb_codes_match_the_formula() {
+        for &t in srgb8_thresholds() {
+            let b = t.to_bits();
+            for bits in b.saturating_sub(4096)..b + 4096 {
+                let v = f32::from_bits(bits);
+                assert_eq!(srgb8(v), srgb8_formula(v), "{v:e}");
+            }
+        }
+        let mut x = 0x2545_f491_4f6c_dd1du64;
+        for _ in 0..200_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let v = (x >> 40) as f32 / (1u64 << 24) as f32 * 1.2 - 0.1;
+            assert_eq!(srgb8(v), srgb8_formula(v), "{v:e}");
+        }
+        for v in [0.0, -0.0, -1.0, 1.0, 2.0, f32::INFINITY, f32::NEG_INFINITY, f32::NAN, f32::MIN_POSITIVE, 1e-45] {
+            assert_eq!(srgb8(v), srgb8_formula(v), "{v:e}");
+        }
+    }
 }

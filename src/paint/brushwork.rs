@@ -27,10 +27,9 @@ use glam::{Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 
 use super::noise::lattice1;
-use super::planes::{Plane, planes, smoothstep};
+use super::planes::{Plane, smoothstep};
 use super::{Canvas, Coverage, Effect, PaintContext, luminance};
 use crate::error::Result;
-use crate::film::PixelHit;
 use crate::util::rng::{splitmix64, sub_seed, unit_f64};
 
 const SALT: u64 = 0x6272_7573_6877_6f72; // "brushwor"
@@ -87,6 +86,8 @@ struct Stroke {
     bristles: [f32; BRISTLES + 1],
     /// Depth key: strokes are composited in increasing key order.
     key: u64,
+    /// 1 / dir, per axis (`span`).
+    inv_dir: Vec2,
 }
 
 /// What a stroke may paint: one facet of one object (the background counting as one), as
@@ -151,14 +152,6 @@ impl Bins {
         }
         Bins { cell, nx, ny, start, items, strokes }
     }
-
-    /// The strokes listed for the cell holding `p`, as indices into `strokes`.
-    fn at(&self, p: Vec2) -> &[u32] {
-        let cx = ((p.x / self.cell) as usize).min(self.nx - 1);
-        let cy = ((p.y / self.cell) as usize).min(self.ny - 1);
-        let c = cy * self.nx + cx;
-        &self.items[self.start[c] as usize..self.start[c + 1] as usize]
-    }
 }
 
 fn fade(t: f32) -> f32 {
@@ -209,19 +202,12 @@ fn paint(s: &Stroke, p: Vec2, region: Region, value: f32, c: Vec3, opacity: f32)
 struct Surface<'a> {
     w: usize,
     h: usize,
-    regions: Vec<Region>,
+    /// `PaintContext::regions`.
+    regions: &'a [Region],
     coverage: Coverage<'a>,
 }
 
-impl<'a> Surface<'a> {
-    fn new(w: usize, h: usize, ids: Option<&[u32]>, hits: Option<&[PixelHit]>, coverage: Coverage<'a>) -> Self {
-        let regions = (0..w * h)
-            .into_par_iter()
-            .map(|i| ((ids.map_or(0, |d| d[i]) as u64) << 32) | hits.map_or(0, |h| h[i].object) as u64)
-            .collect();
-        Surface { w, h, regions, coverage }
-    }
-
+impl Surface<'_> {
     fn region(&self, i: usize) -> Region {
         self.regions[i]
     }
@@ -309,6 +295,7 @@ impl Brushwork {
                         region,
                         bristles: std::array::from_fn(|k| lattice1(bristle_seed, k as i64)),
                         key: splitmix64(hsh ^ 7),
+                        inv_dir: dir.recip(),
                     })
                 })
             })
@@ -316,26 +303,95 @@ impl Brushwork {
     }
 }
 
-/// Composites the strokes of `bins` over every painted pixel of `px` in place (rows in
-/// parallel; each pixel alone, strokes in key order).
+/// Composites the strokes of `bins` over every painted pixel of `px` in place: each pixel
+/// takes, in key order, the strokes listed for its cell (`Bins::at`), over its colour before
+/// the layer. Bands of cell rows in parallel; within a cell stroke by stroke, each over the
+/// pixels of the cell its rectangle may reach (a span per row, one pixel wider than the
+/// rectangle on each side, the exact test being `paint`'s): every pixel sees the same
+/// strokes in the same order as alone, so the result is the same on any thread count.
 fn composite(bins: &Bins, px: &mut [Vec4], surface: &Surface, opacity: f32) {
-    let w = surface.w;
-    px.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-        for (x, p) in row.iter_mut().enumerate() {
-            let i = y * w + x;
-            if !surface.coverage.is_painted(i) {
-                continue;
+    let (w, h) = (surface.w, surface.h);
+    if w == 0 || h == 0 {
+        return;
+    }
+    let cell_of = |p: f32, n: usize| ((p / bins.cell) as usize).min(n - 1);
+    // Columns of each cell (cell indices are monotone in x and y).
+    let mut columns: Vec<(usize, usize, usize)> = Vec::new();
+    for x in 0..w {
+        let cx = cell_of(x as f32 + 0.5, bins.nx);
+        match columns.last_mut() {
+            Some(c) if c.0 == cx => c.2 = x + 1,
+            _ => columns.push((cx, x, x + 1)),
+        }
+    }
+    let mut bands: Vec<(usize, usize, usize, &mut [Vec4])> = Vec::new();
+    let mut rest = px;
+    let mut y0 = 0;
+    while y0 < h {
+        let cy = cell_of(y0 as f32 + 0.5, bins.ny);
+        let mut y1 = y0 + 1;
+        while y1 < h && cell_of(y1 as f32 + 0.5, bins.ny) == cy {
+            y1 += 1;
+        }
+        let (band, r) = std::mem::take(&mut rest).split_at_mut((y1 - y0) * w);
+        bands.push((cy, y0, y1, band));
+        rest = r;
+        y0 = y1;
+    }
+    bands.into_par_iter().for_each(|(cy, y0, y1, band)| {
+        // Each pixel's luminance before the layer.
+        let value: Vec<f32> = band.iter().map(|p| luminance(p.truncate())).collect();
+        for &(cx, x0, x1) in &columns {
+            let c = cy * bins.nx + cx;
+            for &k in &bins.items[bins.start[c] as usize..bins.start[c + 1] as usize] {
+                let s = &bins.strokes[k as usize];
+                for y in y0..y1 {
+                    let Some((a, b)) = span(s, y as f32 + 0.5, x0, x1) else { continue };
+                    let row = (y - y0) * w;
+                    for x in a..b {
+                        let i = y * w + x;
+                        if !surface.coverage.is_painted(i) {
+                            continue;
+                        }
+                        let q = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
+                        let p = &mut band[row + x];
+                        let painted = paint(s, q, surface.region(i), value[row + x], p.truncate(), opacity);
+                        *p = painted.extend(p.w);
+                    }
+                }
             }
-            let q = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
-            let region = surface.region(i);
-            let mut c = p.truncate();
-            let value = luminance(c);
-            for &k in bins.at(q) {
-                c = paint(&bins.strokes[k as usize], q, region, value, c, opacity);
-            }
-            *p = c.extend(p.w);
         }
     });
+}
+
+/// The columns in [x0, x1) of row centre `py` that stroke `s` may paint: where
+/// |u| < half_len and |v| < half_wid + 0.5 (`paint`'s first tests), widened by a pixel on
+/// each side against rounding; None when there are none. An axis nearly parallel to the rows
+/// does not bound the span (its bound would be large and imprecise).
+fn span(s: &Stroke, py: f32, x0: usize, x1: usize) -> Option<(usize, usize)> {
+    let dy = py - s.centre.y;
+    let (mut lo, mut hi) = (f32::NEG_INFINITY, f32::INFINITY);
+    // u = dx dir.x + dy dir.y in (-half_len, half_len).
+    if s.dir.x.abs() >= 0.01 {
+        let (a, b) = ((-s.half_len - dy * s.dir.y) * s.inv_dir.x, (s.half_len - dy * s.dir.y) * s.inv_dir.x);
+        (lo, hi) = (lo.max(a.min(b)), hi.min(a.max(b)));
+    } else if (dy * s.dir.y).abs() >= s.half_len + 1.0 {
+        return None;
+    }
+    // v = dx dir.y - dy dir.x in (-(half_wid + 0.5), half_wid + 0.5).
+    let hw = s.half_wid + 0.5;
+    if s.dir.y.abs() >= 0.01 {
+        let (a, b) = ((-hw + dy * s.dir.x) * s.inv_dir.y, (hw + dy * s.dir.x) * s.inv_dir.y);
+        (lo, hi) = (lo.max(a.min(b)), hi.min(a.max(b)));
+    } else if (dy * s.dir.x).abs() >= hw + 1.0 {
+        return None;
+    }
+    // Pixel x has dx = x + 0.5 - centre.x.
+    let a = (lo + s.centre.x - 0.5).floor() - 1.0;
+    let b = (hi + s.centre.x - 0.5).ceil() + 2.0;
+    let a = if a.is_finite() { a.max(x0 as f32) as usize } else { x0 };
+    let b = if b.is_finite() { (b.max(0.0) as usize).min(x1) } else { x1 };
+    (a < b).then_some((a, b))
 }
 
 impl Effect for Brushwork {
@@ -350,19 +406,16 @@ impl Effect for Brushwork {
             return Ok(());
         }
         let length = self.length.max(width);
-        let ids = ctx.facets.map(|f| &f.ids[..]);
-        let planes = match ids {
-            Some(ids) => planes(canvas.width, ids, ctx.facet_count(), self.seed),
-            None => planes(canvas.width, &vec![0; w * h], 1, self.seed),
-        };
+        let planes = ctx.planes(canvas.width, w * h, self.seed);
         let angle = self.directions(&planes);
         let source: Vec<Vec4> = canvas.px.to_vec();
         let opacity = self.opacity.min(1.0);
         let (coverage, px) = canvas.coverage_and_pixels();
-        let hits = (ctx.hits.len() == w * h).then_some(ctx.hits);
-        let surface = Surface::new(w, h, ids, hits, coverage);
+        let regions = ctx.regions(w * h);
+        let surface = Surface { w, h, regions: &regions, coverage };
         let coarse = self.strokes(0, length, width, &surface, &angle, &source, &|_| true);
-        composite(&Bins::new(coarse, 0.5 * width * SPACING, w, h), px, &surface, opacity);
+        let bins = Bins::new(coarse, 0.5 * width * SPACING, w, h);
+        composite(&bins, px, &surface, opacity);
         // The fine layer (Hertzmann's next brush): half the size, where the coarse layer
         // strays from the picture.
         let fine_width = 0.5 * width;
@@ -386,7 +439,8 @@ impl Effect for Brushwork {
             let keep = |p: Vec2| error(p) > FINE_THRESHOLD;
             let fine = self.strokes(1, 0.5 * length, fine_width, &surface, &angle, &source, &keep);
             if !fine.is_empty() {
-                composite(&Bins::new(fine, 0.5 * fine_width * SPACING, w, h), px, &surface, opacity);
+                let bins = Bins::new(fine, 0.5 * fine_width * SPACING, w, h);
+                composite(&bins, px, &surface, opacity);
             }
         }
         Ok(())

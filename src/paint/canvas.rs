@@ -10,7 +10,7 @@
 
 use rayon::prelude::*;
 
-use super::noise::{lattice1, value2};
+use super::noise::{Grid2, lattice1};
 use super::{Canvas, Effect, PaintContext};
 use crate::error::Result;
 use crate::util::rng::sub_seed;
@@ -88,6 +88,7 @@ impl Effect for CanvasGrain {
             * (mean(&columns, |t| t.profile) * mean(&rows, |t| t.dip)
                 + mean(&rows, |t| t.profile) * mean(&columns, |t| t.dip));
         let thickness = (THICKNESS_PERIOD * ((w * h) as f32).sqrt()).max(8.0);
+        let grid = Grid2::new(seed ^ 1, (0.0, w as f32 / thickness), (0.0, h as f32 / thickness));
         let (coverage, px) = canvas.coverage_and_pixels();
         px.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
             let ry = &rows[y];
@@ -95,7 +96,7 @@ impl Effect for CanvasGrain {
                 if !coverage.is_painted(y * w + x) {
                     continue;
                 }
-                let shows = 0.5 + value2(seed ^ 1, (x as f32 + 0.5) / thickness, (y as f32 + 0.5) / thickness);
+                let shows = 0.5 + grid.value2(seed ^ 1, (x as f32 + 0.5) / thickness, (y as f32 + 0.5) / thickness);
                 let f = 1.0 + depth * shows * (CanvasGrain::weave(&columns[x], ry) - mean);
                 *p = (p.truncate() * f).extend(p.w);
             }

@@ -18,7 +18,7 @@
 use glam::{Quat, Vec2, Vec3};
 use rayon::prelude::*;
 
-use super::planes::{KEY, Plane, planes};
+use super::planes::{KEY, Plane};
 use super::{Canvas, Effect, PaintContext};
 use crate::error::{Error, Result};
 use crate::shading::RigLight;
@@ -108,10 +108,7 @@ impl Effect for Chiaroscuro {
         };
         let (world, rig) = (lighting.world, lighting.rig);
         // The planes the per-plane light ramps (one plane without a facet map).
-        let planes = match ctx.facets {
-            Some(f) => planes(canvas.width, &f.ids, ctx.facet_count(), self.seed),
-            None => planes(canvas.width, &vec![0; canvas.pixel_count()], 1, self.seed),
-        };
+        let planes = ctx.planes(canvas.width, canvas.pixel_count(), self.seed);
         // Per facet: the rotation, the gain and the rotated directions of directional lights
         // (the other lights' directions depend on the pixel).
         let facets: Vec<(Quat, f32, Vec<Vec3>)> = (0..ctx.facet_count() as u32)

@@ -161,9 +161,124 @@ pub struct PaintContext<'a> {
     /// Facet id of every pixel; None = one facet (faceting none).
     pub facets: Option<&'a FacetMap>,
     pub lighting: Option<&'a Lighting<'a>>,
+    /// What several effects derive from the facet map and the hits alone, computed once.
+    inputs: &'a PaintInputs,
 }
 
-impl PaintContext<'_> {
+/// What the effects derive from the facet map and the hits alone (not from the colour, nor
+/// from the effects' strengths): each pixel's region, the planes, the distance to the
+/// region edges. Computed on first use and shared by the effects of a chain; a session keeps
+/// it across paint-only changes (`Painter::apply_with`), since the film and the facet map it
+/// was made from did not change. Each entry holds the last value asked for (one seed, one
+/// border width), so its memory stays bounded. A one-off render's (`Default`) keeps only
+/// the planes (small): each effect's regions and edge distances are freed after it, as
+/// before they were shared (tests/memory_bound.rs).
+#[derive(Default)]
+pub struct PaintInputs {
+    keep: bool,
+    regions: std::sync::Mutex<Option<std::sync::Arc<Vec<u64>>>>,
+    planes: std::sync::Mutex<Option<(u64, std::sync::Arc<Vec<planes::Plane>>)>>,
+    edges: std::sync::Mutex<Option<(u32, std::sync::Arc<Edges>)>>,
+}
+
+/// The nearest region edge of every pixel within a distance (`distance::nearest_features`).
+pub struct Edges {
+    pub dist: Vec<f32>,
+    pub near: Vec<u32>,
+}
+
+impl PaintInputs {
+    /// Inputs kept from chain to chain (a session's).
+    pub fn kept() -> PaintInputs {
+        PaintInputs { keep: true, ..PaintInputs::default() }
+    }
+
+    /// Bytes held.
+    pub fn bytes(&self) -> u64 {
+        let regions = self.regions.lock().map_or(0, |r| r.as_ref().map_or(0, |r| r.len() * 8));
+        let planes =
+            self.planes.lock().map_or(0, |p| p.as_ref().map_or(0, |(_, p)| p.len() * size_of::<planes::Plane>()));
+        let edges = self.edges.lock().map_or(0, |e| e.as_ref().map_or(0, |(_, e)| e.dist.len() * 4 + e.near.len() * 4));
+        (regions + planes + edges) as u64
+    }
+}
+
+impl<'a> PaintContext<'a> {
+    /// Each pixel's region: facet id << 32 | object id (0 without a facet map, 0 without
+    /// hits), the background counting as one object; `pixels` of them.
+    pub fn regions(&self, pixels: usize) -> std::sync::Arc<Vec<u64>> {
+        if let Some(r) = self.inputs.regions.lock().ok().and_then(|g| g.clone()) {
+            return r;
+        }
+        let n = pixels;
+        let ids = self.facets.map(|f| &f.ids[..]).filter(|d| d.len() == n);
+        let hits = (self.hits.len() == n).then_some(self.hits);
+        let r: std::sync::Arc<Vec<u64>> = std::sync::Arc::new(
+            (0..n)
+                .into_par_iter()
+                .map(|i| ((ids.map_or(0, |d| d[i]) as u64) << 32) | hits.map_or(0, |h| h[i].object) as u64)
+                .collect(),
+        );
+        if self.inputs.keep
+            && let Ok(mut g) = self.inputs.regions.lock()
+        {
+            *g = Some(r.clone());
+        }
+        r
+    }
+
+    /// Whether the inputs are kept beyond this chain (a session's): then the regions are
+    /// worth keeping in memory while an effect runs; otherwise an effect may read the facet
+    /// map and the hits instead.
+    pub fn inputs_kept(&self) -> bool {
+        self.inputs.keep
+    }
+
+    /// The facets as planes (`planes::planes`; one plane without a facet map) for `seed`.
+    pub fn planes(&self, width: u32, pixels: usize, seed: u64) -> std::sync::Arc<Vec<planes::Plane>> {
+        if let Some((s, p)) = self.inputs.planes.lock().ok().and_then(|g| g.clone())
+            && s == seed
+        {
+            return p;
+        }
+        let p = std::sync::Arc::new(match self.facets {
+            Some(f) => planes::planes(width, &f.ids, self.facet_count(), seed),
+            None => planes::planes(width, &vec![0; pixels], 1, seed),
+        });
+        if let Ok(mut g) = self.inputs.planes.lock() {
+            *g = Some((seed, p.clone()));
+        }
+        p
+    }
+
+    /// For every pixel within `limit` of a region edge (a pixel whose 4-neighbour is in another
+    /// region), the nearest such pixel and its distance.
+    pub fn edges(&self, width: u32, height: u32, limit: f32) -> std::sync::Arc<Edges> {
+        if let Some((l, e)) = self.inputs.edges.lock().ok().and_then(|g| g.clone())
+            && l == limit.to_bits()
+        {
+            return e;
+        }
+        let (w, h) = (width as usize, height as usize);
+        let r = self.regions(w * h);
+        let is_edge = |i: usize| {
+            let (x, y) = (i % w, i / w);
+            (x > 0 && r[i] != r[i - 1])
+                || (x + 1 < w && r[i] != r[i + 1])
+                || (y > 0 && r[i] != r[i - w])
+                || (y + 1 < h && r[i] != r[i + w])
+        };
+        let (dist, near) = crate::distance::nearest_features(width, height, limit, is_edge);
+        drop(r);
+        let e = std::sync::Arc::new(Edges { dist, near });
+        if self.inputs.keep
+            && let Ok(mut g) = self.inputs.edges.lock()
+        {
+            *g = Some((limit.to_bits(), e.clone()));
+        }
+        e
+    }
+
     /// The facet id of pixel `i` (0 without a facet map).
     pub fn facet(&self, i: usize) -> u32 {
         self.facets.map_or(0, |f| f.ids[i])
@@ -250,6 +365,35 @@ impl PaintParams {
         on.into_iter().filter(|(_, on)| *on).map(|(step, _)| step).collect()
     }
 
+    /// Each enabled effect's parameters as text, in chain order (`Painter::keys`): what that
+    /// effect reads of these parameters, with the canvas's background and transparency.
+    pub fn keys(&self) -> Vec<String> {
+        let p = self;
+        let canvas = format!("{:?} {}", p.background, p.transparent);
+        p.chain()
+            .into_iter()
+            .map(|step| {
+                let own = match step {
+                    Step::Chiaroscuro => format!("{} {}", p.chiaroscuro, p.seed),
+                    Step::Silhouettes => format!("{} {} {}", p.silhouette_width, p.silhouette_strength, p.scale),
+                    Step::Borders => format!(
+                        "{} {} {} {:?} {} {}",
+                        p.border_width, p.border_strength, p.scale, p.border_style, p.seed, p.plane_light
+                    ),
+                    Step::Gradients => format!("{} {}", p.gradients, p.seed),
+                    Step::Palette => format!("{:?} {:?}", p.palette_image, p.palette),
+                    Step::Quantise => format!("{}", p.colors),
+                    Step::PlaneLight => format!("{} {}", p.plane_light, p.seed),
+                    Step::Brushwork => {
+                        format!("{} {} {} {} {}", p.brushwork, p.stroke_length, p.stroke_width, p.scale, p.seed)
+                    }
+                    Step::CanvasGrain => format!("{} {} {}", p.canvas_grain, p.scale, p.seed),
+                };
+                format!("{step:?} {own} {canvas}")
+            })
+            .collect()
+    }
+
     /// Whether no effect is on: the paint stage is skipped and the render left as traced.
     pub fn is_off(&self) -> bool {
         self.chain().is_empty()
@@ -260,8 +404,17 @@ impl PaintParams {
 /// palette painting), reusable for every frame of an animation.
 pub struct Painter {
     effects: Vec<Box<dyn Effect>>,
+    /// Each effect's parameters, as text (`PaintParams::keys`); empty when not known.
+    keys: Vec<String>,
     background: [f32; 3],
     transparent: bool,
+}
+
+/// Where a chain may start: the canvas after its first `done` effects, as an earlier run of a
+/// chain with the same first `done` effects keys left it (`Painter::apply_from`).
+pub struct Resume<'a> {
+    pub done: usize,
+    pub px: &'a [Vec4],
 }
 
 impl Painter {
@@ -310,12 +463,19 @@ impl Painter {
                 }),
             });
         }
-        Ok(Painter { effects, background: p.background, transparent: p.transparent })
+        Ok(Painter { effects, keys: p.keys(), background: p.background, transparent: p.transparent })
+    }
+
+    /// Each enabled effect's parameters, as text, in chain order: two painters whose first k
+    /// keys agree leave the same canvas after their first k effects (on the same film, facet
+    /// map and lights; a palette painting's contents are not in its key).
+    pub fn keys(&self) -> &[String] {
+        &self.keys
     }
 
     /// A chain of the given effects (tests, benchmarks).
     pub fn from_effects(effects: Vec<Box<dyn Effect>>, background: [f32; 3], transparent: bool) -> Painter {
-        Painter { effects, background, transparent }
+        Painter { effects, keys: Vec::new(), background, transparent }
     }
 
     pub fn is_empty(&self) -> bool {
@@ -330,8 +490,35 @@ impl Painter {
     /// Runs the chain on `frame`'s colour. With no effect enabled the frame is not touched
     /// (bit-identical). `facets` must match the frame's size.
     pub fn apply(&self, film: &mut Film, facets: Option<&FacetMap>, lighting: Option<&Lighting>) -> Result<()> {
+        self.apply_with(film, facets, lighting, &PaintInputs::default())
+    }
+
+    /// `apply`, reading and filling `inputs`: those made for this film's hits and this facet
+    /// map (a session keeps them across paint-only changes).
+    pub fn apply_with(
+        &self,
+        film: &mut Film,
+        facets: Option<&FacetMap>,
+        lighting: Option<&Lighting>,
+        inputs: &PaintInputs,
+    ) -> Result<()> {
+        self.apply_from(film, facets, lighting, inputs, None, None).map(|_| ())
+    }
+
+    /// `apply_with`, starting from `resume` (its canvas taken as the one after its first
+    /// `done` effects) and returning the canvas as it was before effect `keep` (None when
+    /// `keep` is None, or not after the start, or past the end).
+    pub fn apply_from(
+        &self,
+        film: &mut Film,
+        facets: Option<&FacetMap>,
+        lighting: Option<&Lighting>,
+        inputs: &PaintInputs,
+        resume: Option<Resume<'_>>,
+        keep: Option<usize>,
+    ) -> Result<Option<Vec<Vec4>>> {
         if self.effects.is_empty() {
-            return Ok(());
+            return Ok(None);
         }
         if let Some(f) =
             facets.filter(|f| f.width != film.width || f.height != film.height || f.ids.len() != film.pixel_count())
@@ -343,16 +530,25 @@ impl Painter {
         }
         let (w, h) = (film.width, film.height);
         let mut canvas = Canvas::new(w, h, &mut film.color, self.background, self.transparent);
-        let ctx = PaintContext { hits: &film.hits, facets, lighting };
+        let ctx = PaintContext { hits: &film.hits, facets, lighting, inputs };
+        let mut start = 0;
+        if let Some(r) = resume.filter(|r| r.done <= self.effects.len() && r.px.len() == canvas.px.len()) {
+            canvas.px.par_iter_mut().zip(r.px).for_each(|(p, q)| *p = *q);
+            start = r.done;
+        }
+        let mut kept = None;
         let mut result = Ok(());
-        for e in &self.effects {
+        for (k, e) in self.effects.iter().enumerate().skip(start) {
+            if keep == Some(k) && k > start {
+                kept = Some(canvas.px.to_vec());
+            }
             result = e.apply(&mut canvas, &ctx);
             if result.is_err() {
                 break;
             }
         }
         canvas.finish();
-        result
+        result.map(|()| kept)
     }
 }
 

@@ -21,15 +21,15 @@
 //! The side decision counts the ramp the per-plane light will lay on each side (it runs after
 //! the palette), so a plane's dark end takes the line against its neighbour's light end.
 
-use glam::{Vec2, Vec4};
+use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::borders::border_factor;
-use super::noise::value2;
+use super::noise::Grid2;
 use super::plane_light::PlaneLight;
-use super::planes::{planes, smoothstep};
+use super::planes::smoothstep;
 use super::{Canvas, Effect, PaintContext, darken, luminance};
-use crate::distance::{NO_FEATURE, nearest_features};
+use crate::distance::NO_FEATURE;
 use crate::error::Result;
 use crate::util::rng::sub_seed;
 
@@ -87,21 +87,25 @@ impl Effect for Passage {
             return Ok(());
         }
         let ids = ctx.facets.map(|f| &f.ids[..]);
+        // Regions (facet << 32 | object): ordered by (facet, object), the tie-break when both
+        // sides match in value.
+        // (A one-off render reads the facet ids and hits instead: no regions buffer held.)
+        let regions = ctx.inputs_kept().then(|| ctx.regions(w * h));
         let hits = (ctx.hits.len() == w * h).then_some(ctx.hits);
-        let same =
-            |i: usize, j: usize| ids.is_none_or(|d| d[i] == d[j]) && hits.is_none_or(|o| o[i].object == o[j].object);
-        // Regions ordered by (facet, object): the tie-break when both sides match in value.
-        let key = |i: usize| (ids.map_or(0, |d| d[i]), hits.map_or(0, |o| o[i].object));
-        let is_edge = |i: usize| {
-            let (x, y) = (i % w, i / w);
-            (x > 0 && !same(i, i - 1))
-                || (x + 1 < w && !same(i, i + 1))
-                || (y > 0 && !same(i, i - w))
-                || (y + 1 < h && !same(i, i + w))
+        let ids = ids.filter(|d| d.len() == w * h);
+        let key = |i: usize| match &regions {
+            Some(r) => r[i],
+            None => ((ids.map_or(0, |d| d[i]) as u64) << 32) | hits.map_or(0, |o| o[i].object) as u64,
         };
-        let (dist, near) = nearest_features(w as u32, h as u32, md, is_edge);
-        let before: Vec<Vec4> = canvas.px.to_vec();
-        let lum: Vec<f32> = before.par_iter().map(|p| luminance(p.truncate()).max(0.0)).collect();
+        let same = |i: usize, j: usize| match &regions {
+            Some(r) => r[i] == r[j],
+            None => ids.is_none_or(|d| d[i] == d[j]) && hits.is_none_or(|o| o[i].object == o[j].object),
+        };
+        let edges = ctx.edges(w as u32, h as u32, md);
+        let (dist, near) = (&edges.dist, &edges.near);
+        // The colours before (what the other side blends in; alpha is not read).
+        let before: Vec<Vec3> = canvas.px.par_iter().map(|p| p.truncate()).collect();
+        let lum: Vec<f32> = before.par_iter().map(|p| luminance(*p).max(0.0)).collect();
         // A 4-neighbour of q (right, down, left, up: fixed order) that is (`want` = true) or
         // is not in the region of `of`.
         let neighbour = |q: usize, of: usize, want: bool| -> Option<usize> {
@@ -123,10 +127,7 @@ impl Effect for Passage {
         };
         // The per-plane light's factor at a pixel (1 when it is off).
         let ramps = (self.plane_light > 0.0).then(|| {
-            (
-                PlaneLight { amount: self.plane_light, seed: self.seed },
-                planes(w as u32, ids.unwrap_or(&[]), ctx.facet_count(), self.seed),
-            )
+            (PlaneLight { amount: self.plane_light, seed: self.seed }, ctx.planes(w as u32, w * h, self.seed))
         });
         let ramp = |i: usize| match (&ramps, ids) {
             (Some((light, planes)), Some(ids)) => {
@@ -136,6 +137,75 @@ impl Effect for Passage {
         };
         let seed = sub_seed(self.seed, SALT);
         let period = (LOST_PERIOD * ((w * h) as f32).sqrt()).max(4.0);
+        let grid = Grid2::new(seed, (0.0, w as f32 / period), (0.0, h as f32 / period));
+        // What a pair (a, b) facing each other across an edge gives: b's inward pixel and
+        // the two sides' values (a on the pixel's side; the tie-break's region of the pixel
+        // is a's); and the lost-and-found value of each edge pixel q. Each depends on the
+        // pair or the edge pixel alone, so it is computed once per edge pixel (`memo` for
+        // the four neighbours b of an edge pixel a) instead of once per pixel near it.
+        let sides = |a: usize, b: usize| -> (usize, f32, f32) {
+            let (dx, dy) = ((b % w) as i64 - (a % w) as i64, (b / w) as i64 - (a / w) as i64);
+            let (nx, ny) = if dx.abs() >= dy.abs() { (dx.signum(), 0) } else { (0, dy.signum()) };
+            let (a_in, b_in) = (inward(a, -nx, -ny), inward(b, nx, ny));
+            let va = 0.5 * (lum[a] + lum[a_in]) * ramp(a);
+            let vb = 0.5 * (lum[b] + lum[b_in]) * ramp(b);
+            (b_in, va, vb)
+        };
+        let lost_found =
+            |q: usize| smoothstep(0.25, 0.75, grid.value2(seed, (q % w) as f32 / period, (q / w) as f32 / period));
+        // Edge pixels are their own nearest edge pixel.
+        let mut slot = vec![u32::MAX; w * h];
+        let mut edge_pixels = Vec::new();
+        for (i, s) in slot.iter_mut().enumerate() {
+            if near[i] as usize == i {
+                *s = edge_pixels.len() as u32;
+                edge_pixels.push(i);
+            }
+        }
+        struct Memo {
+            lost_found: f32,
+            /// Per neighbour b (right, down, left, up) of a: (b_in, va, vb); b_in u32::MAX
+            /// where there is no such neighbour in another region.
+            pairs: [(u32, f32, f32); 4],
+        }
+        let memo: Vec<Memo> = edge_pixels
+            .par_iter()
+            .map(|&a| {
+                let (x, y) = (a % w, a / w);
+                let nb = [
+                    (x + 1 < w).then(|| a + 1),
+                    (y + 1 < h).then(|| a + w),
+                    (x > 0).then(|| a - 1),
+                    (y > 0).then(|| a - w),
+                ];
+                Memo {
+                    lost_found: lost_found(a),
+                    pairs: nb.map(|b| {
+                        b.filter(|&b| !same(a, b)).map_or((u32::MAX, 0.0, 0.0), |b| {
+                            let (b_in, va, vb) = sides(a, b);
+                            (b_in as u32, va, vb)
+                        })
+                    }),
+                }
+            })
+            .collect();
+        // The memo of adjacent pixels a, b in different regions, or None.
+        let memo_of = |a: usize, b: usize| -> Option<(usize, f32, f32)> {
+            let m = memo.get(slot[a] as usize)?;
+            let k = if b == a + 1 {
+                0
+            } else if b == a + w {
+                1
+            } else if b + 1 == a {
+                2
+            } else if b + w == a {
+                3
+            } else {
+                return None;
+            };
+            let (b_in, va, vb) = m.pairs[k];
+            (b_in != u32::MAX).then_some((b_in as usize, va, vb))
+        };
         let transparent = canvas.transparent;
         let (coverage, px) = canvas.coverage_and_pixels();
         px.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
@@ -155,19 +225,16 @@ impl Effect for Passage {
                 } else {
                     (neighbour(q, i, true).unwrap_or(i), q)
                 };
-                let (dx, dy) = ((b % w) as i64 - (a % w) as i64, (b / w) as i64 - (a / w) as i64);
-                let (nx, ny) = if dx.abs() >= dy.abs() { (dx.signum(), 0) } else { (0, dy.signum()) };
-                let (a_in, b_in) = (inward(a, -nx, -ny), inward(b, nx, ny));
-                let va = 0.5 * (lum[a] + lum[a_in]) * ramp(a);
-                let vb = 0.5 * (lum[b] + lum[b_in]) * ramp(b);
-                let dark_side = if va != vb { va < vb } else { key(i) < key(b) };
-                let lost_found = smoothstep(0.25, 0.75, value2(seed, (q % w) as f32 / period, (q / w) as f32 / period));
-                let line = Passage::line(va, vb, lost_found);
+                // key(i) is key(a): a is this pixel or a pixel of its region.
+                let (b_in, va, vb) = memo_of(a, b).unwrap_or_else(|| sides(a, b));
+                let dark_side = if va != vb { va < vb } else { key(a) < key(b) };
+                let lf = memo.get(slot[q] as usize).map_or_else(|| lost_found(q), |m| m.lost_found);
+                let line = Passage::line(va, vb, lf);
                 // Passage: the sides blend where the line is lost, within md / 2 of the edge.
                 let wb = 0.5 * md;
                 if d < wb && coverage.is_painted(i) && coverage.is_painted(b_in) {
                     let beta = BLEND * (1.0 - line) * (1.0 - d / wb).powi(2);
-                    *p = p.truncate().lerp(before[b_in].truncate(), beta).extend(p.w);
+                    *p = p.truncate().lerp(before[b_in], beta).extend(p.w);
                 }
                 if dark_side && self.strength > 0.0 {
                     darken(p, 1.0 - self.strength * line * (1.0 - border_factor(d, md)), transparent);

@@ -11,7 +11,7 @@
 use glam::Vec2;
 use rayon::prelude::*;
 
-use super::planes::{Plane, planes};
+use super::planes::Plane;
 use super::{Canvas, Effect, PaintContext};
 use crate::error::Result;
 
@@ -49,7 +49,7 @@ impl Effect for PlaneLight {
         // Unfaceted: there is no plane to light (as there is no facet border).
         let Some(facets) = ctx.facets else { return Ok(()) };
         let w = canvas.width as usize;
-        let planes = planes(canvas.width, &facets.ids, ctx.facet_count(), self.seed);
+        let planes = ctx.planes(canvas.width, canvas.pixel_count(), self.seed);
         let (coverage, px) = canvas.coverage_and_pixels();
         px.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
             for (x, p) in row.iter_mut().enumerate() {

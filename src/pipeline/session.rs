@@ -48,7 +48,7 @@ use crate::film::{Film, PixelHit, SampleHit};
 use crate::imprecision::{self, AimMode, AimParams, FacetAim};
 use crate::output::{Gray16, Pass};
 use crate::paint::chiaroscuro::ViewAxes;
-use crate::paint::{Lighting, PaintParams, Painter};
+use crate::paint::{Lighting, PaintInputs, PaintParams, Painter, Resume};
 use crate::progress::Progress;
 use crate::saliency::{self, SaliencyMethod};
 use crate::scene::{LoadOptions, Scene, World};
@@ -129,6 +129,25 @@ struct PaintKey {
     painter: Gen,
     /// The lights chiaroscuro relights with.
     pre: Gen,
+}
+
+/// What the painted canvas kept part-way through the chain (`Prefix`) was painted over: the
+/// film, the facet map, the lights, the palette painting's contents.
+#[derive(Clone, PartialEq)]
+struct PrefixKey {
+    film: Gen,
+    layout: Option<Gen>,
+    pre: Gen,
+    palette: Option<u128>,
+}
+
+/// The effect keys of the last chain painted over a `PrefixKey`, and the canvas before the
+/// first effect that changed then (the effects before it agreed with the chain before): a
+/// paint-only change of one effect runs again from that effect on.
+struct Prefix {
+    keys: Vec<String>,
+    /// Effects done, and the canvas after them.
+    snapshot: Option<(usize, Vec<Vec4>)>,
 }
 
 #[derive(PartialEq)]
@@ -273,6 +292,9 @@ pub(super) struct Lane {
     retrace: Option<Entry<Gen, Delta>>,
     aa: Option<Entry<AaKey, ColourDelta>>,
     painter: Option<Entry<PainterKey, Painter>>,
+    /// The paint inputs (regions, planes, edges) of a film (the re-trace's) and facet map.
+    paint_inputs: Option<Entry<(Gen, Option<Gen>), PaintInputs>>,
+    paint_prefix: Option<Entry<PrefixKey, Prefix>>,
     paint: Option<Entry<PaintKey, Vec<Vec4>>>,
     encoded: Option<Entry<EncodeKey, Encoded>>,
 }
@@ -289,6 +311,8 @@ impl Lane {
             retrace: None,
             aa: None,
             painter: None,
+            paint_inputs: None,
+            paint_prefix: None,
             paint: None,
             encoded: None,
         }
@@ -309,6 +333,11 @@ impl Lane {
             + self.layout.as_ref().map_or(0, |e| e.value.map.ids.len() as u64 * 4)
             + self.retrace.as_ref().map_or(0, |e| e.value.bytes())
             + self.aa.as_ref().map_or(0, |e| e.value.bytes())
+            + self.paint_inputs.as_ref().map_or(0, |e| e.value.bytes())
+            + self
+                .paint_prefix
+                .as_ref()
+                .map_or(0, |e| e.value.snapshot.as_ref().map_or(0, |(_, px)| (px.len() * size_of::<Vec4>()) as u64))
             + self.paint.as_ref().map_or(0, |e| (e.value.len() * size_of::<Vec4>()) as u64)
             + self.encoded.as_ref().map_or(0, |e| {
                 image(&e.value.image)
@@ -327,6 +356,8 @@ impl Lane {
             (Stage::ReTrace.name(), self.retrace.is_some()),
             (Stage::AntiAliasing.name(), self.aa.is_some()),
             ("paint setup", self.painter.is_some()),
+            ("paint inputs", self.paint_inputs.is_some()),
+            ("paint prefix", self.paint_prefix.as_ref().is_some_and(|e| e.value.snapshot.is_some())),
             (Stage::Paint.name(), self.paint.is_some()),
             ("encode", self.encoded.is_some()),
         ];
@@ -444,6 +475,8 @@ pub(super) fn run(
         lane.pre = None;
         lane.retrace = None;
         lane.aa = None;
+        lane.paint_inputs = None;
+        lane.paint_prefix = None;
         lane.paint = None;
         lane.encoded = None;
         let pre = prerender(prep, &params.framing, &params.trace, Shading::Lit, progress, &mut timings)?;
@@ -648,19 +681,54 @@ fn after_saliency_stages(
             let facets = plan.faceting.then_some(map);
             progress.begin(Stage::Paint.name(), 1);
             let keep = lane.keep;
+            // What the effects derive from the film's hits and the facet map alone.
+            let inputs_key = (traced_gen, plan.faceting.then_some(layout_gen));
+            if !keep || !hit(&lane.paint_inputs, &inputs_key) {
+                lane.paint_inputs = Some(Entry { key: inputs_key, id: next(), value: PaintInputs::kept() });
+            }
+            let inputs = &lane.paint_inputs.as_ref().expect("just made").value;
+            // The chain from the first effect whose parameters changed since the last paint
+            // of this film: the canvas before it was kept then.
+            let base = PrefixKey { film: film_gen, layout: key.layout, pre: pre_gen, palette: painter.key.palette };
+            let keys = painter.value.keys();
+            let mut prefix = lane.paint_prefix.take().filter(|e| keep && e.key == base);
+            let agree = prefix.as_ref().map(|e| e.value.keys.iter().zip(keys).take_while(|(a, b)| a == b).count());
+            let resume = match (&prefix, agree) {
+                (Some(e), Some(n)) => e.value.snapshot.as_ref().filter(|(done, _)| *done <= n),
+                _ => None,
+            };
+            let keep_at = agree.filter(|&n| n > 0 && n < keys.len());
+            let resume = resume.map(|(done, px)| Resume { done: *done, px });
             let painted = with_film(film, delta.as_deref_mut(), aa.as_deref_mut(), None, |film| {
                 if !keep {
                     // A one-off render paints the film in place (no second colour buffer:
                     // tests/memory_bound.rs); the painted colour is then the film's own.
                     let r = timings.time(Stage::Paint.name(), || painter.value.apply(film, facets, lighting.as_ref()));
-                    return r.map(|()| Vec::new());
+                    return r.map(|()| (Vec::new(), None));
                 }
                 let mut colour = film.color.clone();
                 std::mem::swap(&mut film.color, &mut colour);
-                let r = timings.time(Stage::Paint.name(), || painter.value.apply(film, facets, lighting.as_ref()));
+                let r = timings.time(Stage::Paint.name(), || {
+                    painter.value.apply_from(film, facets, lighting.as_ref(), inputs, resume, keep_at)
+                });
                 std::mem::swap(&mut film.color, &mut colour);
-                r.map(|()| colour)
-            })?;
+                r.map(|kept| (colour, kept.map(|px| (keep_at.unwrap_or(0), px))))
+            });
+            let (painted, kept) = match painted {
+                Ok(p) => p,
+                Err(e) => {
+                    lane.paint_prefix = prefix;
+                    return Err(e);
+                }
+            };
+            if keep {
+                // The new snapshot, else the old one if the new chain still agrees with it.
+                let n = agree.unwrap_or(0);
+                let old = prefix.and_then(|e| e.value.snapshot).filter(|(done, _)| *done <= n);
+                let snapshot = kept.or(old);
+                prefix = Some(Entry { key: base, id: next(), value: Prefix { keys: keys.to_vec(), snapshot } });
+                lane.paint_prefix = prefix;
+            }
             progress.check()?;
             lane.paint = Some(Entry { key, id: next(), value: painted });
         }
