@@ -25,7 +25,7 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use cubist::accel::Accel;
-use cubist::pipeline::{Prepared, render};
+use cubist::pipeline::{Prepared, process_cpu, render};
 use cubist::progress::Progress;
 use cubist::saliency::Memo;
 use cubist::scene::{Scene, World};
@@ -174,29 +174,35 @@ fn run_one(path: &Path, size: u32) {
     let cpu0 = common::cpu_time();
     let t0 = Instant::now();
     let mut row: Vec<(String, String)> = Vec::new();
-    let mut time = |name: &str, d: Duration| row.push((name.into(), format!("{:.0}", common::ms(d))));
-    let t = Instant::now();
+    let mut time = |name: &str, d: Duration, cpu: Option<Duration>| {
+        row.push((name.into(), format!("{:.0}", common::ms(d))));
+        if let Some(c) = cpu {
+            row.push((format!("cpu:{name}"), format!("{:.0}", common::ms(c))));
+        }
+    };
+    let cpu_since = |c: Option<Duration>| c.zip(process_cpu()).map(|(a, b)| b.saturating_sub(a));
+    let (t, c) = (Instant::now(), process_cpu());
     let scene = Scene::load(path).expect("load");
-    time("load", t.elapsed());
-    let t = Instant::now();
+    time("load", t.elapsed(), cpu_since(c));
+    let (t, c) = (Instant::now(), process_cpu());
     let world = World::new(&scene);
-    time("world", t.elapsed());
-    let t = Instant::now();
+    time("world", t.elapsed(), cpu_since(c));
+    let (t, c) = (Instant::now(), process_cpu());
     let accel = Accel::new(&world);
-    time("bvh", t.elapsed());
+    time("bvh", t.elapsed(), cpu_since(c));
     let rss_built = status_mib("VmRSS:");
     let prep = Prepared { scene, world, accel, build_time: t0.elapsed(), saliency: Memo::default() };
     let settings = Settings { width: size, height: size, ..Settings::default() };
     let r = render(&prep, &settings, &Progress::silent()).expect("render");
-    for (stage, d) in &r.timings.0 {
-        time(stage, *d);
+    for (i, (stage, d)) in r.timings.0.iter().enumerate() {
+        time(stage, *d, r.timings.cpu(i));
     }
     let t = Instant::now();
     let out = std::env::temp_dir().join(format!("cubist-scale-{}.png", std::process::id()));
     cubist::output::write_png(&out, &r.image).expect("write");
     let _ = std::fs::remove_file(&out);
-    time("write", t.elapsed());
-    time("total", t0.elapsed());
+    time("write", t.elapsed(), None);
+    time("total", t0.elapsed(), None);
     let cpu = match (cpu0, common::cpu_time()) {
         (Some(a), Some(b)) => format!("{:.1}", (b - a).as_secs_f64()),
         _ => "?".into(),
@@ -232,6 +238,7 @@ fn main() {
         "load",
         "world",
         "bvh",
+        "framing",
         "pre-render",
         "saliency",
         "faceting",
@@ -248,6 +255,7 @@ fn main() {
     );
     println!("|---|---|{}---|---|---|---|---|---|", "---|".repeat(stages.len()));
     let exe = std::env::current_exe().expect("own path");
+    let mut cpu_rows: Vec<String> = Vec::new();
     for &m in &args.sizes {
         let (limit_s, limit_gb) = match m {
             0..=1 => (3.0, 2.0),
@@ -295,6 +303,12 @@ fn main() {
                 }
             }
             let Some(row) = best else { continue };
+            let cpu_of = |k: &str| {
+                row.iter().find(|(key, _)| *key == format!("cpu:{k}")).map_or("-".to_string(), |(_, v)| v.clone())
+            };
+            let process = row.iter().find(|(k, _)| k == "cpu").map_or("-".to_string(), |(_, v)| v.clone());
+            let cells: Vec<String> = stages[..stages.len() - 1].iter().map(|s| cpu_of(s)).collect();
+            cpu_rows.push(format!("| {name} | {} | {process} |", cells.join(" | ")));
             let get = |k: &str| row.iter().find(|(key, _)| key == k).map_or("-".to_string(), |(_, v)| v.clone());
             let cells: Vec<String> = stages.iter().map(|s| get(s)).collect();
             let (t_ms, peak): (f64, f64) =
@@ -321,6 +335,13 @@ fn main() {
                 Some(met),
             );
         }
+    }
+    // CPU time per stage (all threads): what holds on a shared machine.
+    println!("\nCPU ms per stage (all threads; the same runs):\n");
+    println!("| scene | {} | process CPU s |", stages[..stages.len() - 1].join(" | "));
+    println!("|---|{}---|", "---|".repeat(stages.len() - 1));
+    for r in &cpu_rows {
+        println!("{r}");
     }
     println!("\nload average after: {}", common::load_average());
 }

@@ -73,7 +73,8 @@ fn traced_direction(d: Vec3A) -> Vec3A {
     Vec3A::new(fix(d.x), fix(d.y), fix(d.z))
 }
 
-/// obvhs's medium preset without reinsertion: reinsertion's branch-and-bound search cannot
+/// obvhs's medium preset without reinsertion (PLOC search distance 14; 6, the fast preset's,
+/// measured on the 1M-triangle scene: no faster to build, 5% slower to trace): reinsertion's branch-and-bound search cannot
 /// prune among heavily overlapping triangles and turns quadratic there (30,000 overlapping
 /// boxes, 360K triangles: 38 s; 100,000: over 2 min). Without it the same scenes build in
 /// well under a second, and primary rays on the test meshes trace as fast (BENCHMARKS.md).
@@ -188,25 +189,49 @@ impl Blas {
     /// copies of a box at one place took 106 s to build, now milliseconds. None when nothing
     /// is hittable.
     fn build(g: &Geometry, key: u128) -> Option<Blas> {
-        let mut seen = std::collections::HashSet::new();
-        let ids: Vec<u32> = (0..g.triangles.len() as u32)
-            .filter(|&i| {
-                let c = g.corners(i);
-                if !hittable(c) {
-                    return false;
+        // Exact copies found by sorting (hash of the corner set, id) in parallel: the same
+        // triangles kept as a serial hash set gave (the lowest id of each corner set), at a
+        // fraction of its cost on million-triangle meshes (issue 16).
+        let corner_set = |i: u32| {
+            // The corners as a set (either winding, any starting corner), bit for bit.
+            let mut key = g.corners(i).map(|p| p.to_array().map(f32::to_bits));
+            key.sort_unstable();
+            key
+        };
+        let mut keyed: Vec<(u64, u32)> = (0..g.triangles.len() as u32)
+            .into_par_iter()
+            .filter(|&i| hittable(g.corners(i)))
+            .map(|i| {
+                let mut bytes = [0u8; 36];
+                for (k, c) in corner_set(i).iter().flatten().enumerate() {
+                    bytes[4 * k..4 * k + 4].copy_from_slice(&c.to_le_bytes());
                 }
-                // The corners as a set (either winding, any starting corner), bit for bit.
-                let mut key = c.map(|p| p.to_array().map(f32::to_bits));
-                key.sort_unstable();
-                seen.insert(key)
+                (xxhash_rust::xxh3::xxh3_64(&bytes), i)
             })
             .collect();
-        drop(seen);
+        keyed.par_sort_unstable();
+        let mut copy = vec![false; keyed.len()];
+        let mut start = 0;
+        while start < keyed.len() {
+            let mut end = start + 1;
+            while end < keyed.len() && keyed[end].0 == keyed[start].0 {
+                end += 1;
+            }
+            // A run of equal hashes (ids ascending): a copy of any earlier member is dropped.
+            for j in start + 1..end {
+                let kj = corner_set(keyed[j].1);
+                copy[j] = (start..j).any(|k| !copy[k] && corner_set(keyed[k].1) == kj);
+            }
+            start = end;
+        }
+        let mut ids: Vec<u32> = keyed.iter().zip(&copy).filter(|(_, c)| !**c).map(|(k, _)| k.1).collect();
+        drop((keyed, copy));
+        ids.par_sort_unstable();
         if ids.is_empty() {
             return None;
         }
         let tris: Vec<Triangle> = ids
-            .iter()
+            .par_iter()
             .map(|&i| {
                 let [a, b, c] = g.corners(i);
                 Triangle { v0: a.into(), v1: b.into(), v2: c.into() }
@@ -214,8 +239,11 @@ impl Blas {
             .collect();
         let mut bvh = build_bvh2_from_tris(&tris, BUILD, &mut Duration::default());
         drop(tris);
-        let ordered: Vec<Tri> =
-            bvh.primitive_indices.iter().map(|&i| Tri { p: g.corners(ids[i as usize]), id: ids[i as usize] }).collect();
+        let ordered: Vec<Tri> = bvh
+            .primitive_indices
+            .par_iter()
+            .map(|&i| Tri { p: g.corners(ids[i as usize]), id: ids[i as usize] })
+            .collect();
         // Leaves index `ordered` directly: the mapping is not needed any more.
         bvh.primitive_indices = Vec::new();
         let bounds = *bvh.nodes[0].aabb();

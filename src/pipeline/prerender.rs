@@ -68,7 +68,7 @@ pub fn prerender(
     timings: &mut Timings,
 ) -> Result<PreRender> {
     let mut warnings = prep.scene.warnings.clone();
-    let framed = frame_camera(framing, &prep.world, &prep.accel)?;
+    let framed = timings.time("framing", || frame_camera(framing, &prep.world, &prep.accel))?;
     warnings.extend(framed.warnings.iter().cloned());
     let rig = match shading {
         Shading::Lit => Some(LightRig::new(&prep.world, &framed.frame, trace.shadows, trace.exposure)),

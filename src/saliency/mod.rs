@@ -23,6 +23,7 @@ pub mod kernels;
 pub mod levels;
 pub mod map;
 pub mod neighbourhood;
+pub mod proxy;
 pub mod surface;
 
 use std::collections::HashMap;
@@ -41,7 +42,8 @@ use crate::scene::{Mesh, Scene, World};
 /// How mesh saliency's Gaussian means are evaluated (SPEC "Mesh saliency").
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum SaliencyMethod {
-    /// Exact while the exact sums' work counted on the mesh stays within `EXACT_BUDGET`, clustered above.
+    /// Exact while the exact sums' work counted on the mesh stays within `EXACT_BUDGET`, clustered
+    /// above; meshes of more than `proxy::PROXY_ABOVE` vertices through a bounded proxy (`proxy`).
     Auto,
     /// The definition's exact sums, whatever the mesh's size.
     Exact,
@@ -69,7 +71,7 @@ pub struct SaliencyParams {
 }
 
 /// Bumped whenever the definition or its numbers change, so stale cache entries are ignored.
-pub const ALGORITHM_VERSION: u32 = 2;
+pub const ALGORITHM_VERSION: u32 = 3;
 
 /// `Auto` uses the exact sums while they visit at most this many candidate pairs (counted on
 /// the mesh, `Analysed::exact_work`: under a second of CPU, half a second on two cores; meshes
@@ -202,6 +204,13 @@ pub fn mesh_saliency(mesh: &Mesh) -> Vec<f32> {
 
 /// Saliency of one mesh by `method`, per vertex in the mesh's vertex order, in [0, 1].
 pub fn mesh_saliency_with(mesh: &Mesh, method: SaliencyMethod) -> Vec<f32> {
+    // Huge meshes under `Auto`: through a bounded-size proxy (`proxy`, issue 16).
+    if method == SaliencyMethod::Auto
+        && mesh.positions.len() > proxy::PROXY_ABOVE
+        && let Some(v) = proxy::proxy_saliency(&mesh.positions, &mesh.triangles)
+    {
+        return v;
+    }
     let a = analyse(&mesh.positions, &mesh.triangles);
     let s = a.saliency(method);
     a.to_mesh_order(&s)
