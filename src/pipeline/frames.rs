@@ -27,12 +27,14 @@
 use glam::{DMat3, DQuat, DVec2, DVec3, Vec3};
 use image::RgbaImage;
 
-use super::{Plan, Prepared, Stage, StageParams, Timings, encode_stage, layout_stage};
+use super::{
+    Plan, Prepared, Stage, StageParams, Timings, aims_stage, antialias_with, encode_stage, layout_stage, trace_facets,
+};
 use crate::accel::Accel;
 use crate::camera::{Camera, Framed, Moved, frame_camera};
 use crate::error::{Error, Result};
 use crate::facets::motion::file::{self as follow_file, KeyData};
-use crate::facets::motion::{self, FacetMotion, Surface};
+use crate::facets::motion::{self, FacetMotion, KeyAim, Surface};
 use crate::facets::{self, FacetMap, FacetMethod};
 use crate::film::Film;
 use crate::imprecision::{self, AimContext, FacetAim};
@@ -376,6 +378,9 @@ struct Keep {
     map: FacetMap,
     /// The key frame facets follow from.
     key: Option<KeyData>,
+    /// With facets that follow and re-aimed: the layout frame's aims, anchored to the surface
+    /// points they show (`motion::carry_aims` carries them to every frame).
+    aims: Option<Vec<KeyAim>>,
 }
 
 /// One centre ray per pixel, hits only: what the saliency map, the facets' motion and the key
@@ -446,16 +451,32 @@ fn key_frame(
         Film::new(1, 1, 1)
     };
     let (layout, map) = layout_stage(&params.facets, &film, &Progress::silent(), &mut Timings::default(), warnings)?;
-    let key = if faceted && params.motion == FacetMotion::Follow {
+    let follows = faceted && params.motion == FacetMotion::Follow;
+    // The layout frame's pre-pass: its key data and its aims.
+    let mut pre = follows.then(|| prepass(world, accel, &camera, trace));
+    let key = if let Some(pre) = &pre {
         let saved = params.facets.layout_file.as_deref().map(follow_file::path_for).filter(|p| p.is_file());
         let key = match saved {
             Some(p) => follow_file::load(&p)?,
-            None => key_data(world, accel, &camera, trace),
+            None => key_of(pre, world, &camera, trace),
         };
         check_key(&key, trace, world)?;
         Some(key)
     } else {
         None
+    };
+    // The layout frame's aims, decided as a still's (from its pre-pass and saliency map) and
+    // anchored to the scene: what facets that follow keep in every frame.
+    let aims = match pre.as_mut() {
+        Some(pre) if plan.imprecision => {
+            if params.aim.reads_saliency() {
+                pre.saliency = Some(frame_saliency(prep, world, pre, params)?);
+            }
+            let ctx = aim_context(&camera, accel, trace);
+            let aims = aims_stage(&ctx, &map, pre, &params.aim, &Progress::silent(), &mut Timings::default());
+            Some(motion::anchor_aims(&ctx, &aims))
+        }
+        _ => None,
     };
     if let Some(path) = &params.save_facets {
         facets::io::save(path, &layout, &map)?;
@@ -463,7 +484,7 @@ fn key_frame(
             follow_file::save(&follow_file::path_for(path), key)?;
         }
     }
-    Ok(Keep { faceted, map, key })
+    Ok(Keep { faceted, map, key, aims })
 }
 
 /// A key frame must match the frames it is carried to: same picture size, same triangles.
@@ -490,6 +511,23 @@ pub fn check_key(key: &KeyData, trace: &TraceParams, world: &World) -> Result<()
     Ok(())
 }
 
+/// The saliency map of a frame off its pre-pass (mesh saliency once per mesh content).
+fn frame_saliency(prep: &Prepared, world: &World, pre: &Film, params: &StageParams) -> Result<Vec<f32>> {
+    let sal = saliency::for_film(&prep.scene, world, &prep.saliency, pre, &params.saliency)?;
+    Ok(saliency::saliency_map(world, &sal, pre))
+}
+
+/// A frame's camera as the imprecision stage sees it.
+fn aim_context<'a>(camera: &'a Moved, accel: &'a Accel, trace: &TraceParams) -> AimContext<'a> {
+    AimContext { camera, accel, width: trace.width, height: trace.height, clip_radius: camera.clip_radius }
+}
+
+/// One frame, through the still pipeline's stages: its pre-pass (hits only: the saliency map
+/// and the facets' motion read it), the facets (static, or carried from the key frame), the
+/// aims (decided from this frame's pixels as a still's are, or, for facets that follow, the key
+/// frame's carried with the scene: `motion::carry_aims`), then one centre sample per pixel
+/// through its facet's rays (`trace_facets`, with sparse shadow rays) and the adaptive
+/// anti-aliasing (`antialias_with`: `spp` samples only where facet neighbours disagree).
 #[allow(clippy::too_many_arguments)]
 fn render_frame(
     prep: &Prepared,
@@ -508,18 +546,15 @@ fn render_frame(
     let (world, accel) = (geometry.world(), geometry.accel());
     let trace = &params.trace;
     let plan = Plan::new(params);
-    let pre = timings.time("pre-pass", || prepass(world, accel, camera, trace));
+    let mut pre = timings.time("pre-pass", || prepass(world, accel, camera, trace));
 
+    let carried_aims = keep.aims.as_deref().filter(|_| plan.imprecision);
     let wants_map = params.passes.contains(&Pass::Saliency) || params.passes.contains(&Pass::Facets);
-    let saliency = if (plan.imprecision && params.aim.reads_saliency()) || wants_map {
-        let map = timings.time(Stage::Saliency.name(), || -> Result<Vec<f32>> {
-            let sal = saliency::for_film(&prep.scene, world, &prep.saliency, &pre, &params.saliency)?;
-            Ok(saliency::saliency_map(world, &sal, &pre))
-        })?;
-        Some(map)
-    } else {
-        None
-    };
+    let reads_saliency = plan.imprecision && params.aim.reads_saliency() && carried_aims.is_none();
+    if reads_saliency || wants_map {
+        let map = timings.time(Stage::Saliency.name(), || frame_saliency(prep, world, &pre, params))?;
+        pre.saliency = Some(map);
+    }
 
     let (map, revealed) = match key {
         Some((key, key_map)) => {
@@ -528,31 +563,30 @@ fn render_frame(
         }
         None => (keep.map.clone(), None),
     };
-    if keep.faceted && params.aim.neighborhood > 0.0 && saliency.is_some() {
+    if keep.faceted && params.aim.neighborhood > 0.0 && pre.saliency.is_some() {
         imprecision::check_neighbourhood(&map, params.aim.neighbourhood_px())?;
     }
 
-    let ctx = AimContext { camera, accel, width: trace.width, height: trace.height, clip_radius: camera.clip_radius };
-    let aims: Vec<FacetAim> = if plan.imprecision {
-        timings
-            .time(Stage::Imprecision.name(), || imprecision::aim_facets(&ctx, &map, saliency.as_deref(), &params.aim))
-    } else {
-        Vec::new()
+    let ctx = aim_context(camera, accel, trace);
+    let silent = Progress::silent();
+    let aims: Vec<FacetAim> = match carried_aims {
+        Some(key_aims) => timings.time(Stage::Imprecision.name(), || {
+            let corners = |t: u32| ((t as usize) < world.triangle_count()).then(|| world.triangle(t));
+            motion::carry_aims(&ctx, key_aims, &map, &corners, &params.aim)
+        }),
+        None if plan.imprecision => aims_stage(&ctx, &map, &pre, &params.aim, &silent, &mut timings),
+        None => Vec::new(),
     };
 
     let view = camera.frame(&base.frame);
     let rig = LightRig::new(world, &view, trace.shadows, trace.exposure);
     let tracer = Tracer { world, accel, rig: Some(&rig), background: Vec3::from(trace.background), seed: trace.seed };
-    let mut film = Film::new(trace.width, trace.height, trace.spp);
-    let rays = |i: usize, p: DVec2| {
-        let ray = camera.ray(p);
-        match aims.get(map.ids[i] as usize) {
-            Some(aim) if aim.moved() => aim.apply(ray, ctx.pixel_pos(p), ctx.clip_radius),
-            _ => ray,
-        }
-    };
-    timings.time("trace", || tracer.render(&mut film, &rays, None, Some(&map.ids), progress));
-    film.saliency = saliency;
+    let mut film = Film::new(trace.width, trace.height, 1);
+    trace_facets(&tracer, &ctx, &map, &aims, None, &mut film, progress, &mut timings);
+    if plan.antialiasing {
+        antialias_with(&tracer, &ctx, trace, &map, &aims, &mut film, &silent, &mut timings);
+    }
+    film.saliency = pre.saliency.take();
 
     if plan.paint {
         let axes = ViewAxes { right: view.right.as_vec3(), up: view.up.as_vec3(), forward: view.forward.as_vec3() };

@@ -22,11 +22,13 @@ pub mod file;
 
 use std::collections::VecDeque;
 
-use glam::{DVec2, Vec3};
+use glam::{DVec2, DVec3, Vec3};
+use rayon::prelude::*;
 
 use super::FacetMap;
 use crate::camera::Camera;
 use crate::film::{Film, NO_HIT};
+use crate::imprecision::{self, AimContext, AimParams, FacetAim, FacetProjection};
 use crate::util::grid::Grid;
 
 /// How facets move over the frames of an animation.
@@ -143,6 +145,112 @@ fn grow(ids: &mut [u32], width: u32, height: u32, fallback: u32) {
             }
         }
     }
+}
+
+/// A point of the scene's surface named by its triangle and barycentrics: the same point of
+/// the subject in every pose (its position follows the triangle's corners).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Anchor {
+    pub tri: u32,
+    pub u: f32,
+    pub v: f32,
+}
+
+impl Anchor {
+    /// The point the ray at pixel position `px` of `ctx`'s camera hits, if any.
+    pub fn seen_at(ctx: &AimContext, px: DVec2) -> Option<Anchor> {
+        let r = ctx.ray_at(px);
+        ctx.accel.closest(r.origin, r.dir, 0.0, f32::INFINITY).map(|h| Anchor { tri: h.tri, u: h.u, v: h.v })
+    }
+
+    /// Where the point is when its triangle's corners are `corners`.
+    pub fn at(&self, corners: &[Vec3; 3]) -> DVec3 {
+        (corners[0] * (1.0 - self.u - self.v) + corners[1] * self.u + corners[2] * self.v).as_dvec3()
+    }
+}
+
+/// One facet's aim at the key frame, anchored to the surface: the points its facet centre and
+/// its aim point showed there (None: the backdrop, or no aim).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct KeyAim {
+    pub aim: FacetAim,
+    pub centre: Option<Anchor>,
+    pub target: Option<Anchor>,
+}
+
+/// The key frame's aims (`imprecision`, decided from the key frame's picture), anchored to the
+/// points they show (`ctx`: the key frame's camera and scene).
+pub fn anchor_aims(ctx: &AimContext, aims: &[FacetAim]) -> Vec<KeyAim> {
+    aims.par_iter()
+        .map(|aim| KeyAim {
+            aim: *aim,
+            centre: aim.fc.and_then(|c| Anchor::seen_at(ctx, c)),
+            target: aim.sc.filter(|_| aim.moved()).and_then(|s| Anchor::seen_at(ctx, s)),
+        })
+        .collect()
+}
+
+/// Facets that follow keep their view (issue 15 item 4): each facet of frame N takes the key
+/// frame's aim carried with the scene, instead of one decided again from the pixels it covers
+/// now (which shifts its view as its outline changes: flicker). Its centre is where the surface
+/// point its key-frame centre showed is now (`ctx.camera.project` of the anchor posed by
+/// `corners`), and it is re-aimed at where its key-frame aim point is now: the same scene point
+/// at the centre of its view in every frame. What the key frame did not anchor (a centre or aim
+/// point on the backdrop, or out of view now) falls back to the facet's centre in `map` and the
+/// key frame's aim offset in pixels. The discontinuity limit (`params`) holds in every frame; a
+/// facet the key frame did not re-aim (held on the backdrop, or not moved) is not re-aimed.
+/// Frame N's aims are a function of the key frame's and frame N's scene alone: farm chunks agree.
+pub fn carry_aims(
+    ctx: &AimContext,
+    key: &[KeyAim],
+    map: &FacetMap,
+    corners: &(dyn Fn(u32) -> Option<[Vec3; 3]> + Sync),
+    params: &AimParams,
+) -> Vec<FacetAim> {
+    let fc_now = imprecision::facet_centres(map);
+    let radius = params.discontinuity * params.scale;
+    let linear = params.projection == FacetProjection::Linear;
+    let (offsets, pixels) = if linear { map.pixels_by_facet() } else { (Vec::new(), Vec::new()) };
+    let (w, h) = (ctx.width as f64, ctx.height as f64);
+    let now = |a: Option<Anchor>| -> Option<(DVec2, DVec3)> {
+        let a = a?;
+        let p = a.at(&corners(a.tri)?);
+        let seen = ctx.camera.project(p)?;
+        seen.in_view().then(|| (ctx.pixel_pos(seen.screen), p))
+    };
+    (0..map.facet_count as usize)
+        .into_par_iter()
+        .map(|f| {
+            let mut aim =
+                FacetAim { fc: fc_now[f], sc_raw: fc_now[f], sc: fc_now[f], target: None, reaim: None, linear: None };
+            let (Some(k), Some(fallback)) = (key.get(f), fc_now[f]) else { return aim };
+            let c = now(k.centre).map_or(fallback, |(c, _)| c.clamp(DVec2::ZERO, DVec2::new(w, h)));
+            (aim.fc, aim.sc_raw, aim.sc) = (Some(c), Some(c), Some(c));
+            if let (Some(_), Some(kc), Some(ks)) = (k.aim.reaim, k.aim.fc, k.aim.sc) {
+                let target = now(k.target);
+                let s = target.map_or(c + (ks - kc), |(s, _)| s);
+                let limited = imprecision::limit_discontinuity(c, s, radius);
+                (aim.sc_raw, aim.sc) = (Some(s), Some(limited));
+                let turned = match target {
+                    // Aimed at the very point the key frame's facet showed at its aim point.
+                    Some((_, p)) if limited == s => ctx.reaim_towards(c, p).map(|r| (r, Some(p))),
+                    // Aimed at the point seen there now (as `imprecision::aim_facets`).
+                    _ => ctx.reaim(c, limited),
+                };
+                if let Some((r, p)) = turned {
+                    if r.turn.length() > ctx.negligible_turn(c) {
+                        aim.reaim = Some(r);
+                    }
+                    aim.target = p;
+                }
+            }
+            if linear && k.aim.linear.is_some() {
+                let own = &pixels[offsets[f] as usize..offsets[f + 1] as usize];
+                aim.linear = ctx.linear(c, aim.reaim.as_ref(), own, params.facet_fov);
+            }
+            aim
+        })
+        .collect()
 }
 
 /// What a frame's picture shows, for measuring coherence between frames: its key data (per
