@@ -154,7 +154,7 @@ pub fn render_frames(
     }
     let painter = setup.time("paint setup", || Painter::new(&params.paint))?;
     let mut poser = Poser::new(prep, clips, frames.fps);
-    let key_geometry = setup.time("layout frame pose", || poser.geometry(frames, frames.layout_frame, None));
+    let key_geometry = setup.time("layout frame pose", || poser.geometry(frames, frames.layout_frame, None))?;
     let base = frame_camera(&params.framing, key_geometry.world(), key_geometry.accel())?;
     warnings.extend(base.warnings.iter().cloned());
     let follows_scene_camera = params.framing.position.is_none() && params.framing.target.is_none();
@@ -181,9 +181,9 @@ pub fn render_frames(
             let target = key_frame_of(f, frames.layout_frame, frames.rekey);
             timings.time("key frames", || {
                 advance_chain(&mut chain, target, frames, key, &keep.map, &mut poser, &cameras, &params.trace)
-            });
+            })?;
         }
-        geometry = timings.time("geometry", || poser.geometry(frames, f, Some(geometry)));
+        geometry = timings.time("geometry", || poser.geometry(frames, f, Some(geometry)))?;
         let camera = cameras.at(f, geometry.world());
         let key = match (&keep.key, &chain) {
             (Some(_), Some(c)) => Some((&c.key, &c.map)),
@@ -218,6 +218,9 @@ enum Geometry<'a> {
         frame: u32,
         world: Box<World>,
         accel: Box<Accel>,
+        /// The layout frame's world with objects moved (`World::set_transforms`): its BVH has
+        /// the layout frame's per-geometry BVHs, and only its top level changes.
+        rigid: bool,
     },
 }
 
@@ -245,33 +248,65 @@ struct Poser<'a> {
     scene: Scene,
     /// The layout frame's render space, shared by every frame.
     space: Option<Similarity>,
+    /// The first frame posed's world (the layout frame's): frames whose clips only move objects
+    /// are this world with objects moved.
+    base: Option<World>,
     fps: f64,
 }
 
 impl<'a> Poser<'a> {
     fn new(prep: &'a Prepared, clips: Vec<&'a Clip>, fps: f64) -> Poser<'a> {
         let scene = if clips.is_empty() { Scene::default() } else { prep.scene.clone() };
-        Poser { prep, clips, scene, space: None, fps }
+        Poser { prep, clips, scene, space: None, base: None, fps }
     }
 
-    /// Frame `f`'s geometry. The BVH of `previous` is kept when no triangle moved (a BVH
-    /// depends on nothing else); otherwise it is built anew.
-    fn geometry(&mut self, frames: &FramesParams, f: u32, previous: Option<Geometry<'a>>) -> Geometry<'a> {
+    /// Frame `f`'s geometry, cheapest first (ARCHITECTURE "Changing a prepared scene"):
+    /// - the clips move only objects (no skin, morph, camera or light): the layout frame's
+    ///   world with the objects moved, and `previous`'s BVH with its top level rebuilt;
+    /// - otherwise the scene posed and flattened anew, and only the geometries whose content
+    ///   changed get a BVH (`Accel::update`).
+    ///
+    /// Which way a frame takes, and what it gives, depends on the frame alone (the layout
+    /// frame's world is the first one posed, in every run): farm chunks agree.
+    fn geometry(&mut self, frames: &FramesParams, f: u32, previous: Option<Geometry<'a>>) -> Result<Geometry<'a>> {
         if self.clips.is_empty() {
-            return Geometry::Rest(&self.prep.world, &self.prep.accel);
+            return Ok(Geometry::Rest(&self.prep.world, &self.prep.accel));
         }
         debug_assert_eq!(frames.fps, self.fps);
         if let Some(Geometry::Posed { frame, .. }) = &previous
             && *frame == f
         {
-            return previous.expect("matched");
+            return Ok(previous.expect("matched"));
         }
         let rest = &self.prep.scene;
         let rig = rest.rig.as_ref().expect("clips come from the scene's rig");
         let pose = rig.pose(&self.clips, frames.time(f), |m| &rest.meshes[m].triangles);
         animation::apply(&mut self.scene, &pose);
         let space = *self.space.get_or_insert_with(|| World::render_space(&self.scene));
+        let objects_only = pose.meshes.is_empty() && pose.camera.is_none() && pose.lights.is_empty();
+        if let (true, Some(base)) = (objects_only, &self.base) {
+            let mut world = base.clone();
+            // A transform too singular to carry rays into the base's space (a zero scale)
+            // would give the object a geometry of its own: such a frame is posed anew.
+            if world.set_transforms(&self.scene, &pose.transforms)?.is_empty() {
+                let accel = match previous {
+                    Some(Geometry::Posed { mut accel, rigid: true, .. }) => {
+                        accel.update_instances(&world);
+                        accel
+                    }
+                    Some(Geometry::Posed { mut accel, .. }) => {
+                        accel.update(&world);
+                        accel
+                    }
+                    _ => Box::new(Accel::new(&world)),
+                };
+                return Ok(Geometry::Posed { frame: f, world: Box::new(world), accel, rigid: true });
+            }
+        }
         let world = World::in_space(&self.scene, space);
+        if self.base.is_none() {
+            self.base = Some(world.clone());
+        }
         // Only geometries whose content changed get a BVH (`Accel::update` keys them by
         // content): the result is the same BVH as a fresh build, whatever frame came before.
         let accel = match previous {
@@ -281,7 +316,7 @@ impl<'a> Poser<'a> {
             }
             _ => Box::new(Accel::new(&world)),
         };
-        Geometry::Posed { frame: f, world: Box::new(world), accel }
+        Ok(Geometry::Posed { frame: f, world: Box::new(world), accel, rigid: false })
     }
 }
 
@@ -346,7 +381,7 @@ fn advance_chain<'a>(
     poser: &mut Poser<'a>,
     cameras: &Cameras,
     trace: &TraceParams,
-) {
+) -> Result<()> {
     let layout = frames.layout_frame;
     let on_the_way = |c: u32| (c >= layout) == (target >= layout) && c.abs_diff(layout) <= target.abs_diff(layout);
     if chain.as_ref().is_some_and(|c| !on_the_way(c.frame)) || target == layout {
@@ -355,10 +390,10 @@ fn advance_chain<'a>(
     loop {
         let at = chain.as_ref().map_or(layout, |c| c.frame);
         if at == target {
-            return;
+            return Ok(());
         }
         let next = if target > at { at + frames.rekey } else { at - frames.rekey };
-        let geometry = poser.geometry(frames, next, None);
+        let geometry = poser.geometry(frames, next, None)?;
         let (world, accel) = (geometry.world(), geometry.accel());
         let camera = cameras.at(next, world);
         let pre = prepass(world, accel, &camera, trace);
