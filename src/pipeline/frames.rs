@@ -12,12 +12,13 @@
 //!
 //! | step | what | why it is cheap |
 //! |---|---|---|
-//! | geometry | the scene posed, flattened, its BVH | kept while no triangle moves (a turntable) |
-//! | pre-pass | one centre ray per pixel, hits only | a quarter of the samples, no shading |
-//! | saliency | the saliency map off the pre-pass | mesh saliency once per mesh content: a skinned or morphed mesh keeps its rest pose's, by vertex index |
+//! | geometry | the scene posed, flattened, its BVH | kept while no triangle moves (a turntable); objects only moved: the layout frame's world moved (`World::set_transforms`), BVH top level only |
+//! | pre-pass | one centre ray per pixel, hits only | no shading |
+//! | saliency | the saliency map off the pre-pass | mesh saliency once per mesh content: a skinned or morphed mesh keeps its rest pose's, by vertex index; not needed by facets that follow |
 //! | facets | the layout's map (static) or carried to this frame (`facets::motion`) | the layout is never computed again |
-//! | imprecision | aims, as a still render's | |
-//! | trace | every pixel once, through its facet's rays, lit | no separate pre-render and re-trace |
+//! | imprecision | aims, as a still render's (`aims_stage`); facets that follow: the layout frame's, carried (`motion::carry_aims`) | |
+//! | re-trace | one centre sample per pixel through its facet's rays, lit (`trace_facets`) | sparse shadow rays; no separate lit pre-render |
+//! | anti-aliasing | `spp` samples where facet neighbours disagree (`antialias_with`, the still's stage) | most pixels keep their one sample |
 //! | paint, encode | as a still render's | |
 //!
 //! What frames keep from one another (the BVH while nothing moves, the layout, the key frame,

@@ -308,3 +308,102 @@ pub fn coherence(
     let n = points.max(1) as f64;
     Coherence { points, stickiness: same as f64 / n, flicker: change / n }
 }
+
+#[cfg(test)]
+mod tests {
+    use glam::DQuat;
+
+    use super::*;
+    use crate::camera::Moved;
+    use crate::imprecision::{AimMode, aim_facets};
+    use crate::pipeline::{Prepared, Shading, StageParams, Timings, prerender};
+    use crate::progress::Progress;
+    use crate::settings::Settings;
+
+    /// The default still life's aims on a grid of 48 facets (random aim points within 30
+    /// pixels: no saliency map needed), anchored, then carried to the same camera (the key
+    /// frame's aims again) and to the camera turned by 4 degrees about the vertical axis (a
+    /// turntable step: each facet keeps aiming at the scene point it aimed at).
+    #[test]
+    fn carried_aims_keep_the_key_frames_view() {
+        let prep = Prepared::load(None).unwrap();
+        let (w, h) = (160u32, 120u32);
+        let s = Settings { width: w, height: h, ..Settings::default() };
+        let params = StageParams::new(&s);
+        let pre = prerender(
+            &prep,
+            &params.framing,
+            &params.trace,
+            Shading::HitsOnly,
+            &Progress::silent(),
+            &mut Timings::default(),
+        )
+        .unwrap();
+        let ids = (0..w * h).map(|i| (i % w) / 20 + 8 * ((i / w) / 20)).collect();
+        let map = FacetMap { width: w, height: h, ids, facet_count: 48 };
+        let clip_radius = prep.world.radius as f64 * 1.001;
+        let camera = pre.view.framed.camera.as_ref();
+        let key_ctx = AimContext { camera, accel: &prep.accel, width: w, height: h, clip_radius };
+        let aim = AimParams {
+            mode: AimMode::Random,
+            discontinuity: 30.0,
+            scale: 1.0,
+            min_coverage: 0.0,
+            ..params.aim.clone()
+        };
+        let key = aim_facets(&key_ctx, &map, None, &aim);
+        let anchors = anchor_aims(&key_ctx, &key);
+        let corners = |t: u32| Some(prep.world.triangle(t));
+        let anchored = anchors.iter().filter(|k| k.aim.moved() && k.centre.is_some() && k.target.is_some()).count();
+        assert!(anchored >= 4, "only {anchored} facets re-aimed at the still life");
+
+        // At the key frame itself: the key frame's aims, to rounding.
+        let same = carry_aims(&key_ctx, &anchors, &map, &corners, &aim);
+        for (k, c) in anchors.iter().zip(&same) {
+            if !(k.aim.moved() && k.centre.is_some() && k.target.is_some()) {
+                continue;
+            }
+            assert!((c.fc.unwrap() - k.aim.fc.unwrap()).length() < 1e-3, "{c:?} against {k:?}");
+            assert!((c.sc.unwrap() - k.aim.sc.unwrap()).length() < 1e-3, "{c:?} against {k:?}");
+            let (a, b) = (c.reaim.unwrap().turn, k.aim.reaim.unwrap().turn);
+            assert!((a - b).length() < 1e-4 * b.length().max(1e-3), "{a} against {b}");
+        }
+
+        // A turntable step: each anchored facet is centred where its key centre point went,
+        // and its centre ray passes through its key aim point (the scene does not move).
+        let up = pre.view.framed.frame.up;
+        let turned = Moved {
+            inner: camera,
+            rotation: DQuat::from_axis_angle(up, 4f64.to_radians()),
+            translation: DVec3::ZERO,
+            clip_radius,
+        };
+        let ctx = AimContext { camera: &turned, ..key_ctx };
+        let carried = carry_aims(&ctx, &anchors, &map, &corners, &aim);
+        let mut checked = 0;
+        for (k, c) in anchors.iter().zip(&carried) {
+            let (Some(centre), Some(target)) = (k.centre, k.target) else { continue };
+            if !k.aim.moved() {
+                continue;
+            }
+            let p = target.at(&prep.world.triangle(target.tri));
+            let Some(seen) = turned.project(centre.at(&prep.world.triangle(centre.tri))) else { continue };
+            if !seen.in_view() || c.target != Some(p) {
+                continue;
+            }
+            assert!((c.fc.unwrap() - ctx.pixel_pos(seen.screen)).length() < 1e-6);
+            let ray = c.reaim.unwrap().apply(&ctx.ray_at(c.fc.unwrap()), clip_radius);
+            let to_p = (p - ray.surface_origin()).normalize();
+            assert!(to_p.dot(ray.dir.as_dvec3()) > 1.0 - 1e-6, "facet centre ray misses its aim point: {c:?}");
+            checked += 1;
+        }
+        assert!(checked >= 4, "only {checked} facets kept their aim point in view");
+        // The view changed: carried centres moved with the subject.
+        assert!(
+            anchors
+                .iter()
+                .zip(&carried)
+                .any(|(k, c)| k.centre.is_some() && (c.fc.unwrap() - k.aim.fc.unwrap()).length() > 1.0)
+        );
+    }
+}
