@@ -185,7 +185,7 @@ fn facets_that_follow_stick_to_a_turntable_and_flicker_no_more_than_static_ones(
     assert!(follow.stickiness >= 0.9, "follow keeps {:.1}% in their facet", follow.stickiness * 100.0);
     assert!(follow.stickiness > stat.stickiness, "follow {follow:?} no stickier than static {stat:?}");
     // The target: flicker no higher than static's. Follow keeps each point in its facet
-    // and each facet aimed at the scene points its key frame aimed at (`motion::carry_aims`);
+    // and each facet aimed at the scene points its key frame aimed at (`imprecision::carried`);
     // static facets slide over the subject and are re-aimed from what they cover each frame.
     // Measured (200x200, default look): follow 21% below static.
     assert!(follow.flicker <= stat.flicker, "follow flickers more: {follow:?} against static {stat:?}");

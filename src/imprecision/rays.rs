@@ -78,7 +78,7 @@ impl AimContext<'_> {
     }
 
     /// The re-aim that turns the facet-centre ray (at `fc`) towards the scene point `p` (an aim
-    /// carried with the scene: `facets::motion::carry_aims`). None when the turn is degenerate.
+    /// carried with the scene: `carried::carry_aims`). None when the turn is degenerate.
     pub fn reaim_towards(&self, fc: DVec2, p: DVec3) -> Option<Reaim> {
         let c = self.ray_at(fc);
         let dir = (p - c.surface_origin()).try_normalize()?;

@@ -16,7 +16,7 @@
 //! | pre-pass | one centre ray per pixel, hits only | no shading |
 //! | saliency | the saliency map off the pre-pass | mesh saliency once per mesh content: a skinned or morphed mesh keeps its rest pose's, by vertex index; not needed by facets that follow |
 //! | facets | the layout's map (static) or carried to this frame (`facets::motion`) | the layout is never computed again |
-//! | imprecision | aims, as a still render's (`aims_stage`); facets that follow: the layout frame's, carried (`motion::carry_aims`) | |
+//! | imprecision | aims, as a still render's (`aims_stage`); facets that follow: the layout frame's, carried (`imprecision::carried`) | |
 //! | re-trace | one centre sample per pixel through its facet's rays, lit (`trace_facets`) | sparse shadow rays; no separate lit pre-render |
 //! | anti-aliasing | `spp` samples where facet neighbours disagree (`antialias_with`, the still's stage) | most pixels keep their one sample |
 //! | paint, encode | as a still render's | |
@@ -35,9 +35,10 @@ use crate::accel::Accel;
 use crate::camera::{Camera, Framed, Moved, frame_camera};
 use crate::error::{Error, Result};
 use crate::facets::motion::file::{self as follow_file, KeyData};
-use crate::facets::motion::{self, FacetMotion, KeyAim, Surface};
+use crate::facets::motion::{self, FacetMotion, Surface};
 use crate::facets::{self, FacetMap, FacetMethod};
 use crate::film::Film;
+use crate::imprecision::carried::{self, KeyAim};
 use crate::imprecision::{self, AimContext, FacetAim};
 use crate::output::{Gray16, Pass};
 use crate::paint::chiaroscuro::ViewAxes;
@@ -415,7 +416,7 @@ struct Keep {
     /// The key frame facets follow from.
     key: Option<KeyData>,
     /// With facets that follow and re-aimed: the layout frame's aims, anchored to the surface
-    /// points they show (`motion::carry_aims` carries them to every frame).
+    /// points they show (`imprecision::carried` carries them to every frame).
     aims: Option<Vec<KeyAim>>,
 }
 
@@ -502,15 +503,20 @@ fn key_frame(
         None
     };
     // The layout frame's aims, decided as a still's (from its pre-pass and saliency map) and
-    // anchored to the scene: what facets that follow keep in every frame.
+    // anchored to the scene: what facets that follow keep in every frame. Only when this
+    // layout frame is the key frame's scene: follow data saved from another pose (a single
+    // frame exported on its own, `follow_frame`) leaves each frame its own aims.
+    let is_key_scene = key
+        .as_ref()
+        .is_some_and(|k| k.positions.iter().enumerate().all(|(t, corners)| *corners == world.triangle(t as u32)));
     let aims = match pre.as_mut() {
-        Some(pre) if plan.imprecision => {
+        Some(pre) if plan.imprecision && is_key_scene => {
             if params.aim.reads_saliency() {
                 pre.saliency = Some(frame_saliency(prep, world, pre, params)?);
             }
             let ctx = aim_context(&camera, accel, trace);
             let aims = aims_stage(&ctx, &map, pre, &params.aim, &Progress::silent(), &mut Timings::default());
-            Some(motion::anchor_aims(&ctx, &aims))
+            Some(carried::anchor_aims(&ctx, &aims))
         }
         _ => None,
     };
@@ -561,7 +567,7 @@ fn aim_context<'a>(camera: &'a Moved, accel: &'a Accel, trace: &TraceParams) -> 
 /// One frame, through the still pipeline's stages: its pre-pass (hits only: the saliency map
 /// and the facets' motion read it), the facets (static, or carried from the key frame), the
 /// aims (decided from this frame's pixels as a still's are, or, for facets that follow, the key
-/// frame's carried with the scene: `motion::carry_aims`), then one centre sample per pixel
+/// frame's carried with the scene: `imprecision::carried`), then one centre sample per pixel
 /// through its facet's rays (`trace_facets`, with sparse shadow rays) and the adaptive
 /// anti-aliasing (`antialias_with`: `spp` samples only where facet neighbours disagree).
 #[allow(clippy::too_many_arguments)]
@@ -608,7 +614,7 @@ fn render_frame(
     let aims: Vec<FacetAim> = match carried_aims {
         Some(key_aims) => timings.time(Stage::Imprecision.name(), || {
             let corners = |t: u32| ((t as usize) < world.triangle_count()).then(|| world.triangle(t));
-            motion::carry_aims(&ctx, key_aims, &map, &corners, &params.aim)
+            carried::carry_aims(&ctx, key_aims, &map, &corners, &params.aim)
         }),
         None if plan.imprecision => aims_stage(&ctx, &map, &pre, &params.aim, &silent, &mut timings),
         None => Vec::new(),
