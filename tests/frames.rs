@@ -174,9 +174,9 @@ fn compare(label: &str, scene: &Path, side: u32, p: &FramesParams) -> (Coherence
     (stat, follow)
 }
 
-/// Issue 15 item 4's target: at a 2 deg/frame orbit, follow keeps >= 90% of the points seen in
-/// consecutive frames in their facet; static facets slide (the "shower door"), so fewer points
-/// keep theirs.
+/// Issue 15 item 4's targets: at a 2 deg/frame orbit, follow keeps >= 90% of the points seen in
+/// consecutive frames in their facet, and flickers no more than static facets, which slide (the
+/// "shower door"), so fewer points keep theirs.
 #[test]
 #[ignore = "needs ../shared"]
 fn facets_that_follow_stick_to_a_turntable_and_flicker_no_more_than_static_ones() {
@@ -184,10 +184,11 @@ fn facets_that_follow_stick_to_a_turntable_and_flicker_no_more_than_static_ones(
     let (stat, follow) = compare("venus turntable 2 deg/frame", &venus, 200, &params(1, 8, 24.0, None, 2.0));
     assert!(follow.stickiness >= 0.9, "follow keeps {:.1}% in their facet", follow.stickiness * 100.0);
     assert!(follow.stickiness > stat.stickiness, "follow {follow:?} no stickier than static {stat:?}");
-    // The issue's target is flicker no higher than static's; measured here (200x200, default
-    // look) follow flickers 4% more than static (each frame re-aims its facets from their moved
-    // pixels): bounded so that it cannot grow unnoticed.
-    assert!(follow.flicker <= stat.flicker * 1.1, "follow flickers more: {follow:?} against static {stat:?}");
+    // The issue's target: flicker no higher than static's. Follow keeps each point in its facet
+    // and each facet aimed at the scene points its key frame aimed at (`imprecision::carried`);
+    // static facets slide over the subject and are re-aimed from what they cover each frame.
+    // Measured (200x200, default look): follow 21% below static.
+    assert!(follow.flicker <= stat.flicker, "follow flickers more: {follow:?} against static {stat:?}");
     assert!(follow.points > 1000, "too few points compared: {follow:?}");
 }
 

@@ -18,6 +18,7 @@
 //! facet's rays; `aim_facets` runs both for every facet.
 
 pub mod backdrop;
+pub mod carried;
 mod centres;
 mod rays;
 

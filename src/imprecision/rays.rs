@@ -77,6 +77,14 @@ impl AimContext<'_> {
         Some((Reaim { turn: new_dir - d_c, focus: c.surface_focus() }, target))
     }
 
+    /// The re-aim that turns the facet-centre ray (at `fc`) towards the scene point `p` (an aim
+    /// carried with the scene: `carried::carry_aims`). None when the turn is degenerate.
+    pub fn reaim_towards(&self, fc: DVec2, p: DVec3) -> Option<Reaim> {
+        let c = self.ray_at(fc);
+        let dir = (p - c.surface_origin()).try_normalize()?;
+        Some(Reaim { turn: dir - c.dir.as_dvec3(), focus: c.surface_focus() })
+    }
+
     /// The linear facet (eq 4.6) of a facet whose (re-aimed) rays have mean hit distance d_ai,
     /// estimated from up to `D_AI_SAMPLES` of its pixels. None when all of them miss: such a
     /// facet is left as it is (SPEC).

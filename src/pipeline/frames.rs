@@ -12,12 +12,13 @@
 //!
 //! | step | what | why it is cheap |
 //! |---|---|---|
-//! | geometry | the scene posed, flattened, its BVH | kept while no triangle moves (a turntable) |
-//! | pre-pass | one centre ray per pixel, hits only | a quarter of the samples, no shading |
-//! | saliency | the saliency map off the pre-pass | mesh saliency once per mesh content: a skinned or morphed mesh keeps its rest pose's, by vertex index |
+//! | geometry | the scene posed, flattened, its BVH | kept while no triangle moves (a turntable); objects only moved: the layout frame's world moved (`World::set_transforms`), BVH top level only |
+//! | pre-pass | one centre ray per pixel, hits only | no shading |
+//! | saliency | the saliency map off the pre-pass | mesh saliency once per mesh content: a skinned or morphed mesh keeps its rest pose's, by vertex index; not needed by facets that follow |
 //! | facets | the layout's map (static) or carried to this frame (`facets::motion`) | the layout is never computed again |
-//! | imprecision | aims, as a still render's | |
-//! | trace | every pixel once, through its facet's rays, lit | no separate pre-render and re-trace |
+//! | imprecision | aims, as a still render's (`aims_stage`); facets that follow: the layout frame's, carried (`imprecision::carried`) | |
+//! | re-trace | one centre sample per pixel through its facet's rays, lit (`trace_facets`) | sparse shadow rays; no separate lit pre-render |
+//! | anti-aliasing | `spp` samples where facet neighbours disagree (`antialias_with`, the still's stage) | most pixels keep their one sample |
 //! | paint, encode | as a still render's | |
 //!
 //! What frames keep from one another (the BVH while nothing moves, the layout, the key frame,
@@ -27,7 +28,9 @@
 use glam::{DMat3, DQuat, DVec2, DVec3, Vec3};
 use image::RgbaImage;
 
-use super::{Plan, Prepared, Stage, StageParams, Timings, encode_stage, layout_stage};
+use super::{
+    Plan, Prepared, Stage, StageParams, Timings, aims_stage, antialias_with, encode_stage, layout_stage, trace_facets,
+};
 use crate::accel::Accel;
 use crate::camera::{Camera, Framed, Moved, frame_camera};
 use crate::error::{Error, Result};
@@ -35,6 +38,7 @@ use crate::facets::motion::file::{self as follow_file, KeyData};
 use crate::facets::motion::{self, FacetMotion, Surface};
 use crate::facets::{self, FacetMap, FacetMethod};
 use crate::film::Film;
+use crate::imprecision::carried::{self, KeyAim};
 use crate::imprecision::{self, AimContext, FacetAim};
 use crate::output::{Gray16, Pass};
 use crate::paint::chiaroscuro::ViewAxes;
@@ -152,7 +156,7 @@ pub fn render_frames(
     }
     let painter = setup.time("paint setup", || Painter::new(&params.paint))?;
     let mut poser = Poser::new(prep, clips, frames.fps);
-    let key_geometry = setup.time("layout frame pose", || poser.geometry(frames, frames.layout_frame, None));
+    let key_geometry = setup.time("layout frame pose", || poser.geometry(frames, frames.layout_frame, None))?;
     let base = frame_camera(&params.framing, key_geometry.world(), key_geometry.accel())?;
     warnings.extend(base.warnings.iter().cloned());
     let follows_scene_camera = params.framing.position.is_none() && params.framing.target.is_none();
@@ -179,9 +183,9 @@ pub fn render_frames(
             let target = key_frame_of(f, frames.layout_frame, frames.rekey);
             timings.time("key frames", || {
                 advance_chain(&mut chain, target, frames, key, &keep.map, &mut poser, &cameras, &params.trace)
-            });
+            })?;
         }
-        geometry = timings.time("geometry", || poser.geometry(frames, f, Some(geometry)));
+        geometry = timings.time("geometry", || poser.geometry(frames, f, Some(geometry)))?;
         let camera = cameras.at(f, geometry.world());
         let key = match (&keep.key, &chain) {
             (Some(_), Some(c)) => Some((&c.key, &c.map)),
@@ -216,6 +220,9 @@ enum Geometry<'a> {
         frame: u32,
         world: Box<World>,
         accel: Box<Accel>,
+        /// The layout frame's world with objects moved (`World::set_transforms`): its BVH has
+        /// the layout frame's per-geometry BVHs, and only its top level changes.
+        rigid: bool,
     },
 }
 
@@ -243,33 +250,65 @@ struct Poser<'a> {
     scene: Scene,
     /// The layout frame's render space, shared by every frame.
     space: Option<Similarity>,
+    /// The first frame posed's world (the layout frame's): frames whose clips only move objects
+    /// are this world with objects moved.
+    base: Option<World>,
     fps: f64,
 }
 
 impl<'a> Poser<'a> {
     fn new(prep: &'a Prepared, clips: Vec<&'a Clip>, fps: f64) -> Poser<'a> {
         let scene = if clips.is_empty() { Scene::default() } else { prep.scene.clone() };
-        Poser { prep, clips, scene, space: None, fps }
+        Poser { prep, clips, scene, space: None, base: None, fps }
     }
 
-    /// Frame `f`'s geometry. The BVH of `previous` is kept when no triangle moved (a BVH
-    /// depends on nothing else); otherwise it is built anew.
-    fn geometry(&mut self, frames: &FramesParams, f: u32, previous: Option<Geometry<'a>>) -> Geometry<'a> {
+    /// Frame `f`'s geometry, cheapest first (ARCHITECTURE "Changing a prepared scene"):
+    /// - the clips move only objects (no skin, morph, camera or light): the layout frame's
+    ///   world with the objects moved, and `previous`'s BVH with its top level rebuilt;
+    /// - otherwise the scene posed and flattened anew, and only the geometries whose content
+    ///   changed get a BVH (`Accel::update`).
+    ///
+    /// Which way a frame takes, and what it gives, depends on the frame alone (the layout
+    /// frame's world is the first one posed, in every run): farm chunks agree.
+    fn geometry(&mut self, frames: &FramesParams, f: u32, previous: Option<Geometry<'a>>) -> Result<Geometry<'a>> {
         if self.clips.is_empty() {
-            return Geometry::Rest(&self.prep.world, &self.prep.accel);
+            return Ok(Geometry::Rest(&self.prep.world, &self.prep.accel));
         }
         debug_assert_eq!(frames.fps, self.fps);
         if let Some(Geometry::Posed { frame, .. }) = &previous
             && *frame == f
         {
-            return previous.expect("matched");
+            return Ok(previous.expect("matched"));
         }
         let rest = &self.prep.scene;
         let rig = rest.rig.as_ref().expect("clips come from the scene's rig");
         let pose = rig.pose(&self.clips, frames.time(f), |m| &rest.meshes[m].triangles);
         animation::apply(&mut self.scene, &pose);
         let space = *self.space.get_or_insert_with(|| World::render_space(&self.scene));
+        let objects_only = pose.meshes.is_empty() && pose.camera.is_none() && pose.lights.is_empty();
+        if let (true, Some(base)) = (objects_only, &self.base) {
+            let mut world = base.clone();
+            // A transform too singular to carry rays into the base's space (a zero scale)
+            // would give the object a geometry of its own: such a frame is posed anew.
+            if world.set_transforms(&self.scene, &pose.transforms)?.is_empty() {
+                let accel = match previous {
+                    Some(Geometry::Posed { mut accel, rigid: true, .. }) => {
+                        accel.update_instances(&world);
+                        accel
+                    }
+                    Some(Geometry::Posed { mut accel, .. }) => {
+                        accel.update(&world);
+                        accel
+                    }
+                    _ => Box::new(Accel::new(&world)),
+                };
+                return Ok(Geometry::Posed { frame: f, world: Box::new(world), accel, rigid: true });
+            }
+        }
         let world = World::in_space(&self.scene, space);
+        if self.base.is_none() {
+            self.base = Some(world.clone());
+        }
         // Only geometries whose content changed get a BVH (`Accel::update` keys them by
         // content): the result is the same BVH as a fresh build, whatever frame came before.
         let accel = match previous {
@@ -279,7 +318,7 @@ impl<'a> Poser<'a> {
             }
             _ => Box::new(Accel::new(&world)),
         };
-        Geometry::Posed { frame: f, world: Box::new(world), accel }
+        Ok(Geometry::Posed { frame: f, world: Box::new(world), accel, rigid: false })
     }
 }
 
@@ -344,7 +383,7 @@ fn advance_chain<'a>(
     poser: &mut Poser<'a>,
     cameras: &Cameras,
     trace: &TraceParams,
-) {
+) -> Result<()> {
     let layout = frames.layout_frame;
     let on_the_way = |c: u32| (c >= layout) == (target >= layout) && c.abs_diff(layout) <= target.abs_diff(layout);
     if chain.as_ref().is_some_and(|c| !on_the_way(c.frame)) || target == layout {
@@ -353,10 +392,10 @@ fn advance_chain<'a>(
     loop {
         let at = chain.as_ref().map_or(layout, |c| c.frame);
         if at == target {
-            return;
+            return Ok(());
         }
         let next = if target > at { at + frames.rekey } else { at - frames.rekey };
-        let geometry = poser.geometry(frames, next, None);
+        let geometry = poser.geometry(frames, next, None)?;
         let (world, accel) = (geometry.world(), geometry.accel());
         let camera = cameras.at(next, world);
         let pre = prepass(world, accel, &camera, trace);
@@ -376,6 +415,9 @@ struct Keep {
     map: FacetMap,
     /// The key frame facets follow from.
     key: Option<KeyData>,
+    /// With facets that follow and re-aimed: the layout frame's aims, anchored to the surface
+    /// points they show (`imprecision::carried` carries them to every frame).
+    aims: Option<Vec<KeyAim>>,
 }
 
 /// One centre ray per pixel, hits only: what the saliency map, the facets' motion and the key
@@ -446,16 +488,37 @@ fn key_frame(
         Film::new(1, 1, 1)
     };
     let (layout, map) = layout_stage(&params.facets, &film, &Progress::silent(), &mut Timings::default(), warnings)?;
-    let key = if faceted && params.motion == FacetMotion::Follow {
+    let follows = faceted && params.motion == FacetMotion::Follow;
+    // The layout frame's pre-pass: its key data and its aims.
+    let mut pre = follows.then(|| prepass(world, accel, &camera, trace));
+    let key = if let Some(pre) = &pre {
         let saved = params.facets.layout_file.as_deref().map(follow_file::path_for).filter(|p| p.is_file());
         let key = match saved {
             Some(p) => follow_file::load(&p)?,
-            None => key_data(world, accel, &camera, trace),
+            None => key_of(pre, world, &camera, trace),
         };
         check_key(&key, trace, world)?;
         Some(key)
     } else {
         None
+    };
+    // The layout frame's aims, decided as a still's (from its pre-pass and saliency map) and
+    // anchored to the scene: what facets that follow keep in every frame. Only when this
+    // layout frame is the key frame's scene: follow data saved from another pose (a single
+    // frame exported on its own, `follow_frame`) leaves each frame its own aims.
+    let is_key_scene = key
+        .as_ref()
+        .is_some_and(|k| k.positions.iter().enumerate().all(|(t, corners)| *corners == world.triangle(t as u32)));
+    let aims = match pre.as_mut() {
+        Some(pre) if plan.imprecision && is_key_scene => {
+            if params.aim.reads_saliency() {
+                pre.saliency = Some(frame_saliency(prep, world, pre, params)?);
+            }
+            let ctx = aim_context(&camera, accel, trace);
+            let aims = aims_stage(&ctx, &map, pre, &params.aim, &Progress::silent(), &mut Timings::default());
+            Some(carried::anchor_aims(&ctx, &aims))
+        }
+        _ => None,
     };
     if let Some(path) = &params.save_facets {
         facets::io::save(path, &layout, &map)?;
@@ -463,7 +526,7 @@ fn key_frame(
             follow_file::save(&follow_file::path_for(path), key)?;
         }
     }
-    Ok(Keep { faceted, map, key })
+    Ok(Keep { faceted, map, key, aims })
 }
 
 /// A key frame must match the frames it is carried to: same picture size, same triangles.
@@ -490,6 +553,23 @@ pub fn check_key(key: &KeyData, trace: &TraceParams, world: &World) -> Result<()
     Ok(())
 }
 
+/// The saliency map of a frame off its pre-pass (mesh saliency once per mesh content).
+fn frame_saliency(prep: &Prepared, world: &World, pre: &Film, params: &StageParams) -> Result<Vec<f32>> {
+    let sal = saliency::for_film(&prep.scene, world, &prep.saliency, pre, &params.saliency)?;
+    Ok(saliency::saliency_map(world, &sal, pre))
+}
+
+/// A frame's camera as the imprecision stage sees it.
+fn aim_context<'a>(camera: &'a Moved, accel: &'a Accel, trace: &TraceParams) -> AimContext<'a> {
+    AimContext { camera, accel, width: trace.width, height: trace.height, clip_radius: camera.clip_radius }
+}
+
+/// One frame, through the still pipeline's stages: its pre-pass (hits only: the saliency map
+/// and the facets' motion read it), the facets (static, or carried from the key frame), the
+/// aims (decided from this frame's pixels as a still's are, or, for facets that follow, the key
+/// frame's carried with the scene: `imprecision::carried`), then one centre sample per pixel
+/// through its facet's rays (`trace_facets`, with sparse shadow rays) and the adaptive
+/// anti-aliasing (`antialias_with`: `spp` samples only where facet neighbours disagree).
 #[allow(clippy::too_many_arguments)]
 fn render_frame(
     prep: &Prepared,
@@ -508,18 +588,15 @@ fn render_frame(
     let (world, accel) = (geometry.world(), geometry.accel());
     let trace = &params.trace;
     let plan = Plan::new(params);
-    let pre = timings.time("pre-pass", || prepass(world, accel, camera, trace));
+    let mut pre = timings.time("pre-pass", || prepass(world, accel, camera, trace));
 
+    let carried_aims = keep.aims.as_deref().filter(|_| plan.imprecision);
     let wants_map = params.passes.contains(&Pass::Saliency) || params.passes.contains(&Pass::Facets);
-    let saliency = if (plan.imprecision && params.aim.reads_saliency()) || wants_map {
-        let map = timings.time(Stage::Saliency.name(), || -> Result<Vec<f32>> {
-            let sal = saliency::for_film(&prep.scene, world, &prep.saliency, &pre, &params.saliency)?;
-            Ok(saliency::saliency_map(world, &sal, &pre))
-        })?;
-        Some(map)
-    } else {
-        None
-    };
+    let reads_saliency = plan.imprecision && params.aim.reads_saliency() && carried_aims.is_none();
+    if reads_saliency || wants_map {
+        let map = timings.time(Stage::Saliency.name(), || frame_saliency(prep, world, &pre, params))?;
+        pre.saliency = Some(map);
+    }
 
     let (map, revealed) = match key {
         Some((key, key_map)) => {
@@ -528,31 +605,30 @@ fn render_frame(
         }
         None => (keep.map.clone(), None),
     };
-    if keep.faceted && params.aim.neighborhood > 0.0 && saliency.is_some() {
+    if keep.faceted && params.aim.neighborhood > 0.0 && pre.saliency.is_some() {
         imprecision::check_neighbourhood(&map, params.aim.neighbourhood_px())?;
     }
 
-    let ctx = AimContext { camera, accel, width: trace.width, height: trace.height, clip_radius: camera.clip_radius };
-    let aims: Vec<FacetAim> = if plan.imprecision {
-        timings
-            .time(Stage::Imprecision.name(), || imprecision::aim_facets(&ctx, &map, saliency.as_deref(), &params.aim))
-    } else {
-        Vec::new()
+    let ctx = aim_context(camera, accel, trace);
+    let silent = Progress::silent();
+    let aims: Vec<FacetAim> = match carried_aims {
+        Some(key_aims) => timings.time(Stage::Imprecision.name(), || {
+            let corners = |t: u32| ((t as usize) < world.triangle_count()).then(|| world.triangle(t));
+            carried::carry_aims(&ctx, key_aims, &map, &corners, &params.aim)
+        }),
+        None if plan.imprecision => aims_stage(&ctx, &map, &pre, &params.aim, &silent, &mut timings),
+        None => Vec::new(),
     };
 
     let view = camera.frame(&base.frame);
     let rig = LightRig::new(world, &view, trace.shadows, trace.exposure);
     let tracer = Tracer { world, accel, rig: Some(&rig), background: Vec3::from(trace.background), seed: trace.seed };
-    let mut film = Film::new(trace.width, trace.height, trace.spp);
-    let rays = |i: usize, p: DVec2| {
-        let ray = camera.ray(p);
-        match aims.get(map.ids[i] as usize) {
-            Some(aim) if aim.moved() => aim.apply(ray, ctx.pixel_pos(p), ctx.clip_radius),
-            _ => ray,
-        }
-    };
-    timings.time("trace", || tracer.render(&mut film, &rays, None, Some(&map.ids), progress));
-    film.saliency = saliency;
+    let mut film = Film::new(trace.width, trace.height, 1);
+    trace_facets(&tracer, &ctx, &map, &aims, None, &mut film, progress, &mut timings);
+    if plan.antialiasing {
+        antialias_with(&tracer, &ctx, trace, &map, &aims, &mut film, &silent, &mut timings);
+    }
+    film.saliency = pre.saliency.take();
 
     if plan.paint {
         let axes = ViewAxes { right: view.right.as_vec3(), up: view.up.as_vec3(), forward: view.forward.as_vec3() };

@@ -39,6 +39,7 @@ mod stage;
 use glam::DVec2;
 use image::RgbaImage;
 
+use crate::camera::CameraRay;
 use crate::error::Result;
 use crate::facets::{self, FacetLayout, FacetMap, FacetParams};
 use crate::film::Film;
@@ -48,7 +49,7 @@ use crate::output::{Gray16, Pass, encode};
 use crate::progress::Progress;
 use crate::saliency::{MeshSaliency, SaliencyParams};
 use crate::settings::Settings;
-use crate::trace::TraceParams;
+use crate::trace::{TraceParams, Tracer};
 
 pub use faces::{evaluate, visible_faces};
 pub use follow_frame::{follows_saved_key, render_followed_frame};
@@ -214,6 +215,23 @@ pub fn moved_pixels(map: &FacetMap, aims: &[FacetAim]) -> Vec<u32> {
     (0..map.ids.len() as u32).filter(|&i| aims[map.ids[i as usize] as usize].moved()).collect()
 }
 
+/// Each pixel's ray through its facet: the camera's, re-aimed where the facet's aim moved
+/// (`aims` empty: the camera's everywhere). What the re-trace, the anti-aliasing and every
+/// animation frame trace.
+pub fn facet_rays<'a>(
+    ctx: &'a AimContext<'a>,
+    map: &'a FacetMap,
+    aims: &'a [FacetAim],
+) -> impl Fn(usize, DVec2) -> CameraRay + Sync + 'a {
+    move |i, p| {
+        let ray = ctx.camera.ray(p);
+        match aims.get(map.ids[i] as usize) {
+            Some(aim) if aim.moved() => aim.apply(ray, ctx.pixel_pos(p), ctx.clip_radius),
+            _ => ray,
+        }
+    }
+}
+
 /// Traces again the `moved` pixels (`moved_pixels`) with the pre-render's tracer (the same
 /// lights, background and samples), overwriting their colour, hits and samples in `film`.
 #[allow(clippy::too_many_arguments)]
@@ -232,12 +250,27 @@ pub fn retrace_stage(
     if moved.is_empty() {
         return;
     }
-    let camera = view.framed.camera.as_ref();
-    let rays = |i: usize, p: DVec2| aims[map.ids[i] as usize].apply(camera.ray(p), ctx.pixel_pos(p), ctx.clip_radius);
-    let tracer = view.tracer(prep, trace);
     progress.begin(Stage::ReTrace.name(), moved.len() as u64);
-    timings.time(Stage::ReTrace.name(), || tracer.render(film, &rays, Some(moved), Some(&map.ids), progress));
+    trace_facets(&view.tracer(prep, trace), ctx, map, aims, Some(moved), film, progress, timings);
     progress.finish();
+}
+
+/// Traces `pixels` (all: None) of `film` through their facets' rays (`facet_rays`) with
+/// `tracer` (timed as `re-trace`; `progress` counts the pixels). At one sample per pixel,
+/// shadow rays are cast sparsely (`Tracer::render`).
+#[allow(clippy::too_many_arguments)]
+pub fn trace_facets(
+    tracer: &Tracer,
+    ctx: &AimContext,
+    map: &FacetMap,
+    aims: &[FacetAim],
+    pixels: Option<&[u32]>,
+    film: &mut Film,
+    progress: &Progress,
+    timings: &mut Timings,
+) {
+    let rays = facet_rays(ctx, map, aims);
+    timings.time(Stage::ReTrace.name(), || tracer.render(film, &rays, pixels, Some(&map.ids), progress));
 }
 
 /// Anti-aliasing: the pixels that need them (all with `aa_threshold` 0) get `spp` samples each
@@ -255,12 +288,23 @@ pub fn antialias_stage(
     progress: &Progress,
     timings: &mut Timings,
 ) {
-    let camera = view.framed.camera.as_ref();
-    let rays = |i: usize, p: DVec2| match aims.get(map.ids[i] as usize) {
-        Some(aim) if aim.moved() => aim.apply(camera.ray(p), ctx.pixel_pos(p), ctx.clip_radius),
-        _ => camera.ray(p),
-    };
-    let tracer = view.tracer(prep, trace);
+    antialias_with(&view.tracer(prep, trace), ctx, trace, map, aims, film, progress, timings);
+}
+
+/// `antialias_stage` with any tracer (an animation frame's posed scene and lights) and the
+/// camera of `ctx`.
+#[allow(clippy::too_many_arguments)]
+pub fn antialias_with(
+    tracer: &Tracer,
+    ctx: &AimContext,
+    trace: &TraceParams,
+    map: &FacetMap,
+    aims: &[FacetAim],
+    film: &mut Film,
+    progress: &Progress,
+    timings: &mut Timings,
+) {
+    let rays = facet_rays(ctx, map, aims);
     timings.time(Stage::AntiAliasing.name(), || {
         // Where no facet moved, every ray is the camera's: facet borders are no edges of the
         // picture, and the image is the unfaceted one (one facet for the comparisons).
