@@ -42,6 +42,8 @@ use super::framing::fit_depth;
 /// Largest half-angle a vertex may reach from the view axis: spans stay within the thesis's
 /// best ambiguity range (120-150 deg, section 5).
 pub const MAX_HALF_ANGLE: f64 = 75.0 * std::f64::consts::PI / 180.0;
+/// The half-angle caps step 6 tries in turn: the thesis's range first, then a wider wrap.
+pub const HALF_ANGLE_CAPS: [f64; 2] = [MAX_HALF_ANGLE, 85.0 * std::f64::consts::PI / 180.0];
 /// Default `fill` for `compose`: the scene's extent over the canvas's span, per axis.
 pub const COMPOSE_FILL: f64 = 0.94;
 /// The ratios between the horizontal and vertical scale per pixel (angle or length per pixel)
@@ -68,6 +70,23 @@ pub struct Composition {
     pub angle_y: f64,
     /// Cylindrical: the band's height, render units. Spherical: unused (0).
     pub height: f64,
+    /// The share of the canvas it fills (the probe's estimate; 0 until measured).
+    pub fill: f64,
+    /// Its place in the order of preference among the candidates that reach `FILL_GOAL`
+    /// (angle cap, then stretch, then distance); `usize::MAX` when none reached it.
+    pub rank: usize,
+}
+
+impl Composition {
+    /// Whether `self` is a better composition than `other` (of another camera type, for
+    /// `auto`): it reaches `FILL_GOAL` with less wrap or stretch, or, when neither reaches it,
+    /// fills more. Ties keep `other`.
+    pub fn better_than(&self, other: &Composition) -> bool {
+        if self.rank != other.rank {
+            return self.rank < other.rank;
+        }
+        self.rank == usize::MAX && self.fill > other.fill
+    }
 }
 
 /// Angular (and, for the cylindrical camera, vertical) extents of `points` seen from `c`:
@@ -102,9 +121,10 @@ fn spans(
     aspect: f64,
     margin: f64,
     anisotropy: f64,
+    max_half: f64,
 ) -> Composition {
     let (h, v) = extents(points, kind, f, c);
-    let widest = 2.0 * MAX_HALF_ANGLE / margin;
+    let widest = 2.0 * max_half / margin;
     let span_x = (2.0 * h.0.abs().max(h.1.abs()) / margin).clamp(1e-6, widest);
     let mut angle_x = span_x;
     if kind == CameraKind::Cylindrical {
@@ -120,7 +140,7 @@ fn spans(
         } else if height > anisotropy * sx {
             angle_x = ((height / anisotropy) * aspect / r).min(widest);
         }
-        return Composition { centre, angle_x, angle_y: 0.0, height };
+        return Composition { centre, angle_x, angle_y: 0.0, height, fill: 0.0, rank: usize::MAX };
     }
     let mut angle_y = (2.0 * v.0.abs().max(v.1.abs()) / margin).clamp(1e-6, widest);
     // Radians per pixel: angle_x / width against angle_y / height.
@@ -130,7 +150,7 @@ fn spans(
     } else if angle_y > anisotropy * sx {
         angle_x = (angle_y / anisotropy * aspect).min(widest);
     }
-    Composition { centre: c, angle_x, angle_y, height: 0.0 }
+    Composition { centre: c, angle_x, angle_y, height: 0.0, fill: 0.0, rank: usize::MAX }
 }
 
 /// The `compose` framing of a spherical or cylindrical camera looking along `f.forward`, with
@@ -148,8 +168,39 @@ pub fn compose(
     margin: f64,
     fill_of: &(dyn Fn(&Composition) -> f64 + Sync),
 ) -> Composition {
+    let mut fallback: Option<Composition> = None;
+    let mut rank = 0;
+    for &cap in &HALF_ANGLE_CAPS {
+        let (candidates, fills) = candidates_at(points, kind, f, axis, aspect, radius, margin, cap, fill_of);
+        if let Some(k) = fills.iter().position(|&v| v >= FILL_GOAL) {
+            return Composition { fill: fills[k], rank: rank + k, ..candidates[k] };
+        }
+        rank += candidates.len();
+        // A wider wrap is kept only when it fills clearly more.
+        let best = fills.iter().copied().fold(0.0, f64::max);
+        if fallback.is_none_or(|b| NEAR_BEST * best > b.fill) {
+            let k = fills.iter().position(|&v| v >= NEAR_BEST * best).unwrap_or(0);
+            fallback = Some(Composition { fill: fills[k], ..candidates[k] });
+        }
+    }
+    fallback.unwrap_or(Composition { centre: axis, angle_x: 1.0, angle_y: 1.0, height: 1.0, fill: 0.0, rank: usize::MAX })
+}
+
+/// Every candidate at one angle cap, in order of preference, with its fill.
+#[allow(clippy::too_many_arguments)]
+fn candidates_at(
+    points: &[DVec3],
+    kind: CameraKind,
+    f: &CameraFrame,
+    axis: DVec3,
+    aspect: f64,
+    radius: f64,
+    margin: f64,
+    cap: f64,
+    fill_of: &(dyn Fn(&Composition) -> f64 + Sync),
+) -> (Vec<Composition>, Vec<f64>) {
     let cylindrical = kind == CameraKind::Cylindrical;
-    let half = (MAX_HALF_ANGLE, MAX_HALF_ANGLE);
+    let half = (cap, cap);
     let place =
         |axis: DVec3, back: f64| axis + f.forward * (fit_depth(points, kind, f, axis, half, radius, margin) + back);
     let centres: Vec<DVec3> = DEPTH_STEPS
@@ -180,16 +231,10 @@ pub fn compose(
         .flat_map(|&a| centres.iter().map(move |&c| (a, c)))
         .collect::<Vec<_>>()
         .par_iter()
-        .map(|&(a, c)| spans(points, kind, f, c, aspect, margin, a))
+        .map(|&(a, c)| spans(points, kind, f, c, aspect, margin, a, cap))
         .collect();
     let fills: Vec<f64> = candidates.par_iter().map(fill_of).collect();
-    let best = fills.iter().copied().fold(0.0, f64::max);
-    let pick = fills
-        .iter()
-        .position(|&v| v >= FILL_GOAL)
-        .or_else(|| fills.iter().position(|&v| v >= NEAR_BEST * best))
-        .unwrap_or(0);
-    candidates[pick]
+    (candidates, fills)
 }
 
 /// Mean horizontal distance of `points` from the vertical line through `c` along `f.up`.

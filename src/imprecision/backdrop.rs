@@ -13,6 +13,8 @@
 //! With the planes faceting, whose facets are cut along the subject's outlines, almost every
 //! facet is all subject or all backdrop, so the rule rarely has to weigh a mixed one.
 
+use glam::DVec2;
+
 use super::{AimContext, AimParams, FacetAim, FacetProjection};
 use crate::facets::FacetMap;
 
@@ -108,6 +110,59 @@ pub fn limit_shift(aims: &mut [FacetAim], widths: &[f64], share: f64, ctx: &AimC
     }
 }
 
+/// Share of the salient pixels (the top of the pre-render's saliency map) `keep_cues` guards:
+/// the map's counterpart of issue 13 item 5's "top 5% of mesh saliency".
+pub const CUE_PIXEL_SHARE: f64 = 0.05;
+
+/// Shrinks a re-aimed facet's view shift (by halves, then none) until every one of its
+/// most salient pixels stays in view: a re-aimed facet shows at pixel p what the pre-render
+/// showed near p + (sc - fc), so a salient pixel q of the facet stays shown only when
+/// q - (sc - fc) still lies in the facet. Why: a cue at a plane's edge (an eye, a beak, the
+/// tip of an ear) shifted out of its plane is lost (issue 13 item 5: the most salient vertices
+/// shown at least as often as in the unfaceted render). The salient pixels are the top
+/// `CUE_PIXEL_SHARE` of `saliency` over the pixels that show geometry.
+pub fn keep_cues(aims: &mut [FacetAim], ctx: &AimContext, map: &FacetMap, saliency: &[f32]) {
+    let w = map.width as usize;
+    let h = map.height as usize;
+    let mut values: Vec<f32> = saliency.iter().copied().filter(|&v| v > 0.0).collect();
+    if values.is_empty() || saliency.len() != w * h {
+        return;
+    }
+    let k = ((values.len() as f64 * (1.0 - CUE_PIXEL_SHARE)) as usize).min(values.len() - 1);
+    let (_, &mut threshold, _) = values.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
+    let (offsets, pixels) = map.pixels_by_facet();
+    let salient_of = |f: usize| {
+        pixels[offsets[f] as usize..offsets[f + 1] as usize].iter().copied().filter(|&i| saliency[i as usize] >= threshold)
+    };
+    let keeps = |f: usize, shift: DVec2| {
+        salient_of(f).all(|i| {
+            let q = DVec2::new((i as usize % w) as f64 + 0.5, (i as usize / w) as f64 + 0.5) - shift;
+            q.x >= 0.0 && q.y >= 0.0 && (q.x as usize) < w && (q.y as usize) < h && {
+                map.ids[q.y as usize * w + q.x as usize] as usize == f
+            }
+        })
+    };
+    for (f, aim) in aims.iter_mut().enumerate() {
+        let (Some(fc), Some(sc)) = (aim.fc, aim.sc) else { continue };
+        if aim.reaim.is_none() || keeps(f, sc - fc) {
+            continue;
+        }
+        let scale = [0.5, 0.25].into_iter().find(|&t| keeps(f, (sc - fc) * t)).unwrap_or(0.0);
+        let sc = fc + (sc - fc) * scale;
+        aim.sc = Some(sc);
+        aim.reaim = None;
+        aim.target = None;
+        if sc != fc
+            && let Some((r, p)) = ctx.reaim(fc, sc)
+        {
+            if r.turn.length() > ctx.negligible_turn(fc) {
+                aim.reaim = Some(r);
+            }
+            aim.target = p;
+        }
+    }
+}
+
 /// Both rules, as `params` set them, on the aims `aim_facets` decided; `coverage(i)` is pixel
 /// i's pre-render coverage (the share of its samples that hit geometry).
 pub fn apply(
@@ -115,6 +170,7 @@ pub fn apply(
     ctx: &AimContext,
     map: &FacetMap,
     coverage: impl Fn(usize) -> f32,
+    saliency: Option<&[f32]>,
     params: &AimParams,
 ) {
     if params.min_coverage > 0.0 {
@@ -123,6 +179,9 @@ pub fn apply(
     }
     if params.width_share > 0.0 && params.projection == FacetProjection::Converging {
         limit_shift(aims, &facet_widths(map), params.width_share, ctx);
+        if let Some(s) = saliency {
+            keep_cues(aims, ctx, map, s);
+        }
     }
 }
 
