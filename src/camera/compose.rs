@@ -315,6 +315,43 @@ mod tests {
     }
 
     #[test]
+    fn a_wider_wrap_only_when_the_thesis_range_does_not_fill() {
+        let pts = ellipsoid(DVec3::new(0.6, 0.4, 0.5), DVec3::ZERO);
+        let f = frame();
+        let widest = 2.0 * MAX_HALF_ANGLE / 0.94 + 1e-6;
+        // Fills the goal within the thesis's range: its first candidate (rank 0), no wider.
+        let k = compose(&pts, CameraKind::Spherical, &f, DVec3::ZERO, 4.0 / 3.0, 1.0, 0.94, &|_| 0.6);
+        assert_eq!(k.rank, 0);
+        assert!(k.angle_x <= widest && k.angle_y <= widest, "{k:?}");
+        // Only the wider wrap fills more (a T-posed figure): it is taken, still all in view.
+        let fill = |k: &Composition| if k.angle_x.max(k.angle_y) > widest { 0.45 } else { 0.3 };
+        let k = compose(&pts, CameraKind::Spherical, &f, DVec3::ZERO, 4.0 / 3.0, 1.0, 0.94, &fill);
+        assert!(k.angle_x.max(k.angle_y) > widest && k.fill == 0.45, "{k:?}");
+        assert!(in_view(&k, CameraKind::Spherical, &pts));
+        // A wider wrap filling about as much is not worth it.
+        let fill = |k: &Composition| if k.angle_x.max(k.angle_y) > widest { 0.31 } else { 0.3 };
+        let k = compose(&pts, CameraKind::Spherical, &f, DVec3::ZERO, 4.0 / 3.0, 1.0, 0.94, &fill);
+        assert!(k.angle_x <= widest && k.angle_y <= widest, "{k:?}");
+    }
+
+    #[test]
+    fn better_compositions_fill_with_less_stretch_or_fill_more() {
+        let k = |fill: f64, rank: usize| Composition {
+            centre: DVec3::ZERO,
+            angle_x: 1.0,
+            angle_y: 1.0,
+            height: 0.0,
+            fill,
+            rank,
+        };
+        assert!(k(0.5, 3).better_than(&k(0.9, 7)));
+        assert!(k(0.5, 3).better_than(&k(0.45, usize::MAX)));
+        assert!(!k(0.5, 3).better_than(&k(0.5, 3)), "ties keep the other");
+        assert!(k(0.45, usize::MAX).better_than(&k(0.4, usize::MAX)));
+        assert!(!k(0.4, usize::MAX).better_than(&k(0.45, usize::MAX)));
+    }
+
+    #[test]
     fn cylinders_fit_the_height() {
         let pts = ellipsoid(DVec3::new(0.3, 1.5, 0.3), DVec3::new(0.0, 2.0, 0.0));
         let f = frame();

@@ -361,6 +361,40 @@ mod tests {
     }
 
     #[test]
+    fn short_edges_merge_and_corners_stay() {
+        // A circle of 64 points (edges ~4.9 px): every edge ends at least 20 px long, and
+        // every corner left is one of the circle's points.
+        let circle: Vec<DVec2> = (0..64)
+            .map(|k| {
+                let t = std::f64::consts::TAU * k as f64 / 64.0;
+                DVec2::new(100.0 + 50.0 * t.cos(), 100.0 + 50.0 * t.sin())
+            })
+            .collect();
+        let merged = merge_short_edges(circle.clone(), 20.0);
+        let n = merged.len();
+        assert!((6..=16).contains(&n), "{n}");
+        assert!((0..n).all(|k| (merged[(k + 1) % n] - merged[k]).length() >= 20.0), "{merged:?}");
+        assert!(merged.iter().all(|p| circle.contains(p)));
+        // A square with a 2 px notch in one side keeps its four corners.
+        let square = vec![
+            DVec2::new(0.0, 0.0),
+            DVec2::new(50.0, 0.0),
+            DVec2::new(51.0, 2.0),
+            DVec2::new(52.0, 0.0),
+            DVec2::new(100.0, 0.0),
+            DVec2::new(100.0, 100.0),
+            DVec2::new(0.0, 100.0),
+        ];
+        let merged = merge_short_edges(square, 10.0);
+        assert_eq!(merged.len(), 5, "{merged:?}");
+        for c in [DVec2::new(0.0, 0.0), DVec2::new(100.0, 0.0), DVec2::new(100.0, 100.0), DVec2::new(0.0, 100.0)] {
+            assert!(merged.contains(&c), "{c} lost: {merged:?}");
+        }
+        // Nothing below a triangle.
+        assert_eq!(merge_short_edges(vec![DVec2::ZERO, DVec2::X, DVec2::Y], 10.0).len(), 3);
+    }
+
+    #[test]
     fn a_staircase_simplifies_to_a_straight_edge() {
         // A right triangle below the diagonal of a 40 x 40 image: its hypotenuse is a staircase.
         let n = 40;

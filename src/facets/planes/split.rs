@@ -386,6 +386,29 @@ mod tests {
     }
 
     #[test]
+    fn cut_ends_never_sit_a_few_pixels_apart() {
+        // Seeded cuts end on earlier ends near them: any two distinct corners of the planes are
+        // at least the snap distance apart (an end nearer would have moved onto the other).
+        let values: Vec<f64> = (0..40 * 30).map(|i| 1.0 + ((i * 7919) % 13) as f64).collect();
+        let wts = Weights { columns: 40, rows: 30, values: &values, width: 640.0, height: 480.0 };
+        let min_width = 16.0;
+        let leaves = split(&wts, &[], 150, min_width, 0.08 * 640.0 * 480.0, 5);
+        let mut corners: Vec<DVec2> = leaves.iter().flatten().copied().collect();
+        corners.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
+        corners.dedup_by(|a, b| (*a - *b).length() < 1e-6);
+        let snap = SNAP_SHARE * min_width;
+        let mut closest = f64::INFINITY;
+        for (i, a) in corners.iter().enumerate() {
+            for b in &corners[i + 1..] {
+                closest = closest.min((*a - *b).length());
+            }
+        }
+        assert!(closest >= snap - 1e-6, "corners {closest:.2} px apart (snap {snap})");
+        let total: f64 = leaves.iter().map(|l| signed_area(l).abs()).sum();
+        assert!((total - 640.0 * 480.0).abs() < 1e-3, "{total}");
+    }
+
+    #[test]
     fn an_outline_run_becomes_a_cut() {
         let values = vec![1.0; 40 * 30];
         let wts = Weights { columns: 40, rows: 30, values: &values, width: 400.0, height: 300.0 };
