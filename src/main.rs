@@ -473,7 +473,9 @@ fn run_look(mut args: LookArgs) -> anyhow::Result<()> {
         (s.width, s.height, s.spp, s.seed) = (after.width, after.height, after.spp, after.seed);
         s
     });
-    if let Some(sheet) = &args.sheet {
+    if let Some(sheet) = &args.sheet
+        && !sheet.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("jpg"))
+    {
         cubist::output::check_png_path(sheet)?;
     }
     // (name, a file, or a scene built in code; None and None: the still life).

@@ -29,6 +29,23 @@
 //!    that fills `FILL_GOAL` of the canvas wins; when none does (a figure with outstretched
 //!    arms), the least stretched and closest within `NEAR_BEST` of the best fill.
 //!
+//! 6. When no candidate within the thesis's range fills `FILL_GOAL`, steps 1-5 run again with
+//!    C allowed closer (`HALF_ANGLE_CAPS`: vertices up to 85 deg from the axis): a stronger
+//!    convergence magnifies the subject's middle against its far-flung parts (a T-posed
+//!    figure's torso against its hands, 31% -> 45% of the canvas), still all in view. The
+//!    wider wrap is kept only when its best fills clearly more (by 1 / `NEAR_BEST`).
+//! 7. (`framing`) `auto` on a tall scene composes with both converging cameras and keeps the
+//!    cylindrical one (the thesis's choice for standing figures) unless the spherical one
+//!    reaches the goal with less stretch or, neither reaching it, fills more
+//!    (`Composition::better_than`).
+//!
+//! What this does not reach (docs/look/README.md): a subject whose silhouette fills little of
+//! its own bounding box (a figure on a wide pedestal, a walking figure seen from the side, a
+//! flared drape) stays under 40% with the whole of it in view and at most 2.5 x stretch. More
+//! stretch was tried and refused: at 4-6 x a walking figure fills 39-45% but no longer reads
+//! as a figure (ART.md: cues must stay legible); so was wrapping all the way round a figure
+//! (a cylindrical camera with its focal line inside it), which unrolls it into a vase.
+//!
 //! No constant depends on a particular scene: the angle cap is the thesis's best ambiguity
 //! range's top (150 deg, section 5), the margin the `fill` setting.
 
@@ -183,7 +200,14 @@ pub fn compose(
             fallback = Some(Composition { fill: fills[k], ..candidates[k] });
         }
     }
-    fallback.unwrap_or(Composition { centre: axis, angle_x: 1.0, angle_y: 1.0, height: 1.0, fill: 0.0, rank: usize::MAX })
+    fallback.unwrap_or(Composition {
+        centre: axis,
+        angle_x: 1.0,
+        angle_y: 1.0,
+        height: 1.0,
+        fill: 0.0,
+        rank: usize::MAX,
+    })
 }
 
 /// Every candidate at one angle cap, in order of preference, with its fill.

@@ -9,7 +9,9 @@
 //! in view, seen around its sides, with a margin of background. `--framing centre` puts C
 //! at the centre of the bounding box (the thesis's literal choice). `auto` picks the
 //! cylindrical camera for tall scenes (height >= `TALL_RATIO` x width and depth), as the
-//! thesis does for standing figures, and the spherical camera otherwise.
+//! thesis does for standing figures, and the spherical camera otherwise; under `compose` a tall
+//! scene is composed with both and the spherical camera is kept when it composes it better
+//! (`compose` step 7).
 
 use glam::DVec3;
 
