@@ -301,7 +301,9 @@ fn best_cut(
         candidates.push((leaf.centre + n * offset, d, 0.0));
     }
     let area = |p: &[DVec2]| signed_area(p).abs();
-    let mut best: Option<(f64, Vec<DVec2>, Vec<DVec2>, Option<(DVec2, DVec2)>)> = None;
+    // (score, the two pieces, the cut's ends)
+    type Best = (f64, Vec<DVec2>, Vec<DVec2>, Option<(DVec2, DVec2)>);
+    let mut best: Option<Best> = None;
     for (p, d, bonus) in candidates {
         // Seeded lines end on the earlier cuts' ends near them, so no two junctions sit a few
         // pixels apart (a boundary too short to read as a straight stroke); lines along the
