@@ -192,7 +192,9 @@ pub fn apply(
     }
     if params.width_share > 0.0 && params.projection == FacetProjection::Converging {
         limit_shift(aims, &facet_widths(map), params.width_share, ctx);
-        if let Some(s) = saliency {
+        // Only when re-aiming reads the saliency map anyway (what the aims depend on stays
+        // what `reads_saliency` says: the session's stage cache keys on it).
+        if let Some(s) = saliency.filter(|_| params.reads_saliency()) {
             keep_cues(aims, ctx, map, s);
         }
     }
