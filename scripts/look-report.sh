@@ -3,7 +3,7 @@
 # ../shared/models and ../shared/gltf-samples, the built-in still life and the built-in odd
 # scenes, rendered before (`--preset thesis`, the paper's method: the default look until
 # issue 13) and after (the default), at 640 x 480, measured, with a contact sheet:
-#   bash scripts/look-report.sh                 # -> docs/look/README.md, docs/look/contact-sheet.png
+#   bash scripts/look-report.sh                 # -> docs/look/README.md, docs/look/contact-sheet.jpg
 #   TIME_SIZE=0 bash scripts/look-report.sh     # without the 1000 x 1000 timings (faster)
 # The measures are defined in src/look/mod.rs; `cubist look --help` runs any other selection.
 # The timings are one render per scene in one process on a shared machine: noisy, for a rough
@@ -22,7 +22,7 @@ done
 timing=()
 if [ "$TIME_SIZE" != 0 ]; then timing=(--time-size "$TIME_SIZE" --time-runs 1); fi
 tables=$(target/release/cubist look "${scenes[@]}" --still-life --odd --before thesis \
-    --sheet "$out/contact-sheet.png" "${timing[@]}")
+    --sheet "$out/contact-sheet.jpg" "${timing[@]}")
 {
     echo "# The look report"
     echo
@@ -48,9 +48,9 @@ tables=$(target/release/cubist look "${scenes[@]}" --still-life --odd --before t
         echo "- **ms**: this render's wall time (one process on a shared machine: rough; not timed at a larger size)."
     fi
     echo
-    echo "Contact sheet (per scene: before | after, in the tables' order): [contact-sheet.png](contact-sheet.png)."
+    echo "Contact sheet (per scene: before | after, in the tables' order): [contact-sheet.jpg](contact-sheet.jpg)."
     echo "The medians and misses are summed up in the project's README (\"The look report\")."
     echo
     echo "$tables"
 } > "$out/README.md"
-echo "$out/README.md, $out/contact-sheet.png"
+echo "$out/README.md, $out/contact-sheet.jpg"

@@ -520,7 +520,9 @@ fn run_look(mut args: LookArgs) -> anyhow::Result<()> {
         (s.width, s.height, s.spp, s.seed) = (after.width, after.height, after.spp, after.seed);
         s
     });
-    if let Some(sheet) = &args.sheet {
+    if let Some(sheet) = &args.sheet
+        && !sheet.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("jpg"))
+    {
         cubist::output::check_png_path(sheet)?;
     }
     // (name, a file, or a scene built in code; None and None: the still life).
@@ -574,7 +576,15 @@ fn run_look(mut args: LookArgs) -> anyhow::Result<()> {
     if let Some(sheet) = &args.sheet {
         let rows: Vec<Vec<&image::RgbaImage>> = pictures.iter().map(|p| p.iter().collect()).collect();
         let columns = if before.is_some() { 2 } else { 4 };
-        write_png(sheet, &cubist::look::contact_sheet(&rows, 240, columns))?;
+        let img = cubist::look::contact_sheet(&rows, 240, columns);
+        // A .jpg sheet keeps the committed report small (the PNG of 80 thumbnails is ~5 MB).
+        if sheet.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("jpg")) {
+            let rgb = image::DynamicImage::ImageRgba8(img).to_rgb8();
+            let out = std::io::BufWriter::new(std::fs::File::create(sheet)?);
+            image::codecs::jpeg::JpegEncoder::new_with_quality(out, 85).encode_image(&rgb)?;
+        } else {
+            write_png(sheet, &img)?;
+        }
     }
     if args.json {
         emit(&serde_json::to_string_pretty(

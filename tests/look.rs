@@ -25,13 +25,19 @@ fn the_default_look_on_odd_scenes() {
         assert!(r.largest <= 0.10, "{name}: largest facet {:.3}", r.largest);
         // At 320 x 240 a run of 1% of the diagonal is 4 px, so short chains weigh more than
         // at the report's 640 x 480; the report holds the 97% target.
-        assert!(r.straight >= 0.9, "{name}: straight runs {:.3}", r.straight);
+        assert!(r.straight >= 0.93, "{name}: straight runs {:.3}", r.straight);
         assert!(r.ghost <= 0.05, "{name}: ghost share {:.3}", r.ghost);
-        // A figure ten times taller than wide on a 4:3 canvas fills about a quarter of it within
-        // the composition's largest stretch (2.5); compact subjects fill half or more.
+        // Issue 13: 40% on single-object scenes, the whole object in view. Met by the very
+        // tall figure (the composition's wider wrap and the better of the two converging
+        // cameras) and the compact subjects. Not met, the whole object in view and the stretch
+        // at most 2.5 (docs/look/README.md): the figure on a pedestal four times its width
+        // (far, huge, tiny: its silhouette fills about a third of its bounding box) and the
+        // several objects spread on a shelf (not a single object).
         let least = match name.as_str() {
-            "odd-flat" | "odd-z-up" => 0.5,
-            _ => 0.22,
+            "odd-flat" | "odd-z-up" => 0.6,
+            "odd-tall" => 0.4,
+            "odd-several" => 0.35,
+            _ => 0.24,
         };
         assert!(r.fill >= least, "{name}: subject fill {:.3}", r.fill);
     }
@@ -99,7 +105,7 @@ fn the_still_life_keeps_its_cues() {
     let prep = Prepared::load(None).unwrap();
     let look = pipeline::look(&prep, &small(Preset::Analytic, 320, 240), "still-life").unwrap();
     assert!(look.row.cues_pre > 10, "{:?}", look.row);
-    assert!(look.row.cues_kept >= 0.95, "{:?}", look.row);
+    assert!(look.row.cues_kept >= 0.97, "{:?}", look.row);
 }
 
 /// Compares `img` with the golden image `name` (tests/golden), rewriting it when

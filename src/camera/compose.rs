@@ -29,6 +29,23 @@
 //!    that fills `FILL_GOAL` of the canvas wins; when none does (a figure with outstretched
 //!    arms), the least stretched and closest within `NEAR_BEST` of the best fill.
 //!
+//! 6. When no candidate within the thesis's range fills `FILL_GOAL`, steps 1-5 run again with
+//!    C allowed closer (`HALF_ANGLE_CAPS`: vertices up to 85 deg from the axis): a stronger
+//!    convergence magnifies the subject's middle against its far-flung parts (a T-posed
+//!    figure's torso against its hands, 31% -> 45% of the canvas), still all in view. The
+//!    wider wrap is kept only when its best fills clearly more (by 1 / `NEAR_BEST`).
+//! 7. (`framing`) `auto` on a tall scene composes with both converging cameras and keeps the
+//!    cylindrical one (the thesis's choice for standing figures) unless the spherical one
+//!    reaches the goal with less stretch or, neither reaching it, fills more
+//!    (`Composition::better_than`).
+//!
+//! What this does not reach (docs/look/README.md): a subject whose silhouette fills little of
+//! its own bounding box (a figure on a wide pedestal, a walking figure seen from the side, a
+//! flared drape) stays under 40% with the whole of it in view and at most 2.5 x stretch. More
+//! stretch was tried and refused: at 4-6 x a walking figure fills 39-45% but no longer reads
+//! as a figure (ART.md: cues must stay legible); so was wrapping all the way round a figure
+//! (a cylindrical camera with its focal line inside it), which unrolls it into a vase.
+//!
 //! No constant depends on a particular scene: the angle cap is the thesis's best ambiguity
 //! range's top (150 deg, section 5), the margin the `fill` setting.
 
@@ -42,6 +59,8 @@ use super::framing::fit_depth;
 /// Largest half-angle a vertex may reach from the view axis: spans stay within the thesis's
 /// best ambiguity range (120-150 deg, section 5).
 pub const MAX_HALF_ANGLE: f64 = 75.0 * std::f64::consts::PI / 180.0;
+/// The half-angle caps step 6 tries in turn: the thesis's range first, then a wider wrap.
+pub const HALF_ANGLE_CAPS: [f64; 2] = [MAX_HALF_ANGLE, 85.0 * std::f64::consts::PI / 180.0];
 /// Default `fill` for `compose`: the scene's extent over the canvas's span, per axis.
 pub const COMPOSE_FILL: f64 = 0.94;
 /// The ratios between the horizontal and vertical scale per pixel (angle or length per pixel)
@@ -68,6 +87,23 @@ pub struct Composition {
     pub angle_y: f64,
     /// Cylindrical: the band's height, render units. Spherical: unused (0).
     pub height: f64,
+    /// The share of the canvas it fills (the probe's estimate; 0 until measured).
+    pub fill: f64,
+    /// Its place in the order of preference among the candidates that reach `FILL_GOAL`
+    /// (angle cap, then stretch, then distance); `usize::MAX` when none reached it.
+    pub rank: usize,
+}
+
+impl Composition {
+    /// Whether `self` is a better composition than `other` (of another camera type, for
+    /// `auto`): it reaches `FILL_GOAL` with less wrap or stretch, or, when neither reaches it,
+    /// fills more. Ties keep `other`.
+    pub fn better_than(&self, other: &Composition) -> bool {
+        if self.rank != other.rank {
+            return self.rank < other.rank;
+        }
+        self.rank == usize::MAX && self.fill > other.fill
+    }
 }
 
 /// Angular (and, for the cylindrical camera, vertical) extents of `points` seen from `c`:
@@ -102,9 +138,10 @@ fn spans(
     aspect: f64,
     margin: f64,
     anisotropy: f64,
+    max_half: f64,
 ) -> Composition {
     let (h, v) = extents(points, kind, f, c);
-    let widest = 2.0 * MAX_HALF_ANGLE / margin;
+    let widest = 2.0 * max_half / margin;
     let span_x = (2.0 * h.0.abs().max(h.1.abs()) / margin).clamp(1e-6, widest);
     let mut angle_x = span_x;
     if kind == CameraKind::Cylindrical {
@@ -120,7 +157,7 @@ fn spans(
         } else if height > anisotropy * sx {
             angle_x = ((height / anisotropy) * aspect / r).min(widest);
         }
-        return Composition { centre, angle_x, angle_y: 0.0, height };
+        return Composition { centre, angle_x, angle_y: 0.0, height, fill: 0.0, rank: usize::MAX };
     }
     let mut angle_y = (2.0 * v.0.abs().max(v.1.abs()) / margin).clamp(1e-6, widest);
     // Radians per pixel: angle_x / width against angle_y / height.
@@ -130,7 +167,7 @@ fn spans(
     } else if angle_y > anisotropy * sx {
         angle_x = (angle_y / anisotropy * aspect).min(widest);
     }
-    Composition { centre: c, angle_x, angle_y, height: 0.0 }
+    Composition { centre: c, angle_x, angle_y, height: 0.0, fill: 0.0, rank: usize::MAX }
 }
 
 /// The `compose` framing of a spherical or cylindrical camera looking along `f.forward`, with
@@ -148,8 +185,46 @@ pub fn compose(
     margin: f64,
     fill_of: &(dyn Fn(&Composition) -> f64 + Sync),
 ) -> Composition {
+    let mut fallback: Option<Composition> = None;
+    let mut rank = 0;
+    for &cap in &HALF_ANGLE_CAPS {
+        let (candidates, fills) = candidates_at(points, kind, f, axis, aspect, radius, margin, cap, fill_of);
+        if let Some(k) = fills.iter().position(|&v| v >= FILL_GOAL) {
+            return Composition { fill: fills[k], rank: rank + k, ..candidates[k] };
+        }
+        rank += candidates.len();
+        // A wider wrap is kept only when it fills clearly more.
+        let best = fills.iter().copied().fold(0.0, f64::max);
+        if fallback.is_none_or(|b| NEAR_BEST * best > b.fill) {
+            let k = fills.iter().position(|&v| v >= NEAR_BEST * best).unwrap_or(0);
+            fallback = Some(Composition { fill: fills[k], ..candidates[k] });
+        }
+    }
+    fallback.unwrap_or(Composition {
+        centre: axis,
+        angle_x: 1.0,
+        angle_y: 1.0,
+        height: 1.0,
+        fill: 0.0,
+        rank: usize::MAX,
+    })
+}
+
+/// Every candidate at one angle cap, in order of preference, with its fill.
+#[allow(clippy::too_many_arguments)]
+fn candidates_at(
+    points: &[DVec3],
+    kind: CameraKind,
+    f: &CameraFrame,
+    axis: DVec3,
+    aspect: f64,
+    radius: f64,
+    margin: f64,
+    cap: f64,
+    fill_of: &(dyn Fn(&Composition) -> f64 + Sync),
+) -> (Vec<Composition>, Vec<f64>) {
     let cylindrical = kind == CameraKind::Cylindrical;
-    let half = (MAX_HALF_ANGLE, MAX_HALF_ANGLE);
+    let half = (cap, cap);
     let place =
         |axis: DVec3, back: f64| axis + f.forward * (fit_depth(points, kind, f, axis, half, radius, margin) + back);
     let centres: Vec<DVec3> = DEPTH_STEPS
@@ -180,16 +255,10 @@ pub fn compose(
         .flat_map(|&a| centres.iter().map(move |&c| (a, c)))
         .collect::<Vec<_>>()
         .par_iter()
-        .map(|&(a, c)| spans(points, kind, f, c, aspect, margin, a))
+        .map(|&(a, c)| spans(points, kind, f, c, aspect, margin, a, cap))
         .collect();
     let fills: Vec<f64> = candidates.par_iter().map(fill_of).collect();
-    let best = fills.iter().copied().fold(0.0, f64::max);
-    let pick = fills
-        .iter()
-        .position(|&v| v >= FILL_GOAL)
-        .or_else(|| fills.iter().position(|&v| v >= NEAR_BEST * best))
-        .unwrap_or(0);
-    candidates[pick]
+    (candidates, fills)
 }
 
 /// Mean horizontal distance of `points` from the vertical line through `c` along `f.up`.
@@ -267,6 +336,43 @@ mod tests {
         // With no candidate reaching the goal, the fullest within NEAR_BEST.
         let k = compose(&pts, CameraKind::Spherical, &f, DVec3::ZERO, 4.0 / 3.0, 1.0, 0.94, &|_| 0.2);
         assert!(in_view(&k, CameraKind::Spherical, &pts));
+    }
+
+    #[test]
+    fn a_wider_wrap_only_when_the_thesis_range_does_not_fill() {
+        let pts = ellipsoid(DVec3::new(0.6, 0.4, 0.5), DVec3::ZERO);
+        let f = frame();
+        let widest = 2.0 * MAX_HALF_ANGLE / 0.94 + 1e-6;
+        // Fills the goal within the thesis's range: its first candidate (rank 0), no wider.
+        let k = compose(&pts, CameraKind::Spherical, &f, DVec3::ZERO, 4.0 / 3.0, 1.0, 0.94, &|_| 0.6);
+        assert_eq!(k.rank, 0);
+        assert!(k.angle_x <= widest && k.angle_y <= widest, "{k:?}");
+        // Only the wider wrap fills more (a T-posed figure): it is taken, still all in view.
+        let fill = |k: &Composition| if k.angle_x.max(k.angle_y) > widest { 0.45 } else { 0.3 };
+        let k = compose(&pts, CameraKind::Spherical, &f, DVec3::ZERO, 4.0 / 3.0, 1.0, 0.94, &fill);
+        assert!(k.angle_x.max(k.angle_y) > widest && k.fill == 0.45, "{k:?}");
+        assert!(in_view(&k, CameraKind::Spherical, &pts));
+        // A wider wrap filling about as much is not worth it.
+        let fill = |k: &Composition| if k.angle_x.max(k.angle_y) > widest { 0.31 } else { 0.3 };
+        let k = compose(&pts, CameraKind::Spherical, &f, DVec3::ZERO, 4.0 / 3.0, 1.0, 0.94, &fill);
+        assert!(k.angle_x <= widest && k.angle_y <= widest, "{k:?}");
+    }
+
+    #[test]
+    fn better_compositions_fill_with_less_stretch_or_fill_more() {
+        let k = |fill: f64, rank: usize| Composition {
+            centre: DVec3::ZERO,
+            angle_x: 1.0,
+            angle_y: 1.0,
+            height: 0.0,
+            fill,
+            rank,
+        };
+        assert!(k(0.5, 3).better_than(&k(0.9, 7)));
+        assert!(k(0.5, 3).better_than(&k(0.45, usize::MAX)));
+        assert!(!k(0.5, 3).better_than(&k(0.5, 3)), "ties keep the other");
+        assert!(k(0.45, usize::MAX).better_than(&k(0.4, usize::MAX)));
+        assert!(!k(0.4, usize::MAX).better_than(&k(0.45, usize::MAX)));
     }
 
     #[test]

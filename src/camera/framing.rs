@@ -9,7 +9,9 @@
 //! in view, seen around its sides, with a margin of background. `--framing centre` puts C
 //! at the centre of the bounding box (the thesis's literal choice). `auto` picks the
 //! cylindrical camera for tall scenes (height >= `TALL_RATIO` x width and depth), as the
-//! thesis does for standing figures, and the spherical camera otherwise.
+//! thesis does for standing figures, and the spherical camera otherwise; under `compose` a tall
+//! scene is composed with both and the spherical camera is kept when it composes it better
+//! (`compose` step 7).
 
 use glam::DVec3;
 
@@ -296,7 +298,7 @@ pub fn frame_camera(params: &FramingParams, world: &World, accel: &Accel) -> Res
     };
     let (ext_r, ext_u, ext_f) = (extent(frame.right), extent(frame.up), extent(frame.forward));
     let size = DVec3::new(ext_r.1 - ext_r.0, ext_u.1 - ext_u.0, ext_f.1 - ext_f.0);
-    let kind = match params.kind {
+    let mut kind = match params.kind {
         CameraKind::Auto => {
             if size.y >= TALL_RATIO * size.x.max(size.z) {
                 CameraKind::Cylindrical
@@ -345,34 +347,50 @@ pub fn frame_camera(params: &FramingParams, world: &World, accel: &Accel) -> Res
             let composing = params.framing == Framing::Compose
                 && params.ambiguity.is_none()
                 && !(focus.is_some() && given_position.is_some());
-            let composed = composing.then(|| {
-                let margin = params.fill.unwrap_or(compose::COMPOSE_FILL);
-                let fill_of = |k: &compose::Composition| {
-                    let distance = distance_for(k.centre);
-                    let frame = CameraFrame { position: k.centre - fwd * distance, ..frame };
-                    let camera: Box<dyn Camera> = if kind == CameraKind::Cylindrical {
-                        Box::new(Cylindrical {
-                            frame,
-                            centre: k.centre,
-                            distance,
-                            angle_x: k.angle_x,
-                            height: k.height,
-                            clip_radius: clip,
-                        })
-                    } else {
-                        Box::new(Spherical {
-                            frame,
-                            centre: k.centre,
-                            distance,
-                            angle_x: k.angle_x,
-                            angle_y: k.angle_y,
-                            clip_radius: clip,
-                        })
-                    };
-                    probe_fill(camera.as_ref(), accel, aspect)
+            let fill_of = |kind: CameraKind, k: &compose::Composition| {
+                let distance = distance_for(k.centre);
+                let frame = CameraFrame { position: k.centre - fwd * distance, ..frame };
+                let camera: Box<dyn Camera> = if kind == CameraKind::Cylindrical {
+                    Box::new(Cylindrical {
+                        frame,
+                        centre: k.centre,
+                        distance,
+                        angle_x: k.angle_x,
+                        height: k.height,
+                        clip_radius: clip,
+                    })
+                } else {
+                    Box::new(Spherical {
+                        frame,
+                        centre: k.centre,
+                        distance,
+                        angle_x: k.angle_x,
+                        angle_y: k.angle_y,
+                        clip_radius: clip,
+                    })
                 };
-                compose::compose(&points, kind, &frame, axis, aspect, radius, margin, &fill_of)
+                probe_fill(camera.as_ref(), accel, aspect)
+            };
+            let margin = params.fill.unwrap_or(compose::COMPOSE_FILL);
+            let run = |kind: CameraKind| {
+                compose::compose(&points, kind, &frame, axis, aspect, radius, margin, &|k| fill_of(kind, k))
+            };
+            let composed = composing.then(|| {
+                let first = run(kind);
+                // `auto` on a tall scene: the thesis's cylindrical camera, unless the spherical
+                // one composes it better (less stretch for the same fill, or more fill).
+                if params.kind == CameraKind::Auto && kind == CameraKind::Cylindrical {
+                    let other = run(CameraKind::Spherical);
+                    if other.better_than(&first) {
+                        return (CameraKind::Spherical, other);
+                    }
+                }
+                (kind, first)
             });
+            if let Some((k, _)) = composed {
+                kind = k;
+            }
+            let composed = composed.map(|(_, k)| k);
             let framed_c = || match (params.framing, composed) {
                 (_, Some(k)) => k.centre,
                 (Framing::Centre, _) => axis,

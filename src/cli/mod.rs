@@ -67,7 +67,7 @@ pub struct LookArgs {
     /// Also render every scene with this preset: measured and shown beside, as "before".
     #[arg(long, value_enum, value_name = "PRESET")]
     pub before: Option<Preset>,
-    /// Write a contact sheet here: per scene, the before picture (with --before) and the after one.
+    /// Write a contact sheet here (.png, or .jpg): per scene, the before picture (with --before) and the after one.
     #[arg(long, value_name = "PNG")]
     pub sheet: Option<PathBuf>,
     /// Print JSON rows instead of markdown tables.

@@ -13,6 +13,8 @@
 //! With the planes faceting, whose facets are cut along the subject's outlines, almost every
 //! facet is all subject or all backdrop, so the rule rarely has to weigh a mixed one.
 
+use glam::DVec2;
+
 use super::{AimContext, AimParams, FacetAim, FacetProjection};
 use crate::facets::FacetMap;
 
@@ -108,6 +110,72 @@ pub fn limit_shift(aims: &mut [FacetAim], widths: &[f64], share: f64, ctx: &AimC
     }
 }
 
+/// Share of the pixels showing geometry `keep_cues` guards (the top of the pre-render's
+/// saliency map): wider than issue 13 item 5's "top 5% of mesh saliency", since a top vertex
+/// is seen through the pixels of all its triangles, whose interpolated saliency is lower.
+pub const CUE_PIXEL_SHARE: f64 = 0.15;
+
+/// Shrinks a re-aimed facet's view shift (by halves, then none) until every one of its
+/// most salient pixels stays in view: a re-aimed facet shows at pixel p what the pre-render
+/// showed near p + (sc - fc), so a salient pixel q of the facet stays shown only when
+/// q - (sc - fc) still lies in the facet. Why: a cue at a plane's edge (an eye, a beak, the
+/// tip of an ear) shifted out of its plane is lost (issue 13 item 5: the most salient vertices
+/// shown at least as often as in the unfaceted render). The salient pixels are the top
+/// `CUE_PIXEL_SHARE` of `saliency` over the pixels that show geometry.
+pub fn keep_cues(aims: &mut [FacetAim], ctx: &AimContext, map: &FacetMap, saliency: &[f32]) {
+    let mut values: Vec<f32> = saliency.iter().copied().filter(|&v| v > 0.0).collect();
+    if values.is_empty() || saliency.len() != map.ids.len() {
+        return;
+    }
+    let k = ((values.len() as f64 * (1.0 - CUE_PIXEL_SHARE)) as usize).min(values.len() - 1);
+    let (_, &mut threshold, _) = values.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
+    let (offsets, pixels) = map.pixels_by_facet();
+    for (f, aim) in aims.iter_mut().enumerate() {
+        let (Some(fc), Some(sc)) = (aim.fc, aim.sc) else { continue };
+        if aim.reaim.is_none() {
+            continue;
+        }
+        let salient: Vec<u32> = pixels[offsets[f] as usize..offsets[f + 1] as usize]
+            .iter()
+            .copied()
+            .filter(|&i| saliency[i as usize] >= threshold)
+            .collect();
+        let scale = shift_scale_keeping(map, &salient, f, sc - fc);
+        if scale == 1.0 {
+            continue;
+        }
+        let sc = fc + (sc - fc) * scale;
+        aim.sc = Some(sc);
+        aim.reaim = None;
+        aim.target = None;
+        if sc != fc
+            && let Some((r, p)) = ctx.reaim(fc, sc)
+        {
+            if r.turn.length() > ctx.negligible_turn(fc) {
+                aim.reaim = Some(r);
+            }
+            aim.target = p;
+        }
+    }
+}
+
+/// The largest of 1, 1/2, 1/4 (else 0) such that facet `f`'s view shifted by that much of
+/// `shift` keeps every pixel of `salient` (pixel indices of `f`) in view: q - shift in `f`.
+pub fn shift_scale_keeping(map: &FacetMap, salient: &[u32], f: usize, shift: DVec2) -> f64 {
+    let (w, h) = (map.width as usize, map.height as usize);
+    let keeps = |shift: DVec2| {
+        salient.iter().all(|&i| {
+            let q = DVec2::new((i as usize % w) as f64 + 0.5, (i as usize / w) as f64 + 0.5) - shift;
+            q.x >= 0.0
+                && q.y >= 0.0
+                && (q.x as usize) < w
+                && (q.y as usize) < h
+                && map.ids[q.y as usize * w + q.x as usize] as usize == f
+        })
+    };
+    [1.0, 0.5, 0.25].into_iter().find(|&t| keeps(shift * t)).unwrap_or(0.0)
+}
+
 /// Both rules, as `params` set them, on the aims `aim_facets` decided; `coverage(i)` is pixel
 /// i's pre-render coverage (the share of its samples that hit geometry).
 pub fn apply(
@@ -115,6 +183,7 @@ pub fn apply(
     ctx: &AimContext,
     map: &FacetMap,
     coverage: impl Fn(usize) -> f32,
+    saliency: Option<&[f32]>,
     params: &AimParams,
 ) {
     if params.min_coverage > 0.0 {
@@ -123,6 +192,11 @@ pub fn apply(
     }
     if params.width_share > 0.0 && params.projection == FacetProjection::Converging {
         limit_shift(aims, &facet_widths(map), params.width_share, ctx);
+        // Only when re-aiming reads the saliency map anyway (what the aims depend on stays
+        // what `reads_saliency` says: the session's stage cache keys on it).
+        if let Some(s) = saliency.filter(|_| params.reads_saliency()) {
+            keep_cues(aims, ctx, map, s);
+        }
     }
 }
 
@@ -153,5 +227,24 @@ mod tests {
         assert_eq!(hold_background(&mut aims, &c, 0.5), 1);
         assert!(!aims[0].moved() && aims[0].sc == aims[0].fc);
         assert!(aims[1].moved());
+    }
+
+    #[test]
+    fn a_salient_pixel_at_a_facets_edge_limits_its_shift() {
+        // Facet 0 = pixels 0-3 of one row, facet 1 = pixels 4-7. A facet shifted by s shows
+        // at p what lay at p + s: salient pixel 2 (centre 2.5) stays shown while 2.5 - s.x
+        // lies in facet 0.
+        let map = FacetMap { width: 8, height: 1, ids: vec![0, 0, 0, 0, 1, 1, 1, 1], facet_count: 2 };
+        // s = -2: 4.5 is in facet 1; half of it, 3.5, is in facet 0.
+        assert_eq!(shift_scale_keeping(&map, &[2], 0, DVec2::new(-2.0, 0.0)), 0.5);
+        // s = -6: 8.5, 5.5 out; a quarter, 4.0, still out (pixel 4): none.
+        assert_eq!(shift_scale_keeping(&map, &[2], 0, DVec2::new(-6.0, 0.0)), 0.0);
+        // s = +2: 0.5, in facet 0: the whole shift.
+        assert_eq!(shift_scale_keeping(&map, &[2], 0, DVec2::new(2.0, 0.0)), 1.0);
+        // Out of the image: no shift at all.
+        assert_eq!(shift_scale_keeping(&map, &[0], 0, DVec2::new(8.0, 0.0)), 0.0);
+        assert_eq!(shift_scale_keeping(&map, &[1, 2], 0, DVec2::new(1.0, 0.0)), 1.0);
+        // No salient pixel: any shift.
+        assert_eq!(shift_scale_keeping(&map, &[], 0, DVec2::new(-9.0, 0.0)), 1.0);
     }
 }

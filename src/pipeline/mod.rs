@@ -205,7 +205,7 @@ pub fn aims_stage(
     timings.time(Stage::Imprecision.name(), || {
         let mut aims = imprecision::aim_facets(ctx, map, film.saliency.as_deref(), params);
         // What a facet may show (issue 13): backdrop kept, shifts within the facet's width.
-        imprecision::backdrop::apply(&mut aims, ctx, map, |i| film.color[i].w, params);
+        imprecision::backdrop::apply(&mut aims, ctx, map, |i| film.color[i].w, film.saliency.as_deref(), params);
         aims
     })
 }

@@ -67,6 +67,10 @@ pub const MAX_PLANE_SHARE: f64 = 0.08;
 /// Outline simplification tolerance, as a share of the image diagonal (2.5 px at 640 x 480):
 /// the outline stays within about two pixels of the silhouette, and runs straight between.
 pub const OUTLINE_TOLERANCE: f64 = 0.003;
+/// Shortest outline edge, as a share of the image diagonal (`outlines::merge_short_edges`): a
+/// bend traced pixel by pixel becomes edges long enough to read as straight strokes (ART.md:
+/// runs of at least 1% of the diagonal).
+pub const OUTLINE_MIN_EDGE: f64 = 0.012;
 /// Outline runs at least this share of the image diagonal long are candidate cuts.
 pub const RUN_SHARE: f64 = 0.04;
 /// Specks of one object (or holes in it) smaller than this share of the canvas are merged into
@@ -100,7 +104,15 @@ pub fn layout(input: &PlanesInput, params: &PlanesParams) -> FacetLayout {
             hits.iter().map(|h| if h.is_hit() { h.object } else { outlines::BACKGROUND }).collect();
         outlines::clean_labels(&mut labels, w, h, ((SPECK_SHARE * n as f64) as usize).max(4));
         let depth: Vec<f32> = hits.iter().map(|h| h.t).collect();
-        outlines::layers(&labels, &depth, w, h, ((OBJECT_SHARE * n as f64) as usize).max(1), OUTLINE_TOLERANCE * diag)
+        outlines::layers(
+            &labels,
+            &depth,
+            w,
+            h,
+            ((OBJECT_SHARE * n as f64) as usize).max(1),
+            OUTLINE_TOLERANCE * diag,
+            OUTLINE_MIN_EDGE * diag,
+        )
     } else {
         Vec::new()
     };

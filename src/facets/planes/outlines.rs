@@ -214,6 +214,36 @@ pub fn simplify_ring(ring: &[DVec2], tolerance: f64) -> Vec<DVec2> {
     (0..n).filter(|&i| keep[i]).map(|i| ring[i]).collect()
 }
 
+/// Removes corners of a closed ring until every edge is at least `min_edge` long (or the ring
+/// is a triangle): of the shortest edge's two ends, the corner nearer the line through its
+/// neighbours goes (the one whose removal moves the outline least). A curve traced pixel by
+/// pixel simplifies to many short edges where it bends; each would be drawn as a facet border
+/// too short to read as a straight stroke (ART.md: runs of at least 1% of the diagonal).
+pub fn merge_short_edges(mut ring: Vec<DVec2>, min_edge: f64) -> Vec<DVec2> {
+    let min2 = min_edge * min_edge;
+    while ring.len() > 3 {
+        let n = ring.len();
+        let (k, len2) = (0..n)
+            .map(|k| (k, (ring[(k + 1) % n] - ring[k]).length_squared()))
+            .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
+            .unwrap_or((0, f64::INFINITY));
+        if len2 >= min2 {
+            break;
+        }
+        // Distance of corner i from the line through its neighbours.
+        let off = |i: usize| {
+            let (p, q, r) = (ring[(i + n - 1) % n], ring[i], ring[(i + 1) % n]);
+            let d = r - p;
+            let len = d.length();
+            if len > 0.0 { (d.perp_dot(q - p)).abs() / len } else { (q - p).length() }
+        };
+        let (a, b) = (k, (k + 1) % n);
+        let drop = if off(b) < off(a) { b } else { a };
+        ring.remove(drop);
+    }
+    ring
+}
+
 /// Douglas-Peucker over `ring[chain[..]]`, marking kept points (iterative, no recursion depth).
 fn dp(ring: &[DVec2], chain: &[usize], tol: f64, keep: &mut [bool]) {
     let mut stack = vec![(0usize, chain.len() - 1)];
@@ -244,10 +274,24 @@ fn dp(ring: &[DVec2], chain: &[usize], tol: f64, keep: &mut [bool]) {
 /// layer 0 = every object; then, when at least two objects cover `min_object_area` pixels,
 /// the largest `MAX_OBJECT_LAYERS` of them from far to near (`depth[i]` = hit distance), each
 /// with the pixels of the objects drawn after it.
-pub fn layers(labels: &[u32], depth: &[f32], w: usize, h: usize, min_object_area: usize, tolerance: f64) -> Vec<Layer> {
+pub fn layers(
+    labels: &[u32],
+    depth: &[f32],
+    w: usize,
+    h: usize,
+    min_object_area: usize,
+    tolerance: f64,
+    min_edge: f64,
+) -> Vec<Layer> {
     let mut result = Vec::new();
     let simplify = |rings: Vec<Vec<DVec2>>| -> Layer {
-        Layer { rings: rings.iter().map(|r| simplify_ring(r, tolerance)).filter(|r| r.len() >= 3).collect() }
+        Layer {
+            rings: rings
+                .iter()
+                .map(|r| merge_short_edges(simplify_ring(r, tolerance), min_edge))
+                .filter(|r| r.len() >= 3)
+                .collect(),
+        }
     };
     let all: Vec<bool> = labels.iter().map(|&l| l != BACKGROUND).collect();
     if !all.contains(&true) {
@@ -317,6 +361,40 @@ mod tests {
     }
 
     #[test]
+    fn short_edges_merge_and_corners_stay() {
+        // A circle of 64 points (edges ~4.9 px): every edge ends at least 20 px long, and
+        // every corner left is one of the circle's points.
+        let circle: Vec<DVec2> = (0..64)
+            .map(|k| {
+                let t = std::f64::consts::TAU * k as f64 / 64.0;
+                DVec2::new(100.0 + 50.0 * t.cos(), 100.0 + 50.0 * t.sin())
+            })
+            .collect();
+        let merged = merge_short_edges(circle.clone(), 20.0);
+        let n = merged.len();
+        assert!((6..=16).contains(&n), "{n}");
+        assert!((0..n).all(|k| (merged[(k + 1) % n] - merged[k]).length() >= 20.0), "{merged:?}");
+        assert!(merged.iter().all(|p| circle.contains(p)));
+        // A square with a 2 px notch in one side keeps its four corners.
+        let square = vec![
+            DVec2::new(0.0, 0.0),
+            DVec2::new(50.0, 0.0),
+            DVec2::new(51.0, 2.0),
+            DVec2::new(52.0, 0.0),
+            DVec2::new(100.0, 0.0),
+            DVec2::new(100.0, 100.0),
+            DVec2::new(0.0, 100.0),
+        ];
+        let merged = merge_short_edges(square, 10.0);
+        assert_eq!(merged.len(), 5, "{merged:?}");
+        for c in [DVec2::new(0.0, 0.0), DVec2::new(100.0, 0.0), DVec2::new(100.0, 100.0), DVec2::new(0.0, 100.0)] {
+            assert!(merged.contains(&c), "{c} lost: {merged:?}");
+        }
+        // Nothing below a triangle.
+        assert_eq!(merge_short_edges(vec![DVec2::ZERO, DVec2::X, DVec2::Y], 10.0).len(), 3);
+    }
+
+    #[test]
     fn a_staircase_simplifies_to_a_straight_edge() {
         // A right triangle below the diagonal of a 40 x 40 image: its hypotenuse is a staircase.
         let n = 40;
@@ -360,7 +438,7 @@ mod tests {
                 depth[y * w + x] = 2.0;
             }
         }
-        let l = layers(&labels, &depth, w, h, 10, 0.5);
+        let l = layers(&labels, &depth, w, h, 10, 0.5, 0.0);
         assert_eq!(l.len(), 3);
         // The far object (7) with the near one in front of it: 14 x 6 pixels; the near one 6 x 6.
         assert!((area(&l[1].rings).abs() - 84.0).abs() < 1e-9, "{}", area(&l[1].rings));
