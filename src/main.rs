@@ -249,7 +249,7 @@ fn run_frames(args: RenderArgs, settings: cubist::Settings) -> anyhow::Result<()
         orbit_deg: f.orbit,
         layout_frame: f.layout_frame,
         measure: false,
-        rekey: f.rekey,
+        rekey: f.rekey.unwrap_or_else(|| FramesParams::turntable_rekey(f.orbit)),
     };
     // Every flag checked before anything is created, loaded or traced.
     params.validate()?;

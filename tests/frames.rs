@@ -58,6 +58,29 @@ fn a_turntable_of_the_still_life_names_its_frames_and_a_chunk_equals_the_run() {
     assert_ne!(read(run.join("c_001.png")), read(run.join("c_002.png")));
 }
 
+/// Facets that follow on a turntable get a new key frame every 30 degrees by default
+/// (`FramesParams::turntable_rekey`): at 10 degrees a frame, `--rekey 3`. Frames 1-4 equal a
+/// run keyed at the layout frame only (key frame 4 is itself carried from frame 1); frames 5-6
+/// are carried from key frame 4, so the points revealed since frame 1 keep the facets they
+/// grew into by frame 4, and the pictures differ.
+#[test]
+fn a_following_turntable_rekeys_every_thirty_degrees_by_default() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |name: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let pattern = out.join("t_#.png").to_string_lossy().into_owned();
+        let common =
+            ["--frames", "1-6", "--orbit", "10", "--facet-motion", "follow", "--width", "64", "--height", "48"];
+        cubist(&[&common[..], extra, &["-o", &pattern]].concat(), 2);
+        (1..=6).map(|f| std::fs::read(out.join(format!("t_{f}.png"))).unwrap()).collect::<Vec<_>>()
+    };
+    let (default, every3, never) =
+        (run("default", &[]), run("every3", &["--rekey", "3"]), run("never", &["--rekey", "0"]));
+    assert!(default == every3, "the default is not a key frame every 30 degrees");
+    assert!(default[..4] == never[..4], "frames up to the first new key frame changed");
+    assert!(default[4..] != never[4..], "frames 5-6 are not carried from key frame 4");
+}
+
 #[test]
 fn bad_frame_flags_are_usage_errors() {
     for args in [&["--frames", "5-2"][..], &["--frames", "x"], &["--fps", "24"], &["--frames", "1-2", "--fps", "0"]] {

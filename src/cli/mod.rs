@@ -161,9 +161,10 @@ pub struct FramesArgs {
     pub layout_frame: u32,
     /// With --facet-motion follow: a new key frame every N frames from the layout frame, its
     /// facets carried from the one before (points the layout frame did not see keep the facet
-    /// they grew into); 0 = the layout frame only
-    #[arg(long, value_name = "N", default_value_t = 0, requires = "frames", help_heading = "Animation")]
-    pub rekey: u32,
+    /// they grew into); 0 = the layout frame only [default: with --orbit, every 30 degrees of
+    /// turn; else 0]
+    #[arg(long, value_name = "N", requires = "frames", help_heading = "Animation")]
+    pub rekey: Option<u32>,
 }
 
 #[derive(Args, Debug)]

@@ -56,6 +56,10 @@ use crate::trace::{TraceParams, Tracer, screen_point};
 pub const MAX_FRAMES: u32 = 1_000_000;
 /// Highest frame rate accepted.
 pub const MAX_FPS: f64 = 10_000.0;
+/// A turntable's default key-frame spacing, in degrees of turn: facets that follow are carried
+/// from a key frame at most this far round, so the view they were made for has not changed
+/// too much (the surface a key frame saw is mostly still in view, the revealed share small).
+pub const REKEY_TURN_DEG: f64 = 30.0;
 
 /// Which frames, at what rate, and what moves in them.
 #[derive(Clone, Debug, PartialEq)]
@@ -82,6 +86,17 @@ pub struct FramesParams {
 }
 
 impl FramesParams {
+    /// The default `rekey` of a turntable turning `orbit_deg` per frame: a key frame every
+    /// `REKEY_TURN_DEG` of turn (every frame when one frame turns further); 0 (the layout
+    /// frame only) without an orbit. A function of the flags alone, so farm chunks agree.
+    pub fn turntable_rekey(orbit_deg: f64) -> u32 {
+        let turn = orbit_deg.abs();
+        if !(turn.is_finite() && turn > 0.0) {
+            return 0;
+        }
+        (REKEY_TURN_DEG / turn).floor().clamp(1.0, MAX_FRAMES as f64) as u32
+    }
+
     /// Seconds into the animation at frame `f` (frame 1 is time 0, as in Blender).
     pub fn time(&self, f: u32) -> f64 {
         (f as f64 - 1.0) / self.fps
@@ -639,4 +654,26 @@ fn render_frame(
     let (image, passes, passes16) = encode_stage(&film, &map, &aims, params, &mut timings);
     let surface = measure.then(|| Surface::new(key_of(&pre, world, camera, trace), &pre));
     Ok(FrameOutput { frame, image, passes, passes16, facets: map, timings, revealed, surface })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_turntable_gets_a_key_frame_every_thirty_degrees() {
+        assert_eq!(FramesParams::turntable_rekey(0.0), 0);
+        assert_eq!(FramesParams::turntable_rekey(2.0), 15);
+        assert_eq!(FramesParams::turntable_rekey(-2.0), 15);
+        assert_eq!(FramesParams::turntable_rekey(7.0), 4);
+        assert_eq!(FramesParams::turntable_rekey(45.0), 1);
+        assert_eq!(FramesParams::turntable_rekey(1e-9), MAX_FRAMES);
+        assert_eq!(FramesParams::turntable_rekey(f64::NAN), 0);
+    }
+
+    #[test]
+    fn key_frames_fall_every_n_frames_from_the_layout_frame_both_ways() {
+        assert_eq!((1..=7).map(|f| key_frame_of(f, 1, 3)).collect::<Vec<_>>(), [1, 1, 1, 4, 4, 4, 7]);
+        assert_eq!((1..=5).map(|f| key_frame_of(f, 5, 2)).collect::<Vec<_>>(), [1, 3, 3, 5, 5]);
+    }
 }
