@@ -280,6 +280,22 @@ pub fn cached_mesh_saliency(
     Ok(values)
 }
 
+/// Computes into `memo` the saliency of every mesh `world` places, before the pre-render says
+/// which are seen: a mesh's saliency depends on the mesh alone, so the pipeline runs this beside
+/// framing and the pre-render (`pipeline::session::run`), on the core their serial parts leave
+/// idle, and `for_film` then finds the values made. The same function fills the memo either way,
+/// so the picture is the same bits. Errors (a disk cache that cannot be written) are left for
+/// `for_film`, which meets them again and reports them.
+pub fn precompute(scene: &Scene, world: &World, memo: &Memo, params: &SaliencyParams) {
+    let mut placed = vec![false; scene.meshes.len()];
+    for o in &world.objects {
+        placed[o.mesh] = true;
+    }
+    scene.meshes.par_iter().zip(placed.par_iter()).filter(|(_, p)| **p).for_each(|(mesh, _)| {
+        let _ = cached_mesh_saliency(mesh, params.method, Some(memo), params.cache.as_deref());
+    });
+}
+
 /// Which of `scene`'s meshes some sample of `film` hit.
 pub fn visible_meshes(scene: &Scene, world: &World, film: &Film) -> Vec<bool> {
     let mut seen_objects = vec![false; world.objects.len()];
