@@ -34,6 +34,14 @@ impl Prepared {
     pub fn with_saliency(scene: Scene, saliency: &SaliencyParams) -> (Prepared, Duration) {
         let t = Instant::now();
         let world = World::new(&scene);
+        let (mut prep, mesh_time) = Prepared::build_with_saliency(scene, world, saliency);
+        prep.build_time = t.elapsed();
+        (prep, mesh_time)
+    }
+
+    /// `with_saliency` from the scene already placed in render space (`build_time`: the BVH's).
+    pub fn build_with_saliency(scene: Scene, world: World, saliency: &SaliencyParams) -> (Prepared, Duration) {
+        let t = Instant::now();
         let memo = Memo::default();
         let (accel, mesh_time) = rayon::join(
             || Accel::new(&world),
