@@ -381,7 +381,7 @@ fn main() {
             runs.iter().map(|(r, _)| format!("{:.1}", stage_ms(&r.rendered, n))).collect::<Vec<_>>().join(" | ")
         );
     }
-    let total = |r: &Rendered| -> Duration { r.timings.0.iter().map(|(_, t)| *t).sum() };
+    let total = |r: &Rendered| -> Duration { r.timings.sequential_total() };
     println!(
         "| **total** | {} |",
         runs.iter().map(|(r, _)| format!("**{:.0}**", common::ms(total(&r.rendered)))).collect::<Vec<_>>().join(" | ")
@@ -435,8 +435,8 @@ fn default_pipeline(scene: &Scene, size: u32, runs: usize) -> (DefaultRun, Defau
     for _ in 0..runs.max(1) {
         let prep = Prepared::new(scene.clone());
         let rendered = render(&prep, &s, &Progress::silent()).expect("default render");
-        let total: Duration = rendered.timings.0.iter().map(|(_, t)| *t).sum();
-        if best.as_ref().is_none_or(|b| total < b.rendered.timings.0.iter().map(|(_, t)| *t).sum()) {
+        let total: Duration = rendered.timings.sequential_total();
+        if best.as_ref().is_none_or(|b| total < b.rendered.timings.sequential_total()) {
             best = Some(DefaultRun { rendered, build: prep.build_time, cpu: None });
         }
         last_prep = Some(prep);

@@ -61,7 +61,7 @@ pub use prepared::Prepared;
 pub use prerender::{PreRender, Shading, View, prerender};
 pub use saliency_map::{SaliencyRender, saliency_map};
 pub use session::{DEFAULT_BUDGET, Frame, LANES, LaneStats, SceneUpdate, Session, SessionStats};
-pub use stage::{Plan, Stage, Timings, process_cpu};
+pub use stage::{MESH_SALIENCY_OVERLAPPED, Plan, Stage, Timings, process_cpu};
 
 /// What a render produces.
 pub struct Rendered {

@@ -479,7 +479,23 @@ pub(super) fn run(
         lane.paint_prefix = None;
         lane.paint = None;
         lane.encoded = None;
-        let pre = prerender(prep, &params.framing, &params.trace, Shading::Lit, progress, &mut timings)?;
+        let pre = if plan.saliency {
+            // Mesh saliency reads only the meshes: it runs beside framing and the pre-render
+            // (timed on its own, by wall clock; their CPU figures then include its work).
+            let (pre, mesh_time) = rayon::join(
+                || prerender(prep, &params.framing, &params.trace, Shading::Lit, progress, &mut timings),
+                || {
+                    let t = std::time::Instant::now();
+                    crate::saliency::precompute(&prep.scene, &prep.world, &prep.saliency, &params.saliency);
+                    t.elapsed()
+                },
+            );
+            timings.0.push((super::stage::MESH_SALIENCY_OVERLAPPED, mesh_time));
+            timings.1.push(None);
+            pre?
+        } else {
+            prerender(prep, &params.framing, &params.trace, Shading::Lit, progress, &mut timings)?
+        };
         progress.check()?;
         lane.pre = Some(Entry { key: pre_key, id: next(), value: pre });
     }

@@ -125,6 +125,10 @@ impl Plan {
 /// within or beside them ("paint setup", "encode"). The second list holds each step's CPU
 /// time, every thread of the process counted (where Linux tells it), in the same order: on
 /// a shared machine it is the stable measure.
+/// The timing entry of mesh saliency run beside framing and the pre-render: its wall time,
+/// not part of the sequence (totals leave it out), no CPU figure of its own.
+pub const MESH_SALIENCY_OVERLAPPED: &str = "mesh saliency (overlapped)";
+
 #[derive(Clone, Debug, Default)]
 pub struct Timings(pub Vec<(&'static str, Duration)>, pub Vec<Option<Duration>>);
 
@@ -135,6 +139,11 @@ impl Timings {
         self.0.push((name, t.elapsed()));
         self.1.push(c.zip(process_cpu()).map(|(a, b)| b.saturating_sub(a)));
         r
+    }
+
+    /// The wall time of the steps run one after another (the overlapped ones left out).
+    pub fn sequential_total(&self) -> Duration {
+        self.0.iter().filter(|(n, _)| *n != MESH_SALIENCY_OVERLAPPED).map(|(_, t)| *t).sum()
     }
 
     /// The CPU time of step `i`, if known.

@@ -223,18 +223,24 @@ pub fn content_key(mesh: &Mesh, method: SaliencyMethod) -> u128 {
     h.update(b"cubist-saliency");
     h.update(&ALGORITHM_VERSION.to_le_bytes());
     h.update(method.as_str().as_bytes());
+    // The same bytes as one `update` per number, fed in blocks (the digest does not depend on
+    // how the stream is split): a 1M-triangle mesh's key in a few ms instead of ~40.
+    let mut block: Vec<u8> = Vec::with_capacity(1 << 16);
+    let mut feed = |h: &mut xxhash_rust::xxh3::Xxh3, words: &mut dyn Iterator<Item = u32>| {
+        for w in words {
+            block.extend_from_slice(&w.to_le_bytes());
+            if block.len() >= 1 << 16 {
+                h.update(&block);
+                block.clear();
+            }
+        }
+        h.update(&block);
+        block.clear();
+    };
     h.update(&(mesh.positions.len() as u64).to_le_bytes());
-    for p in &mesh.positions {
-        for c in p.to_array() {
-            h.update(&c.to_bits().to_le_bytes());
-        }
-    }
+    feed(&mut h, &mut mesh.positions.iter().flat_map(|p| p.to_array().map(f32::to_bits)));
     h.update(&(mesh.triangles.len() as u64).to_le_bytes());
-    for t in &mesh.triangles {
-        for c in t {
-            h.update(&c.to_le_bytes());
-        }
-    }
+    feed(&mut h, &mut mesh.triangles.iter().flatten().copied());
     h.digest128()
 }
 
@@ -272,6 +278,22 @@ pub fn cached_mesh_saliency(
         g.insert(key, values.clone());
     }
     Ok(values)
+}
+
+/// Computes into `memo` the saliency of every mesh `world` places, before the pre-render says
+/// which are seen: a mesh's saliency depends on the mesh alone, so the pipeline runs this beside
+/// framing and the pre-render (`pipeline::session::run`), on the core their serial parts leave
+/// idle, and `for_film` then finds the values made. The same function fills the memo either way,
+/// so the picture is the same bits. Errors (a disk cache that cannot be written) are left for
+/// `for_film`, which meets them again and reports them.
+pub fn precompute(scene: &Scene, world: &World, memo: &Memo, params: &SaliencyParams) {
+    let mut placed = vec![false; scene.meshes.len()];
+    for o in &world.objects {
+        placed[o.mesh] = true;
+    }
+    scene.meshes.par_iter().zip(placed.par_iter()).filter(|(_, p)| **p).for_each(|(mesh, _)| {
+        let _ = cached_mesh_saliency(mesh, params.method, Some(memo), params.cache.as_deref());
+    });
 }
 
 /// Which of `scene`'s meshes some sample of `film` hit.
