@@ -144,14 +144,8 @@ fn run_render(args: RenderArgs) -> anyhow::Result<()> {
     cubist::output::check_png_path(&args.output)?;
     let progress = progress_for(args.progress);
     progress.begin(Stage::Loading.name(), 1);
-    // Mesh saliency beside the BVH build when the render will need it (settings that fail
-    // validation are reported by the render, as before).
-    let saliency = settings
-        .validate()
-        .ok()
-        .map(|()| pipeline::StageParams::new(&settings))
-        .filter(|p| pipeline::Plan::new(p).saliency)
-        .map(|p| p.saliency);
+    // Mesh saliency beside the BVH build when the render will need it.
+    let saliency = pipeline::params::mesh_saliency_ahead(&settings);
     let (prep, mesh_saliency) =
         Prepared::load_for_render(args.scene.as_deref(), pipeline::params::load_options(&settings), saliency.as_ref())?;
     // The layout is saved with the images, all or nothing, not by the render.

@@ -230,6 +230,15 @@ pub fn load_options(s: &Settings) -> crate::scene::LoadOptions {
     crate::scene::LoadOptions { allow_external_files: s.allow_external_files }
 }
 
+/// The mesh saliency a render of `s` will compute, to start it beside the BVH build
+/// (`Prepared::load_for_render`); None when the render needs none, or when the settings are
+/// invalid (the render itself then reports them).
+pub fn mesh_saliency_ahead(s: &Settings) -> Option<SaliencyParams> {
+    s.validate().ok()?;
+    let params = StageParams::new(s);
+    super::Plan::new(&params).saliency.then_some(params.saliency)
+}
+
 pub fn pass(p: settings::Pass) -> Pass {
     match p {
         settings::Pass::Saliency => Pass::Saliency,
