@@ -2,6 +2,7 @@
 //! to exit codes (1 failure, 2 usage).
 
 use std::io::IsTerminal;
+use std::path::Path;
 use std::process::ExitCode;
 
 use anyhow::Context;
@@ -9,7 +10,7 @@ use clap::Parser;
 use cubist::cli::{
     Cli, Command, FacesArgs, FacetsArgs, LookArgs, ProgressMode, RenderArgs, SaliencyArgs, ServeArgs, SettingsCmdArgs,
 };
-use cubist::output::{Outputs, pass_path, write_png};
+use cubist::output::{Gray16, Outputs, Pass, pass_path, write_png};
 use cubist::pipeline::{self, Plan, Stage, StageParams, evaluate};
 use cubist::progress::Progress;
 use cubist::settings::CameraKind;
@@ -159,13 +160,7 @@ fn run_render(args: RenderArgs) -> anyhow::Result<()> {
     }
     progress.begin(Stage::Writing.name(), 1);
     let mut outputs = Outputs::new();
-    outputs.png(&args.output, &rendered.image)?;
-    for (pass, img) in &rendered.passes {
-        outputs.png(&pass_path(&args.output, pass.as_str()), img)?;
-    }
-    for (pass, img) in &rendered.passes16 {
-        outputs.png16(&pass_path(&args.output, pass.as_str()), img)?;
-    }
+    add_picture(&mut outputs, &args.output, &rendered.image, &rendered.passes, &rendered.passes16)?;
     if let Some(path) = &save_facets {
         cubist::facets::io::add_to(&mut outputs, path, &rendered.layout, &rendered.facets)?;
     }
@@ -201,6 +196,25 @@ fn run_render(args: RenderArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Adds a render's picture at `path` and each pass beside it (`pass_path`), for one
+/// all-or-nothing commit.
+fn add_picture<'a>(
+    outputs: &mut Outputs<'a>,
+    path: &Path,
+    image: &'a image::RgbaImage,
+    passes: &'a [(Pass, image::RgbaImage)],
+    passes16: &'a [(Pass, Gray16)],
+) -> cubist::error::Result<()> {
+    outputs.png(path, image)?;
+    for (pass, img) in passes {
+        outputs.png(&pass_path(path, pass.as_str()), img)?;
+    }
+    for (pass, img) in passes16 {
+        outputs.png16(&pass_path(path, pass.as_str()), img)?;
+    }
+    Ok(())
+}
+
 /// A still with `--facet-motion follow` and a layout file: one frame whose facets are carried
 /// from the key frame saved beside the layout (`pipeline::render_followed_frame`), or, with
 /// `--save-facets`, the key frame itself (its layout and follow data saved before the picture).
@@ -212,13 +226,7 @@ fn run_followed(args: RenderArgs, settings: cubist::Settings) -> anyhow::Result<
     let (out, summary) = pipeline::render_followed_frame(&prep, &settings, &progress)?;
     progress.begin(Stage::Writing.name(), 1);
     let mut outputs = Outputs::new();
-    outputs.png(&args.output, &out.image)?;
-    for (pass, img) in &out.passes {
-        outputs.png(&pass_path(&args.output, pass.as_str()), img)?;
-    }
-    for (pass, img) in &out.passes16 {
-        outputs.png16(&pass_path(&args.output, pass.as_str()), img)?;
-    }
+    add_picture(&mut outputs, &args.output, &out.image, &out.passes, &out.passes16)?;
     outputs.commit()?;
     progress.begin(Stage::Done.name(), 1);
     progress.finish();
@@ -280,13 +288,7 @@ fn run_frames(args: RenderArgs, settings: cubist::Settings) -> anyhow::Result<()
         let path = frame_path(&args.output, out.frame);
         // A frame's picture and passes all or nothing.
         let mut outputs = Outputs::new();
-        outputs.png(&path, &out.image)?;
-        for (pass, img) in &out.passes {
-            outputs.png(&pass_path(&path, pass.as_str()), img)?;
-        }
-        for (pass, img) in &out.passes16 {
-            outputs.png16(&pass_path(&path, pass.as_str()), img)?;
-        }
+        add_picture(&mut outputs, &path, &out.image, &out.passes, &out.passes16)?;
         outputs.commit()?;
         per_frame.push((out.frame, out.timings, out.revealed));
         Ok(())
