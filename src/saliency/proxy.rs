@@ -26,6 +26,7 @@
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
+use super::surface::remap_triangles;
 use super::{SaliencyMethod, analyse, levels};
 
 /// `Auto` computes saliency through a proxy for meshes with more vertices than this (item 1's
@@ -139,22 +140,7 @@ pub fn proxy_saliency_with(
             (lo + q / FIXED * extent).as_vec3()
         })
         .collect();
-    let mut proxy_triangles: Vec<[u32; 3]> = triangles
-        .par_iter()
-        .filter(|t| usable(t))
-        .map(|t| t.map(|i| cluster_of[i as usize]))
-        .filter(|[a, b, c]| a != b && b != c && a != c)
-        .map(|[a, b, c]| {
-            if a < b && a < c {
-                [a, b, c]
-            } else if b < c {
-                [b, c, a]
-            } else {
-                [c, a, b]
-            }
-        })
-        .collect();
-    proxy_triangles.par_sort_unstable();
+    let mut proxy_triangles = remap_triangles(triangles, &cluster_of, usable);
     proxy_triangles.dedup();
     let mut a = analyse(&proxy_positions, &proxy_triangles);
     // The full mesh's eps: a mesh this dense is never coarse, and the proxy's longer edges

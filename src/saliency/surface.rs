@@ -39,6 +39,33 @@ fn sort_key(p: &[f32; 3]) -> u128 {
     (ordered(p[0]) as u128) << 64 | (ordered(p[1]) as u128) << 32 | ordered(p[2]) as u128
 }
 
+/// The `usable` triangles with their corners mapped through `map` (welding, clustering),
+/// those that collapse (a repeated corner) dropped, each rotated to start at its smallest id
+/// (winding kept), sorted: the same list whatever the input's vertex or triangle order.
+pub fn remap_triangles(
+    triangles: &[[u32; 3]],
+    map: &[u32],
+    usable: impl Fn(&[u32; 3]) -> bool + Sync,
+) -> Vec<[u32; 3]> {
+    let mut tris: Vec<[u32; 3]> = triangles
+        .par_iter()
+        .filter(|t| usable(t))
+        .map(|t| t.map(|i| map[i as usize]))
+        .filter(|[a, b, c]| a != b && b != c && a != c)
+        .map(|[a, b, c]| {
+            if a < b && a < c {
+                [a, b, c]
+            } else if b < c {
+                [b, c, a]
+            } else {
+                [c, a, b]
+            }
+        })
+        .collect();
+    tris.par_sort_unstable();
+    tris
+}
+
 impl Surface {
     /// Welds `positions` by exact value over the vertices `triangles` use. Triangles with an
     /// out-of-range index or a non-finite corner are ignored.
@@ -65,22 +92,7 @@ impl Surface {
             }
             vertex_of[i as usize] = (welded.len() - 1) as u32;
         }
-        let mut tris: Vec<[u32; 3]> = triangles
-            .par_iter()
-            .filter(|t| usable(t))
-            .map(|t| t.map(|i| vertex_of[i as usize]))
-            .filter(|[a, b, c]| a != b && b != c && a != c)
-            .map(|[a, b, c]| {
-                if a < b && a < c {
-                    [a, b, c]
-                } else if b < c {
-                    [b, c, a]
-                } else {
-                    [c, a, b]
-                }
-            })
-            .collect();
-        tris.par_sort_unstable();
+        let tris = remap_triangles(triangles, &vertex_of, usable);
         Surface { positions: welded, triangles: tris, vertex_of }
     }
 
