@@ -2,11 +2,13 @@
 suites in tests/python keep their own): the release binary (built when missing or stale),
 headless Blender (bpy) with a throw-away user folder, the add-on enabled from this checkout."""
 
+import json
 import os
 import shutil
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 import pytest
@@ -33,6 +35,32 @@ def require_windowed_blender(tools, what: str, install: str) -> None:
         pytest.fail(message.replace("skipped", "required (CUBIST_REQUIRE_UI_TEST=1)"))
     print(f"\nSKIP: {message}", file=sys.stderr)
     pytest.skip(message)
+
+
+def run_windowed_blender(driver: Path, base: Path, cubist_binary: Path, label: str) -> dict:
+    """Runs `driver` in a windowed Blender under Xvfb with factory settings and its own user
+    configuration (not the machine's preferences) and temporary directory (`base/tmp`, to check
+    nothing is left there; xvfb-run keeps its own in the system's); the driver writes
+    `base/out/results.json`. Returns the process, the results, the two folders and the log."""
+    out, tmp = base / "out", base / "tmp"
+    tmp.mkdir()
+    env = dict(os.environ)
+    env.pop("BLENDER_USER_RESOURCES", None)
+    env["BLENDER_USER_CONFIG"] = str(base / "config")
+    t0 = time.monotonic()
+    proc = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 1280x1024x24", "env", f"TMPDIR={tmp}", "blender",
+                           "--factory-startup", "--python", str(driver), "--", str(ROOT), str(out),
+                           str(cubist_binary)],
+                          capture_output=True, text=True, env=env, timeout=1200)
+    seconds = time.monotonic() - t0
+    log = proc.stdout + proc.stderr
+    (base / "blender.log").write_text(log)
+    results_file = out / "results.json"
+    assert results_file.is_file(), f"Blender ended (exit {proc.returncode}) without results:\n{log[-4000:]}"
+    results = json.loads(results_file.read_text())
+    print(f"\nwindowed Blender {results['blender']}{label}: {seconds:.0f} s, log {base / 'blender.log'}",
+          file=sys.stderr)
+    return {"proc": proc, "results": results, "out": out, "tmp": tmp, "log": log}
 
 
 @pytest.fixture(scope="session")

@@ -8,16 +8,14 @@ Needs `blender`, `xvfb-run` and `xdotool` on PATH (`.ci/run` installs them: apt-
 blender xvfb xauth xdotool python3-numpy); without them every test here is skipped, saying why."""
 
 import json
-import os
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from addon_support import BINARY, ROOT, cubist_binary, require_windowed_blender  # noqa: F401
+from addon_support import BINARY, ROOT, cubist_binary, require_windowed_blender, run_windowed_blender  # noqa: F401
 from glb_support import Glb
 
 DRIVER = ROOT / "tests" / "blender_ui" / "driver.py"
@@ -27,27 +25,7 @@ TOOLS = {"blender": "blender", "xvfb-run": "xvfb", "xdotool": "xdotool"}
 @pytest.fixture(scope="module")
 def ui(cubist_binary, tmp_path_factory):
     require_windowed_blender(TOOLS, "windowed Blender test", "apt-get install blender xvfb xauth xdotool python3-numpy")
-    base = tmp_path_factory.mktemp("blender_ui")
-    out, tmp = base / "out", base / "tmp"
-    tmp.mkdir()
-    env = dict(os.environ)
-    env.pop("BLENDER_USER_RESOURCES", None)
-    env["BLENDER_USER_CONFIG"] = str(base / "config")  # not the machine's own preferences
-    t0 = time.monotonic()
-    # Blender's temporary directory is the test's own (to check nothing is left there); xvfb-run
-    # keeps its own in the system's.
-    proc = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 1280x1024x24", "env", f"TMPDIR={tmp}", "blender",
-                           "--factory-startup", "--python", str(DRIVER), "--", str(ROOT), str(out),
-                           str(cubist_binary)],
-                          capture_output=True, text=True, env=env, timeout=1200)
-    seconds = time.monotonic() - t0
-    log = proc.stdout + proc.stderr
-    (base / "blender.log").write_text(log)
-    results_file = out / "results.json"
-    assert results_file.is_file(), f"Blender ended (exit {proc.returncode}) without results:\n{log[-4000:]}"
-    results = json.loads(results_file.read_text())
-    print(f"\nwindowed Blender {results['blender']}: {seconds:.0f} s, log {base / 'blender.log'}", file=sys.stderr)
-    return {"proc": proc, "results": results, "out": out, "tmp": tmp, "log": log}
+    return run_windowed_blender(DRIVER, tmp_path_factory.mktemp("blender_ui"), cubist_binary, "")
 
 
 def cli(glb: Path, settings: Path, out: Path) -> np.ndarray:

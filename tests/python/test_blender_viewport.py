@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from addon_support import BINARY, ROOT, cubist_binary, require_windowed_blender  # noqa: F401
+from addon_support import BINARY, ROOT, cubist_binary, require_windowed_blender, run_windowed_blender  # noqa: F401
 
 DRIVER = ROOT / "tests" / "blender_ui" / "viewport_driver.py"
 TOOLS = ("blender", "xvfb-run")
@@ -53,26 +53,7 @@ def alive(pid: int) -> bool:
 @pytest.fixture(scope="module")
 def ui(cubist_binary, tmp_path_factory):
     require_windowed_blender(TOOLS, "windowed Blender viewport test", "apt-get install blender xvfb xauth")
-    base = tmp_path_factory.mktemp("blender_viewport")
-    out, tmp = base / "out", base / "tmp"
-    tmp.mkdir()
-    env = dict(os.environ)
-    env.pop("BLENDER_USER_RESOURCES", None)
-    env["BLENDER_USER_CONFIG"] = str(base / "config")
-    t0 = time.monotonic()
-    proc = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 1280x1024x24", "env", f"TMPDIR={tmp}", "blender",
-                           "--factory-startup", "--python", str(DRIVER), "--", str(ROOT), str(out),
-                           str(cubist_binary)],
-                          capture_output=True, text=True, env=env, timeout=1200)
-    seconds = time.monotonic() - t0
-    log = proc.stdout + proc.stderr
-    (base / "blender.log").write_text(log)
-    results_file = out / "results.json"
-    assert results_file.is_file(), f"Blender ended (exit {proc.returncode}) without results:\n{log[-4000:]}"
-    results = json.loads(results_file.read_text())
-    print(f"\nwindowed Blender {results['blender']} (viewport): {seconds:.0f} s, log {base / 'blender.log'}",
-          file=sys.stderr)
-    return {"proc": proc, "results": results, "out": out, "tmp": tmp, "log": log}
+    return run_windowed_blender(DRIVER, tmp_path_factory.mktemp("blender_viewport"), cubist_binary, " (viewport)")
 
 
 def test_viewport_blender_runs_every_step_without_crashing(ui):
