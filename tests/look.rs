@@ -32,15 +32,14 @@ fn the_default_look_on_odd_scenes() {
         assert!(r.cues_final >= r.cues_pre, "{name}: cues kept {}/{}", r.cues_final, r.cues_pre);
         // Issue 13: 40% on single-object scenes, the whole object in view. Met by the very
         // tall figure (the composition's wider wrap and the better of the two converging
-        // cameras) and the compact subjects. Not met, the whole object in view and the stretch
-        // at most 2.5 (docs/look/README.md): the figure on a pedestal four times its width
-        // (far, huge, tiny: its silhouette fills about a third of its bounding box) and the
-        // several objects spread on a shelf (not a single object).
+        // cameras), the compact subjects, and the figure on a pedestal four times its width
+        // (far, huge, tiny: its silhouette fills about a third of its bounding box seen level;
+        // `framing`'s raised view shows the pedestal's top as a plane). Not met: the several
+        // objects spread on a shelf (not a single object; docs/look/README.md).
         let least = match name.as_str() {
             "odd-flat" | "odd-z-up" => 0.6,
-            "odd-tall" => 0.4,
             "odd-several" => 0.35,
-            _ => 0.24,
+            _ => 0.4,
         };
         assert!(r.fill >= least, "{name}: subject fill {:.3}", r.fill);
     }
