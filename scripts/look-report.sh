@@ -51,6 +51,11 @@ tables=$(target/release/cubist look "${scenes[@]}" --still-life --odd --before t
     echo "Contact sheet (per scene: before | after, in the tables' order): [contact-sheet.jpg](contact-sheet.jpg)."
     echo "The medians and misses are summed up in the project's README (\"The look report\")."
     echo
+    echo "Subject fill's miss, CesiumMan (22%; a walking figure, its arm reaching out): four"
+    echo "views tried by hand, each with the whole figure in view ([cesiumman-views.jpg](cesiumman-views.jpg),"
+    echo "rendered with \`--camera-position\`): from its own front 37% but the wrap spreads it into"
+    echo "a bowl and the head is lost; raised 21-27%. No view reaches 40% and still reads as a figure."
+    echo
     echo "$tables"
 } > "$out/README.md"
 echo "$out/README.md, $out/contact-sheet.jpg"

@@ -27,17 +27,19 @@ fn the_default_look_on_odd_scenes() {
         // at the report's 640 x 480; the report holds the 97% target.
         assert!(r.straight >= 0.93, "{name}: straight runs {:.3}", r.straight);
         assert!(r.ghost <= 0.05, "{name}: ghost share {:.3}", r.ghost);
+        // Issue 13 item 5, by construction (imprecision::cues): no most salient vertex the
+        // unfaceted render shows drops out of the final image.
+        assert!(r.cues_final >= r.cues_pre, "{name}: cues kept {}/{}", r.cues_final, r.cues_pre);
         // Issue 13: 40% on single-object scenes, the whole object in view. Met by the very
         // tall figure (the composition's wider wrap and the better of the two converging
-        // cameras) and the compact subjects. Not met, the whole object in view and the stretch
-        // at most 2.5 (docs/look/README.md): the figure on a pedestal four times its width
-        // (far, huge, tiny: its silhouette fills about a third of its bounding box) and the
-        // several objects spread on a shelf (not a single object).
+        // cameras), the compact subjects, and the figure on a pedestal four times its width
+        // (far, huge, tiny: its silhouette fills about a third of its bounding box seen level;
+        // `framing`'s raised view shows the pedestal's top as a plane). Not met: the several
+        // objects spread on a shelf (not a single object; docs/look/README.md).
         let least = match name.as_str() {
             "odd-flat" | "odd-z-up" => 0.6,
-            "odd-tall" => 0.4,
             "odd-several" => 0.35,
-            _ => 0.24,
+            _ => 0.4,
         };
         assert!(r.fill >= least, "{name}: subject fill {:.3}", r.fill);
     }
@@ -101,11 +103,15 @@ fn the_thesis_preset_is_the_papers_method() {
 
 #[test]
 fn the_still_life_keeps_its_cues() {
-    // The top 5% salient vertices are seen at least about as often as in the unfaceted render.
+    // The top 5% salient vertices are seen at least as often as in the unfaceted render, at
+    // the report's size and a smaller one, with the default look and the other presets that
+    // re-aim.
     let prep = Prepared::load(None).unwrap();
-    let look = pipeline::look(&prep, &small(Preset::Analytic, 320, 240), "still-life").unwrap();
-    assert!(look.row.cues_pre > 10, "{:?}", look.row);
-    assert!(look.row.cues_kept >= 0.97, "{:?}", look.row);
+    for (preset, w, h) in [(Preset::Analytic, 320, 240), (Preset::Analytic, 640, 480), (Preset::Braque, 320, 240)] {
+        let look = pipeline::look(&prep, &small(preset, w, h), "still-life").unwrap();
+        assert!(look.row.cues_pre > 10, "{:?}", look.row);
+        assert!(look.row.cues_final >= look.row.cues_pre, "{preset:?} {w}x{h}: {:?}", look.row);
+    }
 }
 
 /// Compares `img` with the golden image `name` (tests/golden), rewriting it when

@@ -249,9 +249,39 @@ impl QuickLimits {
     }
 }
 
+/// The share of the canvas under which `compose` also tries the raised view (issue 13 item 4:
+/// at least 40% on every single-object scene).
+pub const FILL_FLOOR: f64 = 0.4;
+/// How far the raised view looks down on the subject, degrees.
+pub const RAISED_VIEW_DEG: f64 = 30.0;
+
 /// Chooses the camera's parameters for `world` (SPEC "Framing"; see the module doc);
 /// `accel` (its BVH) lets `compose` measure its candidates' fill by a tiny trace.
+///
+/// The raised view (issue 13 item 4): when the view is the renderer's own (no camera in the
+/// scene or the settings) and `compose` fills under `FILL_FLOOR` of the canvas from the front,
+/// the view tilted down by `RAISED_VIEW_DEG` is composed too and kept when it fills clearly more
+/// (by 1 / `compose::NEAR_BEST`). Why: a subject whose outline fills little of its own bounding
+/// box seen level (a figure on a wide base, a drape flaring out on the ground, objects spread
+/// on a table) fills it from above, its base or ground seen as a plane; the painters tilt
+/// the table top up towards the viewer the same way (Cezanne, Braque's still lifes of
+/// 1909-1911). The front view stays whenever it fills, so subjects facing the viewer keep
+/// facing them.
 pub fn frame_camera(params: &FramingParams, world: &World, accel: &Accel) -> Result<Framed> {
+    let (front, fill) = frame_view(params, world, accel, 0.0)?;
+    let own_view = params.position.is_none() && params.target.is_none() && world.camera.is_none();
+    match fill {
+        Some(f) if own_view && f < FILL_FLOOR => {
+            let (raised, raised_fill) = frame_view(params, world, accel, RAISED_VIEW_DEG.to_radians())?;
+            Ok(if raised_fill.is_some_and(|r| r * compose::NEAR_BEST > f) { raised } else { front })
+        }
+        _ => Ok(front),
+    }
+}
+
+/// `frame_camera` with the view tilted down by `tilt` radians (about its right axis), and the
+/// fill `compose` measured, when it composed.
+fn frame_view(params: &FramingParams, world: &World, accel: &Accel, tilt: f64) -> Result<(Framed, Option<f64>)> {
     let mut warnings = Vec::new();
     let aspect = params.width as f64 / params.height as f64;
     let sim = world.to_render;
@@ -272,6 +302,10 @@ pub fn frame_camera(params: &FramingParams, world: &World, accel: &Accel) -> Res
     };
     let up = params.up.map(DVec3::from).or(up).unwrap_or(DVec3::Y);
     let forward = if forward.length_squared() > 0.0 { forward } else { DVec3::NEG_Z };
+    let forward = match (forward.normalize().reject_from(up).try_normalize(), up.try_normalize()) {
+        (Some(level), Some(u)) if tilt != 0.0 => level * tilt.cos() - u * tilt.sin(),
+        _ => forward,
+    };
     let (mut frame, fixed) = CameraFrame::new(DVec3::ZERO, forward, up)
         .ok_or_else(|| Error::setting("camera_up", "cannot build a camera frame from these vectors"))?;
     if fixed {
@@ -331,6 +365,7 @@ pub fn frame_camera(params: &FramingParams, world: &World, accel: &Accel) -> Res
 
     let camera: Box<dyn Camera>;
     let focal_centre;
+    let mut composed_fill = None;
     match kind {
         CameraKind::Spherical | CameraKind::Cylindrical | CameraKind::Auto => {
             let half =
@@ -391,6 +426,7 @@ pub fn frame_camera(params: &FramingParams, world: &World, accel: &Accel) -> Res
                 kind = k;
             }
             let composed = composed.map(|(_, k)| k);
+            composed_fill = composed.map(|k| k.fill);
             let framed_c = || match (params.framing, composed) {
                 (_, Some(k)) => k.centre,
                 (Framing::Centre, _) => axis,
@@ -493,7 +529,7 @@ pub fn frame_camera(params: &FramingParams, world: &World, accel: &Accel) -> Res
             view_height = Some(height);
         }
     }
-    Ok(Framed { camera, kind, angle_deg, view_height, focal_centre, frame, warnings })
+    Ok((Framed { camera, kind, angle_deg, view_height, focal_centre, frame, warnings }, composed_fill))
 }
 
 /// Columns of `probe_fill`'s tiny image (rows follow the aspect).

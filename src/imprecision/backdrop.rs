@@ -15,8 +15,10 @@
 
 use glam::DVec2;
 
+use super::cues::CueVertices;
 use super::{AimContext, AimParams, FacetAim, FacetProjection};
 use crate::facets::FacetMap;
+use crate::film::Film;
 
 /// Each facet's share of pixel coverage (the fraction of samples that hit geometry, averaged
 /// over its pixels) in the pre-render whose per-pixel coverage is `coverage`.
@@ -95,18 +97,7 @@ pub fn limit_shift(aims: &mut [FacetAim], widths: &[f64], share: f64, ctx: &AimC
         if d <= limit {
             continue;
         }
-        let sc = fc + (sc - fc) * (limit / d);
-        aim.sc = Some(sc);
-        aim.reaim = None;
-        aim.target = None;
-        if sc != fc
-            && let Some((r, p)) = ctx.reaim(fc, sc)
-        {
-            if r.turn.length() > ctx.negligible_turn(fc) {
-                aim.reaim = Some(r);
-            }
-            aim.target = p;
-        }
+        super::cues::reaim_at(aim, ctx, fc, fc + (sc - fc) * (limit / d));
     }
 }
 
@@ -144,18 +135,7 @@ pub fn keep_cues(aims: &mut [FacetAim], ctx: &AimContext, map: &FacetMap, salien
         if scale == 1.0 {
             continue;
         }
-        let sc = fc + (sc - fc) * scale;
-        aim.sc = Some(sc);
-        aim.reaim = None;
-        aim.target = None;
-        if sc != fc
-            && let Some((r, p)) = ctx.reaim(fc, sc)
-        {
-            if r.turn.length() > ctx.negligible_turn(fc) {
-                aim.reaim = Some(r);
-            }
-            aim.target = p;
-        }
+        super::cues::reaim_at(aim, ctx, fc, fc + (sc - fc) * scale);
     }
 }
 
@@ -176,26 +156,31 @@ pub fn shift_scale_keeping(map: &FacetMap, salient: &[u32], f: usize, shift: DVe
     [1.0, 0.5, 0.25].into_iter().find(|&t| keeps(shift * t)).unwrap_or(0.0)
 }
 
-/// Both rules, as `params` set them, on the aims `aim_facets` decided; `coverage(i)` is pixel
-/// i's pre-render coverage (the share of its samples that hit geometry).
+/// The rules, as `params` set them, on the aims `aim_facets` decided from the pre-render
+/// `film` (its coverage, saliency map and samples): background held, shifts within the facet's
+/// width, salient pixels kept in view, and (with `cues`, the most salient vertices) every such
+/// vertex the pre-render showed still shown (`cues::keep_cue_vertices`).
 pub fn apply(
     aims: &mut [FacetAim],
     ctx: &AimContext,
     map: &FacetMap,
-    coverage: impl Fn(usize) -> f32,
-    saliency: Option<&[f32]>,
+    film: &Film,
+    cues: Option<&CueVertices>,
     params: &AimParams,
 ) {
     if params.min_coverage > 0.0 {
-        let c = facet_coverage(map, coverage);
+        let c = facet_coverage(map, |i| film.color[i].w);
         hold_background(aims, &c, params.min_coverage);
     }
     if params.width_share > 0.0 && params.projection == FacetProjection::Converging {
         limit_shift(aims, &facet_widths(map), params.width_share, ctx);
         // Only when re-aiming reads the saliency map anyway (what the aims depend on stays
         // what `reads_saliency` says: the session's stage cache keys on it).
-        if let Some(s) = saliency.filter(|_| params.reads_saliency()) {
+        if let Some(s) = film.saliency.as_deref().filter(|_| params.reads_saliency()) {
             keep_cues(aims, ctx, map, s);
+            if let Some(c) = cues {
+                super::cues::keep_cue_vertices(aims, ctx, map, film, c);
+            }
         }
     }
 }

@@ -20,6 +20,7 @@
 pub mod backdrop;
 pub mod carried;
 mod centres;
+pub mod cues;
 mod rays;
 
 use glam::{DVec2, DVec3};

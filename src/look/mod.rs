@@ -36,6 +36,7 @@ use serde::Serialize;
 
 use crate::facets::{FacetLayout, FacetMap};
 use crate::film::Film;
+use crate::imprecision::cues::CueVertices;
 use crate::scene::{Scene, World};
 
 /// Minimum straight run, as a share of the image diagonal (ART.md).
@@ -43,7 +44,7 @@ pub const RUN_SHARE: f64 = 0.01;
 /// Boundary simplification tolerance, pixels (ART.md).
 pub const SIMPLIFY_PX: f64 = 1.0;
 /// The most salient vertices: this top share of mesh saliency (issue 13 item 5).
-pub const CUE_SHARE: f64 = 0.05;
+pub use crate::imprecision::cues::CUE_SHARE;
 /// Per-plane light: the gradient's span, as a share of the image's luminance range (ART.md).
 pub const LIGHT_RANGE: f64 = 0.15;
 /// Per-plane light: the share of a facet's variance its gradient must explain.
@@ -137,7 +138,8 @@ pub fn measure(r: &Render) -> LookRow {
     }
 }
 
-/// (top-salient vertices shown by `pre`, by `fin`): see the module doc.
+/// (top-salient vertices shown by `pre`, by `fin`): see the module doc. The vertex set is the
+/// one the imprecision stage keeps in view (`imprecision::cues`).
 pub fn cues(
     scene: &Scene,
     world: &World,
@@ -145,45 +147,10 @@ pub fn cues(
     pre: &Film,
     fin: &Film,
 ) -> (usize, usize) {
-    // Vertex slots per object instance.
-    let mut base = Vec::with_capacity(world.objects.len() + 1);
-    let mut total = 0usize;
-    for o in &world.objects {
-        base.push(total);
-        total += scene.meshes[o.mesh].positions.len();
+    match CueVertices::new(scene, world, saliency) {
+        Some(c) => (c.shown(pre), c.shown(fin)),
+        None => (0, 0),
     }
-    let mut values: Vec<f32> = Vec::new();
-    let mut score = vec![-1.0f32; total];
-    for (k, o) in world.objects.iter().enumerate() {
-        if let Some(Some(s)) = saliency.get(o.mesh) {
-            for (v, &x) in s.iter().enumerate() {
-                score[base[k] + v] = x;
-                values.push(x);
-            }
-        }
-    }
-    if values.is_empty() {
-        return (0, 0);
-    }
-    values.sort_by(f32::total_cmp);
-    let threshold = values[((values.len() - 1) as f64 * (1.0 - CUE_SHARE)) as usize].max(f32::MIN_POSITIVE);
-    let shown = |film: &Film| -> usize {
-        let mut seen = vec![false; total];
-        for s in film.samples.iter().filter(|s| s.is_hit()) {
-            let (o, local) = world.local_triangle(s.tri);
-            let mesh = &scene.meshes[world.objects[o as usize].mesh];
-            if let Some(t) = mesh.triangles.get(local as usize) {
-                for &v in t {
-                    let slot = base[o as usize] + v as usize;
-                    if score[slot] >= threshold {
-                        seen[slot] = true;
-                    }
-                }
-            }
-        }
-        seen.iter().filter(|&&s| s).count()
-    };
-    (shown(pre), shown(fin))
 }
 
 /// The scene files under `paths`: files as given, directories' `.glb`/`.gltf` files (not

@@ -530,7 +530,7 @@ fn key_frame(
                 pre.saliency = Some(frame_saliency(prep, world, pre, params)?);
             }
             let ctx = aim_context(&camera, accel, trace);
-            let aims = aims_stage(&ctx, &map, pre, &params.aim, &Progress::silent(), &mut Timings::default());
+            let aims = aims_stage(&ctx, &map, pre, &params.aim, None, &Progress::silent(), &mut Timings::default());
             Some(carried::anchor_aims(&ctx, &aims))
         }
         _ => None,
@@ -631,7 +631,7 @@ fn render_frame(
             let corners = |t: u32| ((t as usize) < world.triangle_count()).then(|| world.triangle(t));
             carried::carry_aims(&ctx, key_aims, &map, &corners, &params.aim)
         }),
-        None if plan.imprecision => aims_stage(&ctx, &map, &pre, &params.aim, &silent, &mut timings),
+        None if plan.imprecision => aims_stage(&ctx, &map, &pre, &params.aim, None, &silent, &mut timings),
         None => Vec::new(),
     };
 

@@ -193,19 +193,30 @@ fn aim_context<'a>(prep: &'a Prepared, view: &'a View, trace: &TraceParams) -> A
 }
 
 /// Each facet's centres, the point it is aimed at and its new rays (`imprecision`).
+/// `mesh`: the scene whose pre-render `film` is and how its mesh saliency was computed, to keep
+/// its most salient vertices in view (None: not checked, e.g. a posed animation frame).
 pub fn aims_stage(
     ctx: &AimContext,
     map: &FacetMap,
     film: &Film,
     params: &AimParams,
+    mesh: Option<(&Prepared, &SaliencyParams)>,
     progress: &Progress,
     timings: &mut Timings,
 ) -> Vec<FacetAim> {
     progress.begin(Stage::Imprecision.name(), 1);
     timings.time(Stage::Imprecision.name(), || {
         let mut aims = imprecision::aim_facets(ctx, map, film.saliency.as_deref(), params);
-        // What a facet may show (issue 13): backdrop kept, shifts within the facet's width.
-        imprecision::backdrop::apply(&mut aims, ctx, map, |i| film.color[i].w, film.saliency.as_deref(), params);
+        // What a facet may show (issue 13): backdrop kept, shifts within the facet's width,
+        // the most salient vertices kept in view. The mesh saliency is the memo's since the
+        // saliency stage (a failure there was reported there).
+        let saliency = mesh
+            .filter(|_| params.reads_saliency() && film.saliency.is_some())
+            .and_then(|(prep, p)| crate::saliency::for_film(&prep.scene, &prep.world, &prep.saliency, film, p).ok());
+        let cues = mesh
+            .zip(saliency.as_ref())
+            .and_then(|((prep, _), s)| imprecision::cues::CueVertices::new(&prep.scene, &prep.world, &s.per_mesh));
+        imprecision::backdrop::apply(&mut aims, ctx, map, film, cues.as_ref(), params);
         aims
     })
 }

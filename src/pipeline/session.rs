@@ -607,7 +607,7 @@ fn after_saliency_stages(
             reused.push(Stage::Imprecision.name());
         } else {
             lane.aims = None;
-            let aims = aims_stage(&ctx, map, film, &params.aim, progress, timings);
+            let aims = aims_stage(&ctx, map, film, &params.aim, Some((prep, &params.saliency)), progress, timings);
             progress.check()?;
             lane.aims = Some(Entry { key, id: next(), value: aims });
         }

@@ -1,0 +1,339 @@
+//! Cues kept by construction (issue 13 item 5): "the most salient vertices (top 5% of mesh
+//! saliency) are visible in the final image at least as often as in the unfaceted render from
+//! the same camera".
+//!
+//! A re-aimed facet shows another part of the scene than the pre-render showed there, so a
+//! salient vertex the pre-render saw only inside re-aimed facets can drop out of the picture.
+//! `keep_cue_vertices` checks every such vertex against the facets' new views (each pixel's
+//! centre ray through its facet, exactly what the re-trace traces) and, where one is lost,
+//! reduces the shift of a facet that held it (by halves, then none: a facet not re-aimed shows
+//! what the pre-render showed). Only shifts shrink, so no ghost comes back. The vertex set and
+//! "seen" are the look report's (`look::cues` uses `CueVertices` too): a vertex is seen when a
+//! sample hits a triangle it is a corner of.
+
+use std::sync::Arc;
+
+use glam::DVec2;
+use rayon::prelude::*;
+
+use super::{AimContext, FacetAim};
+use crate::facets::FacetMap;
+use crate::film::Film;
+use crate::scene::{Scene, World};
+use crate::trace::screen_point;
+
+/// The most salient vertices: this top share of mesh saliency (issue 13 item 5).
+pub const CUE_SHARE: f64 = 0.05;
+
+/// The most salient vertices of the placed meshes: the top `CUE_SHARE` of mesh saliency over
+/// every vertex of every object whose mesh has saliency values (the meshes in view), each
+/// object's vertices counted apart (a slot per object and vertex).
+pub struct CueVertices<'a> {
+    scene: &'a Scene,
+    world: &'a World,
+    /// First slot of each object.
+    base: Vec<usize>,
+    /// Whether each slot is among the most salient.
+    top: Vec<bool>,
+}
+
+impl<'a> CueVertices<'a> {
+    /// The top `CUE_SHARE` of `saliency` (per mesh, `MeshSaliency::per_mesh`). None when no
+    /// mesh has values.
+    pub fn new(scene: &'a Scene, world: &'a World, saliency: &[Option<Arc<Vec<f32>>>]) -> Option<Self> {
+        let mut base = Vec::with_capacity(world.objects.len());
+        let mut total = 0usize;
+        for o in &world.objects {
+            base.push(total);
+            total += scene.meshes[o.mesh].positions.len();
+        }
+        let mut values: Vec<f32> = Vec::new();
+        for o in &world.objects {
+            if let Some(Some(s)) = saliency.get(o.mesh) {
+                values.extend_from_slice(s);
+            }
+        }
+        if values.is_empty() {
+            return None;
+        }
+        // The value at rank (n - 1) * 0.95 of the sorted values (a selection, not a sort).
+        let k = ((values.len() - 1) as f64 * (1.0 - CUE_SHARE)) as usize;
+        let (_, &mut t, _) = values.select_nth_unstable_by(k, f32::total_cmp);
+        let threshold = t.max(f32::MIN_POSITIVE);
+        let mut top = vec![false; total];
+        for (k, o) in world.objects.iter().enumerate() {
+            if let Some(Some(s)) = saliency.get(o.mesh) {
+                for (v, &x) in s.iter().enumerate() {
+                    top[base[k] + v] = x >= threshold;
+                }
+            }
+        }
+        Some(CueVertices { scene, world, base, top })
+    }
+
+    /// Calls `f` with the slot of each most salient corner of world triangle `tri`.
+    pub fn corners(&self, tri: u32, mut f: impl FnMut(usize)) {
+        let (o, local) = self.world.local_triangle(tri);
+        let object = &self.world.objects[o as usize];
+        if let Some(t) = self.scene.meshes[object.mesh].triangles.get(local as usize) {
+            for &v in t {
+                let slot = self.base[o as usize] + v as usize;
+                if self.top.get(slot).copied().unwrap_or(false) {
+                    f(slot);
+                }
+            }
+        }
+    }
+
+    /// Whether `film`'s samples show each slot (false for all but the most salient).
+    pub fn seen(&self, film: &Film) -> Vec<bool> {
+        let mut seen = vec![false; self.top.len()];
+        for s in film.samples.iter().filter(|s| s.is_hit()) {
+            self.corners(s.tri, |slot| seen[slot] = true);
+        }
+        seen
+    }
+
+    /// How many of the most salient vertices `film`'s samples show.
+    pub fn shown(&self, film: &Film) -> usize {
+        self.seen(film).iter().filter(|&&s| s).count()
+    }
+}
+
+/// Shift levels tried for a facet that loses a cue: the whole shift, half, a quarter, none.
+const LEVELS: [f64; 4] = [1.0, 0.5, 0.25, 0.0];
+
+/// Re-aims `aim` at `sc` (on the line from its centre to its aim point), or not at all when
+/// `sc` is its centre or the turn is negligible.
+pub(super) fn reaim_at(aim: &mut FacetAim, ctx: &AimContext, fc: DVec2, sc: DVec2) {
+    aim.sc = Some(sc);
+    aim.reaim = None;
+    aim.target = None;
+    if sc != fc
+        && let Some((r, p)) = ctx.reaim(fc, sc)
+    {
+        if r.turn.length() > ctx.negligible_turn(fc) {
+            aim.reaim = Some(r);
+        }
+        aim.target = p;
+    }
+}
+
+/// The most salient vertices `pixels` (a facet's) show through `aim`: each pixel's centre
+/// ray, re-aimed as the re-trace re-aims it (`pipeline::facet_rays`), as the indices `keep`
+/// gives them (None: not counted), sorted and deduplicated.
+fn seen_through(
+    ctx: &AimContext,
+    cues: &CueVertices,
+    pixels: &[u32],
+    aim: &FacetAim,
+    keep: &(dyn Fn(usize) -> Option<usize> + Sync),
+) -> Vec<usize> {
+    let w = ctx.width;
+    let mut out = Vec::new();
+    for &i in pixels {
+        let p = screen_point(i % w, i / w, DVec2::splat(0.5), ctx.width, ctx.height);
+        let ray = ctx.camera.ray(p);
+        let ray = if aim.moved() { aim.apply(ray, ctx.pixel_pos(p), ctx.clip_radius) } else { ray };
+        if let Some(h) = ctx.accel.closest(ray.origin, ray.dir, 0.0, f32::INFINITY) {
+            cues.corners(h.tri, |slot| out.extend(keep(slot)));
+        }
+    }
+    out.sort_unstable();
+    out.dedup();
+    out
+}
+
+/// Makes every most salient vertex the pre-render (`film`, one centre sample per pixel) shows
+/// stay shown through the facets' new views (see the module doc); returns how many facets'
+/// shifts were reduced. Each pixel of a re-aimed facet is re-traced through its centre ray,
+/// so a vertex stays shown when some pixel's ray hits one of its triangles. A vertex the
+/// pre-render showed in a facet that is not re-aimed is kept as it is; the others are checked
+/// against the re-aimed facets that showed them (others that might show them too are not
+/// traced: the check is conservative). A facet holding a lost vertex has its shift reduced to
+/// the next of `LEVELS` until none of its own is lost; at level 0 it shows the pre-render's
+/// view, so the loop ends with every vertex shown.
+pub fn keep_cue_vertices(
+    aims: &mut [FacetAim],
+    ctx: &AimContext,
+    map: &FacetMap,
+    film: &Film,
+    cues: &CueVertices,
+) -> usize {
+    if film.spp != 1 || film.samples.len() != map.ids.len() || aims.len() != map.facet_count as usize {
+        return 0;
+    }
+    let n = aims.len();
+    let (offsets, pixels) = map.pixels_by_facet();
+    let own = |f: usize| &pixels[offsets[f] as usize..offsets[f + 1] as usize];
+    // What the pre-render showed, per facet: the slots its pixels saw.
+    let held_slots: Vec<Vec<usize>> = (0..n)
+        .into_par_iter()
+        .map(|f| {
+            let mut v = Vec::new();
+            for &i in own(f) {
+                let s = film.samples[i as usize];
+                if s.is_hit() {
+                    cues.corners(s.tri, |slot| v.push(slot));
+                }
+            }
+            v.sort_unstable();
+            v.dedup();
+            v
+        })
+        .collect();
+    // The vertices the pre-render showed, numbered densely (a scene may have millions of slots).
+    let mut shown: Vec<usize> = held_slots.iter().flatten().copied().collect();
+    shown.sort_unstable();
+    shown.dedup();
+    let index = |slot: usize| shown.binary_search(&slot).ok();
+    let held: Vec<Vec<usize>> = held_slots.iter().map(|v| v.iter().filter_map(|&s| index(s)).collect()).collect();
+    // Shown by a facet that is not re-aimed: kept whatever the others do.
+    let mut risky = vec![true; shown.len()];
+    for f in (0..n).filter(|&f| !aims[f].moved()) {
+        for &s in &held[f] {
+            risky[s] = false;
+        }
+    }
+    let checked: Vec<usize> = (0..n).filter(|&f| aims[f].moved() && held[f].iter().any(|&s| risky[s])).collect();
+    if checked.is_empty() {
+        return 0;
+    }
+    let keep = |slot: usize| index(slot).filter(|&k| risky[k]);
+    let mut seen: Vec<Vec<usize>> = vec![Vec::new(); n];
+    let traced: Vec<Vec<usize>> =
+        checked.par_iter().map(|&f| seen_through(ctx, cues, own(f), &aims[f], &keep)).collect();
+    let mut count = vec![0u32; shown.len()];
+    for (&f, v) in checked.iter().zip(traced) {
+        for &s in &v {
+            count[s] += 1;
+        }
+        seen[f] = v;
+    }
+    let last = LEVELS.len() - 1;
+    let mut level = vec![0usize; n];
+    let original: Vec<FacetAim> = aims.to_vec();
+    loop {
+        // The facet holding the most lost vertices (the lowest id on a tie). A facet at the
+        // last level shows the pre-render's view, so it holds none.
+        let lost_in = |f: usize| held[f].iter().filter(|&&s| risky[s] && count[s] == 0).count();
+        let Some((f, _)) = checked
+            .iter()
+            .filter(|&&f| level[f] < last)
+            .map(|&f| (f, lost_in(f)))
+            .filter(|&(_, k)| k > 0)
+            .max_by_key(|&(f, k)| (k, std::cmp::Reverse(f)))
+        else {
+            break;
+        };
+        let (Some(fc), Some(sc)) = (original[f].fc, original[f].sc) else { break };
+        // Lower levels until none of f's own vertices is lost (the last level always does).
+        while level[f] < last {
+            level[f] += 1;
+            let t = LEVELS[level[f]];
+            let mut aim = original[f];
+            if t == 0.0 {
+                (aim.sc, aim.reaim, aim.linear, aim.target) = (aim.fc, None, None, None);
+            } else {
+                reaim_at(&mut aim, ctx, fc, fc + (sc - fc) * t);
+            }
+            let now = if aim.moved() {
+                seen_through(ctx, cues, own(f), &aim, &keep)
+            } else {
+                held[f].iter().copied().filter(|&s| risky[s]).collect()
+            };
+            for &s in &seen[f] {
+                count[s] -= 1;
+            }
+            for &s in &now {
+                count[s] += 1;
+            }
+            seen[f] = now;
+            aims[f] = aim;
+            if held[f].iter().all(|&s| !risky[s] || count[s] > 0) {
+                break;
+            }
+        }
+    }
+    level.iter().filter(|&&l| l > 0).count()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::imprecision::{AimMode, AimParams, aim_facets};
+    use crate::pipeline::{Prepared, Shading, StageParams, Timings, moved_pixels, prerender, retrace_stage};
+    use crate::progress::Progress;
+    use crate::settings::Settings;
+
+    /// The still life on a grid of 48 facets, each re-aimed at a random point up to 40 pixels
+    /// away (far more than the default's shifts): some salient vertices drop out of view.
+    /// After `keep_cue_vertices` and the re-trace, every most salient vertex the pre-render
+    /// showed is shown again, and only some facets gave up part of their shift.
+    #[test]
+    fn every_salient_vertex_shown_before_is_shown_after() {
+        let prep = Prepared::load(None).unwrap();
+        let (w, h) = (160u32, 120u32);
+        let s = Settings { width: w, height: h, ..Settings::default() };
+        let params = StageParams::new(&s);
+        let silent = Progress::silent();
+        let mut t = Timings::default();
+        let pre = prerender(&prep, &params.framing, &params.trace, Shading::Lit, &silent, &mut t).unwrap();
+        assert_eq!(pre.film.spp, 1);
+        let mesh =
+            crate::saliency::for_film(&prep.scene, &prep.world, &prep.saliency, &pre.film, &params.saliency).unwrap();
+        let cues = CueVertices::new(&prep.scene, &prep.world, &mesh.per_mesh).unwrap();
+        let before = cues.seen(&pre.film);
+        let shown_before = before.iter().filter(|&&b| b).count();
+        assert!(shown_before >= 10, "{shown_before}");
+        let ids = (0..w * h).map(|i| (i % w) / 20 + 8 * ((i / w) / 20)).collect();
+        let map = FacetMap { width: w, height: h, ids, facet_count: 48 };
+        let clip_radius = prep.world.radius as f64 * 1.001;
+        let ctx = AimContext {
+            camera: pre.view.framed.camera.as_ref(),
+            accel: &prep.accel,
+            width: w,
+            height: h,
+            clip_radius,
+        };
+        let aim = AimParams {
+            mode: AimMode::Random,
+            discontinuity: 40.0,
+            scale: 1.0,
+            min_coverage: 0.0,
+            ..params.aim.clone()
+        };
+        let wild = aim_facets(&ctx, &map, None, &aim);
+        let traced = |aims: &[FacetAim]| {
+            let mut film = pre.film.clone();
+            let moved = moved_pixels(&map, aims);
+            retrace_stage(
+                &prep,
+                &pre.view,
+                &ctx,
+                &params.trace,
+                &map,
+                aims,
+                &moved,
+                &mut film,
+                &silent,
+                &mut Timings::default(),
+            );
+            cues.seen(&film)
+        };
+        let lost = |after: &[bool]| before.iter().zip(after).filter(|&(&b, &a)| b && !a).count();
+        assert!(lost(&traced(&wild)) > 0, "the wild aims lose no cue: the test shows nothing");
+        let mut kept = wild.clone();
+        let reduced = keep_cue_vertices(&mut kept, &ctx, &map, &pre.film, &cues);
+        assert_eq!(lost(&traced(&kept)), 0, "{reduced} facets reduced");
+        let moved = wild.iter().filter(|a| a.moved()).count();
+        assert!(reduced > 0 && reduced < moved, "{reduced} of {moved} re-aimed facets reduced");
+        assert!(kept.iter().filter(|a| a.moved()).count() > 0);
+        // Shifts only shrink, along the same line.
+        for (k, w) in kept.iter().zip(&wild) {
+            let (Some(fc), Some(a), Some(b)) = (w.fc, k.sc, w.sc) else { continue };
+            assert!((a - fc).length() <= (b - fc).length() + 1e-9);
+            assert!((a - fc).perp_dot(b - fc).abs() < 1e-6 * (1.0 + (b - fc).length_squared()));
+        }
+    }
+}
