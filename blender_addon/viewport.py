@@ -29,6 +29,7 @@ import atexit
 import hashlib
 import json
 import os
+import shutil
 import threading
 import time
 from dataclasses import dataclass, field
@@ -57,6 +58,10 @@ FORGOTTEN_AFTER = 30.0
 # Every open session, for the timer, `server_for` and closing them all.
 _sessions: set = set()
 _sessions_lock = threading.Lock()
+# Servers being ended by a thread of their own (a session closed without waiting): thread ->
+# client. Blender's exit waits for them, or they would be cut short with the interpreter (their
+# threads are daemons) and leave their folder behind.
+_closing: dict = {}
 # Tests: every drawn frame's facts (image size and scale, rect, readback) when on.
 record_draws = False
 
@@ -184,7 +189,11 @@ class ViewportSession:
         if wait:
             self.client.close(timeout=2.0)
         else:
-            threading.Thread(target=self.client.close, name="cubist-viewport-close", daemon=True).start()
+            closer = threading.Thread(target=_close_client, args=(self.client,), name="cubist-viewport-close",
+                                      daemon=True)
+            with _sessions_lock:
+                _closing[closer] = self.client
+            closer.start()
 
     # ------------------------------------------------------------------ worker thread
 
@@ -246,6 +255,14 @@ class ViewportSession:
                 del self.history[:-200]
                 if scale >= 1.0:
                     self.status = ""
+
+
+def _close_client(client: ServeClient) -> None:
+    try:
+        client.close()
+    finally:
+        with _sessions_lock:
+            _closing.pop(threading.current_thread(), None)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -624,7 +641,14 @@ def _file_loading(*_args):
 
 
 def _at_exit():
+    """Blender quits: every server ends and its folder goes, also those being ended by a
+    thread of their own (the views' engines are freed before Python's exit handlers run)."""
     close_all(wait=True)
+    with _sessions_lock:
+        closing = list(_closing.items())
+    for closer, client in closing:
+        closer.join(timeout=3.0)
+        shutil.rmtree(client.workspace, ignore_errors=True)
 
 
 def register():

@@ -143,6 +143,14 @@ def setup():
     prefs = bpy.context.preferences.addons["blender_addon"].preferences
     prefs.binary_path = BINARY
     vp().record_draws = True
+    # The 3D views the viewport tags for redraw when it has a new image (pointers).
+    original = vp()._redraw_views
+
+    def redraw_views(areas):
+        results.setdefault("tagged", []).append(sorted(a for a in areas if a is not None) or ["all"])
+        original(areas)
+
+    vp()._redraw_views = redraw_views
     scene = bpy.context.scene
     scene.render.engine = "CUBIST"
     yield 1.0  # the message bus (colour management) runs in the event loop
@@ -197,6 +205,7 @@ def rendered_view():
     t1 = time.monotonic()
     results["view_draws"] = {name: view_draws.get(ptr, 0) - draws_before.get(ptr, 0)
                              for name, ptr in (("rendered", area.as_pointer()), ("other", results["other_view"]))}
+    results["rendered_view"] = area.as_pointer()
     # What was drawn, and what it was rendered from, for `cubist render` in the test.
     kept = OUT / "rendered"
     kept.mkdir(exist_ok=True)

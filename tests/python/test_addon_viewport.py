@@ -230,6 +230,20 @@ def test_sessions_end_on_file_load_and_when_the_addon_is_disabled(bpy, vp):
         bpy.context.preferences.addons["blender_addon"].preferences.binary_path = str(BINARY)
 
 
+def test_blenders_exit_waits_for_servers_being_closed(bpy, vp):
+    """A view left Rendered shading (its engine freed) just before Blender quits: the server is
+    being ended by a thread of its own, which Python's exit would cut short; the exit handler
+    waits for it, so the server's folder goes (the windowed test found it left behind)."""
+    scene = new_scene(bpy, 64, 48)
+    s = vp.ViewportSession(vp._binary())
+    vp.update(s, bpy.context.evaluated_depsgraph_get(), camera_view(bpy, scene, 64, 48), True)
+    wait_for(s, s.generation)
+    s.close()  # as the engine's __del__ does: without waiting
+    assert list(vp._closing.values()) == [s.client] or not s.client.workspace.exists()
+    vp._at_exit()
+    assert vp._closing == {} and not s.client.workspace.exists() and s.client.proc.poll() is not None
+
+
 def test_texture_pixels_are_bottom_up_and_premultiplied(vp):
     px = np.zeros((2, 3, 4), np.uint8)
     px[0, 0] = (255, 0, 0, 255)  # top left, opaque red
