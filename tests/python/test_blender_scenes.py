@@ -26,9 +26,29 @@ TOOLS = ("blender", "xvfb-run", "xdotool")
 
 @pytest.fixture(scope="module")
 def ui(cubist_binary, tmp_path_factory):
+    """The driver's run. Blender 3.4 can get its process-wide 'no writes to datablocks' flag
+    stuck after a render (scenes_driver.WRITE_LOCK, a Blender bug no add-on can reset): the
+    driver then stops and the steps left run in a new Blender (at most 3 runs)."""
     require_windowed_blender(TOOLS, "windowed Blender scenes test",
                              "apt-get install blender xvfb xauth xdotool python3-numpy")
-    return run_windowed_blender(DRIVER, tmp_path_factory.mktemp("blender_scenes"), cubist_binary, " (scenes)")
+    base = tmp_path_factory.mktemp("blender_scenes")
+    out = base / "out"
+    steps, locks, run = {}, [], None
+    remaining = ""
+    for attempt in range(3):
+        run = run_windowed_blender(DRIVER, base / f"run{attempt}", cubist_binary, " (scenes)",
+                                   extra_args=[remaining] if remaining else [], out=out)
+        steps.update(run["results"]["steps"])
+        lock = run["results"].get("write_lock")
+        if lock is None:
+            break
+        locks.append(lock)
+        remaining = ",".join(run["results"]["remaining"])
+    run["results"]["steps"] = steps
+    run["results"]["write_locks"] = locks
+    if locks:
+        print(f"\nBlender 3.4's write flag got stuck {len(locks)} time(s): {locks}", file=sys.stderr)
+    return run
 
 
 def step(ui, name):
