@@ -484,11 +484,13 @@ def step_animation_esc():
             "processes": engine.last_run.get("returncode")}
 
 
-# Blender 3.4's Python keeps "writes to ID data disallowed" in one process-wide flag that each
-# Python callback saves and restores (bpy_class_call): a render() starting on the render thread
-# while the main thread is inside a panel's draw saves "disallowed" and restores it when it
-# returns, and from then on every Python write to a datablock fails with this message (Blender
-# #127767; other engines' users meet it "after 1 or 2 renders"). Nothing an add-on does resets it.
+# Blender 3.4's Python keeps "writes to ID data disallowed" in one process-wide flag
+# (rna_disallow_writes), set around Python callbacks such as panels' draw; seen once in five
+# runs here: after an F12, every Python write to a datablock failed with this message for the
+# rest of the session (the pattern of a render-thread callback saving and restoring the flag
+# while the main thread was inside a draw; newer Blender's source notes the flag's trouble with
+# threads, #127767; other add-ons' users met it in 3.4 "after 1 or 2 renders"). Nothing an
+# add-on can call resets it.
 WRITE_LOCK = "Writing to ID classes in this context is not allowed"
 # What operators say in that state.
 OPERATOR_LOCK = "can't modify blend data in this state"

@@ -36,6 +36,7 @@ def ui(cubist_binary, tmp_path_factory):
     steps, locks, run = {}, [], None
     remaining = ""
     for attempt in range(3):
+        (base / f"run{attempt}").mkdir()
         run = run_windowed_blender(DRIVER, base / f"run{attempt}", cubist_binary, " (scenes)",
                                    extra_args=[remaining] if remaining else [], out=out)
         steps.update(run["results"]["steps"])
