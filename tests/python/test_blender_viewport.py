@@ -185,7 +185,7 @@ def test_blender_stays_responsive_in_rendered_shading_panel_changes_and_f12(ui):
     # Idle, the loop runs at the heartbeat's own rate (the baseline is sound).
     assert percentile(idle, 50) < 0.05 and max(idle) < 0.25, idle
     for name, gaps in phases.items():
-        assert len(gaps) >= 2, (name, gaps)
+        assert len(gaps) >= 1, (name, gaps)  # a short phase under load may be one long pass
         # The floor: one redraw of the view; for F12, what F12 with Blender's Workbench costs.
         floor = max(max(redraw), max(workbench) if name == "f12" else 0.0)
         # No stall beyond that floor plus our own main-thread work, with a margin for a loaded
