@@ -7,11 +7,14 @@ stage's output between requests, so a panel change re-runs only the stages it re
 
 Threads (Blender's API is used on the main thread only):
 - main thread, `view_update` (the depsgraph changed: a panel value, an object, a material):
-  the scene is exported with export.py's depsgraph exporter when more than the scene's own
-  settings changed, the settings are made from the panel (mapping.py), and a job is handed to
-  the session; `view_draw` (every redraw): a new job when the view moved, then the latest
-  image drawn with the `gpu` module (errors as text, with `blf`);
-- a worker thread per session: renders the latest job progressively, 1/4, 1/2 then full
+  when more than the scene's own settings changed, the scene's data is read from the
+  depsgraph (`export.read_scene`: the meshes' arrays, materials, images; nothing built), the
+  settings are made from the panel (mapping.py), and a job is handed to the session;
+  `view_draw` (every redraw): a new job when the view moved, then the latest image drawn with
+  the `gpu` module (errors as text, with `blf`);
+- a worker thread per session: writes the job's scene file first when it was not written
+  (the glTF arrays are made there: triangles, welding, the buffer; a newer scene read
+  meanwhile stops it), then renders the latest job progressively, 1/4, 1/2 then full
   resolution, each a request to the server; a newer job cancels the running request;
 - a timer on the main thread (`bpy.app.timers`) tags the 3D views for redraw when a worker has
   a new image (`tag_redraw`, the way the image reaches the screen) and ends the sessions whose
@@ -80,11 +83,23 @@ class View:
 
 
 @dataclass
+class SceneExport:
+    """A scene read from the depsgraph on the main thread (`export.read_scene`), written to
+    the session's scene file by its worker thread before the first request that needs it."""
+
+    number: int
+    exporter: Optional[export.Exporter]
+    written: bool = False
+    error: Optional[str] = None
+
+
+@dataclass
 class Job:
     generation: int
     scene: Path
     settings: dict  # at the view's full size
     view: View
+    export: Optional[SceneExport] = None
 
 
 @dataclass
@@ -137,7 +152,8 @@ class ViewportSession:
         self.status = ""
         self.closed = False
         self.scene_path = self.client.workspace / "scene.glb"
-        self.scene_hash: Optional[str] = None
+        self.scene_hash: Optional[str] = None  # of the scene file written last (server_for)
+        self.export: Optional[SceneExport] = None  # the newest scene read
         self.export_warnings: list = []
         self.signature = None
         self.area: Optional[int] = None  # the 3D view's area, as_pointer()
@@ -149,6 +165,7 @@ class ViewportSession:
                        "draws": 0, "uploads": 0}
         self.history: list = []  # (generation, scale, seconds, reused) per image, the newest last
         self.main_thread: dict = {}  # the longest view_update and view_draw, seconds
+        self.worker_times: dict = {}  # the longest scene write on the worker, seconds
         self.draws: list = []
         self.thread = threading.Thread(target=self._work, name="cubist-viewport", daemon=True)
         self.thread.start()
@@ -158,11 +175,12 @@ class ViewportSession:
 
     # ------------------------------------------------------------------ main thread
 
-    def submit(self, scene: Path, settings: dict, view: View) -> int:
-        """Makes (scene, settings, view) the job to render, cancelling the request in flight."""
+    def submit(self, scene: Path, settings: dict, view: View, scene_export: Optional[SceneExport] = None) -> int:
+        """Makes (scene, settings, view) the job to render, cancelling the request in flight;
+        `scene_export`: what the worker writes to `scene` first, unless it was written."""
         with self.cond:
             self.generation += 1
-            self.job = Job(self.generation, scene, settings, view)
+            self.job = Job(self.generation, scene, settings, view, scene_export)
             running, self.running = self.running, None
             self.counts["jobs"] += 1
             self.status = "rendering"
@@ -217,7 +235,48 @@ class ViewportSession:
                     self.error = f"internal error: {type(e).__name__}: {e}"
                     self.image_new = True
 
+    def _write_scene(self, job: Job) -> bool:
+        """Writes the job's scene (read on the main thread) to the scene file, unless it was
+        written: the glTF arrays are made here, off Blender's main thread. Stops, False, when a
+        newer scene was read meanwhile (its job writes that one); False with the error set when
+        the export failed."""
+        ex = job.export
+        if ex is None or ex.written:
+            return True
+        if ex.error is None:
+            def superseded() -> bool:
+                current = self.job
+                return self.closed or current is None or current.export is not ex
+
+            with self.cond:
+                self.status = "exporting"
+            tmp = self.scene_path.with_name("scene.tmp.glb")
+            try:
+                t0 = time.perf_counter()
+                ex.exporter.write(tmp, superseded)
+                # Atomically: the server may be reading the previous one (F12 on this server).
+                os.replace(tmp, self.scene_path)
+                h = file_hash(self.scene_path)
+            except export.ExportCancelled:
+                return False
+            except Exception as e:  # a full disk, a bug of ours: shown in the view
+                ex.error = f"export failed: {type(e).__name__}: {e}"
+            else:
+                with self.cond:
+                    ex.written, ex.exporter = True, None
+                    self.scene_hash = h
+                    self.worker_times["longest_scene_write"] = max(self.worker_times.get("longest_scene_write", 0.0),
+                                                                   time.perf_counter() - t0)
+                return True
+            ex.exporter = None
+        with self.cond:
+            if not self._newer(job):
+                self.error, self.status, self.image_new = ex.error, "", True
+        return False
+
     def _render(self, job: Job) -> None:
+        if not self._write_scene(job):
+            return
         w, h = job.settings["width"], job.settings["height"]
         for scale in passes_for(w, h):
             settings = scaled(job.settings, scale)
@@ -270,17 +329,17 @@ def _close_client(client: ServeClient) -> None:
 
 
 def export_scene(session: ViewportSession, depsgraph) -> bool:
-    """Writes the depsgraph's scene to the session's scene file (atomically: the server may be
-    reading the previous one); False, with the session's error set, when there is nothing to
-    render."""
+    """Reads the depsgraph's scene (its meshes' arrays: only the main thread may read them)
+    for the session's worker, which makes the glTF from them and writes it before rendering;
+    False, with the session's error set, when there is nothing to render."""
     if not export.has_geometry(depsgraph):
         session.error = f"scene '{depsgraph.scene_eval.name}' has nothing to render: add a mesh"
         return False
-    tmp = session.scene_path.with_name("scene.tmp.glb")
-    stats = export.export_glb(depsgraph, tmp)
-    os.replace(tmp, session.scene_path)
-    session.scene_hash = file_hash(session.scene_path)
-    session.export_warnings = list(stats.warnings)
+    exporter = export.read_scene(depsgraph)
+    exporter.depsgraph = None  # the worker must not touch Blender's data
+    number = session.export.number + 1 if session.export is not None else 1
+    session.export = SceneExport(number, exporter)
+    session.export_warnings = list(exporter.stats.warnings)
     session.counts["exports"] += 1
     return True
 
@@ -351,7 +410,7 @@ def settings_for(scene, view: View) -> dict:
 def update(session: ViewportSession, depsgraph, view: Optional[View], content_changed: bool) -> bool:
     """Exports the scene if its content changed (or was never exported), then hands the job
     for `view` to the session unless it is the one it has. True when a job was submitted."""
-    if content_changed or session.scene_hash is None:
+    if content_changed or session.export is None:
         session.error = None
         try:
             if not export_scene(session, depsgraph):
@@ -369,12 +428,12 @@ def update(session: ViewportSession, depsgraph, view: Optional[View], content_ch
         session.error = str(e)
         session.signature = None
         return False
-    signature = (session.scene_hash, json.dumps(settings, sort_keys=True), view)
+    signature = (session.export.number, json.dumps(settings, sort_keys=True), view)
     if signature == session.signature:
         return False
     session.signature = signature
     session.error = None
-    session.submit(session.scene_path, settings, view)
+    session.submit(session.scene_path, settings, view, session.export)
     return True
 
 
