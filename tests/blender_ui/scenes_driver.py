@@ -382,6 +382,30 @@ def step_dense_mesh():
             break
         yield 0.05
     rec["viewport"] = {"seconds": time.monotonic() - t0, "drawn": drawn, "gaps": gaps_since(t0)}
+    # Content changes (the object moved: the scene is read and written again), each until its
+    # full image: the heartbeat, the longest view_update, the worker's scene write.
+    rec["changes"] = []
+    for _ in range(2 if drawn is not None and "error" not in drawn else 0):
+        s = next(iter(vp._sessions), None)
+        if s is None:
+            break
+        s.main_thread.clear()
+        getattr(s, "worker_times", {}).clear()
+        gen = s.generation
+        t0 = time.monotonic()
+        ob.location.z += 0.05
+        change = None
+        while time.monotonic() - t0 < 300:
+            if s.error:
+                change = {"error": s.error}
+                break
+            if s.generation > gen and s.draws and s.draws[-1]["scale"] == 1.0 \
+                    and s.draws[-1]["generation"] == s.generation:
+                change = {"main_thread": dict(s.main_thread), "worker": dict(getattr(s, "worker_times", {})),
+                          "exports": s.counts["exports"]}
+                break
+            yield 0.05
+        rec["changes"].append({"seconds": time.monotonic() - t0, "drawn": change, "gaps": gaps_since(t0)})
     area.spaces.active.shading.type = "SOLID"
     yield 0.5
     return rec
