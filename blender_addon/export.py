@@ -570,41 +570,60 @@ def quad_flipped(v1, v2, v3, v4) -> np.ndarray:
     return x > 0.0
 
 
-def shading_normals(ob, me, nverts: int, npoly: int, nloops: int, corner_vert, poly_of_corner,
-                    temporary: bool = False) -> tuple[Optional[np.ndarray], Optional[np.ndarray]]:
+def read_normals(ob, me, nverts: int, npoly: int, nloops: int, temporary: bool = False) -> tuple:
     """The shading normals as Blender renders them (smooth/flat faces, sharp edges, custom
-    normals): (per vertex, None) when every face is smooth without sharp edges, else (None,
-    per corner). Per-vertex and per-face arrays (fast to read) when they say it all; Blender's
-    per-corner array (slow to read: one value at a time) only when the mesh needs it. `temporary`: `me` is our own
-    copy (`to_mesh`), which may be written to."""
+    normals), as read (main thread; `shading_normals` makes the arrays the glTF gets from
+    them): ("vertex", per vertex) when every face is smooth without sharp edges, ("face", per
+    face) when every face is flat, ("mixed", per vertex, per face, smooth per face), ("corner",
+    per corner); and whether the faces are flat (a vertex is then a glTF vertex per face).
+    Per-vertex and per-face arrays (fast to read) when they say it all; Blender's per-corner
+    array (slow to read: one value at a time) only when the mesh needs it. `temporary`: `me`
+    is our own copy (`to_mesh`), which may be written to."""
     props = me.bl_rna.properties
     if "normals_domain" in props:  # Blender 4.1+
         domain = me.normals_domain
         if domain == "POINT":
-            return _get(me.vertex_normals, "vector", nverts, np.float32, 3), None
+            return ("vertex", _get(me.vertex_normals, "vector", nverts, np.float32, 3)), False
         if domain == "FACE":
-            return None, _get(me.polygon_normals, "vector", npoly, np.float32, 3)[poly_of_corner]
+            return ("face", _get(me.polygon_normals, "vector", npoly, np.float32, 3)), True
         # Sharp faces or edges split the fans around a vertex: only Blender's corner normals
         # have the averages over each fan.
-        return None, _get(me.corner_normals, "vector", nloops, np.float32, 3)
+        return ("corner", _get(me.corner_normals, "vector", nloops, np.float32, 3)), False
     # Blender 3.x / 4.0: split normals only with Auto Smooth or custom normals, and computing
     # them writes to the mesh: on a temporary copy.
+    smooth = _get(me.polygons, "use_smooth", npoly, bool)
     if getattr(me, "use_auto_smooth", False) or me.has_custom_normals:
+        flat = not smooth.any()
         if temporary:
             me.calc_normals_split()
-            return None, _get(me.loops, "normal", nloops, np.float32, 3)
+            return ("corner", _get(me.loops, "normal", nloops, np.float32, 3)), flat
         tmp = ob.to_mesh()
         try:
             tmp.calc_normals_split()
-            return None, _get(tmp.loops, "normal", nloops, np.float32, 3)
+            return ("corner", _get(tmp.loops, "normal", nloops, np.float32, 3)), flat
         finally:
             ob.to_mesh_clear()
-    vn = _get(me.vertices, "normal", nverts, np.float32, 3)
-    smooth = _get(me.polygons, "use_smooth", npoly, bool)
     if smooth.all():
-        return vn, None
-    fn = _get(me.polygons, "normal", npoly, np.float32, 3)[poly_of_corner]
-    return None, np.where(smooth[poly_of_corner][:, None], vn[corner_vert], fn)
+        return ("vertex", _get(me.vertices, "normal", nverts, np.float32, 3)), False
+    fn = _get(me.polygons, "normal", npoly, np.float32, 3)
+    if not smooth.any():
+        return ("face", fn), True
+    return ("mixed", _get(me.vertices, "normal", nverts, np.float32, 3), fn, smooth), False
+
+
+def shading_normals(read: tuple, corner_vert: np.ndarray, poly_of_corner: np.ndarray
+                    ) -> tuple[Optional[np.ndarray], Optional[np.ndarray]]:
+    """(per vertex, None) or (None, per corner): the normals `read_normals` read, as the glTF
+    vertices get them (no Blender data is read here)."""
+    kind = read[0]
+    if kind == "vertex":
+        return read[1], None
+    if kind == "face":
+        return None, read[1][poly_of_corner]
+    if kind == "corner":
+        return None, read[1]
+    _, vn, fn, smooth = read
+    return None, np.where(smooth[poly_of_corner][:, None], vn[corner_vert], fn[poly_of_corner])
 
 
 def corner_uvs(me, name: str, nloops: int) -> Optional[np.ndarray]:
@@ -1028,9 +1047,7 @@ class MeshArrays:
     corner_vert: np.ndarray
     sizes: np.ndarray
     ngon_tris: object  # loop_triangles_of_ngons
-    poly_of_corner: np.ndarray
-    vertex_normals: Optional[np.ndarray]
-    normals: Optional[np.ndarray]
+    normals: tuple  # read_normals
     flat: bool
     poly_mat: Optional[np.ndarray]
     used: list  # the material slots used, ascending
@@ -1057,12 +1074,7 @@ def read_mesh(ob, me, infos: list, temporary: bool = False) -> Optional[MeshArra
         corner_vert = _get(me.loops, "vertex_index", nloops, np.int32)
     sizes = _get(me.polygons, "loop_total", npoly, np.int32)
     ngon_tris = loop_triangles_of_ngons(me, npoly, nloops, sizes)
-    poly_of_corner = np.repeat(np.arange(npoly, dtype=np.int32), sizes)
-    vertex_normals, normals = shading_normals(ob, me, nverts, npoly, nloops, corner_vert, poly_of_corner, temporary)
-    # Flat faces: a vertex appears once per face, so every corner is a glTF vertex of its own
-    # (the renderer welds by position where it needs connectivity, for mesh saliency).
-    flat = normals is not None and (me.normals_domain == "FACE" if "normals_domain" in me.bl_rna.properties
-                                    else not _get(me.polygons, "use_smooth", npoly, bool).any())
+    normals, flat = read_normals(ob, me, nverts, npoly, nloops, temporary)
     mat_index = _attribute(me, "material_index", "FACE", 1, "value", np.int32)
     if mat_index is None and len(infos) > 1:
         mat_index = _get(me.polygons, "material_index", npoly, np.int32)
@@ -1086,8 +1098,8 @@ def read_mesh(ob, me, infos: list, temporary: bool = False) -> Optional[MeshArra
                 color_cache[wanted] = vertex_colors(me, wanted)
             colors, per_vertex = color_cache[wanted]
         per_slot.append((uvs, colors, per_vertex))
-    return MeshArrays(nverts, npoly, nloops, positions, corner_vert, sizes, ngon_tris, poly_of_corner,
-                      vertex_normals, normals, flat, poly_mat, used, bool(infos), per_slot)
+    return MeshArrays(nverts, npoly, nloops, positions, corner_vert, sizes, ngon_tris, normals, flat, poly_mat, used,
+                      bool(infos), per_slot)
 
 
 def mesh_primitives(ob, me, infos: list, temporary: bool = False) -> list:
@@ -1100,8 +1112,9 @@ def build_primitives(a: MeshArrays) -> list:
     """The glTF primitives of a mesh's arrays, one per material slot used (no Blender data is
     read here: the viewport runs this on its worker thread)."""
     nverts, nloops = a.nverts, a.nloops
-    positions, corner_vert, poly_of_corner = a.positions, a.corner_vert, a.poly_of_corner
-    normals, vertex_normals, poly_mat = a.normals, a.vertex_normals, a.poly_mat
+    positions, corner_vert, poly_mat = a.positions, a.corner_vert, a.poly_mat
+    poly_of_corner = np.repeat(np.arange(a.npoly, dtype=np.int32), a.sizes)
+    vertex_normals, normals = shading_normals(a.normals, corner_vert, poly_of_corner)
     tris, tri_poly, _sizes = triangulate_arrays(a.sizes, a.npoly, nloops, positions, corner_vert, a.ngon_tris)
     single = len(a.used) == 1
     prims = []
