@@ -70,6 +70,7 @@ class ExportCancelled(Exception):
 class ExportStats:
     triangles: int = 0  # placed triangles (instances counted each time)
     meshes: int = 0  # glTF meshes written (shared by instances)
+    meshes_reused: int = 0  # of which the arrays came from an earlier export (read_scene's mesh_cache)
     instances: int = 0  # nodes with a mesh
     lights: int = 0
     seconds: float = 0.0
@@ -739,6 +740,10 @@ class Exporter:
         glTF arrays from them and writes the file, on any thread (the viewport's worker)."""
         self.depsgraph = depsgraph
         self.later = later
+        # Meshes' arrays read by an earlier export whose data did not change since (the viewport
+        # knows from the depsgraph's updates), by mesh key; None: every mesh is read.
+        self.mesh_cache: Optional[dict] = None
+        self.meshes_read: dict = {}  # the arrays of this export, for the next one's mesh_cache
         self.mesh_triangles: dict = {}  # glTF mesh index -> its triangles
         self.should_cancel = should_cancel
         self.camera_override = camera_override
@@ -863,9 +868,26 @@ class Exporter:
         return index
 
     def write_mesh(self, ob, me, mats: list, temporary: bool = False) -> Optional[int]:
-        arrays = read_mesh(ob, me, [self.info(m) for m in mats], temporary)
+        infos = [self.info(m) for m in mats]
+        arrays = key = None
+        if self.mesh_cache is not None and not temporary:
+            # What the arrays read depend on besides the mesh's data: the materials' UV map
+            # and colour attribute names (the data itself: the caller's to know unchanged).
+            nv, nl = len(me.vertices), len(me.loops)
+            # A few of its values too: a mesh made again at a freed one's address differs there.
+            sample = (tuple(tuple(me.vertices[k].co) for k in sorted({0, nv // 2, nv - 1}) if k >= 0),
+                      me.loops[nl - 1].vertex_index if nl else -1)
+            key = (me.as_pointer(), nv, len(me.polygons), nl, sample,
+                   tuple((i.texture.uv_map if i.texture is not None else None, i.vertex_color) if i is not None
+                         else None for i in infos))
+            arrays = self.mesh_cache.get(key)
+            self.stats.meshes_reused += arrays is not None
+        if arrays is None:
+            arrays = read_mesh(ob, me, infos, temporary)
         if arrays is None:
             return None
+        if key is not None:
+            self.meshes_read[key] = arrays
         built = _BuiltMesh(arrays)
         glb = self.glb
 
@@ -1225,9 +1247,13 @@ def export_glb(depsgraph, path: Path, should_cancel: Callable[[], bool] = lambda
     return stats
 
 
-def read_scene(depsgraph, should_cancel: Callable[[], bool] = lambda: False, camera_override=None) -> Exporter:
+def read_scene(depsgraph, should_cancel: Callable[[], bool] = lambda: False, camera_override=None,
+               mesh_cache: Optional[dict] = None) -> Exporter:
     """The first half of `export_glb` (main thread: Blender's data is read, nothing built);
-    `.write(path)` (any thread) writes the same file `export_glb` would have written."""
+    `.write(path)` (any thread) writes the same file `export_glb` would have written.
+    `mesh_cache`: an earlier export's `meshes_read`, when no mesh's data changed since (the
+    evaluated meshes are then the same, at the same addresses): their arrays are not read again."""
     exporter = Exporter(depsgraph, should_cancel, camera_override, later=True)
+    exporter.mesh_cache = mesh_cache
     exporter.run()
     return exporter

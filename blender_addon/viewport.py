@@ -154,6 +154,7 @@ class ViewportSession:
         self.scene_path = self.client.workspace / "scene.glb"
         self.scene_hash: Optional[str] = None  # of the scene file written last (server_for)
         self.export: Optional[SceneExport] = None  # the newest scene read
+        self.meshes_read: dict = {}  # its meshes' arrays, for the next read (export.read_scene)
         self.export_warnings: list = []
         self.signature = None
         self.area: Optional[int] = None  # the 3D view's area, as_pointer()
@@ -328,14 +329,18 @@ def _close_client(client: ServeClient) -> None:
 # Scene, settings and view (main thread)
 
 
-def export_scene(session: ViewportSession, depsgraph) -> bool:
+def export_scene(session: ViewportSession, depsgraph, keep_meshes: bool = False) -> bool:
     """Reads the depsgraph's scene (its meshes' arrays: only the main thread may read them)
     for the session's worker, which makes the glTF from them and writes it before rendering;
-    False, with the session's error set, when there is nothing to render."""
+    False, with the session's error set, when there is nothing to render. `keep_meshes`: no
+    mesh's data changed since the last read (objects moved, lights, materials): the meshes'
+    arrays read then are used again."""
     if not export.has_geometry(depsgraph):
         session.error = f"scene '{depsgraph.scene_eval.name}' has nothing to render: add a mesh"
         return False
-    exporter = export.read_scene(depsgraph)
+    exporter = export.read_scene(depsgraph, mesh_cache=session.meshes_read if keep_meshes else None)
+    session.meshes_read = exporter.meshes_read
+    session.counts["meshes_reused"] = session.counts.get("meshes_reused", 0) + exporter.stats.meshes_reused
     exporter.depsgraph = None  # the worker must not touch Blender's data
     number = session.export.number + 1 if session.export is not None else 1
     session.export = SceneExport(number, exporter)
@@ -407,13 +412,15 @@ def settings_for(scene, view: View) -> dict:
     return settings
 
 
-def update(session: ViewportSession, depsgraph, view: Optional[View], content_changed: bool) -> bool:
+def update(session: ViewportSession, depsgraph, view: Optional[View], content_changed: bool,
+           keep_meshes: bool = False) -> bool:
     """Exports the scene if its content changed (or was never exported), then hands the job
-    for `view` to the session unless it is the one it has. True when a job was submitted."""
+    for `view` to the session unless it is the one it has. True when a job was submitted.
+    `keep_meshes`: no mesh's data changed since the last export (export_scene)."""
     if content_changed or session.export is None:
         session.error = None
         try:
-            if not export_scene(session, depsgraph):
+            if not export_scene(session, depsgraph, keep_meshes):
                 return False
         except export.ExportCancelled:
             return False
@@ -444,6 +451,13 @@ def content_changed(depsgraph) -> bool:
         if not isinstance(u.id, bpy.types.Scene):
             return True
     return False
+
+
+def geometry_changed(depsgraph) -> bool:
+    """Whether an update reached a mesh's data (its evaluated geometry was made again: edits,
+    modifiers, a frame change of animated geometry): the meshes must be read again. Objects
+    moved, lights, materials and the scene's settings leave the evaluated meshes as they were."""
+    return any(u.is_updated_geometry for u in depsgraph.updates)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -485,7 +499,7 @@ def view_update(engine, context, depsgraph) -> None:
     if session is None:
         return
     changed = content_changed(depsgraph)
-    update(session, depsgraph, view_of(context, depsgraph), changed)
+    update(session, depsgraph, view_of(context, depsgraph), changed, keep_meshes=changed and not geometry_changed(depsgraph))
     _main_thread_time(session, "view_update", t0)
 
 

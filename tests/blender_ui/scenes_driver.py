@@ -402,7 +402,7 @@ def step_dense_mesh():
             if s.generation > gen and s.draws and s.draws[-1]["scale"] == 1.0 \
                     and s.draws[-1]["generation"] == s.generation:
                 change = {"main_thread": dict(s.main_thread), "worker": dict(getattr(s, "worker_times", {})),
-                          "exports": s.counts["exports"]}
+                          "exports": s.counts["exports"], "meshes_reused": s.counts.get("meshes_reused")}
                 break
             yield 0.05
         rec["changes"].append({"seconds": time.monotonic() - t0, "drawn": change, "gaps": gaps_since(t0)})

@@ -654,3 +654,30 @@ def test_a_superseded_split_export_stops(bpy, export, tmp_path):
     with pytest.raises(export.ExportCancelled):
         exporter.write(tmp_path / "x.glb", should_cancel)
     assert len(asked) == 3 and not (tmp_path / "x.glb").exists()
+
+
+def test_the_viewport_reuses_the_arrays_of_unchanged_meshes(bpy, export, tmp_path):
+    """read_scene's mesh_cache (the viewport passes it when no update reached a mesh's data):
+    objects moved, the meshes' arrays are not read again and the file is a fresh export's; a
+    mesh whose data changed at the same address is read again (its key holds a few values)."""
+    _split_export_scene(bpy, 1)
+    first = export.read_scene(bpy.context.evaluated_depsgraph_get(), mesh_cache={})
+    assert first.stats.meshes_reused == 0 and len(first.meshes_read) == first.stats.meshes == 5
+    bpy.data.objects["Cube"].location.x += 0.5
+    dg = bpy.context.evaluated_depsgraph_get()
+    again = export.read_scene(dg, mesh_cache=first.meshes_read)
+    assert again.stats.meshes_reused == 5
+    fresh, reused = tmp_path / "fresh.glb", tmp_path / "reused.glb"
+    export.export_glb(dg, fresh)
+    again.write(reused)
+    assert reused.read_bytes() == fresh.read_bytes()
+    # The monkey's first vertex moved, the cache given anyway: read again.
+    monkey = bpy.data.objects["Suzanne"]
+    monkey.data.vertices[0].co.z += 0.25
+    monkey.data.update()
+    dg = bpy.context.evaluated_depsgraph_get()
+    third = export.read_scene(dg, mesh_cache=again.meshes_read)
+    assert third.stats.meshes_reused == 4
+    export.export_glb(dg, fresh)
+    third.write(reused)
+    assert reused.read_bytes() == fresh.read_bytes()

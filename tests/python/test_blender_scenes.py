@@ -214,6 +214,8 @@ def test_a_million_triangles_render_with_f12_and_in_the_viewport(ui):
         # Reading 1M triangles' arrays is all the main thread does (0.5 s measured on a loaded
         # machine); building and writing the file (1.3 s) is the worker's.
         assert main["longest_view_update"] < 1.0, c
+    # The mesh's data did not change: its arrays were not read again.
+    assert s["changes"][-1]["drawn"]["meshes_reused"] == 2, s["changes"]
 
 
 def test_esc_during_render_animation_stops_it(ui):
