@@ -252,6 +252,25 @@ def panel_change():
     log(f"panel change: {results['panel_change']['seconds']:.1f} s")
 
 
+def object_moved():
+    """An object moved (a content change: the scene is read on the main thread, written by the
+    worker): a new job, drawn; the interface keeps ticking."""
+    s = session()
+    before = s.job.generation
+    draws_before = dict(view_draws)
+    s.main_thread.clear()
+    s.worker_times.clear()
+    t0 = time.monotonic()
+    bpy.data.objects["Cube"].location.x += 0.2
+    s, draw = yield from wait_for_draw(lambda s, d: d["generation"] > before and d["scale"] == 1.0, 120,
+                                       "after the object moved")
+    results["object_moved"] = {
+        "seconds": time.monotonic() - t0, "draw": draw, "counts": dict(s.counts), "gap": gaps(t0),
+        "gaps": gap_list(t0), "draws": draws_since(draws_before), "main_thread": dict(s.main_thread),
+        "worker": dict(s.worker_times)}
+    log(f"object moved: {results['object_moved']['seconds']:.1f} s, {results['object_moved']['main_thread']}")
+
+
 def camera_view():
     """Looking through the scene camera: the render's aspect, in the camera frame."""
     s = session()
@@ -351,7 +370,7 @@ def rendered_at_quit():
 
 def main():
     yield from setup()
-    for step in (rendered_view, panel_change, camera_view, f12_unchanged, solid_again, error_as_text,
+    for step in (rendered_view, panel_change, object_moved, camera_view, f12_unchanged, solid_again, error_as_text,
                  rendered_at_quit):
         log(f"step {step.__name__}")
         yield from step()
