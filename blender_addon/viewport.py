@@ -499,7 +499,8 @@ def view_update(engine, context, depsgraph) -> None:
     if session is None:
         return
     changed = content_changed(depsgraph)
-    update(session, depsgraph, view_of(context, depsgraph), changed, keep_meshes=changed and not geometry_changed(depsgraph))
+    keep_meshes = changed and not geometry_changed(depsgraph)
+    update(session, depsgraph, view_of(context, depsgraph), changed, keep_meshes=keep_meshes)
     _main_thread_time(session, "view_update", t0)
 
 
