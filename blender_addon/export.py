@@ -1254,6 +1254,6 @@ def read_scene(depsgraph, should_cancel: Callable[[], bool] = lambda: False, cam
     `mesh_cache`: an earlier export's `meshes_read`, when no mesh's data changed since (the
     evaluated meshes are then the same, at the same addresses): their arrays are not read again."""
     exporter = Exporter(depsgraph, should_cancel, camera_override, later=True)
-    exporter.mesh_cache = mesh_cache
+    exporter.mesh_cache = {} if mesh_cache is None else mesh_cache  # keys kept for the next read
     exporter.run()
     return exporter

@@ -661,7 +661,7 @@ def test_the_viewport_reuses_the_arrays_of_unchanged_meshes(bpy, export, tmp_pat
     objects moved, the meshes' arrays are not read again and the file is a fresh export's; a
     mesh whose data changed at the same address is read again (its key holds a few values)."""
     _split_export_scene(bpy, 1)
-    first = export.read_scene(bpy.context.evaluated_depsgraph_get(), mesh_cache={})
+    first = export.read_scene(bpy.context.evaluated_depsgraph_get())
     assert first.stats.meshes_reused == 0 and len(first.meshes_read) == first.stats.meshes == 5
     bpy.data.objects["Cube"].location.x += 0.5
     dg = bpy.context.evaluated_depsgraph_get()
