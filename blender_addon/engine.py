@@ -22,6 +22,8 @@ import time
 import traceback
 from pathlib import Path
 
+import numpy as np
+
 import bpy
 
 from . import export, mapping, pngio, runner, viewport
@@ -399,11 +401,18 @@ class CubistRenderEngine(bpy.types.RenderEngine):
 
 def region(render, w: int, h: int) -> tuple:
     """(x, y, width, height) of the Render Region in pixels, y from the bottom; the whole
-    frame without one. Blender's own rounding (truncation) and its 'too small' rule."""
+    frame without one. Blender's own rounding and its 'too small' rule: it multiplies the
+    border (a float) by the size in single precision, then truncates (render_init_from_main), so
+    0.7 x 120 is 84 there where Python's double precision gives 83.99999857 and so 83: a region
+    one pixel short, its last row left empty."""
     if not render.use_border:
         return 0, 0, w, h
-    x0, x1 = int(render.border_min_x * w), int(render.border_max_x * w)
-    y0, y1 = int(render.border_min_y * h), int(render.border_max_y * h)
+
+    def px(fraction: float, size: int) -> int:
+        return int(np.float32(fraction) * np.float32(size))
+
+    x0, x1 = px(render.border_min_x, w), px(render.border_max_x, w)
+    y0, y1 = px(render.border_min_y, h), px(render.border_max_y, h)
     if x1 - x0 < 2 or y1 - y0 < 2:
         return 0, 0, w, h
     return x0, y0, x1 - x0, y1 - y0
@@ -413,8 +422,6 @@ def _read_pass(path: Path, w: int, h: int, channels: int, integer: bool):
     """A pass PNG as a (w*h, channels) float array, rows bottom-up as Blender stores them.
     Data, not colour: the stored values, 0-1 (8-bit) or, for facet ids (16-bit), integers.
     Read with pngio: the render thread must not add images to bpy.data."""
-    import numpy as np
-
     try:
         px = pngio.read(path)
     except (OSError, ValueError) as e:

@@ -70,6 +70,7 @@ class ExportCancelled(Exception):
 class ExportStats:
     triangles: int = 0  # placed triangles (instances counted each time)
     meshes: int = 0  # glTF meshes written (shared by instances)
+    meshes_reused: int = 0  # of which the arrays came from an earlier export (read_scene's mesh_cache)
     instances: int = 0  # nodes with a mesh
     lights: int = 0
     seconds: float = 0.0
@@ -161,63 +162,98 @@ def has_geometry(depsgraph) -> bool:
 
 
 class GlbBuilder:
-    """Binary chunk and JSON of a GLB: buffer views are appended 4-byte aligned."""
+    """Binary chunk and JSON of a GLB: buffer views are appended 4-byte aligned.
+
+    An accessor's array may be given later (`accessor_later`: a function making it): its
+    place in the JSON and the buffer is taken at once, its contents are made by `finish`, which
+    may run on another thread (the viewport's worker: the arrays read from Blender on the main
+    thread are turned into glTF there). The file is the same either way."""
 
     def __init__(self):
-        self.parts: list[bytes] = []
+        self.parts: list = []  # per buffer view: its bytes (None while pending)
+        self.pending: list = []  # (accessor, view, make, bounds) in order
         self.size = 0
         self.json: dict = {"asset": {"version": "2.0", "generator": "cubist Blender add-on"}, "scene": 0,
                            "scenes": [{"nodes": []}], "nodes": [], "bufferViews": [], "accessors": []}
 
-    def view(self, data: bytes, target: Optional[int] = None) -> int:
-        pad = (-self.size) % 4
-        if pad:
-            self.parts.append(b"\0" * pad)
-            self.size += pad
-        view = {"buffer": 0, "byteOffset": self.size, "byteLength": len(data)}
+    def view(self, data: Optional[bytes], target: Optional[int] = None) -> int:
+        view = {"buffer": 0, "byteOffset": 0, "byteLength": 0 if data is None else len(data)}
         if target is not None:
             view["target"] = target
         self.parts.append(data)
-        self.size += len(data)
         self.json["bufferViews"].append(view)
         return len(self.json["bufferViews"]) - 1
 
-    def accessor(self, array: np.ndarray, kind: str, bounds: bool = False, target: int = ARRAY_BUFFER) -> int:
+    def _fill(self, acc: dict, array: np.ndarray, bounds: bool) -> bytes:
         array = np.ascontiguousarray(array)
-        component = {np.dtype(np.float32): FLOAT, np.dtype(np.uint32): UNSIGNED_INT,
-                     np.dtype(np.uint16): UNSIGNED_SHORT}[array.dtype]
-        acc = {"bufferView": self.view(array.tobytes(), target), "componentType": component,
-               "count": int(array.shape[0]), "type": kind}
+        acc["componentType"] = {np.dtype(np.float32): FLOAT, np.dtype(np.uint32): UNSIGNED_INT,
+                                np.dtype(np.uint16): UNSIGNED_SHORT}[array.dtype]
+        acc["count"] = int(array.shape[0])
         if bounds and len(array):
             acc["min"] = [float(v) for v in array.min(axis=0)]
             acc["max"] = [float(v) for v in array.max(axis=0)]
+        return array.tobytes()
+
+    def accessor(self, array: np.ndarray, kind: str, bounds: bool = False, target: int = ARRAY_BUFFER) -> int:
+        acc = {"bufferView": 0, "componentType": 0, "count": 0, "type": kind}
+        data = self._fill(acc, array, bounds)
+        acc["bufferView"] = self.view(data, target)
         self.json["accessors"].append(acc)
         return len(self.json["accessors"]) - 1
+
+    def accessor_later(self, make: Callable[[], np.ndarray], kind: str, bounds: bool = False,
+                       target: int = ARRAY_BUFFER) -> int:
+        """An accessor whose array `make()` gives when `finish` runs."""
+        acc = {"bufferView": self.view(None, target), "componentType": 0, "count": 0, "type": kind}
+        self.json["accessors"].append(acc)
+        self.pending.append((acc, acc["bufferView"], make, bounds))
+        return len(self.json["accessors"]) - 1
+
+    def finish(self, should_cancel: Callable[[], bool] = lambda: False) -> None:
+        """Makes the pending arrays (no Blender data is read here) and lays out the buffer."""
+        for acc, view, make, bounds in self.pending:
+            if should_cancel():
+                raise ExportCancelled()
+            data = self._fill(acc, make(), bounds)
+            self.parts[view] = data
+            self.json["bufferViews"][view]["byteLength"] = len(data)
+        self.pending = []
+        size = 0
+        for view, data in zip(self.json["bufferViews"], self.parts):
+            size += (-size) % 4
+            view["byteOffset"] = size
+            size += len(data)
+        self.size = size
 
     def add(self, key: str, item: dict) -> int:
         self.json.setdefault(key, []).append(item)
         return len(self.json[key]) - 1
 
     def write(self, path: Path) -> None:
-        pad = (-self.size) % 4
-        if pad:
-            self.parts.append(b"\0" * pad)
-            self.size += pad
-        if self.size:
-            self.json["buffers"] = [{"byteLength": self.size}]
+        self.finish()
+        size = self.size + (-self.size) % 4
+        if size:
+            self.json["buffers"] = [{"byteLength": size}]
         else:
             del self.json["bufferViews"], self.json["accessors"]
         text = json.dumps(self.json, separators=(",", ":")).encode("utf-8")
         text += b" " * ((-len(text)) % 4)
-        total = 12 + 8 + len(text) + (8 + self.size if self.size else 0)
+        total = 12 + 8 + len(text) + (8 + size if size else 0)
         with open(path, "wb") as f:
             f.write(struct.pack("<4sII", b"glTF", 2, total))
             f.write(struct.pack("<I4s", len(text), b"JSON"))
             f.write(text)
-            if self.size:
-                f.write(struct.pack("<I4s", self.size, b"BIN\0"))
-                for part in self.parts:
-                    f.write(part)
+            if size:
+                f.write(struct.pack("<I4s", size, b"BIN\0"))
+                offset = 0
+                for data in self.parts:
+                    pad = (-offset) % 4
+                    if pad:
+                        f.write(b"\0" * pad)
+                    f.write(data)
+                    offset += pad + len(data)
+                if size > offset:
+                    f.write(b"\0" * (size - offset))
 
 
 def gltf_matrix(m) -> list:
@@ -460,12 +496,40 @@ def _attribute(me, name: str, domain: str, width: int, prop: str, dtype=np.float
     return _get(a.data, prop, len(a.data), dtype, width)
 
 
+def loop_triangles_of_ngons(me, npoly: int, nloops: int, sizes: np.ndarray):
+    """What `triangulate` needs of Blender's `loop_triangles` (read on the main thread): None
+    without n-gons, else all of them (many n-gon triangles) or {triangle: corners} of the
+    n-gons' triangles (few: read one by one)."""
+    ngons = np.flatnonzero(sizes > 4)
+    if not len(ngons):
+        return None
+    ntri = int(nloops - 2 * npoly)
+    count = int((sizes[ngons] - 2).sum())
+    if count > NGON_TRIANGLES_ONE_BY_ONE:
+        return _get(me.loop_triangles, "loops", ntri, np.int32, 3)
+    starts = (np.cumsum(sizes, dtype=np.int64) - sizes).astype(np.int32)
+    tri_start = starts - 2 * np.arange(npoly, dtype=np.int32)
+    lts = me.loop_triangles
+    out = {}
+    for p in ngons.tolist():
+        for i in range(int(tri_start[p]), int(tri_start[p]) + int(sizes[p]) - 2):
+            out[i] = tuple(lts[i].loops)
+    return out
+
+
 def triangulate(me, npoly: int, nloops: int, positions: np.ndarray, corner_vert: np.ndarray
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(triangles as corner indices (n, 3), polygon of each triangle, corners per polygon),
     in the order of Blender's `loop_triangles`: triangles and quads here in numpy, split as
     Blender splits them (`quad_flipped`), n-gons read from `loop_triangles`."""
     sizes = _get(me.polygons, "loop_total", npoly, np.int32)
+    return triangulate_arrays(sizes, npoly, nloops, positions, corner_vert,
+                              loop_triangles_of_ngons(me, npoly, nloops, sizes))
+
+
+def triangulate_arrays(sizes: np.ndarray, npoly: int, nloops: int, positions: np.ndarray, corner_vert: np.ndarray,
+                       ngon_tris) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """`triangulate` from arrays (no Blender data): `ngon_tris` from `loop_triangles_of_ngons`."""
     ntri = int(nloops - 2 * npoly)
     poly_of = np.repeat(np.arange(npoly, dtype=np.int32), sizes - 2)
     if (sizes == 3).all():
@@ -487,16 +551,11 @@ def triangulate(me, npoly: int, nloops: int, positions: np.ndarray, corner_vert:
         else:
             tris[tri_start[quads]] = first
             tris[tri_start[quads] + 1] = second
-    ngons = np.flatnonzero(sizes > 4)
-    if len(ngons):
-        count = int((sizes[ngons] - 2).sum())
-        if count > NGON_TRIANGLES_ONE_BY_ONE:
-            tris[:] = _get(me.loop_triangles, "loops", ntri, np.int32, 3)
-        else:
-            lts = me.loop_triangles
-            for p in ngons.tolist():
-                for i in range(int(tri_start[p]), int(tri_start[p]) + int(sizes[p]) - 2):
-                    tris[i] = tuple(lts[i].loops)
+    if isinstance(ngon_tris, np.ndarray):
+        tris[:] = ngon_tris
+    elif ngon_tris:
+        for i, corners in ngon_tris.items():
+            tris[i] = corners
     return tris, poly_of, sizes
 
 
@@ -512,41 +571,60 @@ def quad_flipped(v1, v2, v3, v4) -> np.ndarray:
     return x > 0.0
 
 
-def shading_normals(ob, me, nverts: int, npoly: int, nloops: int, corner_vert, poly_of_corner,
-                    temporary: bool = False) -> tuple[Optional[np.ndarray], Optional[np.ndarray]]:
+def read_normals(ob, me, nverts: int, npoly: int, nloops: int, temporary: bool = False) -> tuple:
     """The shading normals as Blender renders them (smooth/flat faces, sharp edges, custom
-    normals): (per vertex, None) when every face is smooth without sharp edges, else (None,
-    per corner). Per-vertex and per-face arrays (fast to read) when they say it all; Blender's
-    per-corner array (slow to read: one value at a time) only when the mesh needs it. `temporary`: `me` is our own
-    copy (`to_mesh`), which may be written to."""
+    normals), as read (main thread; `shading_normals` makes the arrays the glTF gets from
+    them): ("vertex", per vertex) when every face is smooth without sharp edges, ("face", per
+    face) when every face is flat, ("mixed", per vertex, per face, smooth per face), ("corner",
+    per corner); and whether the faces are flat (a vertex is then a glTF vertex per face).
+    Per-vertex and per-face arrays (fast to read) when they say it all; Blender's per-corner
+    array (slow to read: one value at a time) only when the mesh needs it. `temporary`: `me`
+    is our own copy (`to_mesh`), which may be written to."""
     props = me.bl_rna.properties
     if "normals_domain" in props:  # Blender 4.1+
         domain = me.normals_domain
         if domain == "POINT":
-            return _get(me.vertex_normals, "vector", nverts, np.float32, 3), None
+            return ("vertex", _get(me.vertex_normals, "vector", nverts, np.float32, 3)), False
         if domain == "FACE":
-            return None, _get(me.polygon_normals, "vector", npoly, np.float32, 3)[poly_of_corner]
+            return ("face", _get(me.polygon_normals, "vector", npoly, np.float32, 3)), True
         # Sharp faces or edges split the fans around a vertex: only Blender's corner normals
         # have the averages over each fan.
-        return None, _get(me.corner_normals, "vector", nloops, np.float32, 3)
+        return ("corner", _get(me.corner_normals, "vector", nloops, np.float32, 3)), False
     # Blender 3.x / 4.0: split normals only with Auto Smooth or custom normals, and computing
     # them writes to the mesh: on a temporary copy.
+    smooth = _get(me.polygons, "use_smooth", npoly, bool)
     if getattr(me, "use_auto_smooth", False) or me.has_custom_normals:
+        flat = not smooth.any()
         if temporary:
             me.calc_normals_split()
-            return None, _get(me.loops, "normal", nloops, np.float32, 3)
+            return ("corner", _get(me.loops, "normal", nloops, np.float32, 3)), flat
         tmp = ob.to_mesh()
         try:
             tmp.calc_normals_split()
-            return None, _get(tmp.loops, "normal", nloops, np.float32, 3)
+            return ("corner", _get(tmp.loops, "normal", nloops, np.float32, 3)), flat
         finally:
             ob.to_mesh_clear()
-    vn = _get(me.vertices, "normal", nverts, np.float32, 3)
-    smooth = _get(me.polygons, "use_smooth", npoly, bool)
     if smooth.all():
-        return vn, None
-    fn = _get(me.polygons, "normal", npoly, np.float32, 3)[poly_of_corner]
-    return None, np.where(smooth[poly_of_corner][:, None], vn[corner_vert], fn)
+        return ("vertex", _get(me.vertices, "normal", nverts, np.float32, 3)), False
+    fn = _get(me.polygons, "normal", npoly, np.float32, 3)
+    if not smooth.any():
+        return ("face", fn), True
+    return ("mixed", _get(me.vertices, "normal", nverts, np.float32, 3), fn, smooth), False
+
+
+def shading_normals(read: tuple, corner_vert: np.ndarray, poly_of_corner: np.ndarray
+                    ) -> tuple[Optional[np.ndarray], Optional[np.ndarray]]:
+    """(per vertex, None) or (None, per corner): the normals `read_normals` read, as the glTF
+    vertices get them (no Blender data is read here)."""
+    kind = read[0]
+    if kind == "vertex":
+        return read[1], None
+    if kind == "face":
+        return None, read[1][poly_of_corner]
+    if kind == "corner":
+        return None, read[1]
+    _, vn, fn, smooth = read
+    return None, np.where(smooth[poly_of_corner][:, None], vn[corner_vert], fn[poly_of_corner])
 
 
 def corner_uvs(me, name: str, nloops: int) -> Optional[np.ndarray]:
@@ -656,8 +734,17 @@ class Primitive:
 
 
 class Exporter:
-    def __init__(self, depsgraph, should_cancel: Callable[[], bool] = lambda: False, camera_override=None):
+    def __init__(self, depsgraph, should_cancel: Callable[[], bool] = lambda: False, camera_override=None,
+                 later: bool = False):
+        """`later`: `run` only reads Blender's data (the meshes' arrays); `write` makes the
+        glTF arrays from them and writes the file, on any thread (the viewport's worker)."""
         self.depsgraph = depsgraph
+        self.later = later
+        # Meshes' arrays read by an earlier export whose data did not change since (the viewport
+        # knows from the depsgraph's updates), by mesh key; None: every mesh is read.
+        self.mesh_cache: Optional[dict] = None
+        self.meshes_read: dict = {}  # the arrays of this export, for the next one's mesh_cache
+        self.mesh_triangles: dict = {}  # glTF mesh index -> its triangles
         self.should_cancel = should_cancel
         self.camera_override = camera_override
         self.glb = GlbBuilder()
@@ -781,28 +868,54 @@ class Exporter:
         return index
 
     def write_mesh(self, ob, me, mats: list, temporary: bool = False) -> Optional[int]:
-        prims = mesh_primitives(ob, me, [self.info(m) for m in mats], temporary)
-        if not prims:
+        infos = [self.info(m) for m in mats]
+        arrays = key = None
+        if self.mesh_cache is not None and not temporary:
+            # What the arrays read depend on besides the mesh's data: the materials' UV map
+            # and colour attribute names (the data itself: the caller's to know unchanged).
+            nv, nl = len(me.vertices), len(me.loops)
+            # A few of its values too: a mesh made again at a freed one's address differs there.
+            sample = (tuple(tuple(me.vertices[k].co) for k in sorted({0, nv // 2, nv - 1}) if k >= 0),
+                      me.loops[nl - 1].vertex_index if nl else -1)
+            key = (me.as_pointer(), nv, len(me.polygons), nl, sample,
+                   tuple((i.texture.uv_map if i.texture is not None else None, i.vertex_color) if i is not None
+                         else None for i in infos))
+            arrays = self.mesh_cache.get(key)
+            self.stats.meshes_reused += arrays is not None
+        if arrays is None:
+            arrays = read_mesh(ob, me, infos, temporary)
+        if arrays is None:
             return None
+        if key is not None:
+            self.meshes_read[key] = arrays
+        built = _BuiltMesh(arrays)
+        glb = self.glb
+
+        def accessor(i: int, what: str, kind: str, **kw) -> int:
+            if self.later:
+                return glb.accessor_later(lambda: built.array(i, what), kind, **kw)
+            return glb.accessor(built.array(i, what), kind, **kw)
+
         out = []
-        for p in prims:
-            attrs = {"POSITION": self.glb.accessor(p.positions, "VEC3", bounds=True),
-                     "NORMAL": self.glb.accessor(p.normals, "VEC3")}
-            if p.uvs is not None:
-                attrs["TEXCOORD_0"] = self.glb.accessor(p.uvs, "VEC2")
-            if p.colors is not None:
-                attrs["COLOR_0"] = self.glb.accessor(p.colors, "VEC4")
-            dtype = np.uint16 if len(p.positions) < 65535 else np.uint32
+        for i, (m, (uvs, colors, _per_vertex)) in enumerate(zip(arrays.used, arrays.per_slot)):
+            attrs = {"POSITION": accessor(i, "positions", "VEC3", bounds=True),
+                     "NORMAL": accessor(i, "normals", "VEC3")}
+            if uvs is not None:
+                attrs["TEXCOORD_0"] = accessor(i, "uvs", "VEC2")
+            if colors is not None:
+                attrs["COLOR_0"] = accessor(i, "colors", "VEC4")
             item = {"attributes": attrs, "mode": 4,
-                    "indices": self.glb.accessor(p.indices.reshape(-1).astype(dtype), "SCALAR",
-                                                 target=ELEMENT_ARRAY_BUFFER)}
-            mat = mats[p.material] if p.material is not None and p.material < len(mats) else None
-            m = self.material(mat)
-            if m is not None:
-                item["material"] = m
+                    "indices": accessor(i, "indices", "SCALAR", target=ELEMENT_ARRAY_BUFFER)}
+            material = m if arrays.has_infos else None
+            mat = mats[material] if material is not None and material < len(mats) else None
+            index = self.material(mat)
+            if index is not None:
+                item["material"] = index
             out.append(item)
         self.stats.meshes += 1
-        return self.glb.add("meshes", {"name": me.name or ob.name, "primitives": out})
+        mesh = self.glb.add("meshes", {"name": me.name or ob.name, "primitives": out})
+        self.mesh_triangles[mesh] = arrays.triangles
+        return mesh
 
     # ----------------------------------------------------------------------- scene
 
@@ -859,10 +972,14 @@ class Exporter:
         self.stats.triangles += self.triangles_of(mesh)
 
     def triangles_of(self, mesh: int) -> int:
-        total = 0
-        for p in self.glb.json["meshes"][mesh]["primitives"]:
-            total += self.glb.json["accessors"][p["indices"]]["count"] // 3
-        return total
+        return self.mesh_triangles[mesh]
+
+    def write(self, path: Path, should_cancel: Callable[[], bool] = lambda: False) -> None:
+        """Makes what was left for later (`later`: no Blender data is read) and writes the file."""
+        t0 = time.perf_counter()
+        self.glb.finish(should_cancel)
+        self.glb.write(Path(path))
+        self.stats.seconds += time.perf_counter() - t0
 
     def light(self, data, matrix) -> Optional[int]:
         """A Blender light as KHR_lights_punctual, in the units of Blender's glTF exporter (sun:
@@ -918,46 +1035,80 @@ class Exporter:
                                 "znear": znear, "zfar": zfar}}
 
 
-def mesh_primitives(ob, me, infos: list, temporary: bool = False) -> list:
-    """An evaluated mesh as glTF primitives, one per material index used."""
+class _BuiltMesh:
+    """A mesh's primitives, built from its arrays when first asked for, let go of once its
+    last array (the last primitive's indices) was taken."""
+
+    def __init__(self, arrays: MeshArrays):
+        self.arrays: Optional[MeshArrays] = arrays
+        self.prims: Optional[list] = None
+
+    def array(self, i: int, what: str) -> np.ndarray:
+        if self.prims is None:
+            self.prims = build_primitives(self.arrays)
+            self.arrays = None
+        p = self.prims[i]
+        if what == "indices":
+            out = p.indices.reshape(-1).astype(np.uint16 if len(p.positions) < 65535 else np.uint32)
+            if i == len(self.prims) - 1:
+                self.prims = []
+            return out
+        return getattr(p, what)
+
+
+@dataclass
+class MeshArrays:
+    """Everything of an evaluated mesh its glTF primitives are made from, read from Blender
+    (`read_mesh`, main thread); `build_primitives` makes the primitives from it alone (any
+    thread)."""
+
+    nverts: int
+    npoly: int
+    nloops: int
+    positions: np.ndarray
+    corner_vert: np.ndarray
+    sizes: np.ndarray
+    ngon_tris: object  # loop_triangles_of_ngons
+    normals: tuple  # read_normals
+    flat: bool
+    poly_mat: Optional[np.ndarray]
+    used: list  # the material slots used, ascending
+    has_infos: bool
+    # Per used slot: (UVs or None, colours or None, whether the colours are per vertex).
+    per_slot: list
+
+    @property
+    def triangles(self) -> int:
+        return int(self.nloops - 2 * self.npoly)
+
+
+def read_mesh(ob, me, infos: list, temporary: bool = False) -> Optional[MeshArrays]:
+    """An evaluated mesh's arrays (Blender's data is read here only); None when it has no
+    triangles."""
     nverts, npoly, nloops = len(me.vertices), len(me.polygons), len(me.loops)
-    if npoly == 0 or nloops < 3:
-        return []
+    if npoly == 0 or nloops < 3 or nloops - 2 * npoly <= 0:
+        return None
     positions = _attribute(me, "position", "POINT", 3, "vector")
     if positions is None:
         positions = _get(me.vertices, "co", nverts, np.float32, 3)
     corner_vert = _attribute(me, ".corner_vert", "CORNER", 1, "value", np.int32)
     if corner_vert is None:
         corner_vert = _get(me.loops, "vertex_index", nloops, np.int32)
-    tris, tri_poly, sizes = triangulate(me, npoly, nloops, positions, corner_vert)
-    if not len(tris):
-        return []
-    poly_of_corner = np.repeat(np.arange(npoly, dtype=np.int32), sizes)
-    vertex_normals, normals = shading_normals(ob, me, nverts, npoly, nloops, corner_vert, poly_of_corner, temporary)
-    # Flat faces: a vertex appears once per face, so every corner is a glTF vertex of its own
-    # (the renderer welds by position where it needs connectivity, for mesh saliency).
-    flat = normals is not None and (me.normals_domain == "FACE" if "normals_domain" in me.bl_rna.properties
-                                    else not _get(me.polygons, "use_smooth", npoly, bool).any())
+    sizes = _get(me.polygons, "loop_total", npoly, np.int32)
+    ngon_tris = loop_triangles_of_ngons(me, npoly, nloops, sizes)
+    normals, flat = read_normals(ob, me, nverts, npoly, nloops, temporary)
     mat_index = _attribute(me, "material_index", "FACE", 1, "value", np.int32)
     if mat_index is None and len(infos) > 1:
         mat_index = _get(me.polygons, "material_index", npoly, np.int32)
     poly_mat = None if mat_index is None else np.clip(mat_index, 0, max(len(infos), 1) - 1)
-    used = np.zeros(1, np.int64) if poly_mat is None else np.unique(poly_mat)
-    single = len(used) == 1
-
+    # The slots used, ascending (as np.unique; a count is faster on large meshes).
+    used = [0] if poly_mat is None else np.flatnonzero(np.bincount(poly_mat, minlength=1)).tolist()
     uv_cache: dict = {}
     color_cache: dict = {}
-    prims = []
-    for m in used.tolist():
+    per_slot = []
+    for m in used:
         info = infos[m] if m < len(infos) else None
-        if single:
-            sel_tris, corners = tris, None
-        else:
-            sel_tris = tris[poly_mat[tri_poly] == m]
-            corners = np.flatnonzero(poly_mat[poly_of_corner] == m).astype(np.int32)
-        pick = (lambda a: a) if corners is None else (lambda a: a[corners])  # noqa: E731
-        uvs = colors = None
-        per_vertex_colors = False
+        uvs, colors, per_vertex = None, None, False
         if info is not None and info.texture is not None:
             key = info.texture.uv_map
             if key not in uv_cache:
@@ -967,17 +1118,45 @@ def mesh_primitives(ob, me, infos: list, temporary: bool = False) -> list:
         if wanted is not None:
             if wanted not in color_cache:
                 color_cache[wanted] = vertex_colors(me, wanted)
-            colors, per_vertex_colors = color_cache[wanted]
+            colors, per_vertex = color_cache[wanted]
+        per_slot.append((uvs, colors, per_vertex))
+    return MeshArrays(nverts, npoly, nloops, positions, corner_vert, sizes, ngon_tris, normals, flat, poly_mat, used,
+                      bool(infos), per_slot)
+
+
+def mesh_primitives(ob, me, infos: list, temporary: bool = False) -> list:
+    """An evaluated mesh as glTF primitives, one per material index used."""
+    arrays = read_mesh(ob, me, infos, temporary)
+    return [] if arrays is None else build_primitives(arrays)
+
+
+def build_primitives(a: MeshArrays) -> list:
+    """The glTF primitives of a mesh's arrays, one per material slot used (no Blender data is
+    read here: the viewport runs this on its worker thread)."""
+    nverts, nloops = a.nverts, a.nloops
+    positions, corner_vert, poly_mat = a.positions, a.corner_vert, a.poly_mat
+    poly_of_corner = np.repeat(np.arange(a.npoly, dtype=np.int32), a.sizes)
+    vertex_normals, normals = shading_normals(a.normals, corner_vert, poly_of_corner)
+    tris, tri_poly, _sizes = triangulate_arrays(a.sizes, a.npoly, nloops, positions, corner_vert, a.ngon_tris)
+    single = len(a.used) == 1
+    prims = []
+    for m, (uvs, colors, per_vertex_colors) in zip(a.used, a.per_slot):
+        if single:
+            sel_tris, corners = tris, None
+        else:
+            sel_tris = tris[poly_mat[tri_poly] == m]
+            corners = np.flatnonzero(poly_mat[poly_of_corner] == m).astype(np.int32)
+        pick = (lambda a: a) if corners is None else (lambda a: a[corners])  # noqa: E731
         # Attributes that vary per corner decide which corners share a glTF vertex.
-        columns = [a for a in (normals, uvs, None if per_vertex_colors else colors) if a is not None]
+        columns = [c for c in (normals, uvs, None if per_vertex_colors else colors) if c is not None]
         cv = pick(corner_vert)
-        if flat:
+        if a.flat:
             rep = np.arange(len(cv), dtype=np.int32)
             local = rep
             src = rep if corners is None else corners
             verts = corner_vert[src]
         elif columns:
-            rep, local = weld(cv, np.concatenate([pick(a) for a in columns], axis=1))
+            rep, local = weld(cv, np.concatenate([pick(c) for c in columns], axis=1))
             src = rep if corners is None else corners[rep]
             verts = corner_vert[src]
         else:
@@ -1004,7 +1183,7 @@ def mesh_primitives(ob, me, infos: list, temporary: bool = False) -> list:
             return None if per_corner is None else per_corner[src]
 
         prims.append(Primitive(
-            material=m if infos else None,
+            material=m if a.has_infos else None,
             positions=positions[verts],
             normals=out(normals, vertex_normals),
             indices=to_vertex[sel_tris],
@@ -1064,7 +1243,17 @@ def export_glb(depsgraph, path: Path, should_cancel: Callable[[], bool] = lambda
     """Writes the depsgraph's evaluated scene (at the frame it was evaluated for) to `path`."""
     exporter = Exporter(depsgraph, should_cancel, camera_override)
     stats = exporter.run()
-    t0 = time.perf_counter()
-    exporter.glb.write(Path(path))
-    stats.seconds += time.perf_counter() - t0
+    exporter.write(path)
     return stats
+
+
+def read_scene(depsgraph, should_cancel: Callable[[], bool] = lambda: False, camera_override=None,
+               mesh_cache: Optional[dict] = None) -> Exporter:
+    """The first half of `export_glb` (main thread: Blender's data is read, nothing built);
+    `.write(path)` (any thread) writes the same file `export_glb` would have written.
+    `mesh_cache`: an earlier export's `meshes_read`, when no mesh's data changed since (the
+    evaluated meshes are then the same, at the same addresses): their arrays are not read again."""
+    exporter = Exporter(depsgraph, should_cancel, camera_override, later=True)
+    exporter.mesh_cache = {} if mesh_cache is None else mesh_cache  # keys kept for the next read
+    exporter.run()
+    return exporter

@@ -7,11 +7,14 @@ stage's output between requests, so a panel change re-runs only the stages it re
 
 Threads (Blender's API is used on the main thread only):
 - main thread, `view_update` (the depsgraph changed: a panel value, an object, a material):
-  the scene is exported with export.py's depsgraph exporter when more than the scene's own
-  settings changed, the settings are made from the panel (mapping.py), and a job is handed to
-  the session; `view_draw` (every redraw): a new job when the view moved, then the latest
-  image drawn with the `gpu` module (errors as text, with `blf`);
-- a worker thread per session: renders the latest job progressively, 1/4, 1/2 then full
+  when more than the scene's own settings changed, the scene's data is read from the
+  depsgraph (`export.read_scene`: the meshes' arrays, materials, images; nothing built), the
+  settings are made from the panel (mapping.py), and a job is handed to the session;
+  `view_draw` (every redraw): a new job when the view moved, then the latest image drawn with
+  the `gpu` module (errors as text, with `blf`);
+- a worker thread per session: writes the job's scene file first when it was not written
+  (the glTF arrays are made there: triangles, welding, the buffer; a newer scene read
+  meanwhile stops it), then renders the latest job progressively, 1/4, 1/2 then full
   resolution, each a request to the server; a newer job cancels the running request;
 - a timer on the main thread (`bpy.app.timers`) tags the 3D views for redraw when a worker has
   a new image (`tag_redraw`, the way the image reaches the screen) and ends the sessions whose
@@ -29,6 +32,7 @@ import atexit
 import hashlib
 import json
 import os
+import shutil
 import threading
 import time
 from dataclasses import dataclass, field
@@ -57,6 +61,10 @@ FORGOTTEN_AFTER = 30.0
 # Every open session, for the timer, `server_for` and closing them all.
 _sessions: set = set()
 _sessions_lock = threading.Lock()
+# Servers being ended by a thread of their own (a session closed without waiting): thread ->
+# client. Blender's exit waits for them, or they would be cut short with the interpreter (their
+# threads are daemons) and leave their folder behind.
+_closing: dict = {}
 # Tests: every drawn frame's facts (image size and scale, rect, readback) when on.
 record_draws = False
 
@@ -75,11 +83,23 @@ class View:
 
 
 @dataclass
+class SceneExport:
+    """A scene read from the depsgraph on the main thread (`export.read_scene`), written to
+    the session's scene file by its worker thread before the first request that needs it."""
+
+    number: int
+    exporter: Optional[export.Exporter]
+    written: bool = False
+    error: Optional[str] = None
+
+
+@dataclass
 class Job:
     generation: int
     scene: Path
     settings: dict  # at the view's full size
     view: View
+    export: Optional[SceneExport] = None
 
 
 @dataclass
@@ -132,7 +152,9 @@ class ViewportSession:
         self.status = ""
         self.closed = False
         self.scene_path = self.client.workspace / "scene.glb"
-        self.scene_hash: Optional[str] = None
+        self.scene_hash: Optional[str] = None  # of the scene file written last (server_for)
+        self.export: Optional[SceneExport] = None  # the newest scene read
+        self.meshes_read: dict = {}  # its meshes' arrays, for the next read (export.read_scene)
         self.export_warnings: list = []
         self.signature = None
         self.area: Optional[int] = None  # the 3D view's area, as_pointer()
@@ -144,6 +166,7 @@ class ViewportSession:
                        "draws": 0, "uploads": 0}
         self.history: list = []  # (generation, scale, seconds, reused) per image, the newest last
         self.main_thread: dict = {}  # the longest view_update and view_draw, seconds
+        self.worker_times: dict = {}  # the longest scene write on the worker, seconds
         self.draws: list = []
         self.thread = threading.Thread(target=self._work, name="cubist-viewport", daemon=True)
         self.thread.start()
@@ -153,11 +176,12 @@ class ViewportSession:
 
     # ------------------------------------------------------------------ main thread
 
-    def submit(self, scene: Path, settings: dict, view: View) -> int:
-        """Makes (scene, settings, view) the job to render, cancelling the request in flight."""
+    def submit(self, scene: Path, settings: dict, view: View, scene_export: Optional[SceneExport] = None) -> int:
+        """Makes (scene, settings, view) the job to render, cancelling the request in flight;
+        `scene_export`: what the worker writes to `scene` first, unless it was written."""
         with self.cond:
             self.generation += 1
-            self.job = Job(self.generation, scene, settings, view)
+            self.job = Job(self.generation, scene, settings, view, scene_export)
             running, self.running = self.running, None
             self.counts["jobs"] += 1
             self.status = "rendering"
@@ -184,7 +208,11 @@ class ViewportSession:
         if wait:
             self.client.close(timeout=2.0)
         else:
-            threading.Thread(target=self.client.close, name="cubist-viewport-close", daemon=True).start()
+            closer = threading.Thread(target=_close_client, args=(self.client,), name="cubist-viewport-close",
+                                      daemon=True)
+            with _sessions_lock:
+                _closing[closer] = self.client
+            closer.start()
 
     # ------------------------------------------------------------------ worker thread
 
@@ -208,7 +236,48 @@ class ViewportSession:
                     self.error = f"internal error: {type(e).__name__}: {e}"
                     self.image_new = True
 
+    def _write_scene(self, job: Job) -> bool:
+        """Writes the job's scene (read on the main thread) to the scene file, unless it was
+        written: the glTF arrays are made here, off Blender's main thread. Stops, False, when a
+        newer scene was read meanwhile (its job writes that one); False with the error set when
+        the export failed."""
+        ex = job.export
+        if ex is None or ex.written:
+            return True
+        if ex.error is None:
+            def superseded() -> bool:
+                current = self.job
+                return self.closed or current is None or current.export is not ex
+
+            with self.cond:
+                self.status = "exporting"
+            tmp = self.scene_path.with_name("scene.tmp.glb")
+            try:
+                t0 = time.perf_counter()
+                ex.exporter.write(tmp, superseded)
+                # Atomically: the server may be reading the previous one (F12 on this server).
+                os.replace(tmp, self.scene_path)
+                h = file_hash(self.scene_path)
+            except export.ExportCancelled:
+                return False
+            except Exception as e:  # a full disk, a bug of ours: shown in the view
+                ex.error = f"export failed: {type(e).__name__}: {e}"
+            else:
+                with self.cond:
+                    ex.written, ex.exporter = True, None
+                    self.scene_hash = h
+                    self.worker_times["longest_scene_write"] = max(self.worker_times.get("longest_scene_write", 0.0),
+                                                                   time.perf_counter() - t0)
+                return True
+            ex.exporter = None
+        with self.cond:
+            if not self._newer(job):
+                self.error, self.status, self.image_new = ex.error, "", True
+        return False
+
     def _render(self, job: Job) -> None:
+        if not self._write_scene(job):
+            return
         w, h = job.settings["width"], job.settings["height"]
         for scale in passes_for(w, h):
             settings = scaled(job.settings, scale)
@@ -248,22 +317,34 @@ class ViewportSession:
                     self.status = ""
 
 
+def _close_client(client: ServeClient) -> None:
+    try:
+        client.close()
+    finally:
+        with _sessions_lock:
+            _closing.pop(threading.current_thread(), None)
+
+
 # ---------------------------------------------------------------------------------------------
 # Scene, settings and view (main thread)
 
 
-def export_scene(session: ViewportSession, depsgraph) -> bool:
-    """Writes the depsgraph's scene to the session's scene file (atomically: the server may be
-    reading the previous one); False, with the session's error set, when there is nothing to
-    render."""
+def export_scene(session: ViewportSession, depsgraph, keep_meshes: bool = False) -> bool:
+    """Reads the depsgraph's scene (its meshes' arrays: only the main thread may read them)
+    for the session's worker, which makes the glTF from them and writes it before rendering;
+    False, with the session's error set, when there is nothing to render. `keep_meshes`: no
+    mesh's data changed since the last read (objects moved, lights, materials): the meshes'
+    arrays read then are used again."""
     if not export.has_geometry(depsgraph):
         session.error = f"scene '{depsgraph.scene_eval.name}' has nothing to render: add a mesh"
         return False
-    tmp = session.scene_path.with_name("scene.tmp.glb")
-    stats = export.export_glb(depsgraph, tmp)
-    os.replace(tmp, session.scene_path)
-    session.scene_hash = file_hash(session.scene_path)
-    session.export_warnings = list(stats.warnings)
+    exporter = export.read_scene(depsgraph, mesh_cache=session.meshes_read if keep_meshes else None)
+    session.meshes_read = exporter.meshes_read
+    session.counts["meshes_reused"] = session.counts.get("meshes_reused", 0) + exporter.stats.meshes_reused
+    exporter.depsgraph = None  # the worker must not touch Blender's data
+    number = session.export.number + 1 if session.export is not None else 1
+    session.export = SceneExport(number, exporter)
+    session.export_warnings = list(exporter.stats.warnings)
     session.counts["exports"] += 1
     return True
 
@@ -331,13 +412,15 @@ def settings_for(scene, view: View) -> dict:
     return settings
 
 
-def update(session: ViewportSession, depsgraph, view: Optional[View], content_changed: bool) -> bool:
+def update(session: ViewportSession, depsgraph, view: Optional[View], content_changed: bool,
+           keep_meshes: bool = False) -> bool:
     """Exports the scene if its content changed (or was never exported), then hands the job
-    for `view` to the session unless it is the one it has. True when a job was submitted."""
-    if content_changed or session.scene_hash is None:
+    for `view` to the session unless it is the one it has. True when a job was submitted.
+    `keep_meshes`: no mesh's data changed since the last export (export_scene)."""
+    if content_changed or session.export is None:
         session.error = None
         try:
-            if not export_scene(session, depsgraph):
+            if not export_scene(session, depsgraph, keep_meshes):
                 return False
         except export.ExportCancelled:
             return False
@@ -352,12 +435,12 @@ def update(session: ViewportSession, depsgraph, view: Optional[View], content_ch
         session.error = str(e)
         session.signature = None
         return False
-    signature = (session.scene_hash, json.dumps(settings, sort_keys=True), view)
+    signature = (session.export.number, json.dumps(settings, sort_keys=True), view)
     if signature == session.signature:
         return False
     session.signature = signature
     session.error = None
-    session.submit(session.scene_path, settings, view)
+    session.submit(session.scene_path, settings, view, session.export)
     return True
 
 
@@ -368,6 +451,13 @@ def content_changed(depsgraph) -> bool:
         if not isinstance(u.id, bpy.types.Scene):
             return True
     return False
+
+
+def geometry_changed(depsgraph) -> bool:
+    """Whether an update reached a mesh's data (its evaluated geometry was made again: edits,
+    modifiers, a frame change of animated geometry): the meshes must be read again. Objects
+    moved, lights, materials and the scene's settings leave the evaluated meshes as they were."""
+    return any(u.is_updated_geometry for u in depsgraph.updates)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -409,7 +499,8 @@ def view_update(engine, context, depsgraph) -> None:
     if session is None:
         return
     changed = content_changed(depsgraph)
-    update(session, depsgraph, view_of(context, depsgraph), changed)
+    keep_meshes = changed and not geometry_changed(depsgraph)
+    update(session, depsgraph, view_of(context, depsgraph), changed, keep_meshes=keep_meshes)
     _main_thread_time(session, "view_update", t0)
 
 
@@ -567,23 +658,27 @@ def _tick():
         rendered = _rendered_areas()
     except Exception:
         return TICK
-    redraw = False
+    redraw = set()
     now = time.monotonic()
     for s in sessions:
         never_drawn = s.last_draw is None and now - s.created > FORGOTTEN_AFTER
         if (s.area is not None and s.area not in rendered) or never_drawn:
             s.close()
         elif s.image_new:
-            redraw = True
+            redraw.add(s.area)
     if redraw:
-        _redraw_views()
+        _redraw_views(redraw)
     return TICK
 
 
-def _redraw_views() -> None:
+def _redraw_views(areas: set) -> None:
+    """Tags for redraw the 3D views of `areas` (as_pointer()) only: every redraw of a view costs
+    Blender's main thread a whole draw of it (0.1-0.9 s under Xvfb's software OpenGL on a loaded
+    2-core machine, docs/blender.md), so views in Solid shading and views with nothing new are
+    left alone. None in `areas`: a session not drawn yet, whose area is unknown; all 3D views."""
     for window in bpy.context.window_manager.windows:
         for area in window.screen.areas:
-            if area.type == "VIEW_3D":
+            if area.type == "VIEW_3D" and (None in areas or area.as_pointer() in areas):
                 area.tag_redraw()
 
 
@@ -620,7 +715,14 @@ def _file_loading(*_args):
 
 
 def _at_exit():
+    """Blender quits: every server ends and its folder goes, also those being ended by a
+    thread of their own (the views' engines are freed before Python's exit handlers run)."""
     close_all(wait=True)
+    with _sessions_lock:
+        closing = list(_closing.items())
+    for closer, client in closing:
+        closer.join(timeout=3.0)
+        shutil.rmtree(client.workspace, ignore_errors=True)
 
 
 def register():

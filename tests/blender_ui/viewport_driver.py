@@ -11,8 +11,11 @@ images to be drawn, changes a panel value, looks through the camera, presses F12
 unchanged, switches the view back to Solid, gives the viewport a binary that does not exist
 (the error must be drawn as text), and last switches to Rendered shading again and quits Blender
 while that view's server runs (the test then checks the server and its folder are gone). A
-second timer ticks every 20 ms all along: how often it ran says whether the interface kept
-going while the server rendered. The full-size image of the first view, the scene and settings
+second timer ticks every 20 ms all along; its real firing times, kept per step, are the gaps
+between passes of Blender's main loop: how long the interface went without handling input.
+Before the viewport steps it measures Blender's own costs in the same run: idle, a redraw of
+the 3D view (Solid shading), F12 with the Workbench engine. The timeline is turned into a
+second 3D view (Solid) and every 3D view's draws are counted, with the views the viewport tags. The full-size image of the first view, the scene and settings
 it was rendered from go to OUT/rendered/ (the test renders them with `cubist render`);
 everything else to OUT/results.json. Blender quits at the end, also after a failure.
 """
@@ -73,6 +76,43 @@ def gaps(since):
     return max((b - a for a, b in zip(ticks, ticks[1:])), default=None), len(ticks)
 
 
+def gap_list(since, until=None):
+    """Every gap between heartbeat ticks from `since` to `until` (seconds): how long Blender's
+    main loop went between two runs of its timers."""
+    until = time.monotonic() if until is None else until
+    ticks = [t for t in heartbeat if since <= t <= until]
+    return [round(b - a, 4) for a, b in zip(ticks, ticks[1:])]
+
+
+# Draws of each 3D view (as_pointer() -> count), by a draw handler.
+view_draws: dict = {}
+
+
+def count_draw():
+    area = bpy.context.area
+    if area is not None:
+        view_draws[area.as_pointer()] = view_draws.get(area.as_pointer(), 0) + 1
+
+
+def settle(timeout=90.0):
+    """Yields until the heartbeat has run at its own rate for a second and no 3D view has drawn
+    for two (Blender's start-up draws, which go on for 10-20 s under Xvfb, are over)."""
+    t0 = time.monotonic()
+    last = (time.monotonic(), dict(view_draws))
+    while time.monotonic() - t0 < timeout:
+        if view_draws != last[1]:
+            last = (time.monotonic(), dict(view_draws))
+        recent = gap_list(time.monotonic() - 1.0)
+        if len(recent) >= 30 and max(recent) < 0.1 and time.monotonic() - last[0] > 2.0:
+            return
+        yield 0.2
+
+
+def draws_since(before):
+    """3D view draws since the `before` counts (all views)."""
+    return sum(view_draws.values()) - sum(before.values())
+
+
 def wait_for_draw(predicate, timeout, what):
     """Yields until a drawn frame satisfies `predicate(session, draw)`; returns (session, draw)."""
     t0 = time.monotonic()
@@ -106,6 +146,14 @@ def setup():
     prefs = bpy.context.preferences.addons["blender_addon"].preferences
     prefs.binary_path = BINARY
     vp().record_draws = True
+    # The 3D views the viewport tags for redraw when it has a new image (pointers).
+    original = vp()._redraw_views
+
+    def redraw_views(areas):
+        results.setdefault("tagged", []).append(sorted(a for a in areas if a is not None) or ["all"])
+        original(areas)
+
+    vp()._redraw_views = redraw_views
     scene = bpy.context.scene
     scene.render.engine = "CUBIST"
     yield 1.0  # the message bus (colour management) runs in the event loop
@@ -114,19 +162,53 @@ def setup():
     scene.cubist.spp = 1
     bpy.app.timers.register(beat, first_interval=0.02)
     results["temp_before"] = sorted(p.name for p in Path(tempfile.gettempdir()).glob("cubist-*"))
+    # A second 3D view, in Solid shading (the timeline turned into one): the viewport must not
+    # tag it for redraw. Every 3D view's draws are counted.
+    window = bpy.context.window_manager.windows[0]
+    other = min((a for a in window.screen.areas if a.type != "VIEW_3D"), key=lambda a: a.width * a.height)
+    other.type = "VIEW_3D"
+    results["other_view"] = other.as_pointer()
+    bpy.types.SpaceView3D.draw_handler_add(count_draw, (), "WINDOW", "POST_PIXEL")
+    yield from settle()
     # The heartbeat in Solid shading, nothing rendering: this machine's baseline.
     t0 = time.monotonic()
-    yield 3.0
-    results["idle"] = {"gap": gaps(t0)}
+    yield 2.0
+    results["idle"] = {"gap": gaps(t0), "gaps": gap_list(t0)}
+    # What one redraw of the 3D view costs Blender here (its own drawing, software OpenGL under
+    # Xvfb): the floor of any stall a viewport that shows new images can cause.
+    window, area, region = view3d()
+    t0 = time.monotonic()
+    for _ in range(6):
+        area.tag_redraw()
+        yield 0.5
+    results["redraw_baseline"] = {"gaps": gap_list(t0)}
+    # F12 with Blender's own Workbench engine, twice (the first opens the render window): what
+    # rendering costs the interface when the engine is Blender's, to compare F12 with ours.
+    scene.render.engine = "BLENDER_WORKBENCH"
+    for _ in range(2):
+        t0 = time.monotonic()
+        with bpy.context.temp_override(**override()):
+            bpy.ops.render.render("INVOKE_DEFAULT")
+        while bpy.app.is_job_running("RENDER"):
+            yield 0.05
+        yield 0.5
+    results["workbench_f12"] = {"gaps": gap_list(t0)}
+    scene.render.engine = "CUBIST"
+    yield from settle()
 
 
 def rendered_view():
     """Rendered shading in the default perspective view: the view matrix's picture, 1/4, 1/2
     then full size, drawn; the interface keeps ticking."""
     window, area, region = view3d()
+    draws_before = dict(view_draws)
     t0 = time.monotonic()
     area.spaces.active.shading.type = "RENDERED"
     s, draw = yield from wait_for_draw(lambda s, d: d["scale"] == 1.0, 300, "rendered view")
+    t1 = time.monotonic()
+    results["view_draws"] = {name: view_draws.get(ptr, 0) - draws_before.get(ptr, 0)
+                             for name, ptr in (("rendered", area.as_pointer()), ("other", results["other_view"]))}
+    results["rendered_view"] = area.as_pointer()
     # What was drawn, and what it was rendered from, for `cubist render` in the test.
     kept = OUT / "rendered"
     kept.mkdir(exist_ok=True)
@@ -138,7 +220,8 @@ def rendered_view():
         "seconds": time.monotonic() - t0, "region": [region.width, region.height], "draw": draw,
         "scales_drawn": sorted({d["scale"] for d in s.draws}), "history": s.history, "counts": dict(s.counts),
         "expected_centre": expected_centre(s, draw), "server_pid": s.client.pid,
-        "through_camera": s.job.view.through_camera, "gap": gaps(t0), "main_thread": dict(s.main_thread)}
+        "through_camera": s.job.view.through_camera, "gap": gaps(t0), "main_thread": dict(s.main_thread),
+        "gaps": gap_list(t0, t1), "draws": draws_since(draws_before)}
     log(f"rendered: {results['rendered']['seconds']:.1f} s, gap {results['rendered']['gap']}")
 
 
@@ -147,9 +230,15 @@ def panel_change():
     scene = bpy.context.scene
     s = session()
     before = s.job.generation
+    draws_before = dict(view_draws)
     t0 = time.monotonic()
     # As the panel does: the value set, and the scene tagged for the depsgraph (a button's edit
-    # tags it; a Python assignment to an add-on property does not).
+    # tags it; a Python assignment to an add-on property does not). First a drag over a few
+    # values (each cancels the request before it), then the value it stops at.
+    for value in (12.0, 15.0, 18.0, 21.0):
+        scene.cubist.border_width = value
+        scene.update_tag()
+        yield 0.12
     scene.cubist.border_width = 25.0
     scene.update_tag()
     s, draw = yield from wait_for_draw(lambda s, d: d["generation"] > before and d["scale"] == 1.0, 120,
@@ -157,15 +246,36 @@ def panel_change():
     results["panel_change"] = {
         "seconds": time.monotonic() - t0, "draw": draw, "history": s.history, "counts": dict(s.counts),
         "border_width_sent": s.job.settings.get("border_width"), "expected_centre": expected_centre(s, draw),
-        "same_server": s.client.pid == results["rendered"]["server_pid"], "gap": gaps(t0),
+        "same_server": s.client.pid == results["rendered"]["server_pid"], "gap": gaps(t0), "gaps": gap_list(t0),
+        "draws": draws_since(draws_before),
         "main_thread": dict(s.main_thread)}
     log(f"panel change: {results['panel_change']['seconds']:.1f} s")
+
+
+def object_moved():
+    """An object moved (a content change: the scene is read on the main thread, written by the
+    worker): a new job, drawn; the interface keeps ticking."""
+    s = session()
+    before = s.job.generation
+    draws_before = dict(view_draws)
+    s.main_thread.clear()
+    s.worker_times.clear()
+    t0 = time.monotonic()
+    bpy.data.objects["Cube"].location.x += 0.2
+    s, draw = yield from wait_for_draw(lambda s, d: d["generation"] > before and d["scale"] == 1.0, 120,
+                                       "after the object moved")
+    results["object_moved"] = {
+        "seconds": time.monotonic() - t0, "draw": draw, "counts": dict(s.counts), "gap": gaps(t0),
+        "gaps": gap_list(t0), "draws": draws_since(draws_before), "main_thread": dict(s.main_thread),
+        "worker": dict(s.worker_times)}
+    log(f"object moved: {results['object_moved']['seconds']:.1f} s, {results['object_moved']['main_thread']}")
 
 
 def camera_view():
     """Looking through the scene camera: the render's aspect, in the camera frame."""
     s = session()
     before = s.job.generation
+    draws_before = dict(view_draws)
     t0 = time.monotonic()
     with bpy.context.temp_override(**override()):
         bpy.ops.view3d.view_camera()
@@ -173,7 +283,8 @@ def camera_view():
                                        "camera view")
     results["camera_view"] = {"seconds": time.monotonic() - t0, "draw": draw, "through_camera": s.job.view.through_camera,
                               "size": [s.job.settings["width"], s.job.settings["height"]],
-                              "expected_centre": expected_centre(s, draw), "gap": gaps(t0)}
+                              "expected_centre": expected_centre(s, draw), "gap": gaps(t0),
+                              "gaps": gap_list(t0), "draws": draws_since(draws_before)}
 
 
 def f12_unchanged():
@@ -188,13 +299,15 @@ def f12_unchanged():
     while bpy.app.is_job_running("RENDER"):
         if time.monotonic() - t0 > 300:
             raise TimeoutError("F12 still runs after 300 s")
-        yield 0.1
+        yield 0.05
+    yield 0.5  # as long after the job as the Workbench F12's measure
     out = OUT / "f12.png"
     bpy.data.images["Render Result"].save_render(str(out), scene=bpy.context.scene)
     results["f12"] = {"operator": started, "seconds": time.monotonic() - t0, "server": engine.last_run.get("server"),
                       "viewport_server": s.client.pid, "error": engine.last_run.get("error"),
                       "served_before": served, "served_after": s.client.stats()["served"],
-                      "settings": engine.last_run.get("settings"), "saved": out.is_file(), "gap": gaps(t0)}
+                      "settings": engine.last_run.get("settings"), "saved": out.is_file(), "gap": gaps(t0),
+                      "gaps": gap_list(t0)}
     engine.keep_exports = None
     log(f"F12: {results['f12']}")
 
@@ -257,7 +370,7 @@ def rendered_at_quit():
 
 def main():
     yield from setup()
-    for step in (rendered_view, panel_change, camera_view, f12_unchanged, solid_again, error_as_text,
+    for step in (rendered_view, panel_change, object_moved, camera_view, f12_unchanged, solid_again, error_as_text,
                  rendered_at_quit):
         log(f"step {step.__name__}")
         yield from step()

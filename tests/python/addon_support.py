@@ -37,12 +37,13 @@ def require_windowed_blender(tools, what: str, install: str) -> None:
     pytest.skip(message)
 
 
-def run_windowed_blender(driver: Path, base: Path, cubist_binary: Path, label: str) -> dict:
+def run_windowed_blender(driver: Path, base: Path, cubist_binary: Path, label: str, extra_args=(),
+                         out: Path = None) -> dict:
     """Runs `driver` in a windowed Blender under Xvfb with factory settings and its own user
     configuration (not the machine's preferences) and temporary directory (`base/tmp`, to check
     nothing is left there; xvfb-run keeps its own in the system's); the driver writes
     `base/out/results.json`. Returns the process, the results, the two folders and the log."""
-    out, tmp = base / "out", base / "tmp"
+    out, tmp = out or base / "out", base / "tmp"
     tmp.mkdir()
     env = dict(os.environ)
     env.pop("BLENDER_USER_RESOURCES", None)
@@ -50,7 +51,7 @@ def run_windowed_blender(driver: Path, base: Path, cubist_binary: Path, label: s
     t0 = time.monotonic()
     proc = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 1280x1024x24", "env", f"TMPDIR={tmp}", "blender",
                            "--factory-startup", "--python", str(driver), "--", str(ROOT), str(out),
-                           str(cubist_binary)],
+                           str(cubist_binary), *extra_args],
                           capture_output=True, text=True, env=env, timeout=1200)
     seconds = time.monotonic() - t0
     log = proc.stdout + proc.stderr

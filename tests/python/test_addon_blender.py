@@ -285,6 +285,27 @@ def test_render_region_is_the_same_part_of_the_frame(bpy, tmp_path):
     assert np.array_equal(crop, full[24:48, 16:48])
 
 
+def test_render_region_rounds_as_blender_does(bpy, tmp_path):
+    """A border whose edge falls on a pixel in Blender's single precision (0.7 x 120 = 84) but
+    just below it in double precision (83.99999857): the region is Blender's, whole, with and
+    without crop (a region one row short left the crop's top row empty in the interface)."""
+    scene = new_scene(bpy, 160, 120)
+    full = read_png(bpy, render_still(bpy, scene, tmp_path / "full.png"))
+    r = scene.render
+    r.border_min_x, r.border_max_x, r.border_min_y, r.border_max_y = 0.25, 0.75, 0.2, 0.7
+    r.use_border, r.use_crop_to_border = True, True
+    crop = read_png(bpy, render_still(bpy, scene, tmp_path / "crop.png"))
+    assert crop.shape == (60, 80, 4)  # Blender's size: rows 24-84, columns 40-120
+    assert np.array_equal(crop, full[24:84, 40:120])
+    r.use_crop_to_border = False
+    border = read_png(bpy, render_still(bpy, scene, tmp_path / "border.png"))
+    assert border.shape == full.shape
+    assert np.array_equal(border[24:84, 40:120], full[24:84, 40:120])
+    outside = np.ones(border.shape[:2], bool)
+    outside[24:84, 40:120] = False
+    assert border[outside][:, 3].max() == 0
+
+
 def test_builtin_preset_operator_sets_the_panel(bpy):
     scene = new_scene(bpy)
     scene.cubist.pass_depth = True

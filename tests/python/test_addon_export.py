@@ -563,3 +563,121 @@ def test_export_render_and_load_from_a_worker_thread(bpy, engine, exports, tmp_p
     depth = layer.by_name["Cubist Depth"].values.reshape(48, 64)[::-1]  # rows bottom-up in Blender
     assert np.array_equal(depth, pngio.read(tmp_path / "cli.depth.png")[..., 0] / np.float32(255.0))
     assert depth.std() > 0.05
+
+
+
+def _split_export_scene(bpy, level):
+    """Scenes for the split export, each adding to the one before: a smooth monkey and a cube;
+    several materials on a partly flat sphere, n-gons, a corner colour attribute; a texture with
+    UVs on a subdivided grid, text, linked duplicates."""
+    new_scene(bpy)
+    if level >= 1:
+        bpy.ops.mesh.primitive_uv_sphere_add(segments=24, ring_count=12, location=(-2, 1, 0))
+        ob = bpy.context.object
+        for i, c in enumerate([(1, 0, 0, 1), (0, 1, 0, 1), (0, 0, 1, 1)]):
+            m = bpy.data.materials.new(f"m{i}")
+            m.diffuse_color = c
+            ob.data.materials.append(m)
+        for k, p in enumerate(ob.data.polygons):
+            p.material_index = k % 3 if k % 7 else 1
+            p.use_smooth = k % 2 == 0
+        bpy.ops.mesh.primitive_circle_add(fill_type="NGON", location=(0, 3, 0))
+        bpy.ops.mesh.primitive_cylinder_add(location=(2, 3, 0))
+        col = bpy.context.object.data.color_attributes.new("Col", "FLOAT_COLOR", "CORNER")
+        for i, d in enumerate(col.data):
+            d.color = (i % 5 / 5, 0.5, 0.2, 1.0)
+    if level >= 2:
+        bpy.ops.mesh.primitive_grid_add(x_subdivisions=60, y_subdivisions=60, size=3, location=(0, 2, -1))
+        grid = bpy.context.object
+        grid.modifiers.new("subsurf", "SUBSURF").levels = 1
+        img = bpy.data.images.new("tex", 8, 8)
+        img.pixels[:] = [0.25, 0.5, 0.75, 1.0] * 64
+        mat = bpy.data.materials.new("textured")
+        if bpy.app.version < (5, 0, 0):
+            mat.use_nodes = True
+        tex = mat.node_tree.nodes.new("ShaderNodeTexImage")
+        tex.image = img
+        mat.node_tree.links.new(tex.outputs["Color"], mat.node_tree.nodes["Principled BSDF"].inputs["Base Color"])
+        grid.data.materials.append(mat)
+        bpy.ops.object.text_add(location=(0, 0, 1))
+        bpy.ops.mesh.primitive_ico_sphere_add(location=(2, 2, 1))
+        bpy.ops.object.duplicate_move_linked()
+        bpy.context.object.location.x += 1
+
+
+@pytest.mark.parametrize("level", [0, 1, 2])
+def test_the_split_export_writes_the_same_file(bpy, export, tmp_path, level):
+    """The viewport reads the scene on the main thread (`read_scene`) and writes it on its worker
+    (`Exporter.write`): the file is export_glb's, byte for byte, and the second half reads
+    nothing of Blender's (the meshes removed in between change nothing)."""
+    _split_export_scene(bpy, level)
+    dg = bpy.context.evaluated_depsgraph_get()
+    whole, split = tmp_path / "whole.glb", tmp_path / "split.glb"
+    stats = export.export_glb(dg, whole)
+    exporter = export.read_scene(dg)
+    exporter.depsgraph = None
+    assert exporter.glb.pending  # the arrays are made later
+    for ob in list(bpy.data.objects):
+        if ob.type in {"MESH", "FONT"}:
+            bpy.data.objects.remove(ob)
+    for me in list(bpy.data.meshes):
+        bpy.data.meshes.remove(me)
+    bpy.context.evaluated_depsgraph_get()
+    errors = []
+
+    def write():
+        try:
+            exporter.write(split)
+        except Exception as e:
+            errors.append(e)
+
+    worker = threading.Thread(target=write)
+    worker.start()
+    worker.join(60)
+    assert not worker.is_alive() and not errors, errors
+    assert split.read_bytes() == whole.read_bytes()
+    assert (exporter.stats.triangles, exporter.stats.meshes, exporter.stats.warnings) == \
+        (stats.triangles, stats.meshes, stats.warnings)
+    assert stats.triangles > 0 and stats.meshes >= 2 + 3 * (level >= 1)
+
+
+def test_a_superseded_split_export_stops(bpy, export, tmp_path):
+    """`write` stops between arrays when asked to (a newer scene was read) and writes nothing."""
+    _split_export_scene(bpy, 1)
+    exporter = export.read_scene(bpy.context.evaluated_depsgraph_get())
+    asked = []
+
+    def should_cancel():
+        asked.append(1)
+        return len(asked) > 2
+
+    with pytest.raises(export.ExportCancelled):
+        exporter.write(tmp_path / "x.glb", should_cancel)
+    assert len(asked) == 3 and not (tmp_path / "x.glb").exists()
+
+
+def test_the_viewport_reuses_the_arrays_of_unchanged_meshes(bpy, export, tmp_path):
+    """read_scene's mesh_cache (the viewport passes it when no update reached a mesh's data):
+    objects moved, the meshes' arrays are not read again and the file is a fresh export's; a
+    mesh whose data changed at the same address is read again (its key holds a few values)."""
+    _split_export_scene(bpy, 1)
+    first = export.read_scene(bpy.context.evaluated_depsgraph_get())
+    assert first.stats.meshes_reused == 0 and len(first.meshes_read) == first.stats.meshes == 5
+    bpy.data.objects["Cube"].location.x += 0.5
+    dg = bpy.context.evaluated_depsgraph_get()
+    again = export.read_scene(dg, mesh_cache=first.meshes_read)
+    assert again.stats.meshes_reused == 5
+    fresh, reused = tmp_path / "fresh.glb", tmp_path / "reused.glb"
+    export.export_glb(dg, fresh)
+    again.write(reused)
+    assert reused.read_bytes() == fresh.read_bytes()
+    # The monkey's first vertex moved, the cache given anyway: read again.
+    monkey = bpy.data.objects["Suzanne"]
+    monkey.data.vertices[0].co.z += 0.25
+    monkey.data.update()
+    dg = bpy.context.evaluated_depsgraph_get()
+    third = export.read_scene(dg, mesh_cache=again.meshes_read)
+    assert third.stats.meshes_reused == 4
+    export.export_glb(dg, fresh)
+    third.write(reused)
+    assert reused.read_bytes() == fresh.read_bytes()

@@ -136,6 +136,40 @@ def test_a_newer_job_cancels_the_running_request(bpy, vp):
     session.close(wait=True)
 
 
+def test_the_worker_writes_the_scene_read_on_the_main_thread(bpy, vp):
+    """`view_update` only reads the scene (export.read_scene); the worker writes the file before
+    its first request. An export superseded by a newer scene read stops and writes nothing; a
+    failed one is shown as the view's error."""
+    scene = new_scene(bpy, 64, 48)
+    session = vp.ViewportSession(vp._binary())
+    dg = bpy.context.evaluated_depsgraph_get()
+    view = camera_view(bpy, scene, 64, 48)
+    settings = vp.settings_for(scene, view)
+    old, new = (vp.SceneExport(n, export_mod().read_scene(dg)) for n in (1, 2))
+    with session.cond:  # the newest job (the worker is not told: it stays asleep)
+        session.job = vp.Job(2, session.scene_path, settings, view, new)
+    assert not session._write_scene(vp.Job(1, session.scene_path, settings, view, old))
+    assert not old.written and not session.scene_path.exists() and session.scene_hash is None
+
+    def broken(path, should_cancel):
+        raise OSError("No space left on device")
+
+    new.exporter.write = broken
+    assert not session._write_scene(session.job)
+    assert session.error == "export failed: OSError: No space left on device" and not new.written
+
+    # The whole path: the file is written by the worker, then rendered.
+    assert vp.update(session, dg, view, True)
+    assert session.export.number == 1
+    wait_for(session, session.generation)
+    assert session.export.written and session.export.exporter is None
+    assert session.scene_hash == vp.file_hash(session.scene_path)
+    whole = session.scene_path.with_name("whole.glb")
+    export_mod().export_glb(bpy.context.evaluated_depsgraph_get(), whole)
+    assert whole.read_bytes() == session.scene_path.read_bytes()
+    session.close(wait=True)
+
+
 def test_views_not_through_a_camera_use_the_view_matrix(bpy, vp):
     from mathutils import Matrix
 
@@ -228,6 +262,20 @@ def test_sessions_end_on_file_load_and_when_the_addon_is_disabled(bpy, vp):
     finally:
         addon_utils.enable("blender_addon", default_set=True, persistent=True)
         bpy.context.preferences.addons["blender_addon"].preferences.binary_path = str(BINARY)
+
+
+def test_blenders_exit_waits_for_servers_being_closed(bpy, vp):
+    """A view left Rendered shading (its engine freed) just before Blender quits: the server is
+    being ended by a thread of its own, which Python's exit would cut short; the exit handler
+    waits for it, so the server's folder goes (the windowed test found it left behind)."""
+    scene = new_scene(bpy, 64, 48)
+    s = vp.ViewportSession(vp._binary())
+    vp.update(s, bpy.context.evaluated_depsgraph_get(), camera_view(bpy, scene, 64, 48), True)
+    wait_for(s, s.generation)
+    s.close()  # as the engine's __del__ does: without waiting
+    assert list(vp._closing.values()) == [s.client] or not s.client.workspace.exists()
+    vp._at_exit()
+    assert vp._closing == {} and not s.client.workspace.exists() and s.client.proc.poll() is not None
 
 
 def test_texture_pixels_are_bottom_up_and_premultiplied(vp):

@@ -11,11 +11,13 @@ only, on the same server; the camera view renders the scene camera at the render
 renders on the viewport's server; leaving Rendered shading and quitting Blender end the
 server and remove its folder; an error is drawn as text; the main thread is held briefly.
 
-Responsiveness: Blender's own timers (`bpy.app.timers`) run from its event loop; under Xvfb an
-idle Blender runs them rarely (no events), so the gaps between a 20 ms heartbeat's ticks are
-printed, not bounded. What is bounded is what our code controls: the longest `view_update`
-and `view_draw` on the main thread, and that the heartbeat kept ticking while the server
-rendered (the work is off the main thread).
+Responsiveness: Blender's own timers (`bpy.app.timers`) run once per pass of its main loop
+(events, notifiers, drawing), so the gaps between a 20 ms heartbeat's ticks are how long the
+interface went without handling events. Once Blender's start-up draws are over, an idle
+Blender ticks every 20-25 ms; one redraw of the 3D view (measured in the same run) is the
+floor of any stall. Bounded: the median gap in each phase (Rendered shading, a panel value
+dragged, the camera view, F12), the longest gap against that redraw cost plus our own
+`view_update` and `view_draw`, and which views redraw.
 
 Needs `blender`, `xvfb-run` and `xdotool` on PATH (.ci/run installs them); without them every
 test here is skipped, saying why (CUBIST_REQUIRE_UI_TEST=1 makes that a failure)."""
@@ -144,13 +146,70 @@ def test_an_error_is_drawn_as_text(ui):
     assert texts and any("not found" in line for line in texts[0]), texts
 
 
+def percentile(values, q):
+    return float(np.percentile(np.array(values, dtype=np.float64), q)) if values else float("nan")
+
+
 def test_the_main_thread_is_held_briefly_and_keeps_running_while_the_server_renders(ui):
     r = ui["results"]
-    main = r["rendered"]["main_thread"]
+    main = r["panel_change"]["main_thread"]  # the longest of the whole session so far
     # The export (view_update) and the texture upload (view_draw) are the main thread's part.
     assert main["longest_view_update"] < 1.0 and main["longest_view_draw"] < 1.0, main
     longest_gap, ticks = r["rendered"]["gap"]
     assert ticks >= 10, r["rendered"]["gap"]
-    print(f"\nmain thread: longest view_update {main['longest_view_update'] * 1000:.0f} ms, view_draw "
-          f"{main['longest_view_draw'] * 1000:.0f} ms; heartbeat while rendering: {ticks} ticks, longest gap "
-          f"{longest_gap:.2f} s (whole run {r['heartbeat']['longest_gap']:.2f} s)", file=sys.stderr)
+
+
+def test_blender_stays_responsive_in_rendered_shading_panel_changes_and_f12(ui):
+    """Blender's own responsiveness: a 20 ms `bpy.app.timers` heartbeat runs from Blender's main
+    loop, once per pass of it, so the gaps between its ticks are how long the interface went
+    without handling events. They are compared with what one plain redraw of the 3D view costs
+    Blender in this very run (measured in Solid shading before: its own drawing, software OpenGL
+    under Xvfb, 0.1-0.9 s on a loaded 2-core machine), which any viewport that shows a new
+    image must pay once per image. A viewport that blocked (waiting for the server, exporting
+    or decoding on the main thread) would show stalls beyond that floor, or many of them."""
+    r = ui["results"]
+    idle = r["idle"]["gaps"]
+    redraw = r["redraw_baseline"]["gaps"]
+    workbench = r["workbench_f12"]["gaps"]
+    main = r["panel_change"]["main_thread"]
+    ours = main["longest_view_update"] + main["longest_view_draw"]
+    phases = {name: r[name]["gaps"] for name in ("rendered", "panel_change", "object_moved", "camera_view", "f12")}
+    rows = []
+    for name, gaps in {"idle (Solid)": idle, "redraw (Solid)": redraw, "F12 Workbench": workbench, **phases}.items():
+        stalled = sum(g for g in gaps if g > 0.1)
+        rows.append(f"{name}: {len(gaps)} gaps, median {percentile(gaps, 50) * 1000:.0f} ms, p90 "
+                    f"{percentile(gaps, 90) * 1000:.0f} ms, p95 {percentile(gaps, 95) * 1000:.0f} ms, max "
+                    f"{max(gaps, default=0) * 1000:.0f} ms, stalled (gaps > 0.1 s) {stalled:.2f} of {sum(gaps):.2f} s")
+    moved = r["object_moved"]
+    print("\nBlender's main loop (heartbeat gaps):\n  " + "\n  ".join(rows) +
+          f"\n  our longest view_update + view_draw: {ours * 1000:.0f} ms" +
+          f"\n  object moved: view_update {moved['main_thread'].get('longest_view_update', 0) * 1000:.0f} ms, "
+          f"scene written on the worker in {moved['worker'].get('longest_scene_write', 0) * 1000:.0f} ms",
+          file=sys.stderr)
+    # The object moved: the main thread only read the scene; the worker wrote it.
+    assert moved["worker"].get("longest_scene_write", 0) > 0, moved
+    assert moved["counts"]["exports"] == 2, moved["counts"]
+    # Idle, the loop runs at the heartbeat's own rate (the baseline is sound).
+    assert percentile(idle, 50) < 0.05 and max(idle) < 0.25, idle
+    for name, gaps in phases.items():
+        assert len(gaps) >= 1, (name, gaps)  # a short phase under load may be one long pass
+        # The floor: one redraw of the view; for F12, what F12 with Blender's Workbench costs.
+        floor = max(max(redraw), max(workbench) if name == "f12" else 0.0)
+        # No stall beyond that floor plus our own main-thread work, with a margin for a loaded
+        # machine (another process's burst between the two measurements).
+        bound = 1.5 * floor + ours + 0.5
+        assert max(gaps) <= bound, (name, max(gaps), bound, floor, ours)
+        if name != "f12":
+            # Every stall is a redraw of a 3D view (the images' redraws): the time the loop was
+            # held beyond its idle rate is at most one redraw (plus our part) per view drawn.
+            draws = r[name]["draws"]
+            stalled = sum(g for g in gaps if g > 0.1)
+            assert stalled <= draws * (1.5 * max(redraw) + ours) + 1.0, (name, stalled, draws, gaps)
+    # F12 keeps the interface going as F12 with Workbench does.
+    assert percentile(phases["f12"], 50) <= 1.5 * percentile(workbench, 50) + 0.05, (phases["f12"], workbench)
+    # The rendered view's images (1/4, 1/2, full) redraw the view that shows them: the viewport
+    # tags that view alone, never the other 3D view (Solid shading), as a redraw is the costly
+    # part. (The other view still draws a few times meanwhile, on Blender's own notifiers.)
+    draws = r["view_draws"]
+    assert draws["rendered"] >= 3, draws
+    assert r["tagged"] and all(t == [r["rendered_view"]] for t in r["tagged"]), (r["tagged"], r["rendered_view"])
