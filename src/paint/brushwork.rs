@@ -14,9 +14,10 @@
 //!
 //! Speed and determinism (Lu, Sander and Finkelstein 2010 splat 60,000 strokes on a GPU): the
 //! strokes sit one per cell of a jittered grid (seeded per cell), sorted once by a seeded
-//! depth key into per-cell lists (compressed rows, no allocation per stroke); then every pixel
-//! composites, in that global order, the few strokes listed for its cell. Each pixel is
-//! computed alone from the same lists, so the result is identical on any thread count.
+//! depth key into per-band lists (bands of rows, compressed rows, no allocation per stroke);
+//! then every pixel composites, in that global order, the strokes whose rectangle may reach
+//! it. Each pixel is computed alone from the same lists, so the result is identical on any
+//! thread count.
 //!
 //! A stroke's look: a flat colour (the mean of the picture at three points along it, value
 //! jittered by a few percent), rounded ends, a crisp anti-aliased edge, bristle streaks along
@@ -94,47 +95,41 @@ struct Stroke {
 /// facet id << 32 | object id.
 type Region = u64;
 
-/// The strokes of one layer listed per grid cell (compressed rows), each list in key order.
-struct Bins {
-    cell: f32,
-    nx: usize,
-    ny: usize,
+/// Rows of a band of the compositing (`Layer`): pixels of different bands are painted in
+/// parallel, each band's strokes in key order.
+const BAND: usize = 8;
+
+/// The strokes of one layer in key order, listed per band of `BAND` rows (compressed rows):
+/// each band lists every stroke whose rectangle (widened by a pixel) reaches one of its rows.
+struct Layer {
     start: Vec<u32>,
     items: Vec<u32>,
     strokes: Vec<Stroke>,
 }
 
-impl Bins {
-    fn new(mut strokes: Vec<Stroke>, cell: f32, width: usize, height: usize) -> Bins {
+impl Layer {
+    fn new(mut strokes: Vec<Stroke>, height: usize) -> Layer {
         strokes.sort_unstable_by_key(|s| s.key);
-        let nx = ((width as f32 / cell).ceil() as usize).max(1);
-        let ny = ((height as f32 / cell).ceil() as usize).max(1);
-        // The cells a stroke's rectangle (widened by the anti-aliasing half pixel) overlaps:
-        // those of its bounding box that no axis separates from it (the rectangle's own two
-        // axes; the bounding box already settles x and y).
-        let cells = |s: &Stroke, mut visit: Box<dyn FnMut(usize) + '_>| {
-            let hw = s.half_wid + 1.0;
-            let ext = Vec2::new(
-                s.dir.x.abs() * s.half_len + s.dir.y.abs() * hw,
-                s.dir.y.abs() * s.half_len + s.dir.x.abs() * hw,
-            );
-            let (lo, hi) = ((s.centre - ext) / cell, (s.centre + ext) / cell);
-            let cx = (lo.x.floor().max(0.0) as usize, (hi.x.floor().max(0.0) as usize).min(nx - 1));
-            let cy = (lo.y.floor().max(0.0) as usize, (hi.y.floor().max(0.0) as usize).min(ny - 1));
-            let half = 0.5 * cell;
-            let reach = half * (s.dir.x.abs() + s.dir.y.abs());
-            for y in cy.0..=cy.1 {
-                for x in cx.0..=cx.1 {
-                    let d = Vec2::new((x as f32 + 0.5) * cell, (y as f32 + 0.5) * cell) - s.centre;
-                    if d.dot(s.dir).abs() <= s.half_len + reach && d.perp_dot(s.dir).abs() <= hw + reach {
-                        visit(y * nx + x);
-                    }
+        let nb = height.div_ceil(BAND).max(1);
+        // The bands of the rows a stroke may paint: a painted pixel has |u| < half_len and
+        // |v| < half_wid + 0.5, so |dy| < |dir.y| half_len + |dir.x| (half_wid + 0.5);
+        // widened by a pixel against rounding.
+        let bands = |s: &Stroke| -> Option<(usize, usize)> {
+            let ext = s.dir.y.abs() * s.half_len + s.dir.x.abs() * (s.half_wid + 0.5) + 1.0;
+            let (lo, hi) = ((s.centre.y - ext - 0.5).floor(), (s.centre.y + ext - 0.5).ceil());
+            if !(lo.is_finite() && hi.is_finite()) || hi < 0.0 || lo >= height as f32 {
+                return None;
+            }
+            let (lo, hi) = (lo.max(0.0) as usize, (hi as usize).min(height.max(1) - 1));
+            Some((lo / BAND, (hi / BAND).min(nb - 1)))
+        };
+        let mut start = vec![0u32; nb + 1];
+        for s in &strokes {
+            if let Some((a, b)) = bands(s) {
+                for c in a..=b {
+                    start[c + 1] += 1;
                 }
             }
-        };
-        let mut start = vec![0u32; nx * ny + 1];
-        for s in &strokes {
-            cells(s, Box::new(|c| start[c + 1] += 1));
         }
         for k in 1..start.len() {
             start[k] += start[k - 1];
@@ -142,15 +137,14 @@ impl Bins {
         let mut fill = start.clone();
         let mut items = vec![0u32; *start.last().unwrap_or(&0) as usize];
         for (k, s) in strokes.iter().enumerate() {
-            cells(
-                s,
-                Box::new(|c| {
+            if let Some((a, b)) = bands(s) {
+                for c in a..=b {
                     items[fill[c] as usize] = k as u32;
                     fill[c] += 1;
-                }),
-            );
+                }
+            }
         }
-        Bins { cell, nx, ny, start, items, strokes }
+        Layer { start, items, strokes }
     }
 }
 
@@ -158,16 +152,17 @@ fn fade(t: f32) -> f32 {
     t * t * (3.0 - 2.0 * t)
 }
 
-/// Paints `s` over colour `c` at pixel centre `p` (of `region`, luminance `value` before the
-/// layer), at `opacity`.
-#[inline]
-fn paint(s: &Stroke, p: Vec2, region: Region, value: f32, c: Vec3, opacity: f32) -> Vec3 {
-    let d = p - s.centre;
-    let u = d.dot(s.dir);
+/// Paints `s` over colour `c` at the pixel centre `d` = (dx, dy) from the stroke's centre
+/// (of `region`, luminance `value` before the layer), at `opacity`; `dy_dir` = (dy dir.y,
+/// dy dir.x), the same for a whole row.
+#[inline(always)]
+fn paint(s: &Stroke, dx: f32, dy_dir: (f32, f32), region: Region, value: f32, c: Vec3, opacity: f32) -> Vec3 {
+    // u = d . dir and v = |d perp dir|, as `Vec2::dot` and `Vec2::perp_dot` compute them.
+    let u = dx * s.dir.x + dy_dir.0;
     if u.abs() >= s.half_len {
         return c;
     }
-    let v = d.perp_dot(s.dir).abs();
+    let v = (dx * s.dir.y - dy_dir.1).abs();
     if v >= s.half_wid + 0.5 || s.region != region {
         return c;
     }
@@ -303,61 +298,39 @@ impl Brushwork {
     }
 }
 
-/// Composites the strokes of `bins` over every painted pixel of `px` in place: each pixel
-/// takes, in key order, the strokes listed for its cell (`Bins::at`), over its colour before
-/// the layer. Bands of cell rows in parallel; within a cell stroke by stroke, each over the
-/// pixels of the cell its rectangle may reach (a span per row, one pixel wider than the
-/// rectangle on each side, the exact test being `paint`'s): every pixel sees the same
-/// strokes in the same order as alone, so the result is the same on any thread count.
-fn composite(bins: &Bins, px: &mut [Vec4], surface: &Surface, opacity: f32) {
+/// Composites the strokes of `layer` over every painted pixel of `px` in place: each pixel
+/// takes, in key order, the strokes whose rectangle may reach it, over its colour before the
+/// layer. Bands of rows in parallel; within a band stroke by stroke, each over the span of
+/// each row its rectangle may reach (one pixel wider than the rectangle on each side, the
+/// exact test being `paint`'s): every pixel sees the same strokes in the same order as alone,
+/// so the result is the same on any thread count.
+fn composite(layer: &Layer, px: &mut [Vec4], surface: &Surface, opacity: f32) {
     let (w, h) = (surface.w, surface.h);
     if w == 0 || h == 0 {
         return;
     }
-    let cell_of = |p: f32, n: usize| ((p / bins.cell) as usize).min(n - 1);
-    // Columns of each cell (cell indices are monotone in x and y).
-    let mut columns: Vec<(usize, usize, usize)> = Vec::new();
-    for x in 0..w {
-        let cx = cell_of(x as f32 + 0.5, bins.nx);
-        match columns.last_mut() {
-            Some(c) if c.0 == cx => c.2 = x + 1,
-            _ => columns.push((cx, x, x + 1)),
-        }
-    }
-    let mut bands: Vec<(usize, usize, usize, &mut [Vec4])> = Vec::new();
-    let mut rest = px;
-    let mut y0 = 0;
-    while y0 < h {
-        let cy = cell_of(y0 as f32 + 0.5, bins.ny);
-        let mut y1 = y0 + 1;
-        while y1 < h && cell_of(y1 as f32 + 0.5, bins.ny) == cy {
-            y1 += 1;
-        }
-        let (band, r) = std::mem::take(&mut rest).split_at_mut((y1 - y0) * w);
-        bands.push((cy, y0, y1, band));
-        rest = r;
-        y0 = y1;
-    }
-    bands.into_par_iter().for_each(|(cy, y0, y1, band)| {
+    px.par_chunks_mut(BAND * w).enumerate().for_each(|(band, pixels)| {
+        let y0 = band * BAND;
+        let y1 = (y0 + BAND).min(h);
         // Each pixel's luminance before the layer.
-        let value: Vec<f32> = band.iter().map(|p| luminance(p.truncate())).collect();
-        for &(cx, x0, x1) in &columns {
-            let c = cy * bins.nx + cx;
-            for &k in &bins.items[bins.start[c] as usize..bins.start[c + 1] as usize] {
-                let s = &bins.strokes[k as usize];
-                for y in y0..y1 {
-                    let Some((a, b)) = span(s, y as f32 + 0.5, x0, x1) else { continue };
-                    let row = (y - y0) * w;
-                    for x in a..b {
-                        let i = y * w + x;
-                        if !surface.coverage.is_painted(i) {
-                            continue;
-                        }
-                        let q = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
-                        let p = &mut band[row + x];
-                        let painted = paint(s, q, surface.region(i), value[row + x], p.truncate(), opacity);
-                        *p = painted.extend(p.w);
+        let value: Vec<f32> = pixels.iter().map(|p| luminance(p.truncate())).collect();
+        let regions = &surface.regions[y0 * w..y1 * w];
+        for &k in &layer.items[layer.start[band] as usize..layer.start[band + 1] as usize] {
+            let s = &layer.strokes[k as usize];
+            for y in y0..y1 {
+                let py = y as f32 + 0.5;
+                let Some((a, b)) = span(s, py, 0, w) else { continue };
+                let dy = py - s.centre.y;
+                let dy_dir = (dy * s.dir.y, dy * s.dir.x);
+                let row = (y - y0) * w;
+                for x in a..b {
+                    let i = row + x;
+                    if !surface.coverage.is_painted(y0 * w + i) {
+                        continue;
                     }
+                    let dx = (x as f32 + 0.5) - s.centre.x;
+                    let p = &mut pixels[i];
+                    *p = paint(s, dx, dy_dir, regions[i], value[i], p.truncate(), opacity).extend(p.w);
                 }
             }
         }
@@ -414,8 +387,7 @@ impl Effect for Brushwork {
         let regions = ctx.regions(w * h);
         let surface = Surface { w, h, regions: &regions, coverage };
         let coarse = self.strokes(0, length, width, &surface, &angle, &source, &|_| true);
-        let bins = Bins::new(coarse, 0.5 * width * SPACING, w, h);
-        composite(&bins, px, &surface, opacity);
+        composite(&Layer::new(coarse, h), px, &surface, opacity);
         // The fine layer (Hertzmann's next brush): half the size, where the coarse layer
         // strays from the picture.
         let fine_width = 0.5 * width;
@@ -439,8 +411,7 @@ impl Effect for Brushwork {
             let keep = |p: Vec2| error(p) > FINE_THRESHOLD;
             let fine = self.strokes(1, 0.5 * length, fine_width, &surface, &angle, &source, &keep);
             if !fine.is_empty() {
-                let bins = Bins::new(fine, 0.5 * fine_width * SPACING, w, h);
-                composite(&bins, px, &surface, opacity);
+                composite(&Layer::new(fine, h), px, &surface, opacity);
             }
         }
         Ok(())
