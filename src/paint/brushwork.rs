@@ -66,8 +66,9 @@ pub struct Brushwork {
     pub seed: u64,
 }
 
-/// One stroke: a flat dab of `colour`, `2 half_len` long along `dir`, `2 half_wid` wide.
-/// The fields every pixel test reads come first (one cache line).
+/// One stroke's place and shape: a dab `2 half_len` long along `dir`, `2 half_wid` wide, and
+/// where its colour is sampled (its `Tint`, from the picture under it). The fields every pixel
+/// test reads come first (one cache line).
 #[derive(Clone, Copy, Debug)]
 struct Stroke {
     centre: Vec2,
@@ -78,17 +79,39 @@ struct Stroke {
     region: Region,
     inv_half_len: f32,
     inv_half_wid: f32,
-    colour: Vec3,
-    /// 1 / luminance of `colour` (0 for black).
-    inv_value: f32,
-    /// Luminance of `colour`.
-    value: f32,
     /// The bristles' loads across the stroke: 1-D value noise lattice values.
     bristles: [f32; BRISTLES + 1],
     /// Depth key: strokes are composited in increasing key order.
     key: u64,
     /// 1 / dir, per axis (`span`).
     inv_dir: Vec2,
+    /// The pixels whose mean colour it takes (three points along it, within its region;
+    /// `u32::MAX` for a point outside), and that colour's value jitter factor.
+    samples: [u32; 3],
+    jitter: f32,
+}
+
+/// A stroke's flat colour: the mean of the picture at its samples, value jittered.
+#[derive(Clone, Copy, Debug, Default)]
+struct Tint {
+    colour: Vec3,
+    /// 1 / luminance of `colour` (0 for black).
+    inv_value: f32,
+    /// Luminance of `colour`.
+    value: f32,
+}
+
+impl Stroke {
+    fn tint(&self, source: &[Vec4]) -> Tint {
+        let (mut sum, mut n) = (Vec3::ZERO, 0.0f32);
+        for &j in self.samples.iter().filter(|&&j| j != u32::MAX) {
+            sum += source[j as usize].truncate();
+            n += 1.0;
+        }
+        let colour = sum / n.max(1.0) * self.jitter;
+        let value = luminance(colour);
+        Tint { colour, inv_value: if value > 0.0 { 1.0 / value } else { 0.0 }, value }
+    }
 }
 
 /// What a stroke may paint: one facet of one object (the background counting as one), as
@@ -152,19 +175,20 @@ fn fade(t: f32) -> f32 {
     t * t * (3.0 - 2.0 * t)
 }
 
-/// Paints `s` over colour `c` at the pixel centre `d` = (dx, dy) from the stroke's centre
-/// (of `region`, luminance `value` before the layer), at `opacity`; `dy_dir` = (dy dir.y,
-/// dy dir.x), the same for a whole row.
+/// Where stroke `s` paints the pixel centre `d` = (dx, dy) from its centre (of `region`), at
+/// `opacity`: the stroke's alpha there before the dark accents, and the bristle's shade; None
+/// where it does not paint. `dy_dir` = (dy dir.y, dy dir.x), the same for a whole row. What
+/// it paints there is `lay`'s: this part depends on the stroke's shape alone.
 #[inline(always)]
-fn paint(s: &Stroke, dx: f32, dy_dir: (f32, f32), region: Region, value: f32, c: Vec3, opacity: f32) -> Vec3 {
+fn shape(s: &Stroke, dx: f32, dy_dir: (f32, f32), region: Region, opacity: f32) -> Option<(f32, f32)> {
     // u = d . dir and v = |d perp dir|, as `Vec2::dot` and `Vec2::perp_dot` compute them.
     let u = dx * s.dir.x + dy_dir.0;
     if u.abs() >= s.half_len {
-        return c;
+        return None;
     }
     let v = (dx * s.dir.y - dy_dir.1).abs();
     if v >= s.half_wid + 0.5 || s.region != region {
-        return c;
+        return None;
     }
     let un = u * s.inv_half_len;
     // Rounded ends: the half width narrows as 1 - un^6.
@@ -172,7 +196,7 @@ fn paint(s: &Stroke, dx: f32, dy_dir: (f32, f32), region: Region, value: f32, c:
     let hw = s.half_wid * (1.0 - un2 * un2 * un2);
     let edge = (hw - v + 0.5).clamp(0.0, 1.0);
     if edge <= 0.0 {
-        return c;
+        return None;
     }
     // The bristle under this point: 1-D value noise across the stroke (its two sides alike).
     let x = ((v * s.inv_half_wid) * BRISTLES as f32).min(BRISTLES as f32 - 1e-3);
@@ -184,13 +208,19 @@ fn paint(s: &Stroke, dx: f32, dy_dir: (f32, f32), region: Region, value: f32, c:
         let t = (un - 0.5) * 1.4 - 0.2;
         alpha *= smoothstep(t, t + 0.2, b);
     }
+    Some((alpha, 1.0 + BRISTLE_VALUE * (b - 0.5)))
+}
+
+/// Paints a stroke of tint `t` over colour `c` (luminance `value` before the layer) with the
+/// `alpha` and `shade` of `shape`.
+#[inline(always)]
+fn lay(t: &Tint, value: f32, c: Vec3, mut alpha: f32, shade: f32) -> Vec3 {
     // Dark accents (lines, deep shadows, small dark cues) under a much lighter stroke show
     // through: the painter's drawing stays on top.
-    if value < DARK_KEPT.1 * s.value {
-        alpha *= smoothstep(DARK_KEPT.0, DARK_KEPT.1, value * s.inv_value);
+    if value < DARK_KEPT.1 * t.value {
+        alpha *= smoothstep(DARK_KEPT.0, DARK_KEPT.1, value * t.inv_value);
     }
-    let shade = 1.0 + BRISTLE_VALUE * (b - 0.5);
-    c.lerp(s.colour * shade, alpha)
+    c.lerp(t.colour * shade, alpha)
 }
 
 /// What the layers read: the image size, each pixel's region and whether it is painted.
@@ -227,16 +257,13 @@ impl Brushwork {
 
     /// The strokes of layer `layer` (0 coarse, 1 fine): one per grid cell, anchored at a
     /// seeded point of the cell, on a painted pixel; `keep(anchor)` says whether the cell
-    /// gets its stroke. Colours are sampled from `source`.
-    #[allow(clippy::too_many_arguments)]
+    /// gets its stroke.
     fn strokes(
         &self,
         layer: u64,
-        length: f32,
-        width: f32,
+        (length, width): (f32, f32),
         surface: &Surface,
         angle: &[Vec2],
-        source: &[Vec4],
         keep: &(dyn Fn(Vec2) -> bool + Sync),
     ) -> Vec<Stroke> {
         let (w, h) = (surface.w, surface.h);
@@ -262,35 +289,29 @@ impl Brushwork {
                     let turn = (2.0 * r(3) - 1.0) * STROKE_TURN_DEG.to_radians();
                     let dir = Vec2::from_angle(turn).rotate(angle[(region >> 32) as usize]);
                     let half_len = 0.5 * length * (0.8 + 0.4 * r(4));
-                    // The mean colour along the stroke, within its region.
-                    let (mut sum, mut n) = (Vec3::ZERO, 0.0f32);
-                    for k in [-0.6f32, 0.0, 0.6] {
+                    // Its colour is the mean along it, within its region (`Stroke::tint`).
+                    let samples = [-0.6f32, 0.0, 0.6].map(|k| {
                         let q = centre + dir * (k * half_len);
                         if q.x < 0.0 || q.y < 0.0 || q.x >= w as f32 || q.y >= h as f32 {
-                            continue;
+                            return u32::MAX;
                         }
                         let j = q.y as usize * w + q.x as usize;
-                        if surface.region(j) == region && surface.coverage.is_painted(j) {
-                            sum += source[j].truncate();
-                            n += 1.0;
-                        }
-                    }
-                    let colour = sum / n.max(1.0) * (1.0 + VALUE_JITTER * (2.0 * r(5) - 1.0));
+                        if surface.region(j) == region && surface.coverage.is_painted(j) { j as u32 } else { u32::MAX }
+                    });
                     let bristle_seed = splitmix64(hsh ^ 6);
                     Some(Stroke {
                         centre,
                         dir,
                         half_len,
                         half_wid: 0.5 * width,
-                        colour,
-                        inv_value: if luminance(colour) > 0.0 { 1.0 / luminance(colour) } else { 0.0 },
-                        value: luminance(colour),
                         inv_half_len: 1.0 / half_len,
                         inv_half_wid: 2.0 / width,
                         region,
                         bristles: std::array::from_fn(|k| lattice1(bristle_seed, k as i64)),
                         key: splitmix64(hsh ^ 7),
                         inv_dir: dir.recip(),
+                        samples,
+                        jitter: 1.0 + VALUE_JITTER * (2.0 * r(5) - 1.0),
                     })
                 })
             })
@@ -298,43 +319,143 @@ impl Brushwork {
     }
 }
 
-/// Composites the strokes of `layer` over every painted pixel of `px` in place: each pixel
-/// takes, in key order, the strokes whose rectangle may reach it, over its colour before the
-/// layer. Bands of rows in parallel; within a band stroke by stroke, each over the span of
+/// Visits, band by band (in parallel) and in compositing order, every (pixel, stroke) that
+/// the strokes of `layer` may paint: each stroke of a band in key order, over the span of
 /// each row its rectangle may reach (one pixel wider than the rectangle on each side, the
-/// exact test being `paint`'s): every pixel sees the same strokes in the same order as alone,
-/// so the result is the same on any thread count.
-fn composite(layer: &Layer, px: &mut [Vec4], surface: &Surface, opacity: f32) {
+/// exact test being `shape`'s). `band` gets the band's pixels and first row, then `visit` each
+/// (index within the band, stroke index, dx, dy_dir) of it. Every pixel sees the same strokes
+/// in the same order as alone, so the result is the same on any thread count.
+fn each_band<T: Send, B: Send>(
+    layer: &Layer,
+    surface: &Surface,
+    bands: Vec<T>,
+    start: impl Fn(usize, &mut T) -> B + Sync,
+    visit: impl Fn(&mut T, &mut B, usize, u32, f32, (f32, f32)) + Sync,
+) {
     let (w, h) = (surface.w, surface.h);
-    if w == 0 || h == 0 {
-        return;
-    }
-    px.par_chunks_mut(BAND * w).enumerate().for_each(|(band, pixels)| {
+    bands.into_par_iter().enumerate().for_each(|(band, mut t)| {
         let y0 = band * BAND;
         let y1 = (y0 + BAND).min(h);
-        // Each pixel's luminance before the layer.
-        let value: Vec<f32> = pixels.iter().map(|p| luminance(p.truncate())).collect();
-        let regions = &surface.regions[y0 * w..y1 * w];
+        let mut b = start(y0, &mut t);
         for &k in &layer.items[layer.start[band] as usize..layer.start[band + 1] as usize] {
             let s = &layer.strokes[k as usize];
             for y in y0..y1 {
                 let py = y as f32 + 0.5;
-                let Some((a, b)) = span(s, py, 0, w) else { continue };
+                let Some((a, e)) = span(s, py, 0, w) else { continue };
                 let dy = py - s.centre.y;
                 let dy_dir = (dy * s.dir.y, dy * s.dir.x);
                 let row = (y - y0) * w;
-                for x in a..b {
-                    let i = row + x;
-                    if !surface.coverage.is_painted(y0 * w + i) {
-                        continue;
+                for x in a..e {
+                    if surface.coverage.is_painted(y0 * w + row + x) {
+                        visit(&mut t, &mut b, row + x, k, (x as f32 + 0.5) - s.centre.x, dy_dir);
                     }
-                    let dx = (x as f32 + 0.5) - s.centre.x;
-                    let p = &mut pixels[i];
-                    *p = paint(s, dx, dy_dir, regions[i], value[i], p.truncate(), opacity).extend(p.w);
                 }
             }
         }
     });
+}
+
+/// Composites the strokes of `layer` (tinted `tints`; only the `active` ones when given) over
+/// every painted pixel of `px` in place, each pixel over its colour before the layer
+/// (`each_band`).
+fn composite(layer: &Layer, tints: &[Tint], active: Option<&[bool]>, px: &mut [Vec4], surface: &Surface, opacity: f32) {
+    let w = surface.w;
+    if w == 0 || surface.h == 0 {
+        return;
+    }
+    let regions = surface.regions;
+    each_band(
+        layer,
+        surface,
+        px.chunks_mut(BAND * w).collect(),
+        // The band's regions, and each pixel's luminance before the layer.
+        |y0, pixels| (&regions[y0 * w..], pixels.iter().map(|p| luminance(p.truncate())).collect::<Vec<f32>>()),
+        |pixels, (regions, value), i, k, dx, dy_dir| {
+            if active.is_some_and(|a| !a[k as usize]) {
+                return;
+            }
+            if let Some((alpha, shade)) = shape(&layer.strokes[k as usize], dx, dy_dir, regions[i], opacity) {
+                let p = &mut pixels[i];
+                *p = lay(&tints[k as usize], value[i], p.truncate(), alpha, shade).extend(p.w);
+            }
+        },
+    );
+}
+
+/// One pixel a stroke paints (`shape`'s answer, kept): the pixel (within its band), the
+/// stroke, its alpha before the dark accents and its shade.
+#[derive(Clone, Copy, Debug)]
+struct Fragment {
+    pixel: u32,
+    stroke: u32,
+    alpha: f32,
+    shade: f32,
+}
+
+/// A layer's strokes and where they paint, per band in compositing order: what does not
+/// depend on the picture's colours, only on the regions, the planes and the strokes' size and
+/// opacity. A session keeps it (`StrokePlan`), so a change of colour upstream (a border width,
+/// a palette) composites these fragments instead of testing every stroke at every pixel.
+struct Fragments {
+    layer: Layer,
+    bands: Vec<Vec<Fragment>>,
+}
+
+impl Fragments {
+    fn new(layer: Layer, surface: &Surface, opacity: f32) -> Fragments {
+        let mut bands: Vec<Vec<Fragment>> = (0..surface.h.div_ceil(BAND)).map(|_| Vec::new()).collect();
+        let regions = surface.regions;
+        let w = surface.w;
+        each_band(
+            &layer,
+            surface,
+            bands.iter_mut().collect(),
+            |y0, _| &regions[y0 * w..],
+            |out, regions, i, k, dx, dy_dir| {
+                if let Some((alpha, shade)) = shape(&layer.strokes[k as usize], dx, dy_dir, regions[i], opacity) {
+                    out.push(Fragment { pixel: i as u32, stroke: k, alpha, shade });
+                }
+            },
+        );
+        Fragments { layer, bands }
+    }
+
+    fn bytes(&self) -> usize {
+        self.bands.iter().map(|b| b.capacity() * size_of::<Fragment>()).sum::<usize>()
+            + self.layer.strokes.len() * size_of::<Stroke>()
+            + (self.layer.items.len() + self.layer.start.len()) * 4
+    }
+
+    /// `composite` from the kept fragments: the same pixels.
+    fn composite(&self, tints: &[Tint], active: Option<&[bool]>, px: &mut [Vec4], w: usize) {
+        px.par_chunks_mut(BAND * w).zip(&self.bands).for_each(|(pixels, frags)| {
+            let value: Vec<f32> = pixels.iter().map(|p| luminance(p.truncate())).collect();
+            for f in frags {
+                if active.is_some_and(|a| !a[f.stroke as usize]) {
+                    continue;
+                }
+                let i = f.pixel as usize;
+                let p = &mut pixels[i];
+                *p = lay(&tints[f.stroke as usize], value[i], p.truncate(), f.alpha, f.shade).extend(p.w);
+            }
+        });
+    }
+}
+
+/// What a session keeps of the brushwork between paint-only changes (`PaintInputs`): both
+/// layers' fragments, the fine layer's for every cell (which cells paint depends on the
+/// colours), for one stroke size, opacity and seed on an opaque canvas.
+pub struct StrokePlan {
+    key: [u64; 3],
+    coarse: Fragments,
+    fine: Option<Fragments>,
+}
+
+impl StrokePlan {
+    /// Bytes held.
+    pub fn bytes(&self) -> usize {
+        self.coarse.bytes() + self.fine.as_ref().map_or(0, Fragments::bytes)
+    }
 }
 
 /// The columns in [x0, x1) of row centre `py` that stroke `s` may paint: where
@@ -383,18 +504,47 @@ impl Effect for Brushwork {
         let angle = self.directions(&planes);
         let source: Vec<Vec4> = canvas.px.to_vec();
         let opacity = self.opacity.min(1.0);
+        // A session keeps the strokes and their fragments (opaque canvases: a transparent
+        // one's coverage comes from the colour, which may change under the same regions).
+        let kept = ctx.inputs_kept() && !canvas.transparent;
         let (coverage, px) = canvas.coverage_and_pixels();
         let regions = ctx.regions(w * h);
         let surface = Surface { w, h, regions: &regions, coverage };
-        let coarse = self.strokes(0, length, width, &surface, &angle, &source, &|_| true);
-        composite(&Layer::new(coarse, h), px, &surface, opacity);
+        let fine_width = 0.5 * width;
+        let fine_size = (fine_width >= MIN_WIDTH).then_some((0.5 * length, fine_width));
+        let tints = |strokes: &[Stroke], active: Option<&[bool]>| -> Vec<Tint> {
+            strokes
+                .par_iter()
+                .enumerate()
+                .map(|(k, s)| if active.is_none_or(|a| a[k]) { s.tint(&source) } else { Tint::default() })
+                .collect()
+        };
+        let plan = kept.then(|| {
+            let key = [((length.to_bits() as u64) << 32) | width.to_bits() as u64, opacity.to_bits() as u64, self.seed];
+            ctx.stroke_plan().filter(|p| p.key == key).unwrap_or_else(|| {
+                let layer = |strokes| Fragments::new(Layer::new(strokes, h), &surface, opacity);
+                let plan = std::sync::Arc::new(StrokePlan {
+                    key,
+                    coarse: layer(self.strokes(0, (length, width), &surface, &angle, &|_| true)),
+                    fine: fine_size.map(|size| layer(self.strokes(1, size, &surface, &angle, &|_| true))),
+                });
+                ctx.keep_stroke_plan(plan.clone());
+                plan
+            })
+        });
+        match &plan {
+            Some(plan) => plan.coarse.composite(&tints(&plan.coarse.layer.strokes, None), None, px, w),
+            None => {
+                let coarse = Layer::new(self.strokes(0, (length, width), &surface, &angle, &|_| true), h);
+                composite(&coarse, &tints(&coarse.strokes, None), None, px, &surface, opacity);
+            }
+        }
         // The fine layer (Hertzmann's next brush): half the size, where the coarse layer
         // strays from the picture.
-        let fine_width = 0.5 * width;
-        if fine_width >= MIN_WIDTH {
+        if let Some(size) = fine_size {
             let value = |c: Vec4| luminance(c.truncate()).max(0.0).sqrt();
             let painted: &[Vec4] = px;
-            let r = fine_width.ceil() as isize;
+            let r = size.1.ceil() as isize;
             let error = |p: Vec2| {
                 let (x, y) = (p.x as isize, p.y as isize);
                 let (mut e, mut n) = (0.0, 0.0);
@@ -409,9 +559,18 @@ impl Effect for Brushwork {
                 e / n
             };
             let keep = |p: Vec2| error(p) > FINE_THRESHOLD;
-            let fine = self.strokes(1, 0.5 * length, fine_width, &surface, &angle, &source, &keep);
-            if !fine.is_empty() {
-                composite(&Layer::new(fine, h), px, &surface, opacity);
+            match plan.as_ref().and_then(|p| p.fine.as_ref()) {
+                Some(fine) => {
+                    let active: Vec<bool> = fine.layer.strokes.par_iter().map(|s| keep(s.centre)).collect();
+                    let tints = tints(&fine.layer.strokes, Some(&active));
+                    fine.composite(&tints, Some(&active), px, w);
+                }
+                None => {
+                    let fine = Layer::new(self.strokes(1, size, &surface, &angle, &keep), h);
+                    if !fine.strokes.is_empty() {
+                        composite(&fine, &tints(&fine.strokes, None), None, px, &surface, opacity);
+                    }
+                }
             }
         }
         Ok(())
