@@ -402,18 +402,34 @@ struct Fragments {
 }
 
 impl Fragments {
-    fn new(layer: Layer, surface: &Surface, opacity: f32) -> Fragments {
+    /// The fragments of `layer`'s strokes, compositing them (tinted `tints`, only the
+    /// `active` ones when given) over `px` on the way, as `composite` does.
+    fn build(
+        layer: Layer,
+        surface: &Surface,
+        opacity: f32,
+        tints: &[Tint],
+        active: Option<&[bool]>,
+        px: &mut [Vec4],
+    ) -> Fragments {
+        let w = surface.w;
         let mut bands: Vec<Vec<Fragment>> = (0..surface.h.div_ceil(BAND)).map(|_| Vec::new()).collect();
         let regions = surface.regions;
-        let w = surface.w;
         each_band(
             &layer,
             surface,
-            bands.iter_mut().collect(),
-            |y0, _| &regions[y0 * w..],
-            |out, regions, i, k, dx, dy_dir| {
+            bands.iter_mut().zip(px.chunks_mut(BAND * w.max(1))).collect(),
+            // The band's regions, and each pixel's luminance before the layer.
+            |y0, (_, pixels)| {
+                (&regions[y0 * w..], pixels.iter().map(|p| luminance(p.truncate())).collect::<Vec<f32>>())
+            },
+            |(out, pixels), (regions, value), i, k, dx, dy_dir| {
                 if let Some((alpha, shade)) = shape(&layer.strokes[k as usize], dx, dy_dir, regions[i], opacity) {
                     out.push(Fragment { pixel: i as u32, stroke: k, alpha, shade });
+                    if active.is_none_or(|a| a[k as usize]) {
+                        let p = &mut pixels[i];
+                        *p = lay(&tints[k as usize], value[i], p.truncate(), alpha, shade).extend(p.w);
+                    }
                 }
             },
         );
@@ -519,28 +535,29 @@ impl Effect for Brushwork {
                 .map(|(k, s)| if active.is_none_or(|a| a[k]) { s.tint(&source) } else { Tint::default() })
                 .collect()
         };
-        let plan = kept.then(|| {
-            let key = [((length.to_bits() as u64) << 32) | width.to_bits() as u64, opacity.to_bits() as u64, self.seed];
-            ctx.stroke_plan().filter(|p| p.key == key).unwrap_or_else(|| {
-                let layer = |strokes| Fragments::new(Layer::new(strokes, h), &surface, opacity);
-                let plan = std::sync::Arc::new(StrokePlan {
-                    key,
-                    coarse: layer(self.strokes(0, (length, width), &surface, &angle, &|_| true)),
-                    fine: fine_size.map(|size| layer(self.strokes(1, size, &surface, &angle, &|_| true))),
-                });
-                ctx.keep_stroke_plan(plan.clone());
-                plan
-            })
-        });
-        match &plan {
-            Some(plan) => plan.coarse.composite(&tints(&plan.coarse.layer.strokes, None), None, px, w),
-            None => {
-                let coarse = Layer::new(self.strokes(0, (length, width), &surface, &angle, &|_| true), h);
-                composite(&coarse, &tints(&coarse.strokes, None), None, px, &surface, opacity);
+        let key = [((length.to_bits() as u64) << 32) | width.to_bits() as u64, opacity.to_bits() as u64, self.seed];
+        let old = ctx.stroke_plan().filter(|p| kept && p.key == key);
+        // Each layer: from the kept fragments; else traced stroke by stroke, and kept when
+        // the inputs are (the fine layer's for every cell, `StrokePlan`).
+        let coarse = match &old {
+            Some(plan) => {
+                plan.coarse.composite(&tints(&plan.coarse.layer.strokes, None), None, px, w);
+                None
             }
-        }
+            None => {
+                let layer = Layer::new(self.strokes(0, (length, width), &surface, &angle, &|_| true), h);
+                let t = tints(&layer.strokes, None);
+                if kept {
+                    Some(Fragments::build(layer, &surface, opacity, &t, None, px))
+                } else {
+                    composite(&layer, &t, None, px, &surface, opacity);
+                    None
+                }
+            }
+        };
         // The fine layer (Hertzmann's next brush): half the size, where the coarse layer
         // strays from the picture.
+        let mut fine = None;
         if let Some(size) = fine_size {
             let value = |c: Vec4| luminance(c.truncate()).max(0.0).sqrt();
             let painted: &[Vec4] = px;
@@ -559,19 +576,30 @@ impl Effect for Brushwork {
                 e / n
             };
             let keep = |p: Vec2| error(p) > FINE_THRESHOLD;
-            match plan.as_ref().and_then(|p| p.fine.as_ref()) {
-                Some(fine) => {
-                    let active: Vec<bool> = fine.layer.strokes.par_iter().map(|s| keep(s.centre)).collect();
-                    let tints = tints(&fine.layer.strokes, Some(&active));
-                    fine.composite(&tints, Some(&active), px, w);
+            let active = |layer: &Layer| -> Vec<bool> { layer.strokes.par_iter().map(|s| keep(s.centre)).collect() };
+            match (&old, kept) {
+                (Some(plan), _) => {
+                    if let Some(frags) = &plan.fine {
+                        let a = active(&frags.layer);
+                        frags.composite(&tints(&frags.layer.strokes, Some(&a)), Some(&a), px, w);
+                    }
                 }
-                None => {
-                    let fine = Layer::new(self.strokes(1, size, &surface, &angle, &keep), h);
-                    if !fine.strokes.is_empty() {
-                        composite(&fine, &tints(&fine.strokes, None), None, px, &surface, opacity);
+                (None, true) => {
+                    let layer = Layer::new(self.strokes(1, size, &surface, &angle, &|_| true), h);
+                    let a = active(&layer);
+                    let t = tints(&layer.strokes, Some(&a));
+                    fine = Some(Fragments::build(layer, &surface, opacity, &t, Some(&a), px));
+                }
+                (None, false) => {
+                    let layer = Layer::new(self.strokes(1, size, &surface, &angle, &keep), h);
+                    if !layer.strokes.is_empty() {
+                        composite(&layer, &tints(&layer.strokes, None), None, px, &surface, opacity);
                     }
                 }
             }
+        }
+        if let Some(coarse) = coarse {
+            ctx.keep_stroke_plan(std::sync::Arc::new(StrokePlan { key, coarse, fine }));
         }
         Ok(())
     }
