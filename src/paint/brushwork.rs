@@ -537,8 +537,11 @@ impl Effect for Brushwork {
         };
         let key = [((length.to_bits() as u64) << 32) | width.to_bits() as u64, opacity.to_bits() as u64, self.seed];
         let old = ctx.stroke_plan().filter(|p| kept && p.key == key);
-        // Each layer: from the kept fragments; else traced stroke by stroke, and kept when
-        // the inputs are (the fine layer's for every cell, `StrokePlan`).
+        // Each layer: from the kept fragments; else traced stroke by stroke, and recorded
+        // (the fine layer's for every cell, `StrokePlan`) from the second chain on these
+        // inputs with these strokes on: recording costs more than tracing, so a facet or
+        // camera change, whose inputs serve one chain, does not pay it.
+        let kept = kept && old.is_none() && ctx.stroke_plan_seen(key);
         let coarse = match &old {
             Some(plan) => {
                 plan.coarse.composite(&tints(&plan.coarse.layer.strokes, None), None, px, w);

@@ -181,6 +181,9 @@ pub struct PaintInputs {
     edges: std::sync::Mutex<Option<(u32, std::sync::Arc<Edges>)>>,
     /// The brushwork's strokes and fragments (kept only).
     strokes: std::sync::Mutex<Option<std::sync::Arc<brushwork::StrokePlan>>>,
+    /// The brushwork's key in the last chain (kept only): its strokes are recorded from the
+    /// second chain with the same key on.
+    strokes_seen: std::sync::Mutex<Option<[u64; 3]>>,
 }
 
 /// The nearest region edge of every pixel within a distance (`distance::nearest_features`).
@@ -285,6 +288,11 @@ impl<'a> PaintContext<'a> {
     /// The brushwork's strokes kept by an earlier chain (`brushwork::StrokePlan`), if any.
     pub(crate) fn stroke_plan(&self) -> Option<std::sync::Arc<brushwork::StrokePlan>> {
         self.inputs.strokes.lock().ok().and_then(|g| g.clone())
+    }
+
+    /// Whether the last chain's brushwork had this `key` (kept inputs only); notes it.
+    pub(crate) fn stroke_plan_seen(&self, key: [u64; 3]) -> bool {
+        self.inputs.keep && self.inputs.strokes_seen.lock().is_ok_and(|mut g| g.replace(key) == Some(key))
     }
 
     /// Keeps the brushwork's strokes for the next chain (when the inputs are kept).
