@@ -83,6 +83,18 @@ fn main() {
     let mut session = Session::new();
     session.set_scene(Scene::default_scene());
     let mut rows = vec![
+        // A session records the brushwork's strokes and where they paint on the second chain
+        // over the same film and facets (src/paint/brushwork.rs, `StrokePlan`): that request
+        // (the first paint-only change after a new film or layout) costs more than those after
+        // it, which the next row times. One request.
+        measure(
+            &mut session,
+            "first paint-only change on new facets (records the strokes)",
+            f64::NAN,
+            1,
+            &full,
+            |_| paint(&full, 0),
+        ),
         measure(&mut session, "paint-only change (border width)", 50.0, runs, &full, |i| paint(&full, i)),
         measure(&mut session, "facet change (Segment segments)", 300.0, runs, &full, |i| facets(&full, i)),
         measure(&mut session, "camera change (convergence angle)", 600.0, runs, &full, |i| camera(&full, i)),

@@ -14,9 +14,10 @@
 //!
 //! Speed and determinism (Lu, Sander and Finkelstein 2010 splat 60,000 strokes on a GPU): the
 //! strokes sit one per cell of a jittered grid (seeded per cell), sorted once by a seeded
-//! depth key into per-cell lists (compressed rows, no allocation per stroke); then every pixel
-//! composites, in that global order, the few strokes listed for its cell. Each pixel is
-//! computed alone from the same lists, so the result is identical on any thread count.
+//! depth key into per-band lists (bands of rows, compressed rows, no allocation per stroke);
+//! then every pixel composites, in that global order, the strokes whose rectangle may reach
+//! it. Each pixel is computed alone from the same lists, so the result is identical on any
+//! thread count.
 //!
 //! A stroke's look: a flat colour (the mean of the picture at three points along it, value
 //! jittered by a few percent), rounded ends, a crisp anti-aliased edge, bristle streaks along
@@ -65,8 +66,9 @@ pub struct Brushwork {
     pub seed: u64,
 }
 
-/// One stroke: a flat dab of `colour`, `2 half_len` long along `dir`, `2 half_wid` wide.
-/// The fields every pixel test reads come first (one cache line).
+/// One stroke's place and shape: a dab `2 half_len` long along `dir`, `2 half_wid` wide, and
+/// where its colour is sampled (its `Tint`, from the picture under it). The fields every pixel
+/// test reads come first (one cache line).
 #[derive(Clone, Copy, Debug)]
 struct Stroke {
     centre: Vec2,
@@ -77,64 +79,80 @@ struct Stroke {
     region: Region,
     inv_half_len: f32,
     inv_half_wid: f32,
-    colour: Vec3,
-    /// 1 / luminance of `colour` (0 for black).
-    inv_value: f32,
-    /// Luminance of `colour`.
-    value: f32,
     /// The bristles' loads across the stroke: 1-D value noise lattice values.
     bristles: [f32; BRISTLES + 1],
     /// Depth key: strokes are composited in increasing key order.
     key: u64,
     /// 1 / dir, per axis (`span`).
     inv_dir: Vec2,
+    /// The pixels whose mean colour it takes (three points along it, within its region;
+    /// `u32::MAX` for a point outside), and that colour's value jitter factor.
+    samples: [u32; 3],
+    jitter: f32,
+}
+
+/// A stroke's flat colour: the mean of the picture at its samples, value jittered.
+#[derive(Clone, Copy, Debug, Default)]
+struct Tint {
+    colour: Vec3,
+    /// 1 / luminance of `colour` (0 for black).
+    inv_value: f32,
+    /// Luminance of `colour`.
+    value: f32,
+}
+
+impl Stroke {
+    fn tint(&self, source: &[Vec4]) -> Tint {
+        let (mut sum, mut n) = (Vec3::ZERO, 0.0f32);
+        for &j in self.samples.iter().filter(|&&j| j != u32::MAX) {
+            sum += source[j as usize].truncate();
+            n += 1.0;
+        }
+        let colour = sum / n.max(1.0) * self.jitter;
+        let value = luminance(colour);
+        Tint { colour, inv_value: if value > 0.0 { 1.0 / value } else { 0.0 }, value }
+    }
 }
 
 /// What a stroke may paint: one facet of one object (the background counting as one), as
 /// facet id << 32 | object id.
 type Region = u64;
 
-/// The strokes of one layer listed per grid cell (compressed rows), each list in key order.
-struct Bins {
-    cell: f32,
-    nx: usize,
-    ny: usize,
+/// Rows of a band of the compositing (`Layer`): pixels of different bands are painted in
+/// parallel, each band's strokes in key order.
+const BAND: usize = 8;
+
+/// The strokes of one layer in key order, listed per band of `BAND` rows (compressed rows):
+/// each band lists every stroke whose rectangle (widened by a pixel) reaches one of its rows.
+struct Layer {
     start: Vec<u32>,
     items: Vec<u32>,
     strokes: Vec<Stroke>,
 }
 
-impl Bins {
-    fn new(mut strokes: Vec<Stroke>, cell: f32, width: usize, height: usize) -> Bins {
+impl Layer {
+    fn new(mut strokes: Vec<Stroke>, height: usize) -> Layer {
         strokes.sort_unstable_by_key(|s| s.key);
-        let nx = ((width as f32 / cell).ceil() as usize).max(1);
-        let ny = ((height as f32 / cell).ceil() as usize).max(1);
-        // The cells a stroke's rectangle (widened by the anti-aliasing half pixel) overlaps:
-        // those of its bounding box that no axis separates from it (the rectangle's own two
-        // axes; the bounding box already settles x and y).
-        let cells = |s: &Stroke, mut visit: Box<dyn FnMut(usize) + '_>| {
-            let hw = s.half_wid + 1.0;
-            let ext = Vec2::new(
-                s.dir.x.abs() * s.half_len + s.dir.y.abs() * hw,
-                s.dir.y.abs() * s.half_len + s.dir.x.abs() * hw,
-            );
-            let (lo, hi) = ((s.centre - ext) / cell, (s.centre + ext) / cell);
-            let cx = (lo.x.floor().max(0.0) as usize, (hi.x.floor().max(0.0) as usize).min(nx - 1));
-            let cy = (lo.y.floor().max(0.0) as usize, (hi.y.floor().max(0.0) as usize).min(ny - 1));
-            let half = 0.5 * cell;
-            let reach = half * (s.dir.x.abs() + s.dir.y.abs());
-            for y in cy.0..=cy.1 {
-                for x in cx.0..=cx.1 {
-                    let d = Vec2::new((x as f32 + 0.5) * cell, (y as f32 + 0.5) * cell) - s.centre;
-                    if d.dot(s.dir).abs() <= s.half_len + reach && d.perp_dot(s.dir).abs() <= hw + reach {
-                        visit(y * nx + x);
-                    }
+        let nb = height.div_ceil(BAND).max(1);
+        // The bands of the rows a stroke may paint: a painted pixel has |u| < half_len and
+        // |v| < half_wid + 0.5, so |dy| < |dir.y| half_len + |dir.x| (half_wid + 0.5);
+        // widened by a pixel against rounding.
+        let bands = |s: &Stroke| -> Option<(usize, usize)> {
+            let ext = s.dir.y.abs() * s.half_len + s.dir.x.abs() * (s.half_wid + 0.5) + 1.0;
+            let (lo, hi) = ((s.centre.y - ext - 0.5).floor(), (s.centre.y + ext - 0.5).ceil());
+            if !(lo.is_finite() && hi.is_finite()) || hi < 0.0 || lo >= height as f32 {
+                return None;
+            }
+            let (lo, hi) = (lo.max(0.0) as usize, (hi as usize).min(height.max(1) - 1));
+            Some((lo / BAND, (hi / BAND).min(nb - 1)))
+        };
+        let mut start = vec![0u32; nb + 1];
+        for s in &strokes {
+            if let Some((a, b)) = bands(s) {
+                for c in a..=b {
+                    start[c + 1] += 1;
                 }
             }
-        };
-        let mut start = vec![0u32; nx * ny + 1];
-        for s in &strokes {
-            cells(s, Box::new(|c| start[c + 1] += 1));
         }
         for k in 1..start.len() {
             start[k] += start[k - 1];
@@ -142,15 +160,14 @@ impl Bins {
         let mut fill = start.clone();
         let mut items = vec![0u32; *start.last().unwrap_or(&0) as usize];
         for (k, s) in strokes.iter().enumerate() {
-            cells(
-                s,
-                Box::new(|c| {
+            if let Some((a, b)) = bands(s) {
+                for c in a..=b {
                     items[fill[c] as usize] = k as u32;
                     fill[c] += 1;
-                }),
-            );
+                }
+            }
         }
-        Bins { cell, nx, ny, start, items, strokes }
+        Layer { start, items, strokes }
     }
 }
 
@@ -158,18 +175,20 @@ fn fade(t: f32) -> f32 {
     t * t * (3.0 - 2.0 * t)
 }
 
-/// Paints `s` over colour `c` at pixel centre `p` (of `region`, luminance `value` before the
-/// layer), at `opacity`.
-#[inline]
-fn paint(s: &Stroke, p: Vec2, region: Region, value: f32, c: Vec3, opacity: f32) -> Vec3 {
-    let d = p - s.centre;
-    let u = d.dot(s.dir);
+/// Where stroke `s` paints the pixel centre `d` = (dx, dy) from its centre (of `region`), at
+/// `opacity`: the stroke's alpha there before the dark accents, and the bristle's shade; None
+/// where it does not paint. `dy_dir` = (dy dir.y, dy dir.x), the same for a whole row. What
+/// it paints there is `lay`'s: this part depends on the stroke's shape alone.
+#[inline(always)]
+fn shape(s: &Stroke, dx: f32, dy_dir: (f32, f32), region: Region, opacity: f32) -> Option<(f32, f32)> {
+    // u = d . dir and v = |d perp dir|, as `Vec2::dot` and `Vec2::perp_dot` compute them.
+    let u = dx * s.dir.x + dy_dir.0;
     if u.abs() >= s.half_len {
-        return c;
+        return None;
     }
-    let v = d.perp_dot(s.dir).abs();
+    let v = (dx * s.dir.y - dy_dir.1).abs();
     if v >= s.half_wid + 0.5 || s.region != region {
-        return c;
+        return None;
     }
     let un = u * s.inv_half_len;
     // Rounded ends: the half width narrows as 1 - un^6.
@@ -177,7 +196,7 @@ fn paint(s: &Stroke, p: Vec2, region: Region, value: f32, c: Vec3, opacity: f32)
     let hw = s.half_wid * (1.0 - un2 * un2 * un2);
     let edge = (hw - v + 0.5).clamp(0.0, 1.0);
     if edge <= 0.0 {
-        return c;
+        return None;
     }
     // The bristle under this point: 1-D value noise across the stroke (its two sides alike).
     let x = ((v * s.inv_half_wid) * BRISTLES as f32).min(BRISTLES as f32 - 1e-3);
@@ -189,13 +208,19 @@ fn paint(s: &Stroke, p: Vec2, region: Region, value: f32, c: Vec3, opacity: f32)
         let t = (un - 0.5) * 1.4 - 0.2;
         alpha *= smoothstep(t, t + 0.2, b);
     }
+    Some((alpha, 1.0 + BRISTLE_VALUE * (b - 0.5)))
+}
+
+/// Paints a stroke of tint `t` over colour `c` (luminance `value` before the layer) with the
+/// `alpha` and `shade` of `shape`.
+#[inline(always)]
+fn lay(t: &Tint, value: f32, c: Vec3, mut alpha: f32, shade: f32) -> Vec3 {
     // Dark accents (lines, deep shadows, small dark cues) under a much lighter stroke show
     // through: the painter's drawing stays on top.
-    if value < DARK_KEPT.1 * s.value {
-        alpha *= smoothstep(DARK_KEPT.0, DARK_KEPT.1, value * s.inv_value);
+    if value < DARK_KEPT.1 * t.value {
+        alpha *= smoothstep(DARK_KEPT.0, DARK_KEPT.1, value * t.inv_value);
     }
-    let shade = 1.0 + BRISTLE_VALUE * (b - 0.5);
-    c.lerp(s.colour * shade, alpha)
+    c.lerp(t.colour * shade, alpha)
 }
 
 /// What the layers read: the image size, each pixel's region and whether it is painted.
@@ -232,16 +257,13 @@ impl Brushwork {
 
     /// The strokes of layer `layer` (0 coarse, 1 fine): one per grid cell, anchored at a
     /// seeded point of the cell, on a painted pixel; `keep(anchor)` says whether the cell
-    /// gets its stroke. Colours are sampled from `source`.
-    #[allow(clippy::too_many_arguments)]
+    /// gets its stroke.
     fn strokes(
         &self,
         layer: u64,
-        length: f32,
-        width: f32,
+        (length, width): (f32, f32),
         surface: &Surface,
         angle: &[Vec2],
-        source: &[Vec4],
         keep: &(dyn Fn(Vec2) -> bool + Sync),
     ) -> Vec<Stroke> {
         let (w, h) = (surface.w, surface.h);
@@ -267,35 +289,29 @@ impl Brushwork {
                     let turn = (2.0 * r(3) - 1.0) * STROKE_TURN_DEG.to_radians();
                     let dir = Vec2::from_angle(turn).rotate(angle[(region >> 32) as usize]);
                     let half_len = 0.5 * length * (0.8 + 0.4 * r(4));
-                    // The mean colour along the stroke, within its region.
-                    let (mut sum, mut n) = (Vec3::ZERO, 0.0f32);
-                    for k in [-0.6f32, 0.0, 0.6] {
+                    // Its colour is the mean along it, within its region (`Stroke::tint`).
+                    let samples = [-0.6f32, 0.0, 0.6].map(|k| {
                         let q = centre + dir * (k * half_len);
                         if q.x < 0.0 || q.y < 0.0 || q.x >= w as f32 || q.y >= h as f32 {
-                            continue;
+                            return u32::MAX;
                         }
                         let j = q.y as usize * w + q.x as usize;
-                        if surface.region(j) == region && surface.coverage.is_painted(j) {
-                            sum += source[j].truncate();
-                            n += 1.0;
-                        }
-                    }
-                    let colour = sum / n.max(1.0) * (1.0 + VALUE_JITTER * (2.0 * r(5) - 1.0));
+                        if surface.region(j) == region && surface.coverage.is_painted(j) { j as u32 } else { u32::MAX }
+                    });
                     let bristle_seed = splitmix64(hsh ^ 6);
                     Some(Stroke {
                         centre,
                         dir,
                         half_len,
                         half_wid: 0.5 * width,
-                        colour,
-                        inv_value: if luminance(colour) > 0.0 { 1.0 / luminance(colour) } else { 0.0 },
-                        value: luminance(colour),
                         inv_half_len: 1.0 / half_len,
                         inv_half_wid: 2.0 / width,
                         region,
                         bristles: std::array::from_fn(|k| lattice1(bristle_seed, k as i64)),
                         key: splitmix64(hsh ^ 7),
                         inv_dir: dir.recip(),
+                        samples,
+                        jitter: 1.0 + VALUE_JITTER * (2.0 * r(5) - 1.0),
                     })
                 })
             })
@@ -303,65 +319,159 @@ impl Brushwork {
     }
 }
 
-/// Composites the strokes of `bins` over every painted pixel of `px` in place: each pixel
-/// takes, in key order, the strokes listed for its cell (`Bins::at`), over its colour before
-/// the layer. Bands of cell rows in parallel; within a cell stroke by stroke, each over the
-/// pixels of the cell its rectangle may reach (a span per row, one pixel wider than the
-/// rectangle on each side, the exact test being `paint`'s): every pixel sees the same
-/// strokes in the same order as alone, so the result is the same on any thread count.
-fn composite(bins: &Bins, px: &mut [Vec4], surface: &Surface, opacity: f32) {
+/// Visits, band by band (in parallel) and in compositing order, every (pixel, stroke) that
+/// the strokes of `layer` may paint: each stroke of a band in key order, over the span of
+/// each row its rectangle may reach (one pixel wider than the rectangle on each side, the
+/// exact test being `shape`'s). `band` gets the band's pixels and first row, then `visit` each
+/// (index within the band, stroke index, dx, dy_dir) of it. Every pixel sees the same strokes
+/// in the same order as alone, so the result is the same on any thread count.
+fn each_band<T: Send, B: Send>(
+    layer: &Layer,
+    surface: &Surface,
+    bands: Vec<T>,
+    start: impl Fn(usize, &mut T) -> B + Sync,
+    visit: impl Fn(&mut T, &mut B, usize, u32, f32, (f32, f32)) + Sync,
+) {
     let (w, h) = (surface.w, surface.h);
-    if w == 0 || h == 0 {
-        return;
-    }
-    let cell_of = |p: f32, n: usize| ((p / bins.cell) as usize).min(n - 1);
-    // Columns of each cell (cell indices are monotone in x and y).
-    let mut columns: Vec<(usize, usize, usize)> = Vec::new();
-    for x in 0..w {
-        let cx = cell_of(x as f32 + 0.5, bins.nx);
-        match columns.last_mut() {
-            Some(c) if c.0 == cx => c.2 = x + 1,
-            _ => columns.push((cx, x, x + 1)),
-        }
-    }
-    let mut bands: Vec<(usize, usize, usize, &mut [Vec4])> = Vec::new();
-    let mut rest = px;
-    let mut y0 = 0;
-    while y0 < h {
-        let cy = cell_of(y0 as f32 + 0.5, bins.ny);
-        let mut y1 = y0 + 1;
-        while y1 < h && cell_of(y1 as f32 + 0.5, bins.ny) == cy {
-            y1 += 1;
-        }
-        let (band, r) = std::mem::take(&mut rest).split_at_mut((y1 - y0) * w);
-        bands.push((cy, y0, y1, band));
-        rest = r;
-        y0 = y1;
-    }
-    bands.into_par_iter().for_each(|(cy, y0, y1, band)| {
-        // Each pixel's luminance before the layer.
-        let value: Vec<f32> = band.iter().map(|p| luminance(p.truncate())).collect();
-        for &(cx, x0, x1) in &columns {
-            let c = cy * bins.nx + cx;
-            for &k in &bins.items[bins.start[c] as usize..bins.start[c + 1] as usize] {
-                let s = &bins.strokes[k as usize];
-                for y in y0..y1 {
-                    let Some((a, b)) = span(s, y as f32 + 0.5, x0, x1) else { continue };
-                    let row = (y - y0) * w;
-                    for x in a..b {
-                        let i = y * w + x;
-                        if !surface.coverage.is_painted(i) {
-                            continue;
-                        }
-                        let q = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
-                        let p = &mut band[row + x];
-                        let painted = paint(s, q, surface.region(i), value[row + x], p.truncate(), opacity);
-                        *p = painted.extend(p.w);
+    bands.into_par_iter().enumerate().for_each(|(band, mut t)| {
+        let y0 = band * BAND;
+        let y1 = (y0 + BAND).min(h);
+        let mut b = start(y0, &mut t);
+        for &k in &layer.items[layer.start[band] as usize..layer.start[band + 1] as usize] {
+            let s = &layer.strokes[k as usize];
+            for y in y0..y1 {
+                let py = y as f32 + 0.5;
+                let Some((a, e)) = span(s, py, 0, w) else { continue };
+                let dy = py - s.centre.y;
+                let dy_dir = (dy * s.dir.y, dy * s.dir.x);
+                let row = (y - y0) * w;
+                for x in a..e {
+                    if surface.coverage.is_painted(y0 * w + row + x) {
+                        visit(&mut t, &mut b, row + x, k, (x as f32 + 0.5) - s.centre.x, dy_dir);
                     }
                 }
             }
         }
     });
+}
+
+/// Composites the strokes of `layer` (tinted `tints`; only the `active` ones when given) over
+/// every painted pixel of `px` in place, each pixel over its colour before the layer
+/// (`each_band`).
+fn composite(layer: &Layer, tints: &[Tint], active: Option<&[bool]>, px: &mut [Vec4], surface: &Surface, opacity: f32) {
+    let w = surface.w;
+    if w == 0 || surface.h == 0 {
+        return;
+    }
+    let regions = surface.regions;
+    each_band(
+        layer,
+        surface,
+        px.chunks_mut(BAND * w).collect(),
+        // The band's regions, and each pixel's luminance before the layer.
+        |y0, pixels| (&regions[y0 * w..], pixels.iter().map(|p| luminance(p.truncate())).collect::<Vec<f32>>()),
+        |pixels, (regions, value), i, k, dx, dy_dir| {
+            if active.is_some_and(|a| !a[k as usize]) {
+                return;
+            }
+            if let Some((alpha, shade)) = shape(&layer.strokes[k as usize], dx, dy_dir, regions[i], opacity) {
+                let p = &mut pixels[i];
+                *p = lay(&tints[k as usize], value[i], p.truncate(), alpha, shade).extend(p.w);
+            }
+        },
+    );
+}
+
+/// One pixel a stroke paints (`shape`'s answer, kept): the pixel (within its band), the
+/// stroke, its alpha before the dark accents and its shade.
+#[derive(Clone, Copy, Debug)]
+struct Fragment {
+    pixel: u32,
+    stroke: u32,
+    alpha: f32,
+    shade: f32,
+}
+
+/// A layer's strokes and where they paint, per band in compositing order: what does not
+/// depend on the picture's colours, only on the regions, the planes and the strokes' size and
+/// opacity. A session keeps it (`StrokePlan`), so a change of colour upstream (a border width,
+/// a palette) composites these fragments instead of testing every stroke at every pixel.
+struct Fragments {
+    layer: Layer,
+    bands: Vec<Vec<Fragment>>,
+}
+
+impl Fragments {
+    /// The fragments of `layer`'s strokes, compositing them (tinted `tints`, only the
+    /// `active` ones when given) over `px` on the way, as `composite` does.
+    fn build(
+        layer: Layer,
+        surface: &Surface,
+        opacity: f32,
+        tints: &[Tint],
+        active: Option<&[bool]>,
+        px: &mut [Vec4],
+    ) -> Fragments {
+        let w = surface.w;
+        let mut bands: Vec<Vec<Fragment>> = (0..surface.h.div_ceil(BAND)).map(|_| Vec::new()).collect();
+        let regions = surface.regions;
+        each_band(
+            &layer,
+            surface,
+            bands.iter_mut().zip(px.chunks_mut(BAND * w.max(1))).collect(),
+            // The band's regions, and each pixel's luminance before the layer.
+            |y0, (_, pixels)| {
+                (&regions[y0 * w..], pixels.iter().map(|p| luminance(p.truncate())).collect::<Vec<f32>>())
+            },
+            |(out, pixels), (regions, value), i, k, dx, dy_dir| {
+                if let Some((alpha, shade)) = shape(&layer.strokes[k as usize], dx, dy_dir, regions[i], opacity) {
+                    out.push(Fragment { pixel: i as u32, stroke: k, alpha, shade });
+                    if active.is_none_or(|a| a[k as usize]) {
+                        let p = &mut pixels[i];
+                        *p = lay(&tints[k as usize], value[i], p.truncate(), alpha, shade).extend(p.w);
+                    }
+                }
+            },
+        );
+        Fragments { layer, bands }
+    }
+
+    fn bytes(&self) -> usize {
+        self.bands.iter().map(|b| b.capacity() * size_of::<Fragment>()).sum::<usize>()
+            + self.layer.strokes.len() * size_of::<Stroke>()
+            + (self.layer.items.len() + self.layer.start.len()) * 4
+    }
+
+    /// `composite` from the kept fragments: the same pixels.
+    fn composite(&self, tints: &[Tint], active: Option<&[bool]>, px: &mut [Vec4], w: usize) {
+        px.par_chunks_mut(BAND * w).zip(&self.bands).for_each(|(pixels, frags)| {
+            let value: Vec<f32> = pixels.iter().map(|p| luminance(p.truncate())).collect();
+            for f in frags {
+                if active.is_some_and(|a| !a[f.stroke as usize]) {
+                    continue;
+                }
+                let i = f.pixel as usize;
+                let p = &mut pixels[i];
+                *p = lay(&tints[f.stroke as usize], value[i], p.truncate(), f.alpha, f.shade).extend(p.w);
+            }
+        });
+    }
+}
+
+/// What a session keeps of the brushwork between paint-only changes (`PaintInputs`): both
+/// layers' fragments, the fine layer's for every cell (which cells paint depends on the
+/// colours), for one stroke size, opacity and seed on an opaque canvas.
+pub struct StrokePlan {
+    key: [u64; 3],
+    coarse: Fragments,
+    fine: Option<Fragments>,
+}
+
+impl StrokePlan {
+    /// Bytes held.
+    pub fn bytes(&self) -> usize {
+        self.coarse.bytes() + self.fine.as_ref().map_or(0, Fragments::bytes)
+    }
 }
 
 /// The columns in [x0, x1) of row centre `py` that stroke `s` may paint: where
@@ -410,19 +520,51 @@ impl Effect for Brushwork {
         let angle = self.directions(&planes);
         let source: Vec<Vec4> = canvas.px.to_vec();
         let opacity = self.opacity.min(1.0);
+        // A session keeps the strokes and their fragments (opaque canvases: a transparent
+        // one's coverage comes from the colour, which may change under the same regions).
+        let kept = ctx.inputs_kept() && !canvas.transparent;
         let (coverage, px) = canvas.coverage_and_pixels();
         let regions = ctx.regions(w * h);
         let surface = Surface { w, h, regions: &regions, coverage };
-        let coarse = self.strokes(0, length, width, &surface, &angle, &source, &|_| true);
-        let bins = Bins::new(coarse, 0.5 * width * SPACING, w, h);
-        composite(&bins, px, &surface, opacity);
+        let fine_width = 0.5 * width;
+        let fine_size = (fine_width >= MIN_WIDTH).then_some((0.5 * length, fine_width));
+        let tints = |strokes: &[Stroke], active: Option<&[bool]>| -> Vec<Tint> {
+            strokes
+                .par_iter()
+                .enumerate()
+                .map(|(k, s)| if active.is_none_or(|a| a[k]) { s.tint(&source) } else { Tint::default() })
+                .collect()
+        };
+        let key = [((length.to_bits() as u64) << 32) | width.to_bits() as u64, opacity.to_bits() as u64, self.seed];
+        let old = ctx.stroke_plan().filter(|p| kept && p.key == key);
+        // Each layer: from the kept fragments; else traced stroke by stroke, and recorded
+        // (the fine layer's for every cell, `StrokePlan`) from the second chain on these
+        // inputs with these strokes on: recording costs more than tracing, so a facet or
+        // camera change, whose inputs serve one chain, does not pay it.
+        let kept = kept && old.is_none() && ctx.stroke_plan_seen(key);
+        let coarse = match &old {
+            Some(plan) => {
+                plan.coarse.composite(&tints(&plan.coarse.layer.strokes, None), None, px, w);
+                None
+            }
+            None => {
+                let layer = Layer::new(self.strokes(0, (length, width), &surface, &angle, &|_| true), h);
+                let t = tints(&layer.strokes, None);
+                if kept {
+                    Some(Fragments::build(layer, &surface, opacity, &t, None, px))
+                } else {
+                    composite(&layer, &t, None, px, &surface, opacity);
+                    None
+                }
+            }
+        };
         // The fine layer (Hertzmann's next brush): half the size, where the coarse layer
         // strays from the picture.
-        let fine_width = 0.5 * width;
-        if fine_width >= MIN_WIDTH {
+        let mut fine = None;
+        if let Some(size) = fine_size {
             let value = |c: Vec4| luminance(c.truncate()).max(0.0).sqrt();
             let painted: &[Vec4] = px;
-            let r = fine_width.ceil() as isize;
+            let r = size.1.ceil() as isize;
             let error = |p: Vec2| {
                 let (x, y) = (p.x as isize, p.y as isize);
                 let (mut e, mut n) = (0.0, 0.0);
@@ -437,11 +579,30 @@ impl Effect for Brushwork {
                 e / n
             };
             let keep = |p: Vec2| error(p) > FINE_THRESHOLD;
-            let fine = self.strokes(1, 0.5 * length, fine_width, &surface, &angle, &source, &keep);
-            if !fine.is_empty() {
-                let bins = Bins::new(fine, 0.5 * fine_width * SPACING, w, h);
-                composite(&bins, px, &surface, opacity);
+            let active = |layer: &Layer| -> Vec<bool> { layer.strokes.par_iter().map(|s| keep(s.centre)).collect() };
+            match (&old, kept) {
+                (Some(plan), _) => {
+                    if let Some(frags) = &plan.fine {
+                        let a = active(&frags.layer);
+                        frags.composite(&tints(&frags.layer.strokes, Some(&a)), Some(&a), px, w);
+                    }
+                }
+                (None, true) => {
+                    let layer = Layer::new(self.strokes(1, size, &surface, &angle, &|_| true), h);
+                    let a = active(&layer);
+                    let t = tints(&layer.strokes, Some(&a));
+                    fine = Some(Fragments::build(layer, &surface, opacity, &t, Some(&a), px));
+                }
+                (None, false) => {
+                    let layer = Layer::new(self.strokes(1, size, &surface, &angle, &keep), h);
+                    if !layer.strokes.is_empty() {
+                        composite(&layer, &tints(&layer.strokes, None), None, px, &surface, opacity);
+                    }
+                }
             }
+        }
+        if let Some(coarse) = coarse {
+            ctx.keep_stroke_plan(std::sync::Arc::new(StrokePlan { key, coarse, fine }));
         }
         Ok(())
     }

@@ -179,6 +179,11 @@ pub struct PaintInputs {
     regions: std::sync::Mutex<Option<std::sync::Arc<Vec<u64>>>>,
     planes: std::sync::Mutex<Option<(u64, std::sync::Arc<Vec<planes::Plane>>)>>,
     edges: std::sync::Mutex<Option<(u32, std::sync::Arc<Edges>)>>,
+    /// The brushwork's strokes and fragments (kept only).
+    strokes: std::sync::Mutex<Option<std::sync::Arc<brushwork::StrokePlan>>>,
+    /// The brushwork's key in the last chain (kept only): its strokes are recorded from the
+    /// second chain with the same key on.
+    strokes_seen: std::sync::Mutex<Option<[u64; 3]>>,
 }
 
 /// The nearest region edge of every pixel within a distance (`distance::nearest_features`).
@@ -199,7 +204,8 @@ impl PaintInputs {
         let planes =
             self.planes.lock().map_or(0, |p| p.as_ref().map_or(0, |(_, p)| p.len() * size_of::<planes::Plane>()));
         let edges = self.edges.lock().map_or(0, |e| e.as_ref().map_or(0, |(_, e)| e.dist.len() * 4 + e.near.len() * 4));
-        (regions + planes + edges) as u64
+        let strokes = self.strokes.lock().map_or(0, |s| s.as_ref().map_or(0, |s| s.bytes()));
+        (regions + planes + edges + strokes) as u64
     }
 }
 
@@ -277,6 +283,25 @@ impl<'a> PaintContext<'a> {
             *g = Some((limit.to_bits(), e.clone()));
         }
         e
+    }
+
+    /// The brushwork's strokes kept by an earlier chain (`brushwork::StrokePlan`), if any.
+    pub(crate) fn stroke_plan(&self) -> Option<std::sync::Arc<brushwork::StrokePlan>> {
+        self.inputs.strokes.lock().ok().and_then(|g| g.clone())
+    }
+
+    /// Whether the last chain's brushwork had this `key` (kept inputs only); notes it.
+    pub(crate) fn stroke_plan_seen(&self, key: [u64; 3]) -> bool {
+        self.inputs.keep && self.inputs.strokes_seen.lock().is_ok_and(|mut g| g.replace(key) == Some(key))
+    }
+
+    /// Keeps the brushwork's strokes for the next chain (when the inputs are kept).
+    pub(crate) fn keep_stroke_plan(&self, plan: std::sync::Arc<brushwork::StrokePlan>) {
+        if self.inputs.keep
+            && let Ok(mut g) = self.inputs.strokes.lock()
+        {
+            *g = Some(plan);
+        }
     }
 
     /// The facet id of pixel `i` (0 without a facet map).

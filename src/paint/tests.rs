@@ -758,3 +758,27 @@ fn the_default_render_lights_most_planes_on_their_own() {
     assert!(with.share > without.share, "{} vs {}", with.share, without.share);
     assert_eq!(super::measure::PLANE_LIGHT_SHARE, 0.15);
 }
+
+#[test]
+fn kept_paint_inputs_give_the_one_off_chains_pixels_after_a_change_upstream() {
+    // A session keeps the brushwork's strokes and fragments (`PaintInputs::kept`): after a
+    // border width change (passage, before the brushwork, paints other colours) the chain on
+    // the kept inputs must give the bits a one-off chain gives, on any thread count.
+    let (w, h) = (240u32, 180u32);
+    let facets = voronoi(w, h, 30, 5);
+    let frame0 = super::tests_plane::textured(w, h);
+    let mut s = Settings::default();
+    (s.width, s.height) = (w, h);
+    s.chiaroscuro = 0.0;
+    let inputs = PaintInputs::kept();
+    for (threads, border) in [(1, 12.0), (3, 11.0), (1, 16.0), (3, 12.0)] {
+        s.border_width = border;
+        let painter = Painter::new(&paint(&s)).unwrap();
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let (mut kept, mut fresh) = (frame0.clone(), frame0.clone());
+        pool.install(|| painter.apply_with(&mut kept, Some(&facets), None, &inputs)).unwrap();
+        painter.apply(&mut fresh, Some(&facets), None).unwrap();
+        assert!(inputs.bytes() > 0);
+        assert_eq!(super::tests_plane::bits(&kept), super::tests_plane::bits(&fresh), "border {border}");
+    }
+}
