@@ -53,7 +53,7 @@ fn srgb8_thresholds() -> &'static [f32; 255] {
 /// `srgb8_formula(v)` without a power per channel: the number of code thresholds at or below
 /// `v`. The same code wherever the rounded formula is monotone (`srgb_codes_match_the_formula`
 /// checks every float near every threshold); NaN and values at or below 0 give 0.
-fn srgb8(v: f32) -> u8 {
+pub(crate) fn srgb8(v: f32) -> u8 {
     if !(v > 0.0) {
         return 0;
     }
