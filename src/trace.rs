@@ -10,9 +10,9 @@ use rayon::prelude::*;
 use crate::accel::{Accel, Hit};
 use crate::camera::CameraRay;
 use crate::film::{Film, NO_HIT, PixelHit, SampleHit};
+use crate::output::encode::srgb8;
 use crate::progress::Progress;
 use crate::scene::World;
-use crate::output::encode::srgb8;
 use crate::shading::{LightRig, Occlusion, SurfacePoint, shade_with, surface};
 use crate::util::rng::{splitmix64, unit_f64};
 
@@ -418,13 +418,11 @@ pub fn pixels_to_refine(film: &Film, facets: &[u32], threshold: f32) -> Vec<u32>
     // power per channel), rows in parallel.
     let (w, h) = (film.width as usize, film.height as usize);
     let mut srgb = vec![[0u8; 3]; n];
-    srgb.par_chunks_mut(w.max(1))
-        .zip(film.color.par_chunks(w.max(1)))
-        .for_each(|(out, colour)| {
-            for (o, c) in out.iter_mut().zip(colour) {
-                *o = [srgb8(c.x), srgb8(c.y), srgb8(c.z)];
-            }
-        });
+    srgb.par_chunks_mut(w.max(1)).zip(film.color.par_chunks(w.max(1))).for_each(|(out, colour)| {
+        for (o, c) in out.iter_mut().zip(colour) {
+            *o = [srgb8(c.x), srgb8(c.y), srgb8(c.z)];
+        }
+    });
     let limit = (threshold * 255.0).round().max(1.0) as i32;
     let differs = |i: usize, j: usize| {
         let (a, b) = (&film.hits[i], &film.hits[j]);

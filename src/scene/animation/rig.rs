@@ -8,8 +8,8 @@
 
 use std::sync::Arc;
 
-use rayon::prelude::*;
 use glam::{DMat4, DQuat, DVec3, Vec3};
+use rayon::prelude::*;
 
 use super::clip::{Clip, Property};
 use crate::scene::{Projection, SceneCamera, compute_normals};

@@ -158,14 +158,13 @@ impl<'a> Loader<'a> {
         }
         let morphed = !weights.is_empty() && !targets.is_empty();
         let deformable = Deformable { positions, normals, targets, skinning };
-        let (positions, normals, kept) =
-            if keep && (deformable.skinning.is_some() || !deformable.targets.is_empty()) {
-                let (p, n) = deform(&deformable, weights, skin, &triangles);
-                (p, n, Some(Arc::new(deformable)))
-            } else {
-                let (p, n) = deform_owned(deformable, weights, skin, &triangles);
-                (p, n, None)
-            };
+        let (positions, normals, kept) = if keep && (deformable.skinning.is_some() || !deformable.targets.is_empty()) {
+            let (p, n) = deform(&deformable, weights, skin, &triangles);
+            (p, n, Some(Arc::new(deformable)))
+        } else {
+            let (p, n) = deform_owned(deformable, weights, skin, &triangles);
+            (p, n, None)
+        };
         if morphed && let Some(i) = positions.iter().position(|p| !p.is_finite()) {
             return Err(self.err(format!("{name}: morphed vertex {i} is not finite")));
         }
