@@ -3,6 +3,7 @@
 //! pre-render and reused (SPEC "Pipeline" step 1).
 
 use glam::{Vec3, Vec4};
+use rayon::prelude::*;
 
 /// Triangle id of a sample or pixel that hit nothing.
 pub const NO_HIT: u32 = u32::MAX;
@@ -74,8 +75,9 @@ impl Film {
             height,
             spp,
             color: vec![Vec4::ZERO; n],
-            hits: vec![PixelHit::MISS; n],
-            samples: vec![SampleHit::MISS; n * spp as usize],
+            // Filled on every thread: a million pixels' buffers are tens of MB (issue 16).
+            hits: rayon::iter::repeat_n(PixelHit::MISS, n).collect(),
+            samples: rayon::iter::repeat_n(SampleHit::MISS, n * spp as usize).collect(),
             occlusion: vec![0; n],
             saliency: None,
         }

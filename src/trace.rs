@@ -10,9 +10,9 @@ use rayon::prelude::*;
 use crate::accel::{Accel, Hit};
 use crate::camera::CameraRay;
 use crate::film::{Film, NO_HIT, PixelHit, SampleHit};
+use crate::output::encode::srgb8;
 use crate::progress::Progress;
 use crate::scene::World;
-use crate::scene::texture::linear_to_srgb;
 use crate::shading::{LightRig, Occlusion, SurfacePoint, shade_with, surface};
 use crate::util::rng::{splitmix64, unit_f64};
 
@@ -414,24 +414,45 @@ pub fn pixels_to_refine(film: &Film, facets: &[u32], threshold: f32) -> Vec<u32>
     if threshold <= 0.0 {
         return (0..n as u32).collect();
     }
-    let srgb: Vec<[u8; 3]> = film
-        .color
-        .par_iter()
-        .map(|c| c.truncate().to_array().map(|v| (linear_to_srgb(v) * 255.0 + 0.5) as u8))
-        .collect();
-    let limit = (threshold * 255.0).round().max(1.0) as i32;
+    // The 8-bit sRGB codes by the encoder's threshold table (the formula's codes, without a
+    // power per channel), rows in parallel.
     let (w, h) = (film.width as usize, film.height as usize);
-    (0..n as u32)
+    let mut srgb = vec![[0u8; 3]; n];
+    srgb.par_chunks_mut(w.max(1)).zip(film.color.par_chunks(w.max(1))).for_each(|(out, colour)| {
+        for (o, c) in out.iter_mut().zip(colour) {
+            *o = [srgb8(c.x), srgb8(c.y), srgb8(c.z)];
+        }
+    });
+    let limit = (threshold * 255.0).round().max(1.0) as i32;
+    let differs = |i: usize, j: usize| {
+        let (a, b) = (&film.hits[i], &film.hits[j]);
+        let (ca, cb) = (srgb[i], srgb[j]);
+        a.object != b.object || (0..3).any(|c| (ca[c] as i32 - cb[c] as i32).abs() > limit)
+    };
+    // Each row's pixels whose facet neighbours (`facet_neighbourhood`) disagree, in order.
+    let rows: Vec<Vec<u32>> = (0..h)
         .into_par_iter()
-        .filter(|&i| {
-            let i = i as usize;
-            let (a, ca) = (&film.hits[i], srgb[i]);
-            facet_neighbourhood(w, h, facets, i).any(|j| {
-                let b = &film.hits[j];
-                a.object != b.object || (0..3).any(|c| (ca[c] as i32 - srgb[j][c] as i32).abs() > limit)
-            })
+        .map(|y| {
+            let (y0, y1) = (y.saturating_sub(1), (y + 1).min(h - 1));
+            let mut out = Vec::new();
+            for x in 0..w {
+                let i = y * w + x;
+                let (x0, x1) = (x.saturating_sub(1), (x + 1).min(w - 1));
+                let f = facets[i];
+                let refine = (y0..=y1).any(|ny| {
+                    (x0..=x1).any(|nx| {
+                        let j = ny * w + nx;
+                        j != i && facets[j] == f && differs(i, j)
+                    })
+                });
+                if refine {
+                    out.push(i as u32);
+                }
+            }
+            out
         })
-        .collect()
+        .collect();
+    rows.concat()
 }
 
 #[cfg(test)]

@@ -72,7 +72,7 @@ fn srgb8_starts() -> &'static [u8] {
 /// `v`, counted from its bucket's start (`srgb8_starts`; a bucket holds at most a threshold or
 /// two). The same code wherever the rounded formula is monotone (`srgb_codes_match_the_formula`
 /// checks every float near every threshold); NaN and values at or below 0 give 0.
-fn srgb8(v: f32) -> u8 {
+pub(crate) fn srgb8(v: f32) -> u8 {
     if !(v > 0.0) {
         return 0;
     }

@@ -15,7 +15,9 @@ pub mod rig;
 pub mod sampler;
 
 pub use clip::{Channel, Clip, Property};
-pub use rig::{Deformable, Instance, Local, MorphTarget, Pose, Rig, RigNode, Skin, Skinning, camera_at, deform};
+pub use rig::{
+    Deformable, Instance, Local, MorphTarget, Pose, Rig, RigNode, Skin, Skinning, camera_at, deform, deform_owned,
+};
 pub use sampler::{Interpolation, Sampler};
 
 use crate::error::{Error, Result};

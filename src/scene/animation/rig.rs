@@ -9,6 +9,7 @@
 use std::sync::Arc;
 
 use glam::{DMat4, DQuat, DVec3, Vec3};
+use rayon::prelude::*;
 
 use super::clip::{Clip, Property};
 use crate::scene::{Projection, SceneCamera, compute_normals};
@@ -90,8 +91,31 @@ pub fn deform(
     joints: Option<&[DMat4]>,
     triangles: &[[u32; 3]],
 ) -> (Vec<Vec3>, Vec<Vec3>) {
-    let mut positions = d.positions.clone();
-    let mut normals = d.normals.clone();
+    deform_parts(d.positions.clone(), d.normals.clone(), d, weights, joints, triangles)
+}
+
+/// `deform` of a primitive no frame deforms again: its own vectors are deformed, not copies
+/// (the same values; issue 16: a million triangles' vertices at load).
+pub fn deform_owned(
+    mut d: Deformable,
+    weights: &[f32],
+    joints: Option<&[DMat4]>,
+    triangles: &[[u32; 3]],
+) -> (Vec<Vec3>, Vec<Vec3>) {
+    let (positions, normals) = (std::mem::take(&mut d.positions), d.normals.take());
+    deform_parts(positions, normals, &d, weights, joints, triangles)
+}
+
+/// `deform` from `positions` and `normals` (those of `d`, owned), reading `d`'s targets and
+/// skin.
+fn deform_parts(
+    mut positions: Vec<Vec3>,
+    mut normals: Option<Vec<Vec3>>,
+    d: &Deformable,
+    weights: &[f32],
+    joints: Option<&[DMat4]>,
+    triangles: &[[u32; 3]],
+) -> (Vec<Vec3>, Vec<Vec3>) {
     for (t, target) in d.targets.iter().enumerate() {
         let w = weights.get(t).copied().unwrap_or(0.0);
         if w == 0.0 {
@@ -128,14 +152,18 @@ pub fn deform(
             }
         }
     }
-    let fallback = compute_normals(&positions, triangles);
+    // The area-weighted normals only when some normal needs them (the same values: a normal
+    // that normalises is kept either way).
+    let unit = |n: &Vec3| if n.is_finite() { n.try_normalize() } else { None };
     let normals = match normals {
-        Some(n) => n
-            .into_iter()
-            .zip(fallback)
-            .map(|(n, f)| if n.is_finite() { n.try_normalize().unwrap_or(f) } else { f })
-            .collect(),
-        None => fallback,
+        Some(n) => {
+            let fallback = n.par_iter().any(|n| unit(n).is_none()).then(|| compute_normals(&positions, triangles));
+            n.par_iter()
+                .enumerate()
+                .map(|(i, n)| unit(n).unwrap_or_else(|| fallback.as_ref().expect("computed when one is needed")[i]))
+                .collect()
+        }
+        None => compute_normals(&positions, triangles),
     };
     (positions, normals)
 }

@@ -5,6 +5,7 @@
 //! comes out wrong) and slice buffers without checking ranges (a malformed file panics).
 
 use gltf::accessor::{DataType, Dimensions};
+use rayon::prelude::*;
 
 use crate::util::limits::MAX_ACCESSOR_ELEMENTS as MAX_COUNT;
 
@@ -69,6 +70,16 @@ fn view_bytes<'b>(view: &gltf::buffer::View, buffers: &'b Buffers) -> Result<&'b
         ));
     }
     Ok(&data[view.offset()..end])
+}
+
+/// Elements per parallel work item of the accessor decodes.
+const DECODE_CHUNK: usize = 1 << 14;
+
+/// A checked view's bytes and the stride of its `elem`-byte elements (after `check_elements`
+/// passed for it).
+fn elements<'b>(view: &gltf::buffer::View, buffers: &'b Buffers, elem: usize) -> (&'b [u8], usize) {
+    let b = view.buffer().index();
+    (&buffers[b][view.offset()..view.offset() + view.length()], view.stride().unwrap_or(elem))
 }
 
 /// Checks that `count` elements of `elem` bytes fit in `view` at `offset`, before anything
@@ -171,7 +182,23 @@ pub(super) fn read_floats<const N: usize>(
     };
     let mut out = vec![[0.0f32; N]; count];
     if let Some(view) = acc.view() {
-        for_each_element(what, &view, acc.offset(), count, cs * N, buffers, Some(&mut |i, b| out[i] = decode(b)))?;
+        // Ranges checked above; large accessors decode in parallel (issue 16: a million
+        // triangles' vertices), each element alone, so the values are the same.
+        let elem = cs * N;
+        let (bytes, stride) = elements(&view, buffers, elem);
+        let offset = acc.offset();
+        let f32_plain = t == DataType::F32;
+        out.par_chunks_mut(DECODE_CHUNK).enumerate().for_each(|(c, chunk)| {
+            for (k, o) in chunk.iter_mut().enumerate() {
+                let start = offset + (c * DECODE_CHUNK + k) * stride;
+                let b = &bytes[start..start + elem];
+                *o = if f32_plain {
+                    std::array::from_fn(|j| f32::from_le_bytes([b[4 * j], b[4 * j + 1], b[4 * j + 2], b[4 * j + 3]]))
+                } else {
+                    decode(b)
+                };
+            }
+        });
     }
     if let Some((sparse, n, it, iv, vv, indices_what, values_what)) = sparse {
         let mut indices = vec![0usize; n];
@@ -218,6 +245,38 @@ pub(super) fn read_indices(
             acc.dimensions()
         ));
     }
+    let values = if acc.sparse().is_none() {
+        // Read as integers directly, in parallel (ranges checked first).
+        let count = acc.count();
+        if count > MAX_COUNT {
+            return Err(format!("{what}: {count} elements exceed the limit of {MAX_COUNT}"));
+        }
+        let t = acc.data_type();
+        let cs = component_size(t);
+        let mut out = vec![0u32; count];
+        if let Some(view) = acc.view() {
+            check_elements(what, &view, acc.offset(), count, cs, buffers)?;
+            let (bytes, stride) = elements(&view, buffers, cs);
+            let offset = acc.offset();
+            out.par_chunks_mut(DECODE_CHUNK).enumerate().for_each(|(c, chunk)| {
+                for (k, o) in chunk.iter_mut().enumerate() {
+                    let start = offset + (c * DECODE_CHUNK + k) * stride;
+                    *o = integer(&bytes[start..start + cs], t).unwrap_or(u32::MAX);
+                }
+            });
+        }
+        out
+    } else {
+        read_sparse_indices(acc, buffers, what)?
+    };
+    if let Some((i, &bad)) = values.iter().enumerate().find(|&(_, &v)| v as usize >= vertex_count) {
+        return Err(format!("{what}: index {bad} at position {i} is out of range ({vertex_count} vertices)"));
+    }
+    Ok(values)
+}
+
+/// A sparse index accessor (u8, u16: exact as floats; u32 refused).
+fn read_sparse_indices(acc: &gltf::Accessor, buffers: &Buffers, what: &str) -> Result<Vec<u32>, String> {
     let values = read_floats::<1>(acc, buffers, what).map(|v| v.into_iter().map(|[x]| x as u32).collect::<Vec<_>>())?;
     // f32 holds every u8/u16 exactly; re-read u32 exactly (f32 would round above 2^24).
     let values = if acc.data_type() == DataType::U32 {
@@ -240,8 +299,5 @@ pub(super) fn read_indices(
     } else {
         values
     };
-    if let Some((i, &bad)) = values.iter().enumerate().find(|&(_, &v)| v as usize >= vertex_count) {
-        return Err(format!("{what}: index {bad} at position {i} is out of range ({vertex_count} vertices)"));
-    }
     Ok(values)
 }

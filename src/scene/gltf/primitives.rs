@@ -10,7 +10,7 @@ use super::accessor::{read_floats, read_indices};
 use super::{Loader, MAX_TRIANGLES};
 use crate::error::{Error, Result};
 use crate::scene::Mesh;
-use crate::scene::animation::{Deformable, MorphTarget, deform};
+use crate::scene::animation::{Deformable, MorphTarget, deform, deform_owned};
 use crate::util::limits::MAX_SCENE_VERTICES;
 
 impl<'a> Loader<'a> {
@@ -158,12 +158,16 @@ impl<'a> Loader<'a> {
         }
         let morphed = !weights.is_empty() && !targets.is_empty();
         let deformable = Deformable { positions, normals, targets, skinning };
-        let (positions, normals) = deform(&deformable, weights, skin, &triangles);
+        let (positions, normals, kept) = if keep && (deformable.skinning.is_some() || !deformable.targets.is_empty()) {
+            let (p, n) = deform(&deformable, weights, skin, &triangles);
+            (p, n, Some(Arc::new(deformable)))
+        } else {
+            let (p, n) = deform_owned(deformable, weights, skin, &triangles);
+            (p, n, None)
+        };
         if morphed && let Some(i) = positions.iter().position(|p| !p.is_finite()) {
             return Err(self.err(format!("{name}: morphed vertex {i} is not finite")));
         }
-        let kept =
-            (keep && (deformable.skinning.is_some() || !deformable.targets.is_empty())).then(|| Arc::new(deformable));
 
         let material = self.material(prim.material())?;
         let uv_set = self.scene.materials[material].base_color_texture.map(|t| t.uv_set);
