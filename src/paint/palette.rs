@@ -301,16 +301,32 @@ impl StableKeys {
             .par_iter()
             .map(|&l| if l < 0.0 { UNPAINTED } else { ((l * scale).min(1.0).sqrt() * last + 0.5) as u32 })
             .collect();
-        let mut histogram = vec![0u32; KEY_LEVELS];
-        let mut total = 0u64;
-        for &k in &keys {
-            if k != UNPAINTED {
-                histogram[k as usize] += 1;
-                total += 1;
-            }
-        }
+        let (histogram, total) = count(&keys, KEY_LEVELS, |k| (k != UNPAINTED).then_some(k as usize));
         StableKeys { keys, histogram, total }
     }
+}
+
+/// Counts of `bucket(v)` over `values` (None = not counted) in `buckets` bins, and the number
+/// counted: chunks counted in parallel and summed (integers: the same on any thread count).
+fn count<T: Copy + Sync>(values: &[T], buckets: usize, bucket: impl Fn(T) -> Option<usize> + Sync) -> (Vec<u32>, u64) {
+    values
+        .par_chunks(1 << 17)
+        .map(|chunk| {
+            let mut c = vec![0u32; buckets];
+            let mut n = 0u64;
+            for b in chunk.iter().filter_map(|&v| bucket(v)) {
+                c[b] += 1;
+                n += 1;
+            }
+            (c, n)
+        })
+        .reduce(
+            || (vec![0u32; buckets], 0),
+            |(mut a, na), (b, nb)| {
+                a.iter_mut().zip(&b).for_each(|(x, y)| *x += y);
+                (a, na + nb)
+            },
+        )
 }
 
 /// The luminance at quantile `q` of the non-negative values of `lum` (negatives are left
@@ -319,14 +335,8 @@ impl StableKeys {
 /// is a continuous function of the values, the same on any thread count, in linear time.
 pub fn luminance_quantile(lum: &[f32], q: f64) -> f32 {
     const SHIFT: u32 = 16;
-    let mut buckets = vec![0u32; 1 << (31 - SHIFT)];
-    let mut n = 0u64;
-    for &l in lum {
-        if l >= 0.0 && l.is_finite() {
-            buckets[(l.to_bits() >> SHIFT) as usize] += 1;
-            n += 1;
-        }
-    }
+    let (buckets, n) =
+        count(lum, 1 << (31 - SHIFT), |l| (l >= 0.0 && l.is_finite()).then(|| (l.to_bits() >> SHIFT) as usize));
     if n == 0 {
         return 0.0;
     }
