@@ -12,9 +12,9 @@ a table shows which effect amplifies the film's differences: the effect whose re
 PSNR the most.
 
     cargo build --release --bin cubist
-    python3 eval/psnr_spp.py                                   # venus_11k, 1000 x 1000
-    python3 eval/psnr_spp.py --scenes venus still-life Duck bunny_full --size 500
-    python3 eval/psnr_spp.py --size 500 --toggles              # the per-effect table
+    .venv/bin/python eval/psnr_spp.py                                   # venus_11k, 1000 x 1000
+    .venv/bin/python eval/psnr_spp.py --scenes venus_11k still-life Duck bunny_full --size 500
+    .venv/bin/python eval/psnr_spp.py --size 500 --toggles              # the per-effect table
 
 Scenes: a path to a .glb/.gltf, a name looked up in ../shared/models and
 ../shared/gltf-samples (`venus_11k`, `Duck`), or `still-life` (the built-in scene).
