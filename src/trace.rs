@@ -10,9 +10,9 @@ use rayon::prelude::*;
 use crate::accel::{Accel, Hit};
 use crate::camera::CameraRay;
 use crate::film::{Film, NO_HIT, PixelHit, SampleHit};
-use crate::output::encode::srgb8;
 use crate::progress::Progress;
 use crate::scene::World;
+use crate::scene::srgb::srgb8;
 use crate::shading::{LightRig, Occlusion, SurfacePoint, shade_with, surface};
 use crate::util::rng::{splitmix64, unit_f64};
 

@@ -8,6 +8,7 @@
 pub mod animation;
 pub mod default;
 mod gltf;
+pub mod srgb;
 pub mod texture;
 pub mod world;
 
