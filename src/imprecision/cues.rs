@@ -151,11 +151,14 @@ impl CentreHits {
     /// Pixel index -> its known centre hit (None on a miss), or None where unknown: only for
     /// the facets whose aim in `aims` is the one their hits were traced through, and only on
     /// `map`, the facet map they were traced on.
-    pub fn known<'a>(&'a self, map: &'a FacetMap, aims: &[FacetAim]) -> impl Fn(usize) -> Option<Option<Hit>> + Sync + 'a {
+    pub fn known<'a>(
+        &'a self,
+        map: &'a FacetMap,
+        aims: &[FacetAim],
+    ) -> impl Fn(usize) -> Option<Option<Hit>> + Sync + 'a {
         let same_map = map.ids.len() == self.rank.len() && aims.len() == self.aims.len();
-        let valid: Vec<bool> = (0..self.aims.len())
-            .map(|f| same_map && self.aims[f].is_some_and(|a| a == aims[f] && a.moved()))
-            .collect();
+        let valid: Vec<bool> =
+            (0..self.aims.len()).map(|f| same_map && self.aims[f].is_some_and(|a| a == aims[f] && a.moved())).collect();
         move |i| {
             let f = *map.ids.get(i)? as usize;
             if !*valid.get(f)? {
@@ -402,7 +405,7 @@ mod tests {
             ..params.aim.clone()
         };
         let wild = aim_facets(&ctx, &map, None, &aim);
-        let traced = |aims: &[FacetAim]| {
+        let retraced = |aims: &[FacetAim], centre: Option<&CentreHits>| {
             let mut film = pre.film.clone();
             let moved = moved_pixels(&map, aims);
             retrace_stage(
@@ -413,18 +416,31 @@ mod tests {
                 &map,
                 aims,
                 &moved,
-                None,
+                centre,
                 &mut film,
                 &silent,
                 &mut Timings::default(),
             );
-            cues.seen(&film)
+            film
         };
+        let traced = |aims: &[FacetAim]| cues.seen(&retraced(aims, None));
         let lost = |after: &[bool]| before.iter().zip(after).filter(|&(&b, &a)| b && !a).count();
         assert!(lost(&traced(&wild)) > 0, "the wild aims lose no cue: the test shows nothing");
         let mut kept = wild.clone();
-        let reduced = keep_cue_vertices(&mut kept, &ctx, &map, &pre.film, &cues);
+        let (reduced, centre) = keep_cue_vertices_traced(&mut kept, &ctx, &map, &pre.film, &cues);
         assert_eq!(lost(&traced(&kept)), 0, "{reduced} facets reduced");
+        // The centre hits the check traced are those the re-trace finds: the same film with
+        // them as without, and none taken for facets whose aim is not the one kept.
+        let centre = centre.expect("facets were checked");
+        let known = centre.known(&map, &kept);
+        let taken = (0..map.ids.len()).filter(|&i| known(i).is_some()).count();
+        assert!(taken > 0 && taken == centre.len(), "{taken} of {} hits taken", centre.len());
+        let (a, b) = (retraced(&kept, Some(&centre)), retraced(&kept, None));
+        assert!(a.color == b.color && a.hits == b.hits && a.samples == b.samples && a.occlusion == b.occlusion);
+        let known = centre.known(&map, &wild);
+        let stale = (0..map.ids.len())
+            .filter(|&i| known(i).is_some() && kept[map.ids[i] as usize] != wild[map.ids[i] as usize]);
+        assert_eq!(stale.count(), 0);
         let moved = wild.iter().filter(|a| a.moved()).count();
         assert!(reduced > 0 && reduced < moved, "{reduced} of {moved} re-aimed facets reduced");
         assert!(kept.iter().filter(|a| a.moved()).count() > 0);

@@ -38,8 +38,8 @@ use serde::Serialize;
 use xxhash_rust::xxh3::Xxh3;
 
 use super::{
-    PreRender, Prepared, Shading, Stage, StageParams, Timings, aim_context, aims_stage_traced, antialias_stage, encode_stage,
-    layout_stage, moved_pixels, prerender, retrace_stage, saliency_stage,
+    PreRender, Prepared, Shading, Stage, StageParams, Timings, aim_context, aims_stage_traced, antialias_stage,
+    encode_stage, layout_stage, moved_pixels, prerender, retrace_stage, saliency_stage,
 };
 use crate::accel::Accel;
 use crate::error::{Error, Result};
