@@ -121,6 +121,7 @@ impl Tracer<'_> {
         }
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn trace_pixel(
         &self,
         i: usize,
