@@ -85,6 +85,10 @@ pub struct Tracer<'a> {
 /// A source of rays: (pixel index, screen point) -> ray.
 pub type Rays<'r> = dyn Fn(usize, DVec2) -> CameraRay + Sync + 'r;
 
+/// Centre hits already found (`imprecision::cues::CentreHits`): pixel index -> Some(closest
+/// hit of its one-sample centre ray, None on a miss), or None when not known.
+pub type KnownHits<'r> = dyn Fn(usize) -> Option<Option<Hit>> + Sync + 'r;
+
 /// Pixels per parallel work item of the subset traces.
 const CHUNK: usize = 256;
 
@@ -93,7 +97,18 @@ impl Tracer<'_> {
     /// blocked.
     #[inline]
     fn sample(&self, ray: &CameraRay, known: Known) -> (Vec3, Option<(Hit, Option<SurfacePoint>)>, u8) {
-        let Some(h) = self.accel.closest(ray.origin, ray.dir, 0.0, f32::INFINITY) else {
+        self.sample_hit(ray, known, self.accel.closest(ray.origin, ray.dir, 0.0, f32::INFINITY))
+    }
+
+    /// `sample` with `ray`'s closest hit `hit` already found.
+    #[inline]
+    fn sample_hit(
+        &self,
+        ray: &CameraRay,
+        known: Known,
+        hit: Option<Hit>,
+    ) -> (Vec3, Option<(Hit, Option<SurfacePoint>)>, u8) {
+        let Some(h) = hit else {
             return (self.background, None, 0);
         };
         match self.rig {
@@ -106,6 +121,7 @@ impl Tracer<'_> {
         }
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn trace_pixel(
         &self,
         i: usize,
@@ -114,8 +130,11 @@ impl Tracer<'_> {
         samples: &mut [SampleHit],
         rays: &Rays,
         known: Known,
+        centre: Option<&KnownHits>,
     ) -> (Vec4, PixelHit, u8) {
         let spp = samples.len() as u32;
+        // One sample is the centre ray: its closest hit may be known already.
+        let centre = if spp == 1 { centre.and_then(|c| c(i)) } else { None };
         let (x, y) = (i as u32 % width, i as u32 / width);
         let mut color = Vec3::ZERO;
         let mut covered = 0u32;
@@ -125,7 +144,10 @@ impl Tracer<'_> {
             let ray = rays(i, screen_point(x, y, off, width, height));
             let centre_dist = (off - DVec2::splat(0.5)).length_squared();
             let nearest = centre_dist < best.0;
-            let (c, hit, blocked) = self.sample(&ray, known);
+            let (c, hit, blocked) = match centre {
+                Some(h) => self.sample_hit(&ray, known, h),
+                None => self.sample(&ray, known),
+            };
             color += c;
             match hit {
                 Some((h, sp)) => {
@@ -169,11 +191,26 @@ impl Tracer<'_> {
         facets: Option<&[u32]>,
         progress: &Progress,
     ) {
+        self.render_known(film, rays, pixels, facets, None, progress);
+    }
+
+    /// `render`, taking the centre hits `centre` knows (at one sample per pixel) instead of
+    /// tracing those rays again: the same pixels when they are the closest hits of `rays`'
+    /// centre rays.
+    pub fn render_known(
+        &self,
+        film: &mut Film,
+        rays: &Rays,
+        pixels: Option<&[u32]>,
+        facets: Option<&[u32]>,
+        centre: Option<&KnownHits>,
+        progress: &Progress,
+    ) {
         let coarse_first = film.spp == 1 && self.rig.is_some_and(|r| r.shadows && !r.lights.is_empty());
         if !coarse_first {
             match pixels {
-                None => self.render_all(film, rays, progress),
-                Some(list) => self.render_subset(film, rays, list, None, progress),
+                None => self.render_rows(film, rays, progress, |_| true, |_| Known::NONE, centre),
+                Some(list) => self.render_subset(film, rays, list, None, centre, progress),
             }
             return;
         }
@@ -183,25 +220,26 @@ impl Tracer<'_> {
         let Some(list) = pixels else {
             // The whole film, in place (no copy of its buffers): the grid, then the others
             // with what their grid neighbours agree on.
-            self.render_rows(film, rays, progress, on_grid, |_| Known::NONE);
+            self.render_rows(film, rays, progress, on_grid, |_| Known::NONE, centre);
             let traced = &*film;
             let known: Vec<Known> = (0..traced.pixel_count())
                 .into_par_iter()
                 .map(|i| if on_grid(i) { Known::NONE } else { coarse_occlusion(traced, ids, i) })
                 .collect();
-            self.render_rows(film, rays, progress, |i| !on_grid(i), |i| known[i]);
+            self.render_rows(film, rays, progress, |i| !on_grid(i), |i| known[i], centre);
             return;
         };
         let (grid, rest): (Vec<u32>, Vec<u32>) = list.iter().partition(|&&i| on_grid(i as usize));
-        self.render_subset(film, rays, &grid, None, progress);
+        self.render_subset(film, rays, &grid, None, centre, progress);
         let traced = &*film;
         let known: Vec<Known> = rest.par_iter().map(|&i| coarse_occlusion(traced, ids, i as usize)).collect();
-        self.render_subset(film, rays, &rest, Some(&known), progress);
+        self.render_subset(film, rays, &rest, Some(&known), centre, progress);
     }
 
     /// Every pixel, rows in parallel, every shadow ray cast.
+    #[cfg(test)]
     fn render_all(&self, film: &mut Film, rays: &Rays, progress: &Progress) {
-        self.render_rows(film, rays, progress, |_| true, |_| Known::NONE);
+        self.render_rows(film, rays, progress, |_| true, |_| Known::NONE, None);
     }
 
     /// The pixels `pick` chooses, rows in parallel, in place, with what `known(i)` says of
@@ -213,6 +251,7 @@ impl Tracer<'_> {
         progress: &Progress,
         pick: impl Fn(usize) -> bool + Sync,
         known: impl Fn(usize) -> Known + Sync,
+        centre: Option<&KnownHits>,
     ) {
         let (w, h, spp) = (film.width, film.height, film.spp as usize);
         let wu = w as usize;
@@ -235,7 +274,7 @@ impl Tracer<'_> {
                         continue;
                     }
                     let (col, hit, blocked) =
-                        self.trace_pixel(i, w, h, &mut srow[x * spp..(x + 1) * spp], rays, known(i));
+                        self.trace_pixel(i, w, h, &mut srow[x * spp..(x + 1) * spp], rays, known(i), centre);
                     c[x] = col;
                     hrow[x] = hit;
                     orow[x] = blocked;
@@ -247,7 +286,15 @@ impl Tracer<'_> {
 
     /// The pixels of `list`, in parallel chunks, with what `known[k]` says of the lights of
     /// `list[k]`.
-    fn render_subset(&self, film: &mut Film, rays: &Rays, list: &[u32], known: Option<&[Known]>, progress: &Progress) {
+    fn render_subset(
+        &self,
+        film: &mut Film,
+        rays: &Rays,
+        list: &[u32],
+        known: Option<&[Known]>,
+        centre: Option<&KnownHits>,
+        progress: &Progress,
+    ) {
         let (w, h, spp) = (film.width, film.height, film.spp as usize);
         let chunks: Vec<SubsetChunk> = list
             .par_chunks(CHUNK)
@@ -262,7 +309,7 @@ impl Tracer<'_> {
                     .enumerate()
                     .map(|(k, &i)| {
                         let known = known.map_or(Known::NONE, |v| v[c * CHUNK + k]);
-                        self.trace_pixel(i as usize, w, h, &mut samples[k * spp..(k + 1) * spp], rays, known)
+                        self.trace_pixel(i as usize, w, h, &mut samples[k * spp..(k + 1) * spp], rays, known, centre)
                     })
                     .collect();
                 progress.add(chunk.len() as u64);

@@ -159,7 +159,8 @@ pub fn shift_scale_keeping(map: &FacetMap, salient: &[u32], f: usize, shift: DVe
 /// The rules, as `params` set them, on the aims `aim_facets` decided from the pre-render
 /// `film` (its coverage, saliency map and samples): background held, shifts within the facet's
 /// width, salient pixels kept in view, and (with `cues`, the most salient vertices) every such
-/// vertex the pre-render showed still shown (`cues::keep_cue_vertices`).
+/// vertex the pre-render showed still shown (`cues::keep_cue_vertices`). Returns the centre
+/// hits the cue check traced through the aims kept, for the re-trace (`cues::CentreHits`).
 pub fn apply(
     aims: &mut [FacetAim],
     ctx: &AimContext,
@@ -167,7 +168,7 @@ pub fn apply(
     film: &Film,
     cues: Option<&CueVertices>,
     params: &AimParams,
-) {
+) -> Option<super::cues::CentreHits> {
     if params.min_coverage > 0.0 {
         let c = facet_coverage(map, |i| film.color[i].w);
         hold_background(aims, &c, params.min_coverage);
@@ -179,10 +180,11 @@ pub fn apply(
         if let Some(s) = film.saliency.as_deref().filter(|_| params.reads_saliency()) {
             keep_cues(aims, ctx, map, s);
             if let Some(c) = cues {
-                super::cues::keep_cue_vertices(aims, ctx, map, film, c);
+                return super::cues::keep_cue_vertices_traced(aims, ctx, map, film, c).1;
             }
         }
     }
+    None
 }
 
 #[cfg(test)]

@@ -17,8 +17,9 @@ use glam::DVec2;
 use rayon::prelude::*;
 
 use super::{AimContext, FacetAim};
+use crate::accel::Hit;
 use crate::facets::FacetMap;
-use crate::film::Film;
+use crate::film::{Film, NO_HIT};
 use crate::scene::{Scene, World};
 use crate::trace::screen_point;
 
@@ -119,30 +120,101 @@ pub(super) fn reaim_at(aim: &mut FacetAim, ctx: &AimContext, fc: DVec2, sc: DVec
     }
 }
 
+/// A miss among `CentreHits`' hits.
+const MISS: Hit = Hit { tri: NO_HIT, object: NO_HIT, t: 0.0, u: 0.0, v: 0.0 };
+
+/// The closest hits of the centre rays `keep_cue_vertices` traced through the aims it kept:
+/// the re-trace takes them (`Tracer::render_known`) instead of tracing those rays again, as
+/// its one sample is that very ray (`pipeline::facet_rays` at the pixel centre). Memory: a
+/// `Hit` (20 bytes) for each pixel of the facets checked, plus 4 bytes a pixel of the image.
+pub struct CentreHits {
+    /// Per facet, the aim its hits were traced through (None: no hits).
+    aims: Vec<Option<FacetAim>>,
+    /// Per facet, the hit of each of its pixels in `FacetMap::pixels_by_facet` order (a miss:
+    /// tri `NO_HIT`).
+    hits: Vec<Vec<Hit>>,
+    /// Per pixel, its rank among its facet's pixels (read only for facets with hits).
+    rank: Vec<u32>,
+}
+
+impl CentreHits {
+    /// How many pixels have a hit.
+    pub fn len(&self) -> usize {
+        self.hits.iter().map(Vec::len).sum()
+    }
+
+    /// Whether no pixel has a hit.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Pixel index -> its known centre hit (None on a miss), or None where unknown: only for
+    /// the facets whose aim in `aims` is the one their hits were traced through, and only on
+    /// `map`, the facet map they were traced on.
+    pub fn known<'a>(
+        &'a self,
+        map: &'a FacetMap,
+        aims: &[FacetAim],
+    ) -> impl Fn(usize) -> Option<Option<Hit>> + Sync + 'a {
+        let same_map = map.ids.len() == self.rank.len() && aims.len() == self.aims.len();
+        let valid: Vec<bool> =
+            (0..self.aims.len()).map(|f| same_map && self.aims[f].is_some_and(|a| a == aims[f] && a.moved())).collect();
+        move |i| {
+            let f = *map.ids.get(i)? as usize;
+            if !*valid.get(f)? {
+                return None;
+            }
+            let h = *self.hits[f].get(self.rank[i] as usize)?;
+            Some((h.tri != NO_HIT).then_some(h))
+        }
+    }
+}
+
 /// The most salient vertices `pixels` (a facet's) show through `aim`: each pixel's centre
 /// ray, re-aimed as the re-trace re-aims it (`pipeline::facet_rays`), as the indices `keep`
-/// gives them (None: not counted), sorted and deduplicated.
+/// gives them (None: not counted), sorted and deduplicated; and each pixel's closest hit.
 fn seen_through(
     ctx: &AimContext,
     cues: &CueVertices,
     pixels: &[u32],
     aim: &FacetAim,
     keep: &(dyn Fn(usize) -> Option<usize> + Sync),
-) -> Vec<usize> {
+) -> (Vec<usize>, Vec<Hit>) {
     let w = ctx.width;
+    // In chunks in parallel (a facet traced alone while its shift shrinks), in pixel order.
+    let chunks: Vec<(Vec<usize>, Vec<Hit>)> = pixels
+        .par_chunks(SEEN_CHUNK)
+        .map(|chunk| {
+            let mut out = Vec::new();
+            let mut hits = Vec::with_capacity(chunk.len());
+            for &i in chunk {
+                let p = screen_point(i % w, i / w, DVec2::splat(0.5), ctx.width, ctx.height);
+                let ray = ctx.camera.ray(p);
+                let ray = if aim.moved() { aim.apply(ray, ctx.pixel_pos(p), ctx.clip_radius) } else { ray };
+                match ctx.accel.closest(ray.origin, ray.dir, 0.0, f32::INFINITY) {
+                    Some(h) => {
+                        cues.corners(h.tri, |slot| out.extend(keep(slot)));
+                        hits.push(h);
+                    }
+                    None => hits.push(MISS),
+                }
+            }
+            (out, hits)
+        })
+        .collect();
     let mut out = Vec::new();
-    for &i in pixels {
-        let p = screen_point(i % w, i / w, DVec2::splat(0.5), ctx.width, ctx.height);
-        let ray = ctx.camera.ray(p);
-        let ray = if aim.moved() { aim.apply(ray, ctx.pixel_pos(p), ctx.clip_radius) } else { ray };
-        if let Some(h) = ctx.accel.closest(ray.origin, ray.dir, 0.0, f32::INFINITY) {
-            cues.corners(h.tri, |slot| out.extend(keep(slot)));
-        }
+    let mut hits = Vec::with_capacity(pixels.len());
+    for (o, h) in chunks {
+        out.extend(o);
+        hits.extend(h);
     }
     out.sort_unstable();
     out.dedup();
-    out
+    (out, hits)
 }
+
+/// Pixels per parallel work item of `seen_through`.
+const SEEN_CHUNK: usize = 512;
 
 /// Makes every most salient vertex the pre-render (`film`, one centre sample per pixel) shows
 /// stay shown through the facets' new views (see the module doc); returns how many facets'
@@ -160,8 +232,20 @@ pub fn keep_cue_vertices(
     film: &Film,
     cues: &CueVertices,
 ) -> usize {
+    keep_cue_vertices_traced(aims, ctx, map, film, cues).0
+}
+
+/// `keep_cue_vertices`, also returning the centre hits it traced through the aims it kept
+/// (None when it traced none), for the re-trace.
+pub fn keep_cue_vertices_traced(
+    aims: &mut [FacetAim],
+    ctx: &AimContext,
+    map: &FacetMap,
+    film: &Film,
+    cues: &CueVertices,
+) -> (usize, Option<CentreHits>) {
     if film.spp != 1 || film.samples.len() != map.ids.len() || aims.len() != map.facet_count as usize {
-        return 0;
+        return (0, None);
     }
     let n = aims.len();
     let (offsets, pixels) = map.pixels_by_facet();
@@ -197,18 +281,20 @@ pub fn keep_cue_vertices(
     }
     let checked: Vec<usize> = (0..n).filter(|&f| aims[f].moved() && held[f].iter().any(|&s| risky[s])).collect();
     if checked.is_empty() {
-        return 0;
+        return (0, None);
     }
     let keep = |slot: usize| index(slot).filter(|&k| risky[k]);
     let mut seen: Vec<Vec<usize>> = vec![Vec::new(); n];
-    let traced: Vec<Vec<usize>> =
+    let mut hits: Vec<Vec<Hit>> = vec![Vec::new(); n];
+    let traced: Vec<(Vec<usize>, Vec<Hit>)> =
         checked.par_iter().map(|&f| seen_through(ctx, cues, own(f), &aims[f], &keep)).collect();
     let mut count = vec![0u32; shown.len()];
-    for (&f, v) in checked.iter().zip(traced) {
+    for (&f, (v, h)) in checked.iter().zip(traced) {
         for &s in &v {
             count[s] += 1;
         }
         seen[f] = v;
+        hits[f] = h;
     }
     let last = LEVELS.len() - 1;
     let mut level = vec![0usize; n];
@@ -237,11 +323,12 @@ pub fn keep_cue_vertices(
             } else {
                 reaim_at(&mut aim, ctx, fc, fc + (sc - fc) * t);
             }
-            let now = if aim.moved() {
+            let (now, h) = if aim.moved() {
                 seen_through(ctx, cues, own(f), &aim, &keep)
             } else {
-                held[f].iter().copied().filter(|&s| risky[s]).collect()
+                (held[f].iter().copied().filter(|&s| risky[s]).collect(), Vec::new())
             };
+            hits[f] = h;
             for &s in &seen[f] {
                 count[s] -= 1;
             }
@@ -255,7 +342,21 @@ pub fn keep_cue_vertices(
             }
         }
     }
-    level.iter().filter(|&&l| l > 0).count()
+    let reduced = level.iter().filter(|&&l| l > 0).count();
+    // The hits of the aims kept, for the facets still re-aimed.
+    let mut rank = vec![0u32; map.ids.len()];
+    let mut kept_aims = vec![None; n];
+    for &f in &checked {
+        if hits[f].is_empty() || !aims[f].moved() {
+            hits[f] = Vec::new();
+            continue;
+        }
+        kept_aims[f] = Some(aims[f]);
+        for (k, &i) in own(f).iter().enumerate() {
+            rank[i as usize] = k as u32;
+        }
+    }
+    (reduced, Some(CentreHits { aims: kept_aims, hits, rank }))
 }
 
 #[cfg(test)]
@@ -304,7 +405,7 @@ mod tests {
             ..params.aim.clone()
         };
         let wild = aim_facets(&ctx, &map, None, &aim);
-        let traced = |aims: &[FacetAim]| {
+        let retraced = |aims: &[FacetAim], centre: Option<&CentreHits>| {
             let mut film = pre.film.clone();
             let moved = moved_pixels(&map, aims);
             retrace_stage(
@@ -315,17 +416,31 @@ mod tests {
                 &map,
                 aims,
                 &moved,
+                centre,
                 &mut film,
                 &silent,
                 &mut Timings::default(),
             );
-            cues.seen(&film)
+            film
         };
+        let traced = |aims: &[FacetAim]| cues.seen(&retraced(aims, None));
         let lost = |after: &[bool]| before.iter().zip(after).filter(|&(&b, &a)| b && !a).count();
         assert!(lost(&traced(&wild)) > 0, "the wild aims lose no cue: the test shows nothing");
         let mut kept = wild.clone();
-        let reduced = keep_cue_vertices(&mut kept, &ctx, &map, &pre.film, &cues);
+        let (reduced, centre) = keep_cue_vertices_traced(&mut kept, &ctx, &map, &pre.film, &cues);
         assert_eq!(lost(&traced(&kept)), 0, "{reduced} facets reduced");
+        // The centre hits the check traced are those the re-trace finds: the same film with
+        // them as without, and none taken for facets whose aim is not the one kept.
+        let centre = centre.expect("facets were checked");
+        let known = centre.known(&map, &kept);
+        let taken = (0..map.ids.len()).filter(|&i| known(i).is_some()).count();
+        assert!(taken > 0 && taken == centre.len(), "{taken} of {} hits taken", centre.len());
+        let (a, b) = (retraced(&kept, Some(&centre)), retraced(&kept, None));
+        assert!(a.color == b.color && a.hits == b.hits && a.samples == b.samples && a.occlusion == b.occlusion);
+        let known = centre.known(&map, &wild);
+        let stale = (0..map.ids.len())
+            .filter(|&i| known(i).is_some() && kept[map.ids[i] as usize] != wild[map.ids[i] as usize]);
+        assert_eq!(stale.count(), 0);
         let moved = wild.iter().filter(|a| a.moved()).count();
         assert!(reduced > 0 && reduced < moved, "{reduced} of {moved} re-aimed facets reduced");
         assert!(kept.iter().filter(|a| a.moved()).count() > 0);

@@ -43,13 +43,14 @@ use crate::camera::CameraRay;
 use crate::error::Result;
 use crate::facets::{self, FacetLayout, FacetMap, FacetParams};
 use crate::film::Film;
+use crate::imprecision::cues::CentreHits;
 use crate::imprecision::{self, AimContext, AimParams, FacetAim};
 use crate::output::passes::{facet_ids_pass, facets_pass, geometry_pass};
 use crate::output::{Gray16, Pass, encode};
 use crate::progress::Progress;
 use crate::saliency::{MeshSaliency, SaliencyParams};
 use crate::settings::Settings;
-use crate::trace::{TraceParams, Tracer};
+use crate::trace::{KnownHits, TraceParams, Tracer};
 
 pub use faces::{evaluate, visible_faces};
 pub use follow_frame::{follows_saved_key, render_followed_frame};
@@ -204,6 +205,20 @@ pub fn aims_stage(
     progress: &Progress,
     timings: &mut Timings,
 ) -> Vec<FacetAim> {
+    aims_stage_traced(ctx, map, film, params, mesh, progress, timings).0
+}
+
+/// `aims_stage`, also returning the centre hits the cue check traced through the aims kept
+/// (`imprecision::cues::CentreHits`), which `retrace_stage` takes instead of tracing again.
+pub fn aims_stage_traced(
+    ctx: &AimContext,
+    map: &FacetMap,
+    film: &Film,
+    params: &AimParams,
+    mesh: Option<(&Prepared, &SaliencyParams)>,
+    progress: &Progress,
+    timings: &mut Timings,
+) -> (Vec<FacetAim>, Option<CentreHits>) {
     progress.begin(Stage::Imprecision.name(), 1);
     timings.time(Stage::Imprecision.name(), || {
         let mut aims = imprecision::aim_facets(ctx, map, film.saliency.as_deref(), params);
@@ -216,8 +231,8 @@ pub fn aims_stage(
         let cues = mesh
             .zip(saliency.as_ref())
             .and_then(|((prep, _), s)| imprecision::cues::CueVertices::new(&prep.scene, &prep.world, &s.per_mesh));
-        imprecision::backdrop::apply(&mut aims, ctx, map, film, cues.as_ref(), params);
-        aims
+        let hits = imprecision::backdrop::apply(&mut aims, ctx, map, film, cues.as_ref(), params);
+        (aims, hits)
     })
 }
 
@@ -245,6 +260,8 @@ pub fn facet_rays<'a>(
 
 /// Traces again the `moved` pixels (`moved_pixels`) with the pre-render's tracer (the same
 /// lights, background and samples), overwriting their colour, hits and samples in `film`.
+/// `centre`: the cue check's hits of these very centre rays (`aims_stage_traced`), taken
+/// instead of tracing them again where they are the hits of `aims`.
 #[allow(clippy::too_many_arguments)]
 pub fn retrace_stage(
     prep: &Prepared,
@@ -254,6 +271,7 @@ pub fn retrace_stage(
     map: &FacetMap,
     aims: &[FacetAim],
     moved: &[u32],
+    centre: Option<&CentreHits>,
     film: &mut Film,
     progress: &Progress,
     timings: &mut Timings,
@@ -262,7 +280,15 @@ pub fn retrace_stage(
         return;
     }
     progress.begin(Stage::ReTrace.name(), moved.len() as u64);
-    trace_facets(&view.tracer(prep, trace), ctx, map, aims, Some(moved), film, progress, timings);
+    let tracer = view.tracer(prep, trace);
+    // The hits hold for the pre-render's scene and camera (`ctx`) at one sample per pixel.
+    let centre = centre.filter(|_| std::ptr::eq(tracer.accel, ctx.accel) && film.width == ctx.width);
+    let known = centre.map(|c| c.known(map, aims));
+    let rays = facet_rays(ctx, map, aims);
+    timings.time(Stage::ReTrace.name(), || {
+        let known = known.as_ref().map(|k| k as &KnownHits);
+        tracer.render_known(film, &rays, Some(moved), Some(&map.ids), known, progress)
+    });
     progress.finish();
 }
 

@@ -38,8 +38,8 @@ use serde::Serialize;
 use xxhash_rust::xxh3::Xxh3;
 
 use super::{
-    PreRender, Prepared, Shading, Stage, StageParams, Timings, aim_context, aims_stage, antialias_stage, encode_stage,
-    layout_stage, moved_pixels, prerender, retrace_stage, saliency_stage,
+    PreRender, Prepared, Shading, Stage, StageParams, Timings, aim_context, aims_stage_traced, antialias_stage,
+    encode_stage, layout_stage, moved_pixels, prerender, retrace_stage, saliency_stage,
 };
 use crate::accel::Accel;
 use crate::error::{Error, Result};
@@ -596,6 +596,8 @@ fn after_saliency_stages(
     // Spatial imprecision (SPEC "Spatial imprecision"): re-aim facets, re-trace only the pixels
     // of facets whose rays changed; at discontinuity 0 with converging facets nothing runs.
     let mut aims_gen = None;
+    // The cue check's centre hits, for this run's re-trace only (then dropped).
+    let mut centre = None;
     if plan.imprecision {
         if params.aim.reads_saliency() && film.saliency.is_none() {
             warnings.push("no saliency map was computed: facets are not re-aimed (imprecision saliency)".into());
@@ -607,9 +609,11 @@ fn after_saliency_stages(
             reused.push(Stage::Imprecision.name());
         } else {
             lane.aims = None;
-            let aims = aims_stage(&ctx, map, film, &params.aim, Some((prep, &params.saliency)), progress, timings);
+            let (aims, hits) =
+                aims_stage_traced(&ctx, map, film, &params.aim, Some((prep, &params.saliency)), progress, timings);
             progress.check()?;
             lane.aims = Some(Entry { key, id: next(), value: aims });
+            centre = hits;
         }
         let aims = &lane.aims.as_ref().expect("aims just made").value;
         let id = gen_of(&lane.aims);
@@ -628,14 +632,38 @@ fn after_saliency_stages(
             let delta = if lane.keep {
                 let mut delta = Delta::gather(film, moved);
                 if !delta.pixels.is_empty() {
-                    retrace_stage(prep, view, &ctx, &params.trace, map, aims, &delta.pixels, film, progress, timings);
+                    retrace_stage(
+                        prep,
+                        view,
+                        &ctx,
+                        &params.trace,
+                        map,
+                        aims,
+                        &delta.pixels,
+                        centre.take().as_ref(),
+                        film,
+                        progress,
+                        timings,
+                    );
                     delta.swap(film);
                     progress.check()?;
                 }
                 delta
             } else {
                 if !moved.is_empty() {
-                    retrace_stage(prep, view, &ctx, &params.trace, map, aims, &moved, film, progress, timings);
+                    retrace_stage(
+                        prep,
+                        view,
+                        &ctx,
+                        &params.trace,
+                        map,
+                        aims,
+                        &moved,
+                        centre.take().as_ref(),
+                        film,
+                        progress,
+                        timings,
+                    );
                     progress.check()?;
                 }
                 Delta::default()
