@@ -241,8 +241,12 @@ def panel_change():
         yield 0.12
     scene.cubist.border_width = 25.0
     scene.update_tag()
-    s, draw = yield from wait_for_draw(lambda s, d: d["generation"] > before and d["scale"] == 1.0, 120,
-                                       "after the panel change")
+    # The full image of the job for the value it stops at: with a fast paint, a job of the drag
+    # (12 ... 21) can finish at full size before the next one starts, and its image be drawn.
+    s, draw = yield from wait_for_draw(
+        lambda s, d: (d["generation"] == s.job.generation > before and s.job.settings.get("border_width") == 25.0
+                      and d["scale"] == 1.0),
+        120, "after the panel change")
     results["panel_change"] = {
         "seconds": time.monotonic() - t0, "draw": draw, "history": s.history, "counts": dict(s.counts),
         "border_width_sent": s.job.settings.get("border_width"), "expected_centre": expected_centre(s, draw),
