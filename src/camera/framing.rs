@@ -130,6 +130,22 @@ fn view_angles(kind: CameraKind, f: &CameraFrame, c: DVec3, p: DVec3) -> (f64, f
     }
 }
 
+/// The view half-angles a fitted scene may reach: `fill` of the camera's half-angles, each
+/// capped at 80 deg (so C stays outside the scene even at 360 deg). None when the image has no
+/// room (a zero angle where the camera needs one).
+fn fit_limits(kind: CameraKind, half: (f64, f64), fill: f64) -> Option<(f64, f64)> {
+    let cap = 80f64.to_radians();
+    let lim = if kind == CameraKind::Planar {
+        // The planar camera maps tan(angle) linearly to the image: fill in tangent space.
+        let t = |h: f64| (fill * h.tan()).atan().min(cap);
+        (t(half.0), t(half.1))
+    } else {
+        ((fill * half.0).min(cap), (fill * half.1).min(cap))
+    };
+    let no_room = lim.0 <= 0.0 || (kind != CameraKind::Cylindrical && lim.1 <= 0.0);
+    (!no_room).then_some(lim)
+}
+
 /// Distance k behind `axis` (along the view) for the focal centre: the smallest k at which
 /// every sampled vertex is in front of C and within `fill` of the half-angles (each
 /// capped at 80 deg, so C stays outside the scene even at 360 deg).
@@ -142,17 +158,7 @@ pub(super) fn fit_depth(
     radius: f64,
     fill: f64,
 ) -> f64 {
-    let cap = 80f64.to_radians();
-    let lim = if kind == CameraKind::Planar {
-        // The planar camera maps tan(angle) linearly to the image: fill in tangent space.
-        let t = |h: f64| (fill * h.tan()).atan().min(cap);
-        (t(half.0), t(half.1))
-    } else {
-        ((fill * half.0).min(cap), (fill * half.1).min(cap))
-    };
-    if lim.0 <= 0.0 || (kind != CameraKind::Cylindrical && lim.1 <= 0.0) {
-        return 1e6 * radius;
-    }
+    let Some(lim) = fit_limits(kind, half, fill) else { return 1e6 * radius };
     let depth_max = points.iter().map(|p| (*p - axis).dot(f.forward)).fold(f64::NEG_INFINITY, f64::max);
     let k_min = depth_max.max(-radius) + 0.02 * radius;
     let quick = QuickLimits::new(kind, lim);
@@ -597,16 +603,7 @@ mod quick_limits_tests {
         radius: f64,
         fill: f64,
     ) -> f64 {
-        let cap = 80f64.to_radians();
-        let lim = if kind == CameraKind::Planar {
-            let t = |h: f64| (fill * h.tan()).atan().min(cap);
-            (t(half.0), t(half.1))
-        } else {
-            ((fill * half.0).min(cap), (fill * half.1).min(cap))
-        };
-        if lim.0 <= 0.0 || (kind != CameraKind::Cylindrical && lim.1 <= 0.0) {
-            return 1e6 * radius;
-        }
+        let Some(lim) = fit_limits(kind, half, fill) else { return 1e6 * radius };
         let depth_max = points.iter().map(|p| (*p - axis).dot(f.forward)).fold(f64::NEG_INFINITY, f64::max);
         let k_min = depth_max.max(-radius) + 0.02 * radius;
         let fits = |k: f64| {

@@ -584,9 +584,15 @@ def main():
                 yield 0.1
         log(f"step {name}: {time.monotonic() - t0:.1f} s")
         write_results()
+        yield SETTLE
     else:
         results["remaining"] = []
         results["done"] = True
+
+
+# Seconds between a step's end and the next step's new scene, as a user's hand would leave
+# (it did not stop Blender 3.4.1's occasional crash at a step's start: docs/blender.md).
+SETTLE = 1.0
 
 
 def write_results():
