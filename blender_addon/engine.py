@@ -486,6 +486,10 @@ def unregister():
     if _file_closing in bpy.app.handlers.load_pre:
         bpy.app.handlers.load_pre.remove(_file_closing)
     atexit.unregister(remove_unsaved_folder)
+    # Blender's Ctrl+Q disables every add-on (`addon_utils.disable_all`) before Python's exit
+    # handlers run: the folder goes here. Disabling the add-on drops the layouts of an unsaved
+    # file too; they are computed again when needed.
+    remove_unsaved_folder()
     for panel in get_panels():
         panel.COMPAT_ENGINES.discard(ENGINE_ID)
     bpy.utils.unregister_class(CubistRenderEngine)

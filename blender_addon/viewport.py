@@ -714,9 +714,9 @@ def _file_loading(*_args):
     close_all()
 
 
-def _at_exit():
-    """Blender quits: every server ends and its folder goes, also those being ended by a
-    thread of their own (the views' engines are freed before Python's exit handlers run)."""
+def end_all():
+    """Every server ends and its folder goes, also those being ended by a thread of their own
+    (a view's engine freed a moment before: Blender quitting frees them first)."""
     close_all(wait=True)
     with _sessions_lock:
         closing = list(_closing.items())
@@ -727,14 +727,16 @@ def _at_exit():
 
 def register():
     bpy.app.handlers.load_pre.append(_file_loading)
-    atexit.register(_at_exit)
+    atexit.register(end_all)
 
 
 def unregister():
+    """Also what Blender does at quit: Ctrl+Q disables every add-on (`addon_utils.disable_all`)
+    before Python's exit handlers run, so unregistering is where servers and folders go."""
     if _file_loading in bpy.app.handlers.load_pre:
         bpy.app.handlers.load_pre.remove(_file_loading)
-    atexit.unregister(_at_exit)
-    close_all(wait=True)
+    atexit.unregister(end_all)
+    end_all()
     if bpy.app.timers.is_registered(_tick):
         bpy.app.timers.unregister(_tick)
 

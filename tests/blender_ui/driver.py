@@ -7,8 +7,8 @@ Run inside Blender's interface (Debian's Blender 3.4.1 under Xvfb), never in bac
 
 It enables the add-on from ROOT/blender_addon as a legacy add-on and, from a `bpy.app.timers`
 callback (the main thread, between interface events), does what a user does: chooses the
-Cubist engine on the factory scene, presses F12 (`bpy.ops.render.render('INVOKE_DEFAULT')` in
-a window context) with Lock Interface off and on, renders an animation whose camera and cube
+Cubist engine on the factory scene, presses F12 (a key press through X, user_input.py) with
+Lock Interface off and on, renders an animation whose camera and cube
 move, renders it again with facets that follow the scene and F12 on one of its frames alone,
 renders a frame away from the facet layout's frame, presses Esc (a real key press sent
 to the X server with xdotool) during a long render, and opens a scene whose colour management
@@ -19,7 +19,6 @@ renders the exported files with the CLI). Blender quits at the end, also after a
 
 import json
 import os
-import subprocess
 import sys
 import tempfile
 import time
@@ -28,6 +27,9 @@ from pathlib import Path
 
 import addon_utils
 import bpy
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import user_input  # noqa: E402 - beside this script, which Blender runs by path
 
 ARGS = sys.argv[sys.argv.index("--") + 1:]
 ROOT, OUT, BINARY = Path(ARGS[0]), Path(ARGS[1]), ARGS[2]
@@ -52,9 +54,9 @@ def engine_module():
 
 
 def invoke_render(animation=False):
-    """What F12 / Ctrl+F12 do: the render operator invoked in a window."""
-    with bpy.context.temp_override(**window_context()):
-        return sorted(bpy.ops.render.render("INVOKE_DEFAULT", animation=animation))
+    """F12 / Ctrl+F12 pressed (user_input.py says why not the operator from Python); yields
+    until the job has begun."""
+    return (yield from user_input.press_render(animation=animation))
 
 
 def wait_for_render(timeout):
@@ -131,6 +133,7 @@ def setup():
     assert mod is not None, "the add-on did not enable"
     prefs = bpy.context.preferences.addons["blender_addon"].preferences
     prefs.binary_path = BINARY
+    user_input.install()
     results["addon"] = "enabled"
 
 
@@ -158,7 +161,7 @@ def scene_f12():
     for lock in (False, True):
         r.use_lock_interface = lock
         t0 = time.monotonic()
-        started = invoke_render()
+        started = yield from invoke_render()
         seconds = yield from wait_for_render(300)
         out = OUT / f"f12_lock{int(lock)}.png"
         img = bpy.data.images["Render Result"]
@@ -193,7 +196,7 @@ def scene_animation():
     engine.keep_exports = str(OUT / "anim_exports")
     engine.history.clear()
     t0 = time.monotonic()
-    started = invoke_render(animation=True)
+    started = yield from invoke_render(animation=True)
     yield from wait_for_render(600)
     results["animation"] = {"operator": started, "seconds": time.monotonic() - t0,
                             "frames": [h["frame"] for h in engine.history],
@@ -211,7 +214,7 @@ def scene_layout_from_another_frame():
     scene.cubist.layout_folder = str(OUT / "layouts_other_frame")
     engine = engine_module()
     engine.keep_exports = str(OUT / "prepass_exports")
-    started = invoke_render()
+    started = yield from invoke_render()
     yield from wait_for_render(300)
     img = bpy.data.images["Render Result"]
     img.save_render(str(OUT / "prepass_frame3.png"), scene=scene)
@@ -235,7 +238,7 @@ def scene_follow_animation():
     scene.cubist.layout_folder = str(OUT / "follow_layouts")
     engine = engine_module()
     engine.history.clear()
-    started = invoke_render(animation=True)
+    started = yield from invoke_render(animation=True)
     yield from wait_for_render(600)
     results["follow"] = {"operator": started, "frames": [h["frame"] for h in engine.history],
                          "errors": [h["error"] for h in engine.history if h["error"]],
@@ -244,7 +247,7 @@ def scene_follow_animation():
                          "layouts": sorted(p.name for p in (OUT / "follow_layouts").glob("*.facets.json*"))}
     scene.frame_set(3)
     scene.cubist.layout_folder = str(OUT / "follow_layouts_f12")
-    started = invoke_render()
+    started = yield from invoke_render()
     yield from wait_for_render(300)
     bpy.data.images["Render Result"].save_render(str(OUT / "follow_f12_frame3.png"), scene=scene)
     results["follow"]["f12"] = {"operator": started, "prepass": engine.last_run.get("prepass"),
@@ -267,7 +270,7 @@ def scene_cancel():
     engine = engine_module()
     before = temp_entries()
     engine.last_run.clear()  # what follows is this render's (render() fills it on its thread)
-    started = invoke_render()
+    started = yield from invoke_render()
     t0 = time.monotonic()
     while not engine.last_run.get("progress_lines"):
         if time.monotonic() - t0 > 120 or not bpy.app.is_job_running("RENDER"):
@@ -277,8 +280,7 @@ def scene_cancel():
     workspace = str(engine.last_run["workspace"])
     during = temp_entries()
     # The pointer over Blender's windows, then Escape, as a user's key press.
-    subprocess.run(["xdotool", "mousemove", "640", "500"], check=True)
-    subprocess.run(["xdotool", "key", "Escape"], check=True)
+    user_input.press("Escape", focus=False)
     t_esc = time.monotonic()
     renderer_ended = None
     while bpy.app.is_job_running("RENDER"):

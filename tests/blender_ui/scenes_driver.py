@@ -8,8 +8,8 @@ Run inside Blender's interface (Debian's Blender 3.4.1 under Xvfb), never in bac
 
 From a `bpy.app.timers` callback (the main thread), each step makes a scene of its own
 (`bpy.data.scenes.new`, shown in the window) the way a user would build it, then presses F12
-(`bpy.ops.render.render('INVOKE_DEFAULT')`, so `render()` runs on Blender's render-job thread)
-or Render Animation, and records what the user gets: the operator's answer, the add-on's error
+(a key press through X, user_input.py, so `render()` runs on Blender's render-job thread)
+or Ctrl+F12, and records what the user gets: the operator's answer, the add-on's error
 and warnings, what was exported (engine.keep_exports), the picture (Render Result saved), and
 how Blender's own main thread kept going meanwhile: a 20 ms `bpy.app.timers` heartbeat records
 its real firing times all along; each step gets the gaps seen while it ran.
@@ -28,7 +28,6 @@ checks them. Blender quits at the end, also after a failure.
 import json
 import math
 import os
-import subprocess
 import sys
 import time
 import traceback
@@ -37,6 +36,9 @@ from pathlib import Path
 import addon_utils
 import bmesh
 import bpy
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import user_input  # noqa: E402 - beside this script, which Blender runs by path
 
 ARGS = sys.argv[sys.argv.index("--") + 1:]
 ROOT, OUT, BINARY = Path(ARGS[0]), Path(ARGS[1]), ARGS[2]
@@ -169,9 +171,13 @@ def material(name, rgb):
 # Rendering as a user does
 
 
-def invoke_render(animation=False):
-    """The render operator invoked as F12 / Ctrl+F12 do; Blender's own refusal (no camera...)
-    is what the user sees, returned as the operator's answer ["ERROR: ..."]."""
+def invoke_render(animation=False, by_key=True):
+    """F12 / Ctrl+F12 pressed (user_input.py says why not the operator from Python); yields
+    until the job has begun. Without `by_key`, the render operator is invoked in a window
+    context, for a scene Blender refuses before any render job starts (no camera), so that
+    its refusal is what the step records, as the operator's answer ["ERROR: ..."]."""
+    if by_key:
+        return (yield from user_input.press_render(animation=animation))
     with bpy.context.temp_override(**window_context()):
         try:
             return sorted(bpy.ops.render.render("INVOKE_DEFAULT", animation=animation))
@@ -190,7 +196,7 @@ def wait_for_render(timeout):
     return time.monotonic() - t0
 
 
-def f12(name, scene, timeout=300, animation=False, save=True):
+def f12(name, scene, timeout=300, animation=False, save=True, by_key=True):
     """F12 (or Render Animation) on `scene`; returns the step's record."""
     engine = engine_module()
     folder = OUT / name
@@ -200,7 +206,7 @@ def f12(name, scene, timeout=300, animation=False, save=True):
     engine.last_run.clear()
     exported.clear()
     t0 = time.monotonic()
-    started = invoke_render(animation=animation)
+    started = yield from invoke_render(animation=animation, by_key=by_key)
     seconds = yield from wait_for_render(timeout)
     t1 = time.monotonic()
     yield 0.2  # the job's end reaches the image editor
@@ -341,7 +347,8 @@ def step_empty_scene():
 def step_no_camera():
     scene = new_scene("no_camera", camera=False)
     mesh_object("Lonely", "monkey")
-    return (yield from f12("no_camera", scene))
+    # Blender refuses before starting a job: no render thread runs, the operator is safe.
+    return (yield from f12("no_camera", scene, by_key=False))
 
 
 def step_orthographic():
@@ -494,14 +501,13 @@ def step_animation_esc():
     engine = engine_module()
     engine.history.clear()
     engine.last_run.clear()
-    started = invoke_render(animation=True)
+    started = yield from invoke_render(animation=True)
     t0 = time.monotonic()
     while not engine.history and time.monotonic() - t0 < 300:
         if not bpy.app.is_job_running("RENDER"):
             break
         yield 0.05
-    subprocess.run(["xdotool", "mousemove", "640", "500"], check=True)
-    subprocess.run(["xdotool", "key", "Escape"], check=True)
+    user_input.press("Escape", focus=False)
     t_esc = time.monotonic()
     yield from wait_for_render(120)
     ended = time.monotonic() - t_esc
@@ -552,6 +558,7 @@ def setup():
     record_exports(sys.modules["blender_addon.export"])
     prefs = bpy.context.preferences.addons["blender_addon"].preferences
     prefs.binary_path = BINARY
+    user_input.install()
     bpy.app.timers.register(beat, first_interval=BEAT)
     t0 = time.monotonic()
     yield 3.0

@@ -32,6 +32,9 @@ import addon_utils
 import bpy
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import user_input  # noqa: E402 - beside this script, which Blender runs by path
+
 ARGS = sys.argv[sys.argv.index("--") + 1:]
 ROOT, OUT, BINARY = Path(ARGS[0]), Path(ARGS[1]), ARGS[2]
 OUT.mkdir(parents=True, exist_ok=True)
@@ -145,6 +148,7 @@ def setup():
     assert mod is not None, "the add-on did not enable"
     prefs = bpy.context.preferences.addons["blender_addon"].preferences
     prefs.binary_path = BINARY
+    user_input.install()
     vp().record_draws = True
     # The 3D views the viewport tags for redraw when it has a new image (pointers).
     original = vp()._redraw_views
@@ -182,13 +186,12 @@ def setup():
         area.tag_redraw()
         yield 0.5
     results["redraw_baseline"] = {"gaps": gap_list(t0)}
-    # F12 with Blender's own Workbench engine, twice (the first opens the render window): what
-    # rendering costs the interface when the engine is Blender's, to compare F12 with ours.
+    # F12 with Blender's own Workbench engine, twice: what rendering costs the interface when
+    # the engine is Blender's, to compare F12 with ours (pressed as keys, user_input.py).
     scene.render.engine = "BLENDER_WORKBENCH"
     for _ in range(2):
         t0 = time.monotonic()
-        with bpy.context.temp_override(**override()):
-            bpy.ops.render.render("INVOKE_DEFAULT")
+        yield from user_input.press_render()
         while bpy.app.is_job_running("RENDER"):
             yield 0.05
         yield 0.5
@@ -281,8 +284,7 @@ def camera_view():
     before = s.job.generation
     draws_before = dict(view_draws)
     t0 = time.monotonic()
-    with bpy.context.temp_override(**override()):
-        bpy.ops.view3d.view_camera()
+    user_input.press_over("KP_0", view3d()[1])  # Numpad 0, over the Rendered view
     s, draw = yield from wait_for_draw(lambda s, d: d["generation"] > before and d["scale"] == 1.0, 120,
                                        "camera view")
     results["camera_view"] = {"seconds": time.monotonic() - t0, "draw": draw, "through_camera": s.job.view.through_camera,
@@ -298,8 +300,7 @@ def f12_unchanged():
     s = session()
     served = s.client.stats()["served"]
     t0 = time.monotonic()
-    with bpy.context.temp_override(**override()):
-        started = sorted(bpy.ops.render.render("INVOKE_DEFAULT"))
+    started = yield from user_input.press_render()
     while bpy.app.is_job_running("RENDER"):
         if time.monotonic() - t0 > 300:
             raise TimeoutError("F12 still runs after 300 s")
@@ -401,9 +402,17 @@ def tick():
         results["failure"] = traceback.format_exc()
         log(results["failure"])
     write_results()
+    # The viewport's threads may still run: Ctrl+Q rather than the operator (user_input.py).
+    user_input.quit_blender()
+    bpy.app.timers.register(quit_by_operator, first_interval=20.0)
+    return None
+
+
+def quit_by_operator():
+    """If Ctrl+Q did not reach Blender in 20 s: the operator, so the test does not hang."""
+    log("Ctrl+Q did not quit Blender: quitting with the operator")
     with bpy.context.temp_override(**override()):
         bpy.ops.wm.quit_blender()
-    return None
 
 
 bpy.app.timers.register(tick, first_interval=2.0)

@@ -45,12 +45,19 @@ def run_windowed_blender(driver: Path, base: Path, cubist_binary: Path, label: s
     `base/out/results.json`. Returns the process, the results, the two folders and the log."""
     out, tmp = out or base / "out", base / "tmp"
     tmp.mkdir()
-    env = dict(os.environ)
+    env = {k: v for k, v in os.environ.items() if not k.startswith("PYTHON")}
     env.pop("BLENDER_USER_RESOURCES", None)
     env["BLENDER_USER_CONFIG"] = str(base / "config")
+    # Python's debug allocator aborts on any Python allocation made without the GIL, which
+    # otherwise corrupts the heap silently and crashes much later (user_input.py tells the case
+    # it caught); the fault handler prints every thread's Python stack on a crash. Blender reads
+    # them with --python-use-system-env, so no other PYTHON* variable is passed on.
+    env["PYTHONMALLOC"] = "debug"
+    env["PYTHONFAULTHANDLER"] = "1"
     t0 = time.monotonic()
     proc = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 1280x1024x24", "env", f"TMPDIR={tmp}", "blender",
-                           "--factory-startup", "--python", str(driver), "--", str(ROOT), str(out),
+                           "--factory-startup", "--python-use-system-env", "--python", str(driver), "--",
+                           str(ROOT), str(out),
                            str(cubist_binary), *extra_args],
                           capture_output=True, text=True, env=env, timeout=1200)
     seconds = time.monotonic() - t0

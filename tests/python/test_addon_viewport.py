@@ -264,18 +264,25 @@ def test_sessions_end_on_file_load_and_when_the_addon_is_disabled(bpy, vp):
         bpy.context.preferences.addons["blender_addon"].preferences.binary_path = str(BINARY)
 
 
-def test_blenders_exit_waits_for_servers_being_closed(bpy, vp):
+def test_blenders_quit_waits_for_servers_being_closed(bpy, vp):
     """A view left Rendered shading (its engine freed) just before Blender quits: the server is
-    being ended by a thread of its own, which Python's exit would cut short; the exit handler
-    waits for it, so the server's folder goes (the windowed test found it left behind)."""
+    being ended by a thread of its own, which the exit would cut short. Ctrl+Q disables every
+    add-on before Python's exit handlers run (the windowed test found the server's folder left
+    behind): unregistering waits for that thread, so the folder goes."""
+    import addon_utils
+
     scene = new_scene(bpy, 64, 48)
     s = vp.ViewportSession(vp._binary())
     vp.update(s, bpy.context.evaluated_depsgraph_get(), camera_view(bpy, scene, 64, 48), True)
     wait_for(s, s.generation)
     s.close()  # as the engine's __del__ does: without waiting
     assert list(vp._closing.values()) == [s.client] or not s.client.workspace.exists()
-    vp._at_exit()
-    assert vp._closing == {} and not s.client.workspace.exists() and s.client.proc.poll() is not None
+    addon_utils.disable("blender_addon", default_set=True)
+    try:
+        assert vp._closing == {} and not s.client.workspace.exists() and s.client.proc.poll() is not None
+    finally:
+        addon_utils.enable("blender_addon", default_set=True, persistent=True)
+        bpy.context.preferences.addons["blender_addon"].preferences.binary_path = str(BINARY)
 
 
 def test_texture_pixels_are_bottom_up_and_premultiplied(vp):

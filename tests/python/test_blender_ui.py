@@ -55,6 +55,7 @@ def test_ui_blender_runs_every_step_without_crashing(ui):
     # from a signal (a crash).
     assert ui["proc"].returncode in (0, 1), ui["log"][-3000:]
     assert "Segmentation fault" not in ui["log"] and "Writing: " not in ui["log"]  # Blender's crash report
+    assert "Fatal Python error" not in ui["log"], ui["log"][-3000:]  # PYTHONMALLOC=debug: no GIL misuse
 
 
 def test_ui_f12_shows_the_renderers_picture_lock_interface_off_and_on(ui):
