@@ -97,6 +97,9 @@ pub struct Composition {
     /// Its place in the order of preference among the candidates that reach `FILL_GOAL`
     /// (angle cap, then stretch, then distance); `usize::MAX` when none reached it.
     pub rank: usize,
+    /// Which candidate it is (angle cap, stretch, distance, in that order of preference), so
+    /// `compose_candidate` can make the same one again from another sample of the scene.
+    pub candidate: usize,
 }
 
 impl Composition {
@@ -162,7 +165,7 @@ fn spans(
         } else if height > anisotropy * sx {
             angle_x = ((height / anisotropy) * aspect / r).min(widest);
         }
-        return Composition { centre, angle_x, angle_y: 0.0, height, fill: 0.0, rank: usize::MAX };
+        return Composition { centre, angle_x, angle_y: 0.0, height, fill: 0.0, rank: usize::MAX, candidate: 0 };
     }
     let mut angle_y = (2.0 * v.0.abs().max(v.1.abs()) / margin).clamp(1e-6, widest);
     // Radians per pixel: angle_x / width against angle_y / height.
@@ -172,7 +175,7 @@ fn spans(
     } else if angle_y > anisotropy * sx {
         angle_x = (angle_y / anisotropy * aspect).min(widest);
     }
-    Composition { centre: c, angle_x, angle_y, height: 0.0, fill: 0.0, rank: usize::MAX }
+    Composition { centre: c, angle_x, angle_y, height: 0.0, fill: 0.0, rank: usize::MAX, candidate: 0 }
 }
 
 /// The `compose` framing of a spherical or cylindrical camera looking along `f.forward`, with
@@ -195,14 +198,14 @@ pub fn compose(
     for &cap in &HALF_ANGLE_CAPS {
         let (candidates, fills) = candidates_at(points, kind, f, axis, aspect, radius, margin, cap, fill_of);
         if let Some(k) = fills.iter().position(|&v| v >= FILL_GOAL) {
-            return Composition { fill: fills[k], rank: rank + k, ..candidates[k] };
+            return Composition { fill: fills[k], rank: rank + k, candidate: rank + k, ..candidates[k] };
         }
         rank += candidates.len();
         // A wider wrap is kept only when it fills clearly more.
         let best = fills.iter().copied().fold(0.0, f64::max);
         if fallback.is_none_or(|b| NEAR_BEST * best > b.fill) {
             let k = fills.iter().position(|&v| v >= NEAR_BEST * best).unwrap_or(0);
-            fallback = Some(Composition { fill: fills[k], ..candidates[k] });
+            fallback = Some(Composition { fill: fills[k], candidate: rank - candidates.len() + k, ..candidates[k] });
         }
     }
     fallback.unwrap_or(Composition {
@@ -212,7 +215,69 @@ pub fn compose(
         height: 1.0,
         fill: 0.0,
         rank: usize::MAX,
+        candidate: 0,
     })
+}
+
+/// Candidate `candidate` of `compose` (its `Composition::candidate`) alone, with its fill, as
+/// `compose` makes it from these `points` (issue 13: a view ranked on a coarse sample of the
+/// scene is composed again on the full sample without searching every candidate). `rank` is
+/// the candidate's place when it reaches `FILL_GOAL`, else `usize::MAX`.
+#[allow(clippy::too_many_arguments)]
+pub fn compose_candidate(
+    points: &[DVec3],
+    kind: CameraKind,
+    f: &CameraFrame,
+    axis: DVec3,
+    aspect: f64,
+    radius: f64,
+    margin: f64,
+    candidate: usize,
+    fill_of: &(dyn Fn(&Composition) -> f64 + Sync),
+) -> Composition {
+    let per_cap = ANISOTROPY_STEPS.len() * DEPTH_STEPS.len();
+    let candidate = candidate.min(HALF_ANGLE_CAPS.len() * per_cap - 1);
+    let cap = HALF_ANGLE_CAPS[candidate / per_cap];
+    let (a, d) = ((candidate % per_cap) / DEPTH_STEPS.len(), candidate % DEPTH_STEPS.len());
+    let c = centre_at(points, kind, f, axis, radius, margin, cap, DEPTH_STEPS[d]);
+    let k = spans(points, kind, f, c, aspect, margin, ANISOTROPY_STEPS[a], cap);
+    let fill = fill_of(&k);
+    Composition { fill, rank: if fill >= FILL_GOAL { candidate } else { usize::MAX }, candidate, ..k }
+}
+
+/// Step 1 and 2 for C `step` scene radii behind its closest place: the focal centre.
+#[allow(clippy::too_many_arguments)]
+fn centre_at(
+    points: &[DVec3],
+    kind: CameraKind,
+    f: &CameraFrame,
+    axis: DVec3,
+    radius: f64,
+    margin: f64,
+    cap: f64,
+    step: f64,
+) -> DVec3 {
+    let cylindrical = kind == CameraKind::Cylindrical;
+    let half = (cap, cap);
+    let place =
+        |axis: DVec3, back: f64| axis + f.forward * (fit_depth(points, kind, f, axis, half, radius, margin) + back);
+    let back = step * radius;
+    let mut axis = axis;
+    let mut c = place(axis, back);
+    for _ in 0..CENTRING_PASSES {
+        let (h, v) = extents(points, kind, f, c);
+        // Typical depth of the scene in front of C: the slide that turns the extent's
+        // middle angle onto the axis.
+        let depth = points.iter().map(|p| -(*p - c).dot(f.forward)).fold(0.0, f64::max).max(1e-9) * 0.5;
+        let dx = depth * (0.5 * (h.0 + h.1)).tan();
+        let dy = if cylindrical { 0.0 } else { depth * (0.5 * (v.0 + v.1)).tan() };
+        if !(dx.is_finite() && dy.is_finite()) {
+            break;
+        }
+        axis += f.right * dx + f.up * dy;
+        c = place(axis, back);
+    }
+    c
 }
 
 /// Every candidate at one angle cap, in order of preference, with its fill.
@@ -228,32 +293,8 @@ fn candidates_at(
     cap: f64,
     fill_of: &(dyn Fn(&Composition) -> f64 + Sync),
 ) -> (Vec<Composition>, Vec<f64>) {
-    let cylindrical = kind == CameraKind::Cylindrical;
-    let half = (cap, cap);
-    let place =
-        |axis: DVec3, back: f64| axis + f.forward * (fit_depth(points, kind, f, axis, half, radius, margin) + back);
-    let centres: Vec<DVec3> = DEPTH_STEPS
-        .par_iter()
-        .map(|&step| {
-            let back = step * radius;
-            let mut axis = axis;
-            let mut c = place(axis, back);
-            for _ in 0..CENTRING_PASSES {
-                let (h, v) = extents(points, kind, f, c);
-                // Typical depth of the scene in front of C: the slide that turns the extent's
-                // middle angle onto the axis.
-                let depth = points.iter().map(|p| -(*p - c).dot(f.forward)).fold(0.0, f64::max).max(1e-9) * 0.5;
-                let dx = depth * (0.5 * (h.0 + h.1)).tan();
-                let dy = if cylindrical { 0.0 } else { depth * (0.5 * (v.0 + v.1)).tan() };
-                if !(dx.is_finite() && dy.is_finite()) {
-                    break;
-                }
-                axis += f.right * dx + f.up * dy;
-                c = place(axis, back);
-            }
-            c
-        })
-        .collect();
+    let centres: Vec<DVec3> =
+        DEPTH_STEPS.par_iter().map(|&step| centre_at(points, kind, f, axis, radius, margin, cap, step)).collect();
     // Candidates in order of preference: least distortion first, then the closest C.
     let candidates: Vec<Composition> = ANISOTROPY_STEPS
         .iter()
@@ -372,6 +413,7 @@ mod tests {
             height: 0.0,
             fill,
             rank,
+            candidate: 0,
         };
         assert!(k(0.5, 3).better_than(&k(0.9, 7)));
         assert!(k(0.5, 3).better_than(&k(0.45, usize::MAX)));
