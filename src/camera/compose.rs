@@ -422,6 +422,30 @@ mod tests {
         assert!(!k(0.4, usize::MAX).better_than(&k(0.45, usize::MAX)));
     }
 
+    /// `compose_candidate` makes again exactly the candidate `compose` chose, for both camera
+    /// kinds, a candidate that reaches the goal, one of the wider wrap, and a fallback.
+    #[test]
+    fn one_candidate_is_made_as_the_search_makes_it() {
+        let pts = ellipsoid(DVec3::new(0.3, 1.0, 0.25), DVec3::new(0.1, 0.2, 0.0));
+        let f = frame();
+        let widest = 2.0 * MAX_HALF_ANGLE / 0.94 + 1e-6;
+        let fills: [&(dyn Fn(&Composition) -> f64 + Sync); 3] = [
+            &|k: &Composition| 0.2 + 0.4 * (k.angle_y / k.angle_x).min(1.0) * (k.angle_x / 3.0).min(1.0),
+            &|k: &Composition| if k.angle_x.max(k.angle_y) > widest { 0.45 } else { 0.3 },
+            &|k: &Composition| 0.25 + 0.01 * k.angle_x,
+        ];
+        let mut seen = std::collections::HashSet::new();
+        for kind in [CameraKind::Spherical, CameraKind::Cylindrical] {
+            for fill in fills {
+                let k = compose(&pts, kind, &f, DVec3::ZERO, 4.0 / 3.0, 1.0, 0.94, fill);
+                let one = compose_candidate(&pts, kind, &f, DVec3::ZERO, 4.0 / 3.0, 1.0, 0.94, k.candidate, fill);
+                assert_eq!(one, k, "{kind:?}");
+                seen.insert(k.candidate);
+            }
+        }
+        assert!(seen.len() >= 3, "the cases pick different candidates: {seen:?}");
+    }
+
     #[test]
     fn cylinders_fit_the_height() {
         let pts = ellipsoid(DVec3::new(0.3, 1.5, 0.3), DVec3::new(0.0, 2.0, 0.0));
