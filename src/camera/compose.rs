@@ -432,7 +432,8 @@ mod tests {
         let fills: [&(dyn Fn(&Composition) -> f64 + Sync); 3] = [
             &|k: &Composition| 0.2 + 0.4 * (k.angle_y / k.angle_x).min(1.0) * (k.angle_x / 3.0).min(1.0),
             &|k: &Composition| if k.angle_x.max(k.angle_y) > widest { 0.45 } else { 0.3 },
-            &|k: &Composition| 0.25 + 0.01 * k.angle_x,
+            // None reaches the goal, the farthest C fills most: a fallback further back.
+            &|k: &Composition| (0.1 + 0.08 * (-k.centre.z).max(0.0)).min(0.45),
         ];
         let mut seen = std::collections::HashSet::new();
         for kind in [CameraKind::Spherical, CameraKind::Cylindrical] {

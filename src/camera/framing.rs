@@ -407,7 +407,7 @@ fn broad_side_yaw(points: &[DVec3], up: DVec3) -> Option<f64> {
         .map(|i| (i as f64 * BROAD_SIDE_STEP_DEG).to_radians())
         .map(|yaw| (yaw, width(yaw)))
         .fold((0.0, f64::NEG_INFINITY), |best, c| if c.1 > best.1 { c } else { best });
-    (yaw != 0.0 && widest >= BROAD_SIDE_RATIO * width(0.0)).then_some(yaw)
+    (yaw != 0.0 && widest > 0.0 && widest >= BROAD_SIDE_RATIO * width(0.0)).then_some(yaw)
 }
 
 /// `frame_camera` for one `view` (the front turned and tilted, see `View`) searched as
@@ -852,9 +852,18 @@ mod view_tests {
         let turned: Vec<DVec3> = board.iter().map(|p| r * *p).collect();
         let yaw = broad_side_yaw(&turned, DVec3::Y).expect("turns");
         assert!((yaw.abs() - std::f64::consts::FRAC_PI_4).abs() < 1e-9, "{yaw}");
-        // Already broad from the front, or as wide from every side: no turn.
+        // Already broad from the front, or as wide from every side (a round column): no turn.
         assert_eq!(broad_side_yaw(&boxed(DVec3::new(1.6, 1.0, 0.05), DVec3::ZERO), DVec3::Y), None);
-        assert_eq!(broad_side_yaw(&boxed(DVec3::new(1.0, 3.0, 1.0), DVec3::ZERO), DVec3::Y), None);
+        let column: Vec<DVec3> = (0..72)
+            .flat_map(|i| {
+                let a = i as f64 * std::f64::consts::TAU / 72.0;
+                [DVec3::new(a.cos(), -1.5, a.sin()), DVec3::new(a.cos(), 1.5, a.sin())]
+            })
+            .collect();
+        assert_eq!(broad_side_yaw(&column, DVec3::Y), None);
+        // A square pillar is widest across its diagonal: turned 45 deg, two faces in view.
+        let pillar = broad_side_yaw(&boxed(DVec3::new(1.0, 3.0, 1.0), DVec3::ZERO), DVec3::Y).expect("turns");
+        assert!((pillar.abs() - std::f64::consts::FRAC_PI_4).abs() < 1e-9, "{pillar}");
         // The up axis decides what "horizontal" is: the same board modelled z-up.
         let zup: Vec<DVec3> = board.iter().map(|p| DVec3::new(p.x, -p.z, p.y)).collect();
         assert_eq!(broad_side_yaw(&zup, DVec3::Z), None, "seen from above (-Z is the up axis): no level front");
