@@ -40,16 +40,22 @@
 //!    (`Composition::better_than`).
 //!
 //! 8. (`framing::frame_camera`) When the view is the renderer's own and the front composition
-//!    fills under 40%, the view raised by 30 deg is composed too and kept when it fills clearly
-//!    more: a figure on a wide pedestal (26-29% -> 53-56%), a drape flaring on the ground
-//!    (32% -> 42%), seen from above with their base as a plane.
+//!    fills under 40%, other views are composed too and the fullest kept when it fills clearly
+//!    more: the view raised by 30 deg (a figure on a wide pedestal 26-29% -> 53-56%, a drape
+//!    flaring on the ground 32% -> 42%, seen from above with their base as a plane), and, when
+//!    the subject is at least 1.2 x wider from another side, its broad side from both faces,
+//!    with both converging cameras under `auto` (CesiumMan, walking across the default view,
+//!    22% -> 46% from its own front under the cylindrical camera, whose straight verticals
+//!    keep its head where the spherical wrap bent it into a bowl; a board seen edge-on). The
+//!    other views are ranked on a coarse sample of the scene and only the best one's chosen
+//!    candidate (`compose_candidate`) is composed again on the full sample.
 //!
-//! What this does not reach (docs/look/README.md): a walking figure seen from the side with
-//! an arm reaching out (CesiumMan, 22%: its silhouette fills little of its bounding box from
-//! the front, the side or above) stays under 40% with the whole of it in view and at most
-//! 2.5 x stretch. More stretch was tried and refused: at 4-6 x a walking figure fills 39-45% but no longer reads
-//! as a figure (ART.md: cues must stay legible); so was wrapping all the way round a figure
-//! (a cylindrical camera with its focal line inside it), which unrolls it into a vase.
+//! What this does not reach (docs/look/README.md): a stick-thin figure whose limbs stand apart
+//! (the odd walker, 32%: its silhouette fills under half its bounding box from every side)
+//! stays under 40% with the whole of it in view and at most 2.5 x stretch. More stretch was
+//! tried and refused: at 4-6 x a walking figure fills 39-45% but no longer reads as a figure
+//! (ART.md: cues must stay legible); so was wrapping all the way round a figure (a cylindrical
+//! camera with its focal line inside it), which unrolls it into a vase.
 //!
 //! No constant depends on a particular scene: the angle cap is the thesis's best ambiguity
 //! range's top (150 deg, section 5), the margin the `fill` setting.

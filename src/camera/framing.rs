@@ -11,7 +11,9 @@
 //! cylindrical camera for tall scenes (height >= `TALL_RATIO` x width and depth), as the
 //! thesis does for standing figures, and the spherical camera otherwise; under `compose` a tall
 //! scene is composed with both and the spherical camera is kept when it composes it better
-//! (`compose` step 7).
+//! (`compose` step 7). When the renderer chooses the view and the front fills under
+//! `FILL_FLOOR`, `frame_camera` also tries the raised view and the subject's broad side
+//! (`compose` step 8).
 
 use glam::DVec3;
 
