@@ -51,10 +51,13 @@ tables=$(target/release/cubist look "${scenes[@]}" --still-life --odd --before t
     echo "Contact sheet (per scene: before | after, in the tables' order): [contact-sheet.jpg](contact-sheet.jpg)."
     echo "The medians and misses are summed up in the project's README (\"The look report\")."
     echo
-    echo "Subject fill's miss, CesiumMan (22%; a walking figure, its arm reaching out): four"
-    echo "views tried by hand, each with the whole figure in view ([cesiumman-views.jpg](cesiumman-views.jpg),"
-    echo "rendered with \`--camera-position\`): from its own front 37% but the wrap spreads it into"
-    echo "a bowl and the head is lost; raised 21-27%. No view reaches 40% and still reads as a figure."
+    echo "Subject fill: when the renderer chooses the view and the front fills under 40%, the view raised"
+    echo "by 30 deg and the subject's broad side (both faces; cylindrical and spherical cameras) are"
+    echo "composed too and the fullest kept (src/camera/compose.rs step 8): CesiumMan, a figure walking"
+    echo "across the default view, 22% -> 46% from its own front under the cylindrical camera (the views"
+    echo "tried by hand before: [cesiumman-views.jpg](cesiumman-views.jpg)). Misses, the whole object in"
+    echo "view: odd-walker, a stick-thin figure with limbs apart (about 32%: its outline fills under half"
+    echo "its bounding box from every side), and the scenes of several objects (still life, odd-several)."
     echo
     echo "$tables"
 } > "$out/README.md"

@@ -11,7 +11,9 @@
 //! cylindrical camera for tall scenes (height >= `TALL_RATIO` x width and depth), as the
 //! thesis does for standing figures, and the spherical camera otherwise; under `compose` a tall
 //! scene is composed with both and the spherical camera is kept when it composes it better
-//! (`compose` step 7).
+//! (`compose` step 7). When the renderer chooses the view and the front fills under
+//! `FILL_FLOOR`, `frame_camera` also tries the raised view and the subject's broad side
+//! (`compose` step 8).
 
 use glam::DVec3;
 
@@ -29,6 +31,10 @@ pub const PINHOLE_FILL: f64 = 0.9;
 pub const TALL_RATIO: f64 = 1.6;
 /// Vertices sampled for fitting (every n-th triangle corner beyond this many).
 const FIT_SAMPLES: usize = 30_000;
+/// Vertices sampled to rank the other views when the front fills under `FILL_FLOOR` (issue 13:
+/// a coarse search finds the best view and its candidate, then only that one is composed on
+/// `FIT_SAMPLES`).
+const COARSE_SAMPLES: usize = 3_000;
 
 /// Where a cubist camera's focal centre goes when no focus distance is given.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -108,9 +114,9 @@ impl Framed {
 }
 
 /// Scene vertices (a bounded sample) in render space; non-finite ones (never hit) skipped.
-fn sample_points(world: &World) -> Vec<DVec3> {
+fn sample_points(world: &World, samples: usize) -> Vec<DVec3> {
     let n = world.triangle_count() * 3;
-    let step = n.div_ceil(FIT_SAMPLES).max(1);
+    let step = n.div_ceil(samples).max(1);
     (0..n).step_by(step).map(|k| world.corner(k)).filter(|p| p.is_finite()).map(|p| p.as_dvec3()).collect()
 }
 
@@ -282,39 +288,140 @@ impl QuickLimits {
     }
 }
 
-/// The share of the canvas under which `compose` also tries the raised view (issue 13 item 4:
+/// The share of the canvas under which `compose` also tries other views (issue 13 item 4:
 /// at least 40% on every single-object scene).
 pub const FILL_FLOOR: f64 = 0.4;
 /// How far the raised view looks down on the subject, degrees.
 pub const RAISED_VIEW_DEG: f64 = 30.0;
+/// How much wider than from the front the subject's broad side must be for the turned view to
+/// be tried (a subject about as wide from every side gains nothing from turning).
+pub const BROAD_SIDE_RATIO: f64 = 1.2;
+/// Steps of the turn searched for the broad side, degrees (over -90..90: a half turn shows
+/// every width, the view turned by at most a quarter turn from the front).
+const BROAD_SIDE_STEP_DEG: f64 = 15.0;
+
+/// A view of the subject: the front view turned about the up axis by `yaw` and tilted down by
+/// `tilt` (radians), with the camera type when the view fixes it (None: as asked).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct View {
+    tilt: f64,
+    yaw: f64,
+    kind: Option<CameraKind>,
+}
+
+impl View {
+    const FRONT: View = View { tilt: 0.0, yaw: 0.0, kind: None };
+}
+
+/// How `frame_view` composes: every candidate on `FIT_SAMPLES`, every candidate on
+/// `COARSE_SAMPLES` with a smaller probe (to rank views), or one candidate (its
+/// `Composition::candidate`) on `FIT_SAMPLES`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Search {
+    Full,
+    Coarse,
+    Only(usize),
+}
 
 /// Chooses the camera's parameters for `world` (SPEC "Framing"; see the module doc);
 /// `accel` (its BVH) lets `compose` measure its candidates' fill by a tiny trace.
 ///
-/// The raised view (issue 13 item 4): when the view is the renderer's own (no camera in the
-/// scene or the settings) and `compose` fills under `FILL_FLOOR` of the canvas from the front,
-/// the view tilted down by `RAISED_VIEW_DEG` is composed too and kept when it fills clearly more
-/// (by 1 / `compose::NEAR_BEST`). Why: a subject whose outline fills little of its own bounding
-/// box seen level (a figure on a wide base, a drape flaring out on the ground, objects spread
-/// on a table) fills it from above, its base or ground seen as a plane; the painters tilt
-/// the table top up towards the viewer the same way (Cezanne, Braque's still lifes of
-/// 1909-1911). The front view stays whenever it fills, so subjects facing the viewer keep
-/// facing them.
+/// Other views (issue 13 item 4): when the view is the renderer's own (no camera in the scene
+/// or the settings) and `compose` fills under `FILL_FLOOR` of the canvas from the front, other
+/// views are composed too and the fullest is kept when it fills clearly more (by 1 /
+/// `compose::NEAR_BEST`):
+/// - the raised view, tilted down by `RAISED_VIEW_DEG`: a subject whose outline fills little of
+///   its bounding box seen level (a figure on a wide base, a drape flaring out on the ground,
+///   objects spread on a table) fills it from above, its base or ground seen as a plane; the
+///   painters tilt the table top up towards the viewer the same way (Cezanne, Braque's still
+///   lifes of 1909-1911);
+/// - the broad side (`broad_side_yaw`), when the subject is at least `BROAD_SIDE_RATIO` wider
+///   from there: a thin subject seen edge-on (a figure walking across the view, a plank, a fish)
+///   fills a landscape canvas only by stretching, and its broad side is its legible side (the
+///   portraits of 1910 face the painter). With `auto`, this view is composed with both the
+///   cylindrical camera (the thesis's camera for standing figures: verticals stay straight, so a
+///   figure keeps its head and feet where the spherical wrap bends it into a bowl) and the
+///   spherical one.
+///
+/// The other views are ranked on a coarse sample (`COARSE_SAMPLES` vertices, a smaller probe);
+/// only the best is composed again on the full sample, as the front was, and only its candidate
+/// (the same angle cap, stretch and distance). The front view stays whenever it fills, so
+/// subjects facing the viewer keep facing them.
 pub fn frame_camera(params: &FramingParams, world: &World, accel: &Accel) -> Result<Framed> {
-    let (front, fill) = frame_view(params, world, accel, 0.0)?;
+    let (front, composition) = frame_view(params, world, accel, View::FRONT, Search::Full)?;
     let own_view = params.position.is_none() && params.target.is_none() && world.camera.is_none();
-    match fill {
-        Some(f) if own_view && f < FILL_FLOOR => {
-            let (raised, raised_fill) = frame_view(params, world, accel, RAISED_VIEW_DEG.to_radians())?;
-            Ok(if raised_fill.is_some_and(|r| r * compose::NEAR_BEST > f) { raised } else { front })
+    let fill = match composition {
+        Some(k) if own_view && k.fill < FILL_FLOOR => k.fill,
+        _ => return Ok(front),
+    };
+    let mut views = vec![View { tilt: RAISED_VIEW_DEG.to_radians(), ..View::FRONT }];
+    let up = params.up.map(DVec3::from).and_then(|u| u.try_normalize()).unwrap_or(DVec3::Y);
+    if let Some(yaw) = broad_side_yaw(&sample_points(world, COARSE_SAMPLES), up) {
+        // Both faces of the broad side: a converging camera magnifies the parts nearest its
+        // focal centre, behind the subject, so an arm reaching out fills less from behind.
+        let back = if yaw > 0.0 { yaw - std::f64::consts::PI } else { yaw + std::f64::consts::PI };
+        for yaw in [yaw, back] {
+            let turned = View { yaw, ..View::FRONT };
+            if params.kind == CameraKind::Auto {
+                views.push(View { kind: Some(CameraKind::Cylindrical), ..turned });
+                views.push(View { kind: Some(CameraKind::Spherical), ..turned });
+            } else {
+                views.push(turned);
+            }
         }
-        _ => Ok(front),
     }
+    // Rank on the coarse sample (ties: the earlier view), then compose the best in full.
+    let mut best: Option<(View, CameraKind, compose::Composition)> = None;
+    for &view in &views {
+        let (framed, k) = frame_view(params, world, accel, view, Search::Coarse)?;
+        if let Some(k) = k
+            && best.is_none_or(|(_, _, b)| k.fill > b.fill)
+        {
+            best = Some((view, framed.kind, k));
+        }
+    }
+    let Some((view, kind, coarse)) = best else { return Ok(front) };
+    if coarse.fill * compose::NEAR_BEST <= fill {
+        return Ok(front);
+    }
+    let view = View { kind: Some(kind), ..view };
+    let (other, k) = frame_view(params, world, accel, view, Search::Only(coarse.candidate))?;
+    Ok(if k.is_some_and(|k| k.fill * compose::NEAR_BEST > fill) { other } else { front })
 }
 
-/// `frame_camera` with the view tilted down by `tilt` radians (about its right axis), and the
-/// fill `compose` measured, when it composed.
-fn frame_view(params: &FramingParams, world: &World, accel: &Accel, tilt: f64) -> Result<(Framed, Option<f64>)> {
+/// The turn about `up` (radians, within -90..90 deg, counter-clockwise seen from above) that
+/// faces the subject's broad side: the widest horizontal extent of `points` across the view,
+/// searched in `BROAD_SIDE_STEP_DEG` steps from the front view (looking down -Z, level). None
+/// when the front is already within `BROAD_SIDE_RATIO` of the widest.
+fn broad_side_yaw(points: &[DVec3], up: DVec3) -> Option<f64> {
+    let level = DVec3::NEG_Z.reject_from(up).try_normalize()?;
+    let width = |yaw: f64| {
+        let forward = level * yaw.cos() + up.cross(level) * yaw.sin();
+        let right = forward.cross(up);
+        let (lo, hi) = points
+            .iter()
+            .map(|p| p.dot(right))
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| (lo.min(x), hi.max(x)));
+        if lo.is_finite() { hi - lo } else { 0.0 }
+    };
+    let steps = (180.0 / BROAD_SIDE_STEP_DEG).round() as i32;
+    let (yaw, widest) = (-steps / 2..steps - steps / 2)
+        .map(|i| (i as f64 * BROAD_SIDE_STEP_DEG).to_radians())
+        .map(|yaw| (yaw, width(yaw)))
+        .fold((0.0, f64::NEG_INFINITY), |best, c| if c.1 > best.1 { c } else { best });
+    (yaw != 0.0 && widest > 0.0 && widest >= BROAD_SIDE_RATIO * width(0.0)).then_some(yaw)
+}
+
+/// `frame_camera` for one `view` (the front turned and tilted, see `View`) searched as
+/// `search` says, and what `compose` chose, when it composed.
+fn frame_view(
+    params: &FramingParams,
+    world: &World,
+    accel: &Accel,
+    view: View,
+    search: Search,
+) -> Result<(Framed, Option<compose::Composition>)> {
+    let View { tilt, yaw, kind: view_kind } = view;
     let mut warnings = Vec::new();
     let aspect = params.width as f64 / params.height as f64;
     let sim = world.to_render;
@@ -336,7 +443,11 @@ fn frame_view(params: &FramingParams, world: &World, accel: &Accel, tilt: f64) -
     let up = params.up.map(DVec3::from).or(up).unwrap_or(DVec3::Y);
     let forward = if forward.length_squared() > 0.0 { forward } else { DVec3::NEG_Z };
     let forward = match (forward.normalize().reject_from(up).try_normalize(), up.try_normalize()) {
-        (Some(level), Some(u)) if tilt != 0.0 => level * tilt.cos() - u * tilt.sin(),
+        (Some(level), Some(u)) if tilt != 0.0 || yaw != 0.0 => {
+            // Turned about the up axis by `yaw` (counter-clockwise seen from above), then tilted.
+            let level = level * yaw.cos() + u.cross(level) * yaw.sin();
+            level * tilt.cos() - u * tilt.sin()
+        }
         _ => forward,
     };
     let (mut frame, fixed) = CameraFrame::new(DVec3::ZERO, forward, up)
@@ -357,7 +468,7 @@ fn frame_view(params: &FramingParams, world: &World, accel: &Accel, tilt: f64) -
         None => DVec3::ZERO,
     };
 
-    let points = sample_points(world);
+    let points = sample_points(world, if search == Search::Coarse { COARSE_SAMPLES } else { FIT_SAMPLES });
     let extent = |v: DVec3| {
         let (lo, hi) =
             points.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| (lo.min(p.dot(v)), hi.max(p.dot(v))));
@@ -365,7 +476,7 @@ fn frame_view(params: &FramingParams, world: &World, accel: &Accel, tilt: f64) -
     };
     let (ext_r, ext_u, ext_f) = (extent(frame.right), extent(frame.up), extent(frame.forward));
     let size = DVec3::new(ext_r.1 - ext_r.0, ext_u.1 - ext_u.0, ext_f.1 - ext_f.0);
-    let mut kind = match params.kind {
+    let mut kind = match view_kind.unwrap_or(params.kind) {
         CameraKind::Auto => {
             if size.y >= TALL_RATIO * size.x.max(size.z) {
                 CameraKind::Cylindrical
@@ -398,7 +509,7 @@ fn frame_view(params: &FramingParams, world: &World, accel: &Accel, tilt: f64) -
 
     let camera: Box<dyn Camera>;
     let focal_centre;
-    let mut composed_fill = None;
+    let mut composition = None;
     match kind {
         CameraKind::Spherical | CameraKind::Cylindrical | CameraKind::Auto => {
             let half =
@@ -437,17 +548,23 @@ fn frame_view(params: &FramingParams, world: &World, accel: &Accel, tilt: f64) -
                         clip_radius: clip,
                     })
                 };
-                probe_fill(camera.as_ref(), accel, aspect)
+                let columns = if search == Search::Coarse { COARSE_PROBE_COLUMNS } else { PROBE_COLUMNS };
+                probe_fill(camera.as_ref(), accel, aspect, columns)
             };
             let margin = params.fill.unwrap_or(compose::COMPOSE_FILL);
-            let run = |kind: CameraKind| {
-                compose::compose(&points, kind, &frame, axis, aspect, radius, margin, &|k| fill_of(kind, k))
+            let run = |kind: CameraKind| match search {
+                Search::Only(i) => {
+                    compose::compose_candidate(&points, kind, &frame, axis, aspect, radius, margin, i, &|k| {
+                        fill_of(kind, k)
+                    })
+                }
+                _ => compose::compose(&points, kind, &frame, axis, aspect, radius, margin, &|k| fill_of(kind, k)),
             };
             let composed = composing.then(|| {
                 let first = run(kind);
                 // `auto` on a tall scene: the thesis's cylindrical camera, unless the spherical
                 // one composes it better (less stretch for the same fill, or more fill).
-                if params.kind == CameraKind::Auto && kind == CameraKind::Cylindrical {
+                if params.kind == CameraKind::Auto && view_kind.is_none() && kind == CameraKind::Cylindrical {
                     let other = run(CameraKind::Spherical);
                     if other.better_than(&first) {
                         return (CameraKind::Spherical, other);
@@ -459,7 +576,7 @@ fn frame_view(params: &FramingParams, world: &World, accel: &Accel, tilt: f64) -
                 kind = k;
             }
             let composed = composed.map(|(_, k)| k);
-            composed_fill = composed.map(|k| k.fill);
+            composition = composed;
             let framed_c = || match (params.framing, composed) {
                 (_, Some(k)) => k.centre,
                 (Framing::Centre, _) => axis,
@@ -562,18 +679,20 @@ fn frame_view(params: &FramingParams, world: &World, accel: &Accel, tilt: f64) -
             view_height = Some(height);
         }
     }
-    Ok((Framed { camera, kind, angle_deg, view_height, focal_centre, frame, warnings }, composed_fill))
+    Ok((Framed { camera, kind, angle_deg, view_height, focal_centre, frame, warnings }, composition))
 }
 
 /// Columns of `probe_fill`'s tiny image (rows follow the aspect).
 const PROBE_COLUMNS: u32 = 48;
+/// Columns of the probe when ranking views on the coarse sample.
+const COARSE_PROBE_COLUMNS: u32 = 24;
 
 /// The share of a tiny image (`PROBE_COLUMNS` wide, one ray per pixel centre) whose rays hit
 /// geometry: `compose`'s estimate of a candidate's subject fill. Deterministic (a hit count).
-fn probe_fill(camera: &dyn Camera, accel: &Accel, aspect: f64) -> f64 {
+fn probe_fill(camera: &dyn Camera, accel: &Accel, aspect: f64, columns: u32) -> f64 {
     use rayon::prelude::*;
-    let w = PROBE_COLUMNS;
-    let h = ((w as f64 / aspect).round() as u32).clamp(8, 4 * PROBE_COLUMNS);
+    let w = columns;
+    let h = ((w as f64 / aspect).round() as u32).clamp(8, 4 * columns);
     let hits: u32 = (0..h)
         .into_par_iter()
         .map(|y| {
@@ -709,5 +828,47 @@ mod quick_limits_tests {
             // The shortcut must actually decide most points (else it saves nothing).
             assert!(decided > total / 2, "{kind:?}: decided {decided} of {total}");
         }
+    }
+}
+
+#[cfg(test)]
+mod view_tests {
+    use super::*;
+
+    /// Corners of a box of `size` centred at `c`.
+    fn boxed(size: DVec3, c: DVec3) -> Vec<DVec3> {
+        (0..8)
+            .map(|i| c + 0.5 * size * DVec3::new([-1.0, 1.0][i & 1], [-1.0, 1.0][(i >> 1) & 1], [-1.0, 1.0][i >> 2]))
+            .collect()
+    }
+
+    #[test]
+    fn the_broad_side_faces_the_widest_extent() {
+        // A board seen edge-on (thin along X, long along Z): turned a quarter turn, either way
+        // gives the same width, the first searched (-90 deg) is taken.
+        let board = boxed(DVec3::new(0.05, 1.0, 1.6), DVec3::ZERO);
+        let yaw = broad_side_yaw(&board, DVec3::Y).expect("a board seen edge-on turns");
+        assert!((yaw.abs() - std::f64::consts::FRAC_PI_2).abs() < 1e-9, "{yaw}");
+        // Turned by 45 deg about Y, the board's broad side is found 45 deg from the front.
+        let r = glam::DQuat::from_rotation_y(std::f64::consts::FRAC_PI_4);
+        let turned: Vec<DVec3> = board.iter().map(|p| r * *p).collect();
+        let yaw = broad_side_yaw(&turned, DVec3::Y).expect("turns");
+        assert!((yaw.abs() - std::f64::consts::FRAC_PI_4).abs() < 1e-9, "{yaw}");
+        // Already broad from the front, or as wide from every side (a round column): no turn.
+        assert_eq!(broad_side_yaw(&boxed(DVec3::new(1.6, 1.0, 0.05), DVec3::ZERO), DVec3::Y), None);
+        let column: Vec<DVec3> = (0..72)
+            .flat_map(|i| {
+                let a = i as f64 * std::f64::consts::TAU / 72.0;
+                [DVec3::new(a.cos(), -1.5, a.sin()), DVec3::new(a.cos(), 1.5, a.sin())]
+            })
+            .collect();
+        assert_eq!(broad_side_yaw(&column, DVec3::Y), None);
+        // A square pillar is widest across its diagonal: turned 45 deg, two faces in view.
+        let pillar = broad_side_yaw(&boxed(DVec3::new(1.0, 3.0, 1.0), DVec3::ZERO), DVec3::Y).expect("turns");
+        assert!((pillar.abs() - std::f64::consts::FRAC_PI_4).abs() < 1e-9, "{pillar}");
+        // The up axis decides what "horizontal" is: the same board modelled z-up.
+        let zup: Vec<DVec3> = board.iter().map(|p| DVec3::new(p.x, -p.z, p.y)).collect();
+        assert_eq!(broad_side_yaw(&zup, DVec3::Z), None, "seen from above (-Z is the up axis): no level front");
+        assert!(broad_side_yaw(&[], DVec3::Y).is_none());
     }
 }

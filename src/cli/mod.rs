@@ -60,8 +60,8 @@ pub struct LookArgs {
     /// Include the built-in still life (always when no scene is given).
     #[arg(long)]
     pub still_life: bool,
-    /// Include the built-in odd scenes: very tall, very flat, z-up, several objects, far from
-    /// the origin, huge, tiny.
+    /// Include the built-in odd scenes: very tall, very flat, z-up, several objects, a walking
+    /// figure, a pole, a board edge-on, a bench, far from the origin, huge, tiny.
     #[arg(long)]
     pub odd: bool,
     /// Also render every scene with this preset: measured and shown beside, as "before".

@@ -1,6 +1,6 @@
 //! Odd scenes the shared models do not cover (DEVELOPERS.md: our scenes are not the users'):
-//! very tall, very flat, z-up, several objects spread out, far from the origin, huge and
-//! tiny. Built in code so the look report and the tests check the composition and the planes
+//! very tall, very flat, z-up, several objects spread out, a figure walking across the view,
+//! a pole, a board seen edge-on, a long bench, far from the origin, huge and tiny. Built in code so the look report and the tests check the composition and the planes
 //! on them without any file (`cubist look --odd`).
 
 use glam::{DMat4, DQuat, DVec3, Vec2, Vec3, Vec4};
@@ -31,6 +31,23 @@ fn figure(height: f32) -> Vec<(Mesh, DMat4)> {
     vec![
         (lathe("body", &body, 32, 0), DMat4::IDENTITY),
         (head, DMat4::from_translation(DVec3::new(0.0, 0.9 * height as f64, 0.0))),
+    ]
+}
+
+/// A figure walking along +X (seen from its side by the default view), `height` tall:
+/// ellipsoid head, torso, legs apart in a stride, one arm reaching forward and one swinging
+/// back; thin from the front, its outline fills little of its bounding box from the side.
+fn walker(height: f64) -> Vec<(Mesh, DMat4)> {
+    let e = |name: &str, r: [f64; 3]| ellipsoid(name, (DVec3::from(r) * height).as_vec3(), 12, 20, 0);
+    let at = |x: f64, y: f64, z: f64| DMat4::from_translation(DVec3::new(x, y, z) * height);
+    let tilt = |a: f64| DMat4::from_rotation_z(a);
+    vec![
+        (e("head", [0.055, 0.065, 0.05]), at(0.01, 0.91, 0.0)),
+        (e("torso", [0.07, 0.17, 0.11]), at(0.0, 0.66, 0.0)),
+        (e("leg", [0.04, 0.25, 0.04]), at(0.09, 0.25, 0.05) * tilt(0.35)),
+        (e("leg", [0.04, 0.25, 0.04]), at(-0.09, 0.25, -0.05) * tilt(-0.35)),
+        (e("arm", [0.2, 0.03, 0.03]), at(0.2, 0.76, 0.13)),
+        (e("arm", [0.03, 0.18, 0.03]), at(-0.06, 0.6, -0.13) * tilt(-0.4)),
     ]
 }
 
@@ -81,6 +98,47 @@ pub fn odd_scenes() -> Vec<(String, Scene)> {
         add(&mut s, vec![part], DMat4::from_translation(DVec3::new(x, 0.0, 0.2 * (k % 2) as f64)));
     }
     out.push(("odd-several".to_string(), s));
+    // Tall, thin and wide subjects seen from an awkward side (issue 13: fill on tall and thin
+    // subjects, checked on shapes other than the shared models'): a figure walking across the
+    // view, an arm reaching out; a pole ten times taller than wide with a knob; a board seen
+    // edge-on (its broad side faces +X); a long low bench.
+    let mut s = scene("walker");
+    add(&mut s, walker(1.8), DMat4::IDENTITY);
+    out.push(("odd-walker".to_string(), s));
+    let mut s = scene("pole");
+    let pole = [Vec2::new(0.0, 0.0), Vec2::new(0.1, 0.0), Vec2::new(0.08, 2.0), Vec2::new(0.0, 2.0)];
+    add(&mut s, vec![(lathe("pole", &pole, 24, 0), DMat4::IDENTITY)], DMat4::IDENTITY);
+    add(
+        &mut s,
+        vec![(ellipsoid("knob", Vec3::splat(0.12), 12, 24, 0), DMat4::from_translation(DVec3::new(0.0, 2.05, 0.0)))],
+        DMat4::IDENTITY,
+    );
+    out.push(("odd-pole".to_string(), s));
+    let mut s = scene("board");
+    add(&mut s, vec![(cuboid("board", Vec3::new(0.06, 0.9, 1.6), 0), DMat4::IDENTITY)], DMat4::IDENTITY);
+    add(
+        &mut s,
+        vec![(
+            ellipsoid("boss", Vec3::new(0.08, 0.2, 0.2), 12, 24, 0),
+            DMat4::from_translation(DVec3::new(0.05, 0.1, 0.3)),
+        )],
+        DMat4::IDENTITY,
+    );
+    out.push(("odd-board".to_string(), s));
+    let mut s = scene("bench");
+    add(
+        &mut s,
+        vec![(cuboid("seat", Vec3::new(2.4, 0.08, 0.4), 0), DMat4::from_translation(DVec3::new(0.0, 0.4, 0.0)))],
+        DMat4::IDENTITY,
+    );
+    for x in [-1.05, 1.05] {
+        add(
+            &mut s,
+            vec![(cuboid("leg", Vec3::new(0.1, 0.4, 0.35), 0), DMat4::from_translation(DVec3::new(x, 0.2, 0.0)))],
+            DMat4::IDENTITY,
+        );
+    }
+    out.push(("odd-bench".to_string(), s));
     // The figure far from the origin, huge and tiny.
     for (name, t) in [
         ("odd-far", DMat4::from_translation(DVec3::new(1.0e6, -2.0e5, 3.0e5))),
