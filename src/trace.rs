@@ -135,6 +135,12 @@ impl Tracer<'_> {
         let spp = samples.len() as u32;
         // One sample is the centre ray: its closest hit may be known already.
         let centre = if spp == 1 { centre.and_then(|c| c(i)) } else { None };
+        if let Some(None) = centre {
+            // A known miss needs no ray: the background, as the loop below gives it.
+            samples[0] = SampleHit::MISS;
+            let color = Vec3::ZERO + self.background;
+            return ((color / 1.0).extend(0.0 / 1.0), PixelHit::MISS, 0);
+        }
         let (x, y) = (i as u32 % width, i as u32 / width);
         let mut color = Vec3::ZERO;
         let mut covered = 0u32;
@@ -295,9 +301,23 @@ impl Tracer<'_> {
         centre: Option<&KnownHits>,
         progress: &Progress,
     ) {
+        let chunks = self.trace_subset(film, rays, list, known, centre, progress);
+        write_subset(film, list, chunks);
+    }
+
+    /// `render_subset`'s tracing, reading nothing of `film` but its size and samples (so
+    /// `centre` may read its hits); `write_subset` stores the result.
+    fn trace_subset(
+        &self,
+        film: &Film,
+        rays: &Rays,
+        list: &[u32],
+        known: Option<&[Known]>,
+        centre: Option<&KnownHits>,
+        progress: &Progress,
+    ) -> Vec<SubsetChunk> {
         let (w, h, spp) = (film.width, film.height, film.spp as usize);
-        let chunks: Vec<SubsetChunk> = list
-            .par_chunks(CHUNK)
+        list.par_chunks(CHUNK)
             .enumerate()
             .map(|(c, chunk)| {
                 let mut samples = vec![SampleHit::MISS; chunk.len() * spp];
@@ -315,14 +335,56 @@ impl Tracer<'_> {
                 progress.add(chunk.len() as u64);
                 (out, samples)
             })
-            .collect();
-        for (chunk, (out, samples)) in list.chunks(CHUNK).zip(chunks) {
-            for (k, &i) in chunk.iter().enumerate() {
-                let i = i as usize;
-                (film.color[i], film.hits[i], film.occlusion[i]) = out[k];
-                film.samples[i * spp..(i + 1) * spp].copy_from_slice(&samples[k * spp..(k + 1) * spp]);
-            }
+            .collect()
+    }
+
+    /// Shades `pixels` of a film traced at one sample per pixel without lights
+    /// (`pipeline::Shading::Deferred`): each takes its centre hit from `film` instead of
+    /// tracing it again, and casts its shadow rays as `render` over the whole film would have
+    /// (the coarse grid with no facets, then the others with what their grid neighbours agree
+    /// on), so these pixels come out bit for bit as a lit trace of the whole film gives them.
+    /// Grid pixels a wanted pixel reads are shaded too (and overwritten by whoever traces them
+    /// later). `rays` must be the rays the film was traced with.
+    pub fn shade_traced(&self, film: &mut Film, rays: &Rays, pixels: &[u32], progress: &Progress) {
+        debug_assert_eq!(film.spp, 1, "a deferred pre-render traces one sample per pixel");
+        let coarse_first = film.spp == 1 && self.rig.is_some_and(|r| r.shadows && !r.lights.is_empty());
+        if !coarse_first {
+            let chunks = self.trace_subset(film, rays, pixels, None, Some(&|i| centre_hit(film, i)), progress);
+            write_subset(film, pixels, chunks);
+            return;
         }
+        let (w, h) = (film.width as usize, film.height as usize);
+        let mut wanted = vec![false; w * h];
+        for &i in pixels {
+            wanted[i as usize] = true;
+        }
+        // The grid pixels (even x, even y) within one pixel of a wanted one: those a wanted
+        // pixel's `coarse_occlusion` reads, and the wanted grid pixels themselves.
+        let grid: Vec<u32> = (0..h)
+            .into_par_iter()
+            .step_by(2)
+            .map(|y| {
+                let (y0, y1) = (y.saturating_sub(1), (y + 1).min(h - 1));
+                (0..w)
+                    .step_by(2)
+                    .filter(|&x| {
+                        let (x0, x1) = (x.saturating_sub(1), (x + 1).min(w - 1));
+                        (y0..=y1).any(|ny| wanted[ny * w + x0..=ny * w + x1].iter().any(|&b| b))
+                    })
+                    .map(|x| (y * w + x) as u32)
+                    .collect::<Vec<u32>>()
+            })
+            .collect::<Vec<_>>()
+            .concat();
+        drop(wanted);
+        let on_grid = |i: usize| (i % w).is_multiple_of(2) && (i / w).is_multiple_of(2);
+        let rest: Vec<u32> = pixels.iter().copied().filter(|&i| !on_grid(i as usize)).collect();
+        let chunks = self.trace_subset(film, rays, &grid, None, Some(&|i| centre_hit(film, i)), progress);
+        write_subset(film, &grid, chunks);
+        let traced = &*film;
+        let known: Vec<Known> = rest.par_iter().map(|&i| coarse_occlusion(traced, &[], i as usize)).collect();
+        let chunks = self.trace_subset(film, rays, &rest, Some(&known), Some(&|i| centre_hit(film, i)), progress);
+        write_subset(film, &rest, chunks);
     }
 
     /// The colour of pixel `i` from `spp` stratified samples (alpha: the fraction that hit),
@@ -376,6 +438,25 @@ impl Tracer<'_> {
             for (&i, c) in chunk.iter().zip(out) {
                 film.color[i as usize] = c;
             }
+        }
+    }
+}
+
+/// Pixel `i`'s centre hit as `film` holds it (one sample per pixel), for `KnownHits`.
+#[inline]
+fn centre_hit(film: &Film, i: usize) -> Option<Option<Hit>> {
+    let h = &film.hits[i];
+    Some(h.is_hit().then_some(Hit { tri: h.tri, object: h.object, t: h.t, u: h.u, v: h.v }))
+}
+
+/// Stores `trace_subset`'s chunks for the pixels of `list` in `film`.
+fn write_subset(film: &mut Film, list: &[u32], chunks: Vec<SubsetChunk>) {
+    let spp = film.spp as usize;
+    for (chunk, (out, samples)) in list.chunks(CHUNK).zip(chunks) {
+        for (k, &i) in chunk.iter().enumerate() {
+            let i = i as usize;
+            (film.color[i], film.hits[i], film.occlusion[i]) = out[k];
+            film.samples[i * spp..(i + 1) * spp].copy_from_slice(&samples[k * spp..(k + 1) * spp]);
         }
     }
 }
