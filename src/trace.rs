@@ -721,6 +721,51 @@ mod tests {
         assert!(wrong * 200 < full.pixel_count(), "{wrong} pixels' shadows differ (of {})", full.pixel_count());
     }
 
+    /// A deferred pre-render (hits only) shaded afterwards on some pixels gives those pixels
+    /// bit for bit what the lit pre-render gives them, shadows of the coarse grid included,
+    /// and the hits of every pixel; on 1 and 3 threads.
+    #[test]
+    fn deferred_shading_matches_the_lit_pre_render() {
+        use crate::pipeline::{Prepared, Shading, StageParams, Timings, prerender};
+        use crate::settings::Settings;
+        let prep = Prepared::load(None).unwrap();
+        let s = Settings { width: 161, height: 119, spp: 1, ..Settings::default() };
+        let params = StageParams::new(&s);
+        assert!(params.trace.shadows);
+        let pre = |shading| {
+            prerender(&prep, &params.framing, &params.trace, shading, &Progress::silent(), &mut Timings::default())
+                .unwrap()
+        };
+        let lit = pre(Shading::Lit);
+        let (w, n) = (161usize, 161 * 119);
+        // Blocks of 7 x 5 pixels kept, the others left (as facets the re-trace takes).
+        let kept: Vec<u32> =
+            (0..n as u32).filter(|&i| ((i as usize % w) / 7 + (i as usize / w) / 5) % 3 != 0).collect();
+        let blocked = kept.iter().filter(|&&i| lit.film.occlusion[i as usize] != 0).count();
+        assert!(blocked > 100 && kept.len() > n / 2, "shadows among the kept pixels: {blocked}");
+        for threads in [1, 3] {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            let mut deferred = pool.install(|| pre(Shading::Deferred));
+            assert!(deferred.unshaded && !lit.unshaded);
+            assert_eq!(deferred.film.hits, lit.film.hits, "the hits need no lights");
+            let tracer = deferred.view.tracer(&prep, &params.trace);
+            let camera = deferred.view.framed.camera.as_ref();
+            let rays = camera.centre_rays(161, 119);
+            pool.install(|| tracer.shade_traced(&mut deferred.film, &*rays, &kept, &Progress::silent()));
+            for &i in &kept {
+                let i = i as usize;
+                assert_eq!(
+                    deferred.film.color[i].to_array().map(f32::to_bits),
+                    lit.film.color[i].to_array().map(f32::to_bits),
+                    "pixel {i}"
+                );
+                assert_eq!(deferred.film.occlusion[i], lit.film.occlusion[i], "pixel {i}");
+                assert_eq!(deferred.film.hits[i], lit.film.hits[i]);
+                assert_eq!(deferred.film.samples[i], lit.film.samples[i]);
+            }
+        }
+    }
+
     #[test]
     fn seeds_change_the_jitter() {
         assert_ne!(sample_offset(1, 5, 0, 4), sample_offset(2, 5, 0, 4));

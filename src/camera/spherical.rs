@@ -3,7 +3,9 @@
 
 use glam::{DVec2, DVec3};
 
-use super::{Camera, CameraFrame, CameraModel, CameraRay, CentreRays, Nearest, Projected, centre_table, finish_ray, lookup};
+use super::{
+    Camera, CameraFrame, CameraModel, CameraRay, CentreRays, Nearest, Projected, centre_table, finish_ray, lookup,
+};
 
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Spherical {
@@ -66,7 +68,8 @@ impl Camera for Spherical {
     /// The sines and cosines of every column's and every row's centre, once (a pixel's two
     /// `sin_cos` were a quarter of its ray's cost); any other point is computed as `ray`.
     fn centre_rays(&self, width: u32, height: u32) -> CentreRays<'_> {
-        let (cols, rows) = centre_table(width, height, |p| (p.x * self.angle_x).sin_cos(), |p| (p.y * self.angle_y).sin_cos());
+        let (cols, rows) =
+            centre_table(width, height, |p| (p.x * self.angle_x).sin_cos(), |p| (p.y * self.angle_y).sin_cos());
         Box::new(move |i, p| match lookup(&cols, &rows, width, i, p) {
             Some((x, y)) => self.ray_of(x, y),
             None => self.ray(p),
