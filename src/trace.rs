@@ -92,6 +92,10 @@ pub type KnownHits<'r> = dyn Fn(usize) -> Option<Option<Hit>> + Sync + 'r;
 /// Pixels per parallel work item of the subset traces.
 const CHUNK: usize = 256;
 
+/// Pixels `Tracer::shade_traced` traces before writing them (64 work items): its results
+/// held at once stay about 4 MB whatever the image.
+const SHADE_BATCH: usize = 64 * CHUNK;
+
 impl Tracer<'_> {
     /// One sample's radiance (the background on a miss), its hit and the lights it found
     /// blocked.
@@ -348,9 +352,21 @@ impl Tracer<'_> {
     pub fn shade_traced(&self, film: &mut Film, rays: &Rays, pixels: &[u32], progress: &Progress) {
         debug_assert_eq!(film.spp, 1, "a deferred pre-render traces one sample per pixel");
         let coarse_first = film.spp == 1 && self.rig.is_some_and(|r| r.shadows && !r.lights.is_empty());
+        // In batches, each written before the next is traced: a batch's pixels read only
+        // their own hits and (off the grid) grid pixels shaded before, and the memory held
+        // for results stays a batch's, not the image's.
+        let shade = |film: &mut Film, list: &[u32], coarse: bool| {
+            for batch in list.chunks(SHADE_BATCH) {
+                let traced = &*film;
+                let known: Option<Vec<Known>> =
+                    coarse.then(|| batch.par_iter().map(|&i| coarse_occlusion(traced, &[], i as usize)).collect());
+                let centre = |i: usize| centre_hit(traced, i);
+                let chunks = self.trace_subset(traced, rays, batch, known.as_deref(), Some(&centre), progress);
+                write_subset(film, batch, chunks);
+            }
+        };
         if !coarse_first {
-            let chunks = self.trace_subset(film, rays, pixels, None, Some(&|i| centre_hit(film, i)), progress);
-            write_subset(film, pixels, chunks);
+            shade(film, pixels, false);
             return;
         }
         let (w, h) = (film.width as usize, film.height as usize);
@@ -379,12 +395,8 @@ impl Tracer<'_> {
         drop(wanted);
         let on_grid = |i: usize| (i % w).is_multiple_of(2) && (i / w).is_multiple_of(2);
         let rest: Vec<u32> = pixels.iter().copied().filter(|&i| !on_grid(i as usize)).collect();
-        let chunks = self.trace_subset(film, rays, &grid, None, Some(&|i| centre_hit(film, i)), progress);
-        write_subset(film, &grid, chunks);
-        let traced = &*film;
-        let known: Vec<Known> = rest.par_iter().map(|&i| coarse_occlusion(traced, &[], i as usize)).collect();
-        let chunks = self.trace_subset(film, rays, &rest, Some(&known), Some(&|i| centre_hit(film, i)), progress);
-        write_subset(film, &rest, chunks);
+        shade(film, &grid, false);
+        shade(film, &rest, true);
     }
 
     /// The colour of pixel `i` from `spp` stratified samples (alpha: the fraction that hit),
