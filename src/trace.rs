@@ -752,7 +752,7 @@ mod tests {
         let (w, n) = (161usize, 161 * 119);
         // Blocks of 7 x 5 pixels kept, the others left (as facets the re-trace takes).
         let kept: Vec<u32> =
-            (0..n as u32).filter(|&i| ((i as usize % w) / 7 + (i as usize / w) / 5) % 3 != 0).collect();
+            (0..n as u32).filter(|&i| !((i as usize % w) / 7 + (i as usize / w) / 5).is_multiple_of(3)).collect();
         let blocked = kept.iter().filter(|&&i| lit.film.occlusion[i as usize] != 0).count();
         assert!(blocked > 100 && kept.len() > n / 2, "shadows among the kept pixels: {blocked}");
         for threads in [1, 3] {

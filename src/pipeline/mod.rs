@@ -107,7 +107,7 @@ fn render_hooked(
     prep: &Prepared,
     settings: &Settings,
     progress: &Progress,
-    after_saliency: Option<&dyn Fn(&Prepared, &mut Film)>,
+    after_saliency: Option<&session::AfterSaliency<'_>>,
 ) -> Result<Rendered> {
     settings.validate()?;
     let params = StageParams::new(settings);
