@@ -39,11 +39,9 @@ pub fn sample_offset(seed: u64, pixel: u64, s: u32, spp: u32) -> DVec2 {
     DVec2::new(((s % nx) as f64 + jx) / nx as f64, ((s / nx) as f64 + jy) / ny as f64)
 }
 
-/// The screen point of pixel (x, y) at sub-pixel `offset` (row 0 is the top).
-#[inline]
-pub fn screen_point(x: u32, y: u32, offset: DVec2, width: u32, height: u32) -> DVec2 {
-    DVec2::new((x as f64 + offset.x) / width as f64 - 0.5, 0.5 - (y as f64 + offset.y) / height as f64)
-}
+/// The screen point of pixel (x, y) at sub-pixel `offset` (defined beside the cameras, whose
+/// `centre_rays` tabulate the pixel centres' points).
+pub use crate::camera::screen_point;
 
 /// One chunk of a pixel-subset re-trace: each pixel's colour, hit and lights blocked, then its
 /// samples' hits.

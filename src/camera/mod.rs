@@ -112,7 +112,7 @@ pub trait Camera: Send + Sync {
     /// (the frames of a render farm carry facets from the layout frame's camera).
     fn model(&self) -> CameraModel;
 
-    /// The rays of a `width x height` image's pixel centres (`trace::screen_point` at offset
+    /// The rays of a `width x height` image's pixel centres (`screen_point` at offset
     /// 0.5), for the traces of every pixel: (pixel index, screen point) -> `ray(p)`, bit for
     /// bit, for any point. Cameras whose rays factor into a column part and a row part
     /// tabulate those once (`Spherical`); the others compute `ray`.
@@ -121,11 +121,18 @@ pub trait Camera: Send + Sync {
     }
 }
 
+/// The screen point of pixel (x, y) at sub-pixel `offset` (row 0 is the top): what the traces
+/// ask `Camera::ray` for (`trace::screen_point`).
+#[inline]
+pub fn screen_point(x: u32, y: u32, offset: DVec2, width: u32, height: u32) -> DVec2 {
+    DVec2::new((x as f64 + offset.x) / width as f64 - 0.5, 0.5 - (y as f64 + offset.y) / height as f64)
+}
+
 /// `Camera::centre_rays`: (pixel index, screen point) -> ray.
 pub type CentreRays<'a> = Box<dyn Fn(usize, DVec2) -> CameraRay + Sync + 'a>;
 
 /// Per column and per row of a `width x height` image: the centre's screen coordinate and
-/// `col` / `row` of its screen point (`trace::screen_point` at offset 0.5).
+/// `col` / `row` of its screen point (`screen_point` at offset 0.5).
 #[allow(clippy::type_complexity)]
 pub(crate) fn centre_table<T>(
     width: u32,
@@ -133,7 +140,7 @@ pub(crate) fn centre_table<T>(
     col: impl Fn(DVec2) -> T,
     row: impl Fn(DVec2) -> T,
 ) -> (Vec<(u64, T)>, Vec<(u64, T)>) {
-    let at = |x: u32, y: u32| crate::trace::screen_point(x, y, DVec2::splat(0.5), width, height);
+    let at = |x: u32, y: u32| screen_point(x, y, DVec2::splat(0.5), width, height);
     let cols = (0..width).map(|x| at(x, 0)).map(|p| (p.x.to_bits(), col(p))).collect();
     let rows = (0..height).map(|y| at(0, y)).map(|p| (p.y.to_bits(), row(p))).collect();
     (cols, rows)
