@@ -252,6 +252,9 @@ fn main() {
         "saliency",
         "faceting",
         "imprecision",
+        // The pixels the re-trace keeps, shaded after the aims (a one-off render's deferred
+        // pre-render).
+        "shading",
         "re-trace",
         "anti-aliasing",
         "paint",

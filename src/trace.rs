@@ -39,11 +39,9 @@ pub fn sample_offset(seed: u64, pixel: u64, s: u32, spp: u32) -> DVec2 {
     DVec2::new(((s % nx) as f64 + jx) / nx as f64, ((s / nx) as f64 + jy) / ny as f64)
 }
 
-/// The screen point of pixel (x, y) at sub-pixel `offset` (row 0 is the top).
-#[inline]
-pub fn screen_point(x: u32, y: u32, offset: DVec2, width: u32, height: u32) -> DVec2 {
-    DVec2::new((x as f64 + offset.x) / width as f64 - 0.5, 0.5 - (y as f64 + offset.y) / height as f64)
-}
+/// The screen point of pixel (x, y) at sub-pixel `offset` (defined beside the cameras, whose
+/// `centre_rays` tabulate the pixel centres' points).
+pub use crate::camera::screen_point;
 
 /// One chunk of a pixel-subset re-trace: each pixel's colour, hit and lights blocked, then its
 /// samples' hits.
@@ -92,6 +90,10 @@ pub type KnownHits<'r> = dyn Fn(usize) -> Option<Option<Hit>> + Sync + 'r;
 /// Pixels per parallel work item of the subset traces.
 const CHUNK: usize = 256;
 
+/// Pixels `Tracer::shade_traced` traces before writing them (64 work items): its results
+/// held at once stay about 4 MB whatever the image.
+const SHADE_BATCH: usize = 64 * CHUNK;
+
 impl Tracer<'_> {
     /// One sample's radiance (the background on a miss), its hit and the lights it found
     /// blocked.
@@ -135,6 +137,12 @@ impl Tracer<'_> {
         let spp = samples.len() as u32;
         // One sample is the centre ray: its closest hit may be known already.
         let centre = if spp == 1 { centre.and_then(|c| c(i)) } else { None };
+        if let Some(None) = centre {
+            // A known miss needs no ray: the background, as the loop below gives it.
+            samples[0] = SampleHit::MISS;
+            let color = Vec3::ZERO + self.background;
+            return ((color / 1.0).extend(0.0 / 1.0), PixelHit::MISS, 0);
+        }
         let (x, y) = (i as u32 % width, i as u32 / width);
         let mut color = Vec3::ZERO;
         let mut covered = 0u32;
@@ -295,9 +303,23 @@ impl Tracer<'_> {
         centre: Option<&KnownHits>,
         progress: &Progress,
     ) {
+        let chunks = self.trace_subset(film, rays, list, known, centre, progress);
+        write_subset(film, list, chunks);
+    }
+
+    /// `render_subset`'s tracing, reading nothing of `film` but its size and samples (so
+    /// `centre` may read its hits); `write_subset` stores the result.
+    fn trace_subset(
+        &self,
+        film: &Film,
+        rays: &Rays,
+        list: &[u32],
+        known: Option<&[Known]>,
+        centre: Option<&KnownHits>,
+        progress: &Progress,
+    ) -> Vec<SubsetChunk> {
         let (w, h, spp) = (film.width, film.height, film.spp as usize);
-        let chunks: Vec<SubsetChunk> = list
-            .par_chunks(CHUNK)
+        list.par_chunks(CHUNK)
             .enumerate()
             .map(|(c, chunk)| {
                 let mut samples = vec![SampleHit::MISS; chunk.len() * spp];
@@ -315,14 +337,64 @@ impl Tracer<'_> {
                 progress.add(chunk.len() as u64);
                 (out, samples)
             })
-            .collect();
-        for (chunk, (out, samples)) in list.chunks(CHUNK).zip(chunks) {
-            for (k, &i) in chunk.iter().enumerate() {
-                let i = i as usize;
-                (film.color[i], film.hits[i], film.occlusion[i]) = out[k];
-                film.samples[i * spp..(i + 1) * spp].copy_from_slice(&samples[k * spp..(k + 1) * spp]);
+            .collect()
+    }
+
+    /// Shades `pixels` of a film traced at one sample per pixel without lights
+    /// (`pipeline::Shading::Deferred`): each takes its centre hit from `film` instead of
+    /// tracing it again, and casts its shadow rays as `render` over the whole film would have
+    /// (the coarse grid with no facets, then the others with what their grid neighbours agree
+    /// on), so these pixels come out bit for bit as a lit trace of the whole film gives them.
+    /// Grid pixels a wanted pixel reads are shaded too (and overwritten by whoever traces them
+    /// later). `rays` must be the rays the film was traced with.
+    pub fn shade_traced(&self, film: &mut Film, rays: &Rays, pixels: &[u32], progress: &Progress) {
+        debug_assert_eq!(film.spp, 1, "a deferred pre-render traces one sample per pixel");
+        let coarse_first = film.spp == 1 && self.rig.is_some_and(|r| r.shadows && !r.lights.is_empty());
+        // In batches, each written before the next is traced: a batch's pixels read only
+        // their own hits and (off the grid) grid pixels shaded before, and the memory held
+        // for results stays a batch's, not the image's.
+        let shade = |film: &mut Film, list: &[u32], coarse: bool| {
+            for batch in list.chunks(SHADE_BATCH) {
+                let traced = &*film;
+                let known: Option<Vec<Known>> =
+                    coarse.then(|| batch.par_iter().map(|&i| coarse_occlusion(traced, &[], i as usize)).collect());
+                let centre = |i: usize| centre_hit(traced, i);
+                let chunks = self.trace_subset(traced, rays, batch, known.as_deref(), Some(&centre), progress);
+                write_subset(film, batch, chunks);
             }
+        };
+        if !coarse_first {
+            shade(film, pixels, false);
+            return;
         }
+        let (w, h) = (film.width as usize, film.height as usize);
+        let mut wanted = vec![false; w * h];
+        for &i in pixels {
+            wanted[i as usize] = true;
+        }
+        // The grid pixels (even x, even y) within one pixel of a wanted one: those a wanted
+        // pixel's `coarse_occlusion` reads, and the wanted grid pixels themselves.
+        let grid: Vec<u32> = (0..h)
+            .into_par_iter()
+            .step_by(2)
+            .map(|y| {
+                let (y0, y1) = (y.saturating_sub(1), (y + 1).min(h - 1));
+                (0..w)
+                    .step_by(2)
+                    .filter(|&x| {
+                        let (x0, x1) = (x.saturating_sub(1), (x + 1).min(w - 1));
+                        (y0..=y1).any(|ny| wanted[ny * w + x0..=ny * w + x1].iter().any(|&b| b))
+                    })
+                    .map(|x| (y * w + x) as u32)
+                    .collect::<Vec<u32>>()
+            })
+            .collect::<Vec<_>>()
+            .concat();
+        drop(wanted);
+        let on_grid = |i: usize| (i % w).is_multiple_of(2) && (i / w).is_multiple_of(2);
+        let rest: Vec<u32> = pixels.iter().copied().filter(|&i| !on_grid(i as usize)).collect();
+        shade(film, &grid, false);
+        shade(film, &rest, true);
     }
 
     /// The colour of pixel `i` from `spp` stratified samples (alpha: the fraction that hit),
@@ -376,6 +448,25 @@ impl Tracer<'_> {
             for (&i, c) in chunk.iter().zip(out) {
                 film.color[i as usize] = c;
             }
+        }
+    }
+}
+
+/// Pixel `i`'s centre hit as `film` holds it (one sample per pixel), for `KnownHits`.
+#[inline]
+fn centre_hit(film: &Film, i: usize) -> Option<Option<Hit>> {
+    let h = &film.hits[i];
+    Some(h.is_hit().then_some(Hit { tri: h.tri, object: h.object, t: h.t, u: h.u, v: h.v }))
+}
+
+/// Stores `trace_subset`'s chunks for the pixels of `list` in `film`.
+fn write_subset(film: &mut Film, list: &[u32], chunks: Vec<SubsetChunk>) {
+    let spp = film.spp as usize;
+    for (chunk, (out, samples)) in list.chunks(CHUNK).zip(chunks) {
+        for (k, &i) in chunk.iter().enumerate() {
+            let i = i as usize;
+            (film.color[i], film.hits[i], film.occlusion[i]) = out[k];
+            film.samples[i * spp..(i + 1) * spp].copy_from_slice(&samples[k * spp..(k + 1) * spp]);
         }
     }
 }
@@ -638,6 +729,51 @@ mod tests {
             }
         }
         assert!(wrong * 200 < full.pixel_count(), "{wrong} pixels' shadows differ (of {})", full.pixel_count());
+    }
+
+    /// A deferred pre-render (hits only) shaded afterwards on some pixels gives those pixels
+    /// bit for bit what the lit pre-render gives them, shadows of the coarse grid included,
+    /// and the hits of every pixel; on 1 and 3 threads.
+    #[test]
+    fn deferred_shading_matches_the_lit_pre_render() {
+        use crate::pipeline::{Prepared, Shading, StageParams, Timings, prerender};
+        use crate::settings::Settings;
+        let prep = Prepared::load(None).unwrap();
+        let s = Settings { width: 161, height: 119, spp: 1, ..Settings::default() };
+        let params = StageParams::new(&s);
+        assert!(params.trace.shadows);
+        let pre = |shading| {
+            prerender(&prep, &params.framing, &params.trace, shading, &Progress::silent(), &mut Timings::default())
+                .unwrap()
+        };
+        let lit = pre(Shading::Lit);
+        let (w, n) = (161usize, 161 * 119);
+        // Blocks of 7 x 5 pixels kept, the others left (as facets the re-trace takes).
+        let kept: Vec<u32> =
+            (0..n as u32).filter(|&i| !((i as usize % w) / 7 + (i as usize / w) / 5).is_multiple_of(3)).collect();
+        let blocked = kept.iter().filter(|&&i| lit.film.occlusion[i as usize] != 0).count();
+        assert!(blocked > 100 && kept.len() > n / 2, "shadows among the kept pixels: {blocked}");
+        for threads in [1, 3] {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            let mut deferred = pool.install(|| pre(Shading::Deferred));
+            assert!(deferred.unshaded && !lit.unshaded);
+            assert_eq!(deferred.film.hits, lit.film.hits, "the hits need no lights");
+            let tracer = deferred.view.tracer(&prep, &params.trace);
+            let camera = deferred.view.framed.camera.as_ref();
+            let rays = camera.centre_rays(161, 119);
+            pool.install(|| tracer.shade_traced(&mut deferred.film, &*rays, &kept, &Progress::silent()));
+            for &i in &kept {
+                let i = i as usize;
+                assert_eq!(
+                    deferred.film.color[i].to_array().map(f32::to_bits),
+                    lit.film.color[i].to_array().map(f32::to_bits),
+                    "pixel {i}"
+                );
+                assert_eq!(deferred.film.occlusion[i], lit.film.occlusion[i], "pixel {i}");
+                assert_eq!(deferred.film.hits[i], lit.film.hits[i]);
+                assert_eq!(deferred.film.samples[i], lit.film.samples[i]);
+            }
+        }
     }
 
     #[test]

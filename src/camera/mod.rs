@@ -111,6 +111,47 @@ pub trait Camera: Send + Sync {
     /// The camera as plain data, to save beside a facet layout and rebuild in another process
     /// (the frames of a render farm carry facets from the layout frame's camera).
     fn model(&self) -> CameraModel;
+
+    /// The rays of a `width x height` image's pixel centres (`screen_point` at offset
+    /// 0.5), for the traces of every pixel: (pixel index, screen point) -> `ray(p)`, bit for
+    /// bit, for any point. Cameras whose rays factor into a column part and a row part
+    /// tabulate those once (`Spherical`); the others compute `ray`.
+    fn centre_rays(&self, _width: u32, _height: u32) -> CentreRays<'_> {
+        Box::new(move |_, p| self.ray(p))
+    }
+}
+
+/// The screen point of pixel (x, y) at sub-pixel `offset` (row 0 is the top): what the traces
+/// ask `Camera::ray` for (`trace::screen_point`).
+#[inline]
+pub fn screen_point(x: u32, y: u32, offset: DVec2, width: u32, height: u32) -> DVec2 {
+    DVec2::new((x as f64 + offset.x) / width as f64 - 0.5, 0.5 - (y as f64 + offset.y) / height as f64)
+}
+
+/// `Camera::centre_rays`: (pixel index, screen point) -> ray.
+pub type CentreRays<'a> = Box<dyn Fn(usize, DVec2) -> CameraRay + Sync + 'a>;
+
+/// Per column and per row of a `width x height` image: the centre's screen coordinate and
+/// `col` / `row` of its screen point (`screen_point` at offset 0.5).
+#[allow(clippy::type_complexity)]
+pub(crate) fn centre_table<T>(
+    width: u32,
+    height: u32,
+    col: impl Fn(DVec2) -> T,
+    row: impl Fn(DVec2) -> T,
+) -> (Vec<(u64, T)>, Vec<(u64, T)>) {
+    let at = |x: u32, y: u32| screen_point(x, y, DVec2::splat(0.5), width, height);
+    let cols = (0..width).map(|x| at(x, 0)).map(|p| (p.x.to_bits(), col(p))).collect();
+    let rows = (0..height).map(|y| at(0, y)).map(|p| (p.y.to_bits(), row(p))).collect();
+    (cols, rows)
+}
+
+/// The tabulated values of pixel `i` when `p` is its centre exactly (bit for bit), else None.
+#[inline]
+pub(crate) fn lookup<T: Copy>(cols: &[(u64, T)], rows: &[(u64, T)], width: u32, i: usize, p: DVec2) -> Option<(T, T)> {
+    let w = (width as usize).max(1);
+    let (cx, cy) = (cols.get(i % w)?, rows.get(i / w)?);
+    (cx.0 == p.x.to_bits() && cy.0 == p.y.to_bits()).then_some((cx.1, cy.1))
 }
 
 /// Every camera as a serialisable value; it is itself a `Camera`.
@@ -147,6 +188,9 @@ impl Camera for CameraModel {
     }
     fn model(&self) -> CameraModel {
         self.clone()
+    }
+    fn centre_rays(&self, width: u32, height: u32) -> CentreRays<'_> {
+        self.camera().centre_rays(width, height)
     }
 }
 

@@ -3,7 +3,9 @@
 
 use glam::{DVec2, DVec3};
 
-use super::{Camera, CameraFrame, CameraModel, CameraRay, Nearest, Projected, finish_ray};
+use super::{
+    Camera, CameraFrame, CameraModel, CameraRay, CentreRays, Nearest, Projected, centre_table, finish_ray, lookup,
+};
 
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Spherical {
@@ -26,10 +28,21 @@ impl Spherical {
     /// then about the fixed h by y alpha_y; signs are chosen so the image's right shows the
     /// scene's right and its top the top (the listing's matrix convention is not given).
     pub fn outward(&self, p: DVec2) -> DVec3 {
+        self.outward_of((p.x * self.angle_x).sin_cos(), (p.y * self.angle_y).sin_cos())
+    }
+
+    /// `outward` from the sine and cosine of x alpha_x and of y alpha_y.
+    #[inline]
+    fn outward_of(&self, (st, ct): (f64, f64), (sp, cp): (f64, f64)) -> DVec3 {
         let f = &self.frame;
-        let (st, ct) = (p.x * self.angle_x).sin_cos();
-        let (sp, cp) = (p.y * self.angle_y).sin_cos();
         f.right * st + (-f.forward * cp + f.up * sp) * ct
+    }
+
+    /// The ray of `outward_of`.
+    #[inline]
+    fn ray_of(&self, x: (f64, f64), y: (f64, f64)) -> CameraRay {
+        let v = self.outward_of(x, y);
+        finish_ray(self.centre + v * self.distance, -v, self.distance, self.clip_radius)
     }
 
     /// The screen points whose outward vector is the unit vector `v` (the inverse of
@@ -49,8 +62,18 @@ impl Spherical {
 
 impl Camera for Spherical {
     fn ray(&self, p: DVec2) -> CameraRay {
-        let v = self.outward(p);
-        finish_ray(self.centre + v * self.distance, -v, self.distance, self.clip_radius)
+        self.ray_of((p.x * self.angle_x).sin_cos(), (p.y * self.angle_y).sin_cos())
+    }
+
+    /// The sines and cosines of every column's and every row's centre, once (a pixel's two
+    /// `sin_cos` were a quarter of its ray's cost); any other point is computed as `ray`.
+    fn centre_rays(&self, width: u32, height: u32) -> CentreRays<'_> {
+        let (cols, rows) =
+            centre_table(width, height, |p| (p.x * self.angle_x).sin_cos(), |p| (p.y * self.angle_y).sin_cos());
+        Box::new(move |i, p| match lookup(&cols, &rows, width, i, p) {
+            Some((x, y)) => self.ray_of(x, y),
+            None => self.ray(p),
+        })
     }
 
     /// A ray from C + v d along -v passes through q = C + v (d - s): before the focal centre

@@ -369,3 +369,36 @@ fn a_moved_camera_moves_its_rays_and_projects_back() {
     assert!((f.forward - rotation * DVec3::NEG_Z).length() < 1e-12);
     assert!((f.right - f.forward.cross(f.up)).length() < 1e-12, "still right-handed");
 }
+
+/// `centre_rays` gives `ray` bit for bit: at every pixel centre (tabulated), at jittered
+/// points (computed), through `CameraModel` too, and for a camera without a table.
+#[test]
+fn centre_rays_are_the_rays_bit_for_bit() {
+    let bits = |r: &CameraRay| {
+        (
+            r.origin.to_array().map(f32::to_bits),
+            r.dir.to_array().map(f32::to_bits),
+            r.focus.to_bits(),
+            r.skipped.to_bits(),
+        )
+    };
+    let (w, h) = (37u32, 23u32);
+    let cameras: Vec<Box<dyn Camera>> = vec![
+        Box::new(spherical(200.0, 37.0 / 23.0)),
+        Box::new(CameraModel::Spherical(spherical(90.0, 1.0))),
+        Box::new(CameraModel::Planar(Planar::new(frame(), 2.0, 1.5, 90f64.to_radians(), 100.0))),
+    ];
+    for cam in &cameras {
+        let rays = cam.centre_rays(w, h);
+        for i in 0..(w * h) as usize {
+            let (x, y) = (i as u32 % w, i as u32 / w);
+            for off in [DVec2::splat(0.5), DVec2::new(0.13, 0.77)] {
+                let p = crate::trace::screen_point(x, y, off, w, h);
+                assert_eq!(bits(&rays(i, p)), bits(&cam.ray(p)), "pixel {i}, offset {off}");
+            }
+        }
+        // A point another pixel's index does not own is still its own ray.
+        let p = crate::trace::screen_point(3, 4, DVec2::splat(0.5), w, h);
+        assert_eq!(bits(&rays(0, p)), bits(&cam.ray(p)));
+    }
+}

@@ -85,7 +85,7 @@ pub struct Rendered {
 
 /// Renders `settings` through the whole pipeline.
 pub fn render(prep: &Prepared, settings: &Settings, progress: &Progress) -> Result<Rendered> {
-    render_with(prep, settings, progress, &|_, _| {})
+    render_hooked(prep, settings, progress, None)
 }
 
 /// `render`, calling `after_saliency` on the film once the pre-render and saliency stages are
@@ -97,10 +97,22 @@ pub fn render_with(
     progress: &Progress,
     after_saliency: &dyn Fn(&Prepared, &mut Film),
 ) -> Result<Rendered> {
+    render_hooked(prep, settings, progress, Some(after_saliency))
+}
+
+/// `render_with`, the hook optional: without one, a render whose stages before the re-trace
+/// read no colour shades only the pixels the re-trace keeps (`Shading::Deferred`); a hook
+/// sees the film fully shaded.
+fn render_hooked(
+    prep: &Prepared,
+    settings: &Settings,
+    progress: &Progress,
+    after_saliency: Option<&session::AfterSaliency<'_>>,
+) -> Result<Rendered> {
     settings.validate()?;
     let params = StageParams::new(settings);
     let mut lane = session::Lane::new(params.trace.width, params.trace.height, false);
-    let frame = session::run(prep, 0, &mut lane, &mut 0, &params, progress, Some(after_saliency))?;
+    let frame = session::run(prep, 0, &mut lane, &mut 0, &params, progress, after_saliency)?;
     let (film, facets, layout, aims) = lane.into_products()?;
     Ok(Rendered {
         film,
@@ -249,13 +261,46 @@ pub fn facet_rays<'a>(
     map: &'a FacetMap,
     aims: &'a [FacetAim],
 ) -> impl Fn(usize, DVec2) -> CameraRay + Sync + 'a {
+    // The pixel centres' rays tabulated where the camera can (`Camera::centre_rays`): the
+    // re-trace traces them; anti-aliasing's jittered points take `ray`.
+    let camera = ctx.camera.centre_rays(ctx.width, ctx.height);
     move |i, p| {
-        let ray = ctx.camera.ray(p);
+        let ray = camera(i, p);
         match aims.get(map.ids[i] as usize) {
             Some(aim) if aim.moved() => aim.apply(ray, ctx.pixel_pos(p), ctx.clip_radius),
             _ => ray,
         }
     }
+}
+
+/// After a `Shading::Deferred` pre-render: shades the pixels the re-trace does not trace
+/// again (those not in `moved`, `moved_pixels`) as the lit pre-render would have, from the
+/// hits the film holds (`Tracer::shade_traced`; timed as `shading`, progress counted in the
+/// re-trace).
+#[allow(clippy::too_many_arguments)]
+pub fn shade_stage(
+    prep: &Prepared,
+    view: &View,
+    ctx: &AimContext,
+    trace: &TraceParams,
+    moved: &[u32],
+    film: &mut Film,
+    progress: &Progress,
+    timings: &mut Timings,
+) {
+    let n = film.pixel_count() as u32;
+    let mut kept = Vec::with_capacity(n as usize - moved.len().min(n as usize));
+    let mut next = moved.iter().copied().peekable();
+    for i in 0..n {
+        if next.next_if_eq(&i).is_none() {
+            kept.push(i);
+        }
+    }
+    progress.begin(Stage::ReTrace.name(), kept.len() as u64);
+    let tracer = view.tracer(prep, trace);
+    let rays = ctx.camera.centre_rays(film.width, film.height);
+    timings.time("shading", || tracer.shade_traced(film, &*rays, &kept, progress));
+    progress.finish();
 }
 
 /// Traces again the `moved` pixels (`moved_pixels`) with the pre-render's tracer (the same

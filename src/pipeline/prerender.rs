@@ -19,6 +19,11 @@ pub enum Shading {
     Lit,
     /// Hits only, colour black (the saliency map, face counting): no light rig, no shadow rays.
     HitsOnly,
+    /// A render whose stages before the re-trace read no colour: one sample per pixel traced
+    /// for its hits now, the lights kept for `shade_stage`, which shades only the pixels the
+    /// re-trace does not trace again (bit for bit as `Lit` shades them). Until then the
+    /// film's colour is black (alpha, the coverage, is right).
+    Deferred,
 }
 
 /// The pre-render's output. Depends only on the scene, `FramingParams`, `TraceParams` and the
@@ -28,6 +33,8 @@ pub struct PreRender {
     pub view: View,
     /// The scene's and the framing's warnings.
     pub warnings: Vec<String>,
+    /// Traced with `Shading::Deferred`: colour still to shade (`shade_stage`).
+    pub unshaded: bool,
 }
 
 /// The camera the pre-render was traced through and its lights, kept for the re-trace and
@@ -71,7 +78,9 @@ pub fn prerender(
     let framed = timings.time("framing", || frame_camera(framing, &prep.world, &prep.accel))?;
     warnings.extend(framed.warnings.iter().cloned());
     let rig = match shading {
-        Shading::Lit => Some(LightRig::new(&prep.world, &framed.frame, trace.shadows, trace.exposure)),
+        Shading::Lit | Shading::Deferred => {
+            Some(LightRig::new(&prep.world, &framed.frame, trace.shadows, trace.exposure))
+        }
         Shading::HitsOnly => None,
     };
     // Issue 18: every light is evaluated at every sample; hours of work are refused up front.
@@ -95,14 +104,19 @@ pub fn prerender(
     // need no more, and the anti-aliasing stage adds samples where the picture needs them.
     // The hits-only products (the saliency map, face counts) keep `spp` samples per pixel.
     let spp = match shading {
-        Shading::Lit => 1,
+        Shading::Lit | Shading::Deferred => 1,
         Shading::HitsOnly => trace.spp,
     };
     let mut film = Film::new(trace.width, trace.height, spp);
     progress.begin(Stage::PreRender.name(), film.pixel_count() as u64);
-    let tracer = tracer(prep, rig.as_ref(), trace);
+    // Deferred: traced as hits only (no lights), shaded later with the rig kept here.
+    let unshaded = shading == Shading::Deferred;
+    let tracer = tracer(prep, rig.as_ref().filter(|_| !unshaded), trace);
     let camera = framed.camera.as_ref();
-    timings.time(Stage::PreRender.name(), || tracer.render(&mut film, &|_, p| camera.ray(p), None, None, progress));
+    timings.time(Stage::PreRender.name(), || {
+        let rays = camera.centre_rays(trace.width, trace.height);
+        tracer.render(&mut film, &*rays, None, None, progress)
+    });
     progress.finish();
-    Ok(PreRender { film, view: View { framed, rig }, warnings })
+    Ok(PreRender { film, view: View { framed, rig }, warnings, unshaded })
 }

@@ -39,7 +39,7 @@ use xxhash_rust::xxh3::Xxh3;
 
 use super::{
     PreRender, Prepared, Shading, Stage, StageParams, Timings, aim_context, aims_stage_traced, antialias_stage,
-    encode_stage, layout_stage, moved_pixels, prerender, retrace_stage, saliency_stage,
+    encode_stage, layout_stage, moved_pixels, prerender, retrace_stage, saliency_stage, shade_stage,
 };
 use crate::accel::Accel;
 use crate::error::{Error, Result};
@@ -479,11 +479,18 @@ pub(super) fn run(
         lane.paint_prefix = None;
         lane.paint = None;
         lane.encoded = None;
+        // perf6 (issue 16): a one-off render whose stages before the re-trace read no colour
+        // shades only the pixels the re-trace keeps, after the aims (`shade_stage`).
+        let deferred = !lane.keep
+            && after_saliency.is_none()
+            && plan.imprecision
+            && !(reads_picture(&params.facets) && params.facets.method == FacetMethod::Segment);
+        let shading = if deferred { Shading::Deferred } else { Shading::Lit };
         let pre = if plan.saliency {
             // Mesh saliency reads only the meshes: it runs beside framing and the pre-render
             // (timed on its own, by wall clock; their CPU figures then include its work).
             let (pre, mesh_time) = rayon::join(
-                || prerender(prep, &params.framing, &params.trace, Shading::Lit, progress, &mut timings),
+                || prerender(prep, &params.framing, &params.trace, shading, progress, &mut timings),
                 || {
                     let t = std::time::Instant::now();
                     crate::saliency::precompute(&prep.scene, &prep.world, &prep.saliency, &params.saliency);
@@ -494,7 +501,7 @@ pub(super) fn run(
             timings.1.push(None);
             pre?
         } else {
-            prerender(prep, &params.framing, &params.trace, Shading::Lit, progress, &mut timings)?
+            prerender(prep, &params.framing, &params.trace, shading, progress, &mut timings)?
         };
         progress.check()?;
         lane.pre = Some(Entry { key: pre_key, id: next(), value: pre });
@@ -563,7 +570,7 @@ fn after_saliency_stages(
 ) -> Result<(Encoded, Vec<String>, String, Vec<&'static str>)> {
     let mut reused = Vec::new();
     let pre_gen = pre.id;
-    let PreRender { film, view, warnings: pre_warnings } = &mut pre.value;
+    let PreRender { film, view, warnings: pre_warnings, unshaded } = &mut pre.value;
     let mut warnings = pre_warnings.clone();
 
     let reads = reads_picture(&params.facets);
@@ -650,6 +657,11 @@ fn after_saliency_stages(
                 }
                 delta
             } else {
+                if std::mem::take(unshaded) {
+                    // perf6 (issue 16): the pixels the re-trace keeps, shaded now.
+                    shade_stage(prep, view, &ctx, &params.trace, &moved, film, progress, timings);
+                    progress.check()?;
+                }
                 if !moved.is_empty() {
                     retrace_stage(
                         prep,
