@@ -803,6 +803,10 @@ fn after_saliency_stages(
         // (Empty: painted in place, the film's colour is the painted one.)
         let colour =
             if plan.paint { lane.paint.as_mut().map(|e| &mut e.value).filter(|c| !c.is_empty()) } else { None };
+        // The image alone reads only the painted colour: the moved and refined pixels are
+        // swapped in only for passes (or an unpainted image).
+        let film_read = params.passes.is_empty() && colour.is_some();
+        let (delta, aa) = if film_read { (None, None) } else { (delta, aa) };
         let (image, passes, passes16) =
             with_film(film, delta, aa, colour, |film| encode_stage(film, map, aims, params, timings));
         let encoded = Encoded { image, passes, passes16 };
