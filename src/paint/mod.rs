@@ -176,6 +176,8 @@ pub struct PaintContext<'a> {
 #[derive(Default)]
 pub struct PaintInputs {
     keep: bool,
+    /// Edges made at twice the limit asked for (`kept_for_changes`).
+    wide_edges: bool,
     regions: std::sync::Mutex<Option<std::sync::Arc<Vec<u64>>>>,
     planes: std::sync::Mutex<Option<(u64, std::sync::Arc<Vec<planes::Plane>>)>>,
     edges: std::sync::Mutex<Option<(u32, std::sync::Arc<Edges>)>>,
@@ -198,6 +200,12 @@ impl PaintInputs {
     /// Inputs kept from chain to chain (a session's).
     pub fn kept() -> PaintInputs {
         PaintInputs { keep: true, ..PaintInputs::default() }
+    }
+
+    /// Kept inputs that also expect the border width to change (a session's lane): the edges
+    /// are made at twice the width asked for (`PaintContext::edges`).
+    pub fn kept_for_changes() -> PaintInputs {
+        PaintInputs { keep: true, wide_edges: true, ..PaintInputs::default() }
     }
 
     /// Bytes held.
@@ -266,7 +274,8 @@ impl<'a> PaintContext<'a> {
     /// region), the nearest such pixel and its distance. Pixels at `limit` or farther may hold
     /// a nearest edge too: callers read only those closer than `limit`.
     ///
-    /// Kept inputs are computed at twice the limit and serve every limit up to that, so a
+    /// A session's inputs (`kept_for_changes`) are computed at twice the limit and serve every
+    /// limit up to that, so a
     /// border width dragged narrower, or wider within the margin, reuses them: below a limit,
     /// the feature transform gives the same nearest pixel at any larger limit (the features
     /// a larger limit adds are all farther than it, so they never change which parabola is
@@ -278,7 +287,7 @@ impl<'a> PaintContext<'a> {
         {
             return e;
         }
-        let limit = if self.inputs.keep { 2.0 * limit } else { limit };
+        let limit = if self.inputs.wide_edges { 2.0 * limit } else { limit };
         let (w, h) = (width as usize, height as usize);
         let r = self.regions(w * h);
         let is_edge = |i: usize| {

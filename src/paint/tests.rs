@@ -770,7 +770,7 @@ fn kept_paint_inputs_give_the_one_off_chains_pixels_after_a_change_upstream() {
     let mut s = Settings::default();
     (s.width, s.height) = (w, h);
     s.chiaroscuro = 0.0;
-    let inputs = PaintInputs::kept();
+    let inputs = PaintInputs::kept_for_changes();
     for (threads, border) in [(1, 12.0), (3, 11.0), (1, 16.0), (3, 12.0)] {
         s.border_width = border;
         let painter = Painter::new(&paint(&s)).unwrap();

@@ -215,7 +215,7 @@ fn paint_both(passage: Passage, frame: &Film, facets: Option<&FacetMap>, transpa
     pool.install(|| new.apply(&mut a, facets, None)).unwrap();
     // Through kept inputs twice: the second run reuses the edges (made at twice the width)
     // and the pairs.
-    let kept = PaintInputs::kept();
+    let kept = PaintInputs::kept_for_changes();
     let wider =
         Painter::from_effects(vec![Box::new(Passage { width: passage.width * 1.5, ..passage })], bg, transparent);
     let mut d = frame.clone();

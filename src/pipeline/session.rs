@@ -728,7 +728,9 @@ fn after_saliency_stages(
             // What the effects derive from the film's hits and the facet map alone.
             let inputs_key = (traced_gen, plan.faceting.then_some(layout_gen));
             if !keep || !hit(&lane.paint_inputs, &inputs_key) {
-                lane.paint_inputs = Some(Entry { key: inputs_key, id: next(), value: PaintInputs::kept() });
+                // (A one-off render paints once: its edges are made at the border width alone.)
+                let value = if keep { PaintInputs::kept_for_changes() } else { PaintInputs::kept() };
+                lane.paint_inputs = Some(Entry { key: inputs_key, id: next(), value });
             }
             let inputs = &lane.paint_inputs.as_ref().expect("just made").value;
             // The chain from the first effect whose parameters changed since the last paint
