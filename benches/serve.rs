@@ -11,7 +11,8 @@
 //! holds up better than wall time on a shared machine; "limited by" names the steps that ran
 //! and their share of the median request.
 //!
-//! `cargo bench --bench serve [-- --quick]`.
+//! `cargo bench --bench serve [-- --quick]`; `-- --only NAME [--runs N]` times only the rows
+//! whose name starts with NAME (for profiling one kind of request), N requests each.
 
 #[path = "common/mod.rs"]
 mod common;
@@ -36,16 +37,20 @@ struct Row {
     reused: Vec<&'static str>,
 }
 
-/// Runs `runs` requests, the i-th rendering `settings(i)` after `prepare(i)`; the first request
-/// of the sequence (`warm`) is not timed.
+/// Runs `runs` requests, the i-th rendering `settings(i)`; the first request of the sequence
+/// (`warm`) is not timed. None (nothing run) when `only` names other rows.
 fn measure(
+    only: &Option<String>,
     session: &mut Session,
     what: &'static str,
     target_ms: f64,
     runs: usize,
     warm: &Settings,
     settings: impl Fn(usize) -> Settings,
-) -> Row {
+) -> Option<Row> {
+    if only.as_ref().is_some_and(|o| !what.starts_with(o.as_str())) {
+        return None;
+    }
     session.render(warm, &Progress::silent()).unwrap();
     let mut frames: Vec<(f64, Frame)> = Vec::new();
     let c0 = common::cpu_time();
@@ -60,12 +65,15 @@ fn measure(
     walls.sort_by(f64::total_cmp);
     let median = walls[walls.len() / 2];
     let (_, f) = frames.iter().min_by(|a, b| (a.0 - median).abs().total_cmp(&(b.0 - median).abs())).unwrap();
-    Row { what, target_ms, walls, cpu, steps: f.timings.0.clone(), reused: f.reused.clone() }
+    Some(Row { what, target_ms, walls, cpu, steps: f.timings.0.clone(), reused: f.reused.clone() })
 }
 
 fn main() {
-    let quick = std::env::args().any(|a| a == "--quick");
-    let runs = if quick { 3 } else { 5 };
+    let args: Vec<String> = std::env::args().collect();
+    let quick = args.iter().any(|a| a == "--quick");
+    let flag = |name: &str| args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).cloned();
+    let only = flag("--only");
+    let runs = flag("--runs").and_then(|n| n.parse().ok()).unwrap_or(if quick { 3 } else { 5 });
     let load_before = common::load_average();
     let full = Settings { width: SIDE, height: SIDE, ..Settings::default() };
     let quarter = Settings { width: SIDE / 4, height: SIDE / 4, ..Settings::default() };
@@ -88,6 +96,7 @@ fn main() {
         // (the first paint-only change after a new film or layout) costs more than those after
         // it, which the next row times. One request.
         measure(
+            &only,
             &mut session,
             "first paint-only change on new facets (records the strokes)",
             f64::NAN,
@@ -95,14 +104,27 @@ fn main() {
             &full,
             |_| paint(&full, 0),
         ),
-        measure(&mut session, "paint-only change (border width)", 50.0, runs, &full, |i| paint(&full, i)),
-        measure(&mut session, "facet change (Segment segments)", 300.0, runs, &full, |i| facets(&full, i)),
-        measure(&mut session, "camera change (convergence angle)", 600.0, runs, &full, |i| camera(&full, i)),
-        measure(&mut session, "unchanged (F12 again), before encoding", 100.0, runs, &full, |_| full.clone()),
-        measure(&mut session, "1/4 preview (250x250), paint change", 100.0, runs, &quarter, |i| paint(&quarter, i)),
-        measure(&mut session, "1/4 preview (250x250), facet change", 100.0, runs, &quarter, |i| facets(&quarter, i)),
-        measure(&mut session, "1/4 preview (250x250), camera change", 100.0, runs, &quarter, |i| camera(&quarter, i)),
-    ];
+        measure(&only, &mut session, "paint-only change (border width)", 50.0, runs, &full, |i| paint(&full, i)),
+        measure(&only, &mut session, "facet change (Segment segments)", 300.0, runs, &full, |i| facets(&full, i)),
+        measure(&only, &mut session, "camera change (convergence angle)", 600.0, runs, &full, |i| camera(&full, i)),
+        measure(&only, &mut session, "unchanged (F12 again), before encoding", 100.0, runs, &full, |_| full.clone()),
+        measure(&only, &mut session, "1/4 preview (250x250), paint change", 100.0, runs, &quarter, |i| {
+            paint(&quarter, i)
+        }),
+        measure(&only, &mut session, "1/4 preview (250x250), facet change", 100.0, runs, &quarter, |i| {
+            facets(&quarter, i)
+        }),
+        measure(&only, &mut session, "1/4 preview (250x250), camera change", 100.0, runs, &quarter, |i| {
+            camera(&quarter, i)
+        }),
+    ]
+    .into_iter()
+    .flatten()
+    .collect::<Vec<_>>();
+    if only.is_some() {
+        print_rows(&rows, runs, &load_before);
+        return;
+    }
     // A changed scene (an object moved): the BVH and everything traced, saliency of no mesh.
     let mut moved = Scene::default_scene();
     let c0 = common::cpu_time();
@@ -148,37 +170,7 @@ fn main() {
     png.sort_by(f64::total_cmp);
     raw.sort_by(f64::total_cmp);
 
-    println!(
-        "Requests to one session, {SIDE}x{SIDE}, built-in still life, default settings, {runs} requests each \
-         (load average before: {load_before}; after: {}). Wall: median (min-max) ms; CPU: ms per request, \
-         both cores counted.",
-        common::load_average()
-    );
-    println!();
-    println!("| request | wall ms | CPU ms | target | steps run (share of the median request) | kept |");
-    println!("|---|---|---|---|---|---|");
-    for r in &rows {
-        let median = r.walls[r.walls.len() / 2];
-        let total: f64 = r.steps.iter().map(|(_, d)| d.as_secs_f64()).sum::<f64>().max(1e-9);
-        let mut steps: Vec<_> = r.steps.iter().collect();
-        steps.sort_by_key(|s| std::cmp::Reverse(s.1));
-        let steps: Vec<String> = steps
-            .iter()
-            .filter(|(_, d)| d.as_secs_f64() / total > 0.02)
-            .map(|(n, d)| format!("{n} {:.0}%", d.as_secs_f64() / total * 100.0))
-            .collect();
-        let target = if r.target_ms.is_nan() { "-".into() } else { format!("{:.0} ms", r.target_ms) };
-        let cpu = r.cpu.map(|c| format!("{:.0}", common::ms(c))).unwrap_or_else(|| "-".into());
-        println!(
-            "| {} | {:.0} ({:.0}-{:.0}) | {cpu} | {target} | {} | {} |",
-            r.what,
-            median,
-            r.walls[0],
-            r.walls[r.walls.len() - 1],
-            if steps.is_empty() { "nothing".into() } else { steps.join(", ") },
-            r.reused.join(", ")
-        );
-    }
+    print_rows(&rows, runs, &load_before);
     println!();
     println!(
         "Writing the unchanged request's image: PNG (encode and write) {:.0} ms median ({:.0}-{:.0}); raw RGBA \
@@ -198,6 +190,41 @@ fn main() {
             &format!("<= {:.0} ms", r.target_ms),
             &format!("{median:.0} ms{cpu}"),
             Some(median <= r.target_ms),
+        );
+    }
+}
+
+/// The table of `rows`.
+fn print_rows(rows: &[Row], runs: usize, load_before: &str) {
+    println!(
+        "Requests to one session, {SIDE}x{SIDE}, built-in still life, default settings, {runs} requests each \
+     (load average before: {load_before}; after: {}). Wall: median (min-max) ms; CPU: ms per request, \
+     both cores counted.",
+        common::load_average()
+    );
+    println!();
+    println!("| request | wall ms | CPU ms | target | steps run (share of the median request) | kept |");
+    println!("|---|---|---|---|---|---|");
+    for r in rows {
+        let median = r.walls[r.walls.len() / 2];
+        let total: f64 = r.steps.iter().map(|(_, d)| d.as_secs_f64()).sum::<f64>().max(1e-9);
+        let mut steps: Vec<_> = r.steps.iter().collect();
+        steps.sort_by_key(|s| std::cmp::Reverse(s.1));
+        let steps: Vec<String> = steps
+            .iter()
+            .filter(|(_, d)| d.as_secs_f64() / total > 0.02)
+            .map(|(n, d)| format!("{n} {:.0}%", d.as_secs_f64() / total * 100.0))
+            .collect();
+        let target = if r.target_ms.is_nan() { "-".into() } else { format!("{:.0} ms", r.target_ms) };
+        let cpu = r.cpu.map(|c| format!("{:.0}", common::ms(c))).unwrap_or_else(|| "-".into());
+        println!(
+            "| {} | {:.0} ({:.0}-{:.0}) | {cpu} | {target} | {} | {} |",
+            r.what,
+            median,
+            r.walls[0],
+            r.walls[r.walls.len() - 1],
+            if steps.is_empty() { "nothing".into() } else { steps.join(", ") },
+            r.reused.join(", ")
         );
     }
 }

@@ -176,6 +176,8 @@ pub struct PaintContext<'a> {
 #[derive(Default)]
 pub struct PaintInputs {
     keep: bool,
+    /// Edges made at twice the limit asked for (`kept_for_changes`).
+    wide_edges: bool,
     regions: std::sync::Mutex<Option<std::sync::Arc<Vec<u64>>>>,
     planes: std::sync::Mutex<Option<(u64, std::sync::Arc<Vec<planes::Plane>>)>>,
     edges: std::sync::Mutex<Option<(u32, std::sync::Arc<Edges>)>>,
@@ -190,6 +192,8 @@ pub struct PaintInputs {
 pub struct Edges {
     pub dist: Vec<f32>,
     pub near: Vec<u32>,
+    /// Passage's pairs across these edges, made by its first run over them.
+    pub passage: std::sync::OnceLock<passage::Pairs>,
 }
 
 impl PaintInputs {
@@ -198,12 +202,21 @@ impl PaintInputs {
         PaintInputs { keep: true, ..PaintInputs::default() }
     }
 
+    /// Kept inputs that also expect the border width to change (a session's lane): the edges
+    /// are made at twice the width asked for (`PaintContext::edges`).
+    pub fn kept_for_changes() -> PaintInputs {
+        PaintInputs { keep: true, wide_edges: true, ..PaintInputs::default() }
+    }
+
     /// Bytes held.
     pub fn bytes(&self) -> u64 {
         let regions = self.regions.lock().map_or(0, |r| r.as_ref().map_or(0, |r| r.len() * 8));
         let planes =
             self.planes.lock().map_or(0, |p| p.as_ref().map_or(0, |(_, p)| p.len() * size_of::<planes::Plane>()));
-        let edges = self.edges.lock().map_or(0, |e| e.as_ref().map_or(0, |(_, e)| e.dist.len() * 4 + e.near.len() * 4));
+        let edges = self.edges.lock().map_or(0, |e| {
+            e.as_ref()
+                .map_or(0, |(_, e)| e.dist.len() * 4 + e.near.len() * 4 + e.passage.get().map_or(0, |p| p.bytes()))
+        });
         let strokes = self.strokes.lock().map_or(0, |s| s.as_ref().map_or(0, |s| s.bytes()));
         (regions + planes + edges + strokes) as u64
     }
@@ -258,13 +271,23 @@ impl<'a> PaintContext<'a> {
     }
 
     /// For every pixel within `limit` of a region edge (a pixel whose 4-neighbour is in another
-    /// region), the nearest such pixel and its distance.
+    /// region), the nearest such pixel and its distance. Pixels at `limit` or farther may hold
+    /// a nearest edge too: callers read only those closer than `limit`.
+    ///
+    /// A session's inputs (`kept_for_changes`) are computed at twice the limit and serve every
+    /// limit up to that, so a
+    /// border width dragged narrower, or wider within the margin, reuses them: below a limit,
+    /// the feature transform gives the same nearest pixel at any larger limit (the features
+    /// a larger limit adds are all farther than it, so they never change which parabola is
+    /// lowest just left of a pixel, the one `distance::nearest_features` takes on a tie;
+    /// `edges_below_a_limit_do_not_depend_on_it` checks it, ties included).
     pub fn edges(&self, width: u32, height: u32, limit: f32) -> std::sync::Arc<Edges> {
         if let Some((l, e)) = self.inputs.edges.lock().ok().and_then(|g| g.clone())
-            && l == limit.to_bits()
+            && limit <= f32::from_bits(l)
         {
             return e;
         }
+        let limit = if self.inputs.wide_edges { 2.0 * limit } else { limit };
         let (w, h) = (width as usize, height as usize);
         let r = self.regions(w * h);
         let is_edge = |i: usize| {
@@ -276,7 +299,7 @@ impl<'a> PaintContext<'a> {
         };
         let (dist, near) = crate::distance::nearest_features(width, height, limit, is_edge);
         drop(r);
-        let e = std::sync::Arc::new(Edges { dist, near });
+        let e = std::sync::Arc::new(Edges { dist, near, passage: std::sync::OnceLock::new() });
         if self.inputs.keep
             && let Ok(mut g) = self.inputs.edges.lock()
         {
@@ -641,5 +664,7 @@ impl LuminanceKeys {
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_passage;
 #[cfg(test)]
 mod tests_plane;

@@ -33,7 +33,7 @@ use crate::distance::NO_FEATURE;
 use crate::error::Result;
 use crate::util::rng::sub_seed;
 
-const SALT: u64 = 0x7061_7373_6167_6531; // "passage1"
+pub(crate) const SALT: u64 = 0x7061_7373_6167_6531; // "passage1"
 /// Share of a line's strength kept where both sides have the same value.
 pub const FLOOR: f32 = 0.45;
 /// Relative value difference (|a - b| / max) at which a line has its full strength.
@@ -55,6 +55,7 @@ pub enum BorderStyle {
 }
 
 /// One-sided, lost-and-found borders with passage.
+#[derive(Clone, Copy, Debug)]
 pub struct Passage {
     /// md, pixels of this image: the line fades out this far into its plane.
     pub width: f32,
@@ -73,6 +74,117 @@ impl Passage {
         let lambda = FLOOR + (1.0 - FLOOR) * smoothstep(0.0, FULL_CONTRAST, contrast);
         lambda * (LOST + (1.0 - LOST) * lost_found)
     }
+}
+
+/// What passage reads of the region edges alone, not of the colour nor of md: for every
+/// pixel with a nearest edge pixel q (within the edges' limit), the pair (a, b) of pixels
+/// facing each other across that edge, a on the pixel's side. Kept with the edges
+/// (`Edges::passage`), so a border width change reuses it; the pairs' values, which read the
+/// colour, are computed again by each run.
+pub struct Pairs {
+    /// The edge pixels (their own nearest edge pixel), in scan order.
+    edge_pixels: Vec<u32>,
+    /// Per pixel: the pair of its nearest edge, `NO_PAIR`, or `FALLBACK | k` (the k-th of
+    /// `fallback`). A pair is ((e * 4 + dir) << 1 | role): edge pixel e = a (`edge_pixels[e]`),
+    /// b its neighbour in direction dir (right, down, left, up); role 0 when q is a (the
+    /// pixel is in q's region), 1 when q is b. (At most `MAX_PIXELS` = 2^26 pixels: the
+    /// index fits below `FALLBACK`.)
+    of: Vec<u32>,
+    /// Pixels whose region has no 4-neighbour of q: a is the pixel itself, b is q.
+    /// (Role 1 and these do not arise from an exact feature transform: the pixels of a
+    /// monotone 4-connected path from a pixel to a q of another region all lie in their
+    /// bounding box, so the last one in the pixel's region is an edge pixel strictly nearer
+    /// than q. They are kept so the result never rests on that.)
+    fallback: Vec<(u32, u32)>,
+    /// Each pixel's index in `edge_pixels` (u32::MAX off the edges), for the lost-and-found
+    /// value of b.
+    slot: Vec<u32>,
+}
+
+const NO_PAIR: u32 = u32::MAX;
+const FALLBACK: u32 = 1 << 31;
+
+impl Pairs {
+    /// The pairs of `near` (`PaintContext::edges`) in a `w` x `h` image whose pixels are in
+    /// the same region when `same` says so.
+    pub fn new(w: usize, h: usize, near: &[u32], same: &(impl Fn(usize, usize) -> bool + Sync)) -> Pairs {
+        let mut slot = vec![u32::MAX; w * h];
+        let mut edge_pixels = Vec::new();
+        for (i, s) in slot.iter_mut().enumerate() {
+            if near[i] as usize == i {
+                *s = edge_pixels.len() as u32;
+                edge_pixels.push(i as u32);
+            }
+        }
+        let pair = |a: usize, b: usize, role: u32| -> u32 { ((slot[a] * 4 + direction(w, a, b)) << 1) | role };
+        let mut of: Vec<u32> = vec![NO_PAIR; w * h];
+        of.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+            for (x, o) in row.iter_mut().enumerate() {
+                let i = y * w + x;
+                let q = near[i];
+                if q == NO_FEATURE {
+                    continue;
+                }
+                let q = q as usize;
+                *o = if same(i, q) {
+                    match neighbour(w, h, q, |n| !same(n, q)) {
+                        Some(b) => pair(q, b, 0),
+                        None => NO_PAIR,
+                    }
+                } else {
+                    match neighbour(w, h, q, |n| same(n, i)) {
+                        Some(a) => pair(a, q, 1),
+                        None => FALLBACK,
+                    }
+                };
+            }
+        });
+        let mut fallback = Vec::new();
+        for (i, o) in of.iter_mut().enumerate() {
+            if *o == FALLBACK {
+                *o = FALLBACK | fallback.len() as u32;
+                fallback.push((i as u32, near[i]));
+            }
+        }
+        Pairs { edge_pixels, of, fallback, slot }
+    }
+
+    pub fn bytes(&self) -> usize {
+        (self.edge_pixels.len() + self.of.len() + self.slot.len() + 2 * self.fallback.len()) * 4
+    }
+}
+
+/// The first 4-neighbour of q (right, down, left, up: fixed order) for which `want` holds.
+fn neighbour(w: usize, h: usize, q: usize, want: impl Fn(usize) -> bool) -> Option<usize> {
+    let (x, y) = (q % w, q / w);
+    [(x + 1 < w).then(|| q + 1), (y + 1 < h).then(|| q + w), (x > 0).then(|| q - 1), (y > 0).then(|| q - w)]
+        .into_iter()
+        .flatten()
+        .find(|&n| want(n))
+}
+
+/// The direction (0 right, 1 down, 2 left, 3 up) from pixel a to its 4-neighbour b.
+fn direction(w: usize, a: usize, b: usize) -> u32 {
+    if b == a + w {
+        1
+    } else if b + w == a {
+        3
+    } else if b == a + 1 {
+        0
+    } else {
+        2
+    }
+}
+
+/// A pair's values for one run: the colour of b's inward pixel before passage (what a's side
+/// blends in) and whether it was painted, whether a's side takes the line, and the line's
+/// presence with the lost-and-found value of a (role 0) and of b (role 1).
+#[derive(Clone, Copy, Default)]
+struct Side {
+    across: Vec3,
+    painted: bool,
+    dark: bool,
+    line: [f32; 2],
 }
 
 impl Effect for Passage {
@@ -102,19 +214,8 @@ impl Effect for Passage {
             None => ids.is_none_or(|d| d[i] == d[j]) && hits.is_none_or(|o| o[i].object == o[j].object),
         };
         let edges = ctx.edges(w as u32, h as u32, md);
-        let (dist, near) = (&edges.dist, &edges.near);
-        // The colours before (what the other side blends in; alpha is not read).
-        let before: Vec<Vec3> = canvas.px.par_iter().map(|p| p.truncate()).collect();
-        let lum: Vec<f32> = before.par_iter().map(|p| luminance(*p).max(0.0)).collect();
-        // A 4-neighbour of q (right, down, left, up: fixed order) that is (`want` = true) or
-        // is not in the region of `of`.
-        let neighbour = |q: usize, of: usize, want: bool| -> Option<usize> {
-            let (x, y) = (q % w, q / w);
-            [(x + 1 < w).then(|| q + 1), (y + 1 < h).then(|| q + w), (x > 0).then(|| q - 1), (y > 0).then(|| q - w)]
-                .into_iter()
-                .flatten()
-                .find(|&n| same(n, of) == want)
-        };
+        let dist = &edges.dist;
+        let pairs = edges.passage.get_or_init(|| Pairs::new(w, h, &edges.near, &same));
         // How far in each side's value is read: a few pixels, at least one.
         let step = (md / 4.0).round().max(1.0) as i64;
         let inward = |from: usize, dx: i64, dy: i64| -> usize {
@@ -138,39 +239,35 @@ impl Effect for Passage {
         let seed = sub_seed(self.seed, SALT);
         let period = (LOST_PERIOD * ((w * h) as f32).sqrt()).max(4.0);
         let grid = Grid2::new(seed, (0.0, w as f32 / period), (0.0, h as f32 / period));
-        // What a pair (a, b) facing each other across an edge gives: b's inward pixel and
-        // the two sides' values (a on the pixel's side; the tie-break's region of the pixel
-        // is a's); and the lost-and-found value of each edge pixel q. Each depends on the
-        // pair or the edge pixel alone, so it is computed once per edge pixel (`memo` for
-        // the four neighbours b of an edge pixel a) instead of once per pixel near it.
-        let sides = |a: usize, b: usize| -> (usize, f32, f32) {
+        let lost_found =
+            |q: usize| smoothstep(0.25, 0.75, grid.value2(seed, (q % w) as f32 / period, (q / w) as f32 / period));
+        let (coverage, px) = canvas.coverage_and_pixels();
+        // The colours before (what the other side blends in; alpha is not read) and their
+        // values, read before any pixel changes.
+        let lum = |i: usize| luminance(px[i].truncate()).max(0.0);
+        // What a pair (a, b) facing each other across an edge gives: the two sides' values,
+        // each read a little way in (a on the pixel's side; the tie-break's region of the
+        // pixel is a's), and b's inward pixel.
+        let side = |a: usize, b: usize, lf: [f32; 2]| -> Side {
             let (dx, dy) = ((b % w) as i64 - (a % w) as i64, (b / w) as i64 - (a / w) as i64);
             let (nx, ny) = if dx.abs() >= dy.abs() { (dx.signum(), 0) } else { (0, dy.signum()) };
             let (a_in, b_in) = (inward(a, -nx, -ny), inward(b, nx, ny));
-            let va = 0.5 * (lum[a] + lum[a_in]) * ramp(a);
-            let vb = 0.5 * (lum[b] + lum[b_in]) * ramp(b);
-            (b_in, va, vb)
-        };
-        let lost_found =
-            |q: usize| smoothstep(0.25, 0.75, grid.value2(seed, (q % w) as f32 / period, (q / w) as f32 / period));
-        // Edge pixels are their own nearest edge pixel.
-        let mut slot = vec![u32::MAX; w * h];
-        let mut edge_pixels = Vec::new();
-        for (i, s) in slot.iter_mut().enumerate() {
-            if near[i] as usize == i {
-                *s = edge_pixels.len() as u32;
-                edge_pixels.push(i);
+            let va = 0.5 * (lum(a) + lum(a_in)) * ramp(a);
+            let vb = 0.5 * (lum(b) + lum(b_in)) * ramp(b);
+            Side {
+                across: px[b_in].truncate(),
+                painted: coverage.is_painted(b_in),
+                dark: if va != vb { va < vb } else { key(a) < key(b) },
+                line: lf.map(|lf| Passage::line(va, vb, lf)),
             }
-        }
-        struct Memo {
-            lost_found: f32,
-            /// Per neighbour b (right, down, left, up) of a: (b_in, va, vb); b_in u32::MAX
-            /// where there is no such neighbour in another region.
-            pairs: [(u32, f32, f32); 4],
-        }
-        let memo: Vec<Memo> = edge_pixels
+        };
+        let edge_lf: Vec<f32> = pairs.edge_pixels.par_iter().map(|&q| lost_found(q as usize)).collect();
+        let sides: Vec<[Side; 4]> = pairs
+            .edge_pixels
             .par_iter()
-            .map(|&a| {
+            .zip(&edge_lf)
+            .map(|(&a, &lf_a)| {
+                let a = a as usize;
                 let (x, y) = (a % w, a / w);
                 let nb = [
                     (x + 1 < w).then(|| a + 1),
@@ -178,65 +275,47 @@ impl Effect for Passage {
                     (x > 0).then(|| a - 1),
                     (y > 0).then(|| a - w),
                 ];
-                Memo {
-                    lost_found: lost_found(a),
-                    pairs: nb.map(|b| {
-                        b.filter(|&b| !same(a, b)).map_or((u32::MAX, 0.0, 0.0), |b| {
-                            let (b_in, va, vb) = sides(a, b);
-                            (b_in as u32, va, vb)
-                        })
-                    }),
-                }
+                nb.map(|b| match b {
+                    Some(b) if !same(a, b) => {
+                        let lf_b = edge_lf.get(pairs.slot[b] as usize).copied().unwrap_or_else(|| lost_found(b));
+                        side(a, b, [lf_a, lf_b])
+                    }
+                    _ => Side::default(),
+                })
             })
             .collect();
-        // The memo of adjacent pixels a, b in different regions, or None.
-        let memo_of = |a: usize, b: usize| -> Option<(usize, f32, f32)> {
-            let m = memo.get(slot[a] as usize)?;
-            let k = if b == a + 1 {
-                0
-            } else if b == a + w {
-                1
-            } else if b + 1 == a {
-                2
-            } else if b + w == a {
-                3
-            } else {
-                return None;
-            };
-            let (b_in, va, vb) = m.pairs[k];
-            (b_in != u32::MAX).then_some((b_in as usize, va, vb))
-        };
+        let fallback: Vec<Side> = pairs
+            .fallback
+            .par_iter()
+            .map(|&(a, q)| {
+                let lf = lost_found(q as usize);
+                side(a as usize, q as usize, [lf, lf])
+            })
+            .collect();
         let transparent = canvas.transparent;
         let (coverage, px) = canvas.coverage_and_pixels();
+        // Passage: the sides blend where the line is lost, within md / 2 of the edge.
+        let wb = 0.5 * md;
         px.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
             for (x, p) in row.iter_mut().enumerate() {
                 let i = y * w + x;
-                let (q, d) = (near[i], dist[i]);
-                if q == NO_FEATURE || d >= md {
+                let (o, d) = (pairs.of[i], dist[i]);
+                if o == NO_PAIR || d >= md {
                     continue;
                 }
-                let q = q as usize;
-                // The pair facing each other across the edge: a on this pixel's side, b across.
-                let (a, b) = if same(i, q) {
-                    match neighbour(q, q, false) {
-                        Some(b) => (q, b),
-                        None => continue,
-                    }
+                let (s, line) = if o & FALLBACK != 0 {
+                    let s = &fallback[(o & !FALLBACK) as usize];
+                    (s, s.line[1])
                 } else {
-                    (neighbour(q, i, true).unwrap_or(i), q)
+                    let k = (o >> 1) as usize;
+                    let s = &sides[k / 4][k % 4];
+                    (s, s.line[(o & 1) as usize])
                 };
-                // key(i) is key(a): a is this pixel or a pixel of its region.
-                let (b_in, va, vb) = memo_of(a, b).unwrap_or_else(|| sides(a, b));
-                let dark_side = if va != vb { va < vb } else { key(a) < key(b) };
-                let lf = memo.get(slot[q] as usize).map_or_else(|| lost_found(q), |m| m.lost_found);
-                let line = Passage::line(va, vb, lf);
-                // Passage: the sides blend where the line is lost, within md / 2 of the edge.
-                let wb = 0.5 * md;
-                if d < wb && coverage.is_painted(i) && coverage.is_painted(b_in) {
+                if d < wb && s.painted && coverage.is_painted(i) {
                     let beta = BLEND * (1.0 - line) * (1.0 - d / wb).powi(2);
-                    *p = p.truncate().lerp(before[b_in], beta).extend(p.w);
+                    *p = p.truncate().lerp(s.across, beta).extend(p.w);
                 }
-                if dark_side && self.strength > 0.0 {
+                if s.dark && self.strength > 0.0 {
                     darken(p, 1.0 - self.strength * line * (1.0 - border_factor(d, md)), transparent);
                 }
             }

@@ -770,7 +770,7 @@ fn kept_paint_inputs_give_the_one_off_chains_pixels_after_a_change_upstream() {
     let mut s = Settings::default();
     (s.width, s.height) = (w, h);
     s.chiaroscuro = 0.0;
-    let inputs = PaintInputs::kept();
+    let inputs = PaintInputs::kept_for_changes();
     for (threads, border) in [(1, 12.0), (3, 11.0), (1, 16.0), (3, 12.0)] {
         s.border_width = border;
         let painter = Painter::new(&paint(&s)).unwrap();
@@ -780,5 +780,32 @@ fn kept_paint_inputs_give_the_one_off_chains_pixels_after_a_change_upstream() {
         painter.apply(&mut fresh, Some(&facets), None).unwrap();
         assert!(inputs.bytes() > 0);
         assert_eq!(super::tests_plane::bits(&kept), super::tests_plane::bits(&fresh), "border {border}");
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+    /// `PaintContext::edges` serves a limit from edges computed at a larger one: below the
+    /// smaller limit the nearest feature (ties included: sparse features on a grid tie often)
+    /// and its distance must be the same bits.
+    #[test]
+    fn edges_below_a_limit_do_not_depend_on_it(
+        w in 1usize..40,
+        h in 1usize..40,
+        bits in proptest::collection::vec(0u8..24, 1600),
+        limit in 0.5f32..20.0,
+        more in 0.0f32..30.0,
+    ) {
+        let feat: Vec<bool> = (0..w * h).map(|i| bits[i] == 0).collect();
+        let (d, near) = crate::distance::nearest_features(w as u32, h as u32, limit, |i| feat[i]);
+        let (d2, near2) = crate::distance::nearest_features(w as u32, h as u32, limit + more, |i| feat[i]);
+        for i in 0..w * h {
+            if d[i] < limit {
+                prop_assert_eq!(near[i], near2[i], "pixel {}", i);
+                prop_assert_eq!(d[i].to_bits(), d2[i].to_bits(), "pixel {}", i);
+            } else {
+                prop_assert!(d2[i] >= limit, "pixel {}: {} at the larger limit", i, d2[i]);
+            }
+        }
     }
 }

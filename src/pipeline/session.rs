@@ -740,7 +740,9 @@ fn after_saliency_stages(
             // What the effects derive from the film's hits and the facet map alone.
             let inputs_key = (traced_gen, plan.faceting.then_some(layout_gen));
             if !keep || !hit(&lane.paint_inputs, &inputs_key) {
-                lane.paint_inputs = Some(Entry { key: inputs_key, id: next(), value: PaintInputs::kept() });
+                // (A one-off render paints once: its edges are made at the border width alone.)
+                let value = if keep { PaintInputs::kept_for_changes() } else { PaintInputs::kept() };
+                lane.paint_inputs = Some(Entry { key: inputs_key, id: next(), value });
             }
             let inputs = &lane.paint_inputs.as_ref().expect("just made").value;
             // The chain from the first effect whose parameters changed since the last paint
@@ -815,6 +817,10 @@ fn after_saliency_stages(
         // (Empty: painted in place, the film's colour is the painted one.)
         let colour =
             if plan.paint { lane.paint.as_mut().map(|e| &mut e.value).filter(|c| !c.is_empty()) } else { None };
+        // The image alone reads only the painted colour: the moved and refined pixels are
+        // swapped in only for passes (or an unpainted image).
+        let film_read = params.passes.is_empty() && colour.is_some();
+        let (delta, aa) = if film_read { (None, None) } else { (delta, aa) };
         let (image, passes, passes16) =
             with_film(film, delta, aa, colour, |film| encode_stage(film, map, aims, params, timings));
         let encoded = Encoded { image, passes, passes16 };
