@@ -52,6 +52,17 @@ fn the_default_look_on_odd_scenes() {
     }
 }
 
+/// Pixels on the picture's outermost rows and columns that show geometry: a subject cut off.
+fn edge_hits(film: &cubist::film::Film) -> usize {
+    let (w, h) = (film.width as usize, film.height as usize);
+    (0..w * h)
+        .filter(|&i| {
+            let (x, y) = (i % w, i / w);
+            (x == 0 || y == 0 || x == w - 1 || y == h - 1) && film.hits[i].is_hit()
+        })
+        .count()
+}
+
 #[test]
 fn composed_subjects_stay_whole() {
     // The pre-render's outermost pixels show no geometry: no part of the subject is cut off.
@@ -59,13 +70,7 @@ fn composed_subjects_stay_whole() {
     for (name, scene) in odd_scenes() {
         let prep = Prepared::new(scene);
         let r = pipeline::render(&prep, &s, &Progress::silent()).unwrap();
-        let (w, h) = (r.film.width as usize, r.film.height as usize);
-        let on_edge = (0..w * h)
-            .filter(|&i| {
-                let (x, y) = (i % w, i / w);
-                (x == 0 || y == 0 || x == w - 1 || y == h - 1) && r.film.hits[i].is_hit()
-            })
-            .count();
+        let on_edge = edge_hits(&r.film);
         assert_eq!(on_edge, 0, "{name}: {on_edge} edge pixels show geometry ({})", r.camera);
     }
 }
@@ -170,13 +175,7 @@ fn tall_thin_samples_fill_the_canvas() {
         assert!(look.row.fill >= 0.4, "{name}: subject fill {:.3} ({})", look.row.fill, look.row.camera);
         let s = Settings { faceting: Faceting::None, ..small(Preset::Analytic, 160, 120) };
         let r = pipeline::render(&prep, &s, &Progress::silent()).unwrap();
-        let (w, h) = (r.film.width as usize, r.film.height as usize);
-        let on_edge = (0..w * h)
-            .filter(|&i| {
-                let (x, y) = (i % w, i / w);
-                (x == 0 || y == 0 || x == w - 1 || y == h - 1) && r.film.hits[i].is_hit()
-            })
-            .count();
+        let on_edge = edge_hits(&r.film);
         assert_eq!(on_edge, 0, "{name}: {on_edge} edge pixels show geometry ({})", r.camera);
     }
 }

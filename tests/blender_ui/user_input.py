@@ -1,4 +1,4 @@
-"""F12, Ctrl+F12 and Esc as a user presses them, for the windowed drivers: X key events sent
+"""F12, Ctrl+F12, Esc, Numpad 0 and Ctrl+Q as a user presses them, for the windowed drivers: X key events sent
 with xdotool (XTEST) to Blender's main window and handled by Blender's own keymap.
 
 Why not `bpy.ops.render.render('INVOKE_DEFAULT')` inside `bpy.context.temp_override`: Blender
@@ -59,35 +59,25 @@ def _main_window_id() -> str:
 def focus_main_window():
     """Keyboard focus on Blender's main window, and one click on the status bar's empty middle:
     until the window has had a button event, Blender under Xvfb (no window manager) ignores key
-    presses. The pointer ends over the middle of the window."""
+    presses."""
     wid = _main_window_id()
     _xdotool("windowfocus", "--sync", wid)
     window = bpy.context.window_manager.windows[0]
     _xdotool("mousemove", str(window.width // 2), str(window.height - 8))
     _xdotool("click", "1")
-    _xdotool("mousemove", str(window.width // 2), str(window.height // 2))
 
 
-def press(keys: str, focus=True):
-    """One key press (xdotool's names: "F12", "ctrl+F12", "Escape") on the main window. Keys
-    during a render (Esc) go without the focusing click: the status bar then shows the job's
-    progress and cancel button."""
+def press(keys: str, focus=True, area=None):
+    """One key press (xdotool's names: "F12", "ctrl+F12", "Escape", "KP_0") with the pointer over
+    the middle of `area` (for a region's keymap, such as the 3D view's Numpad 0), or of the
+    main window. Keys during a render (Esc) go without the focusing click: the status bar then
+    shows the job's progress and cancel button."""
     if focus:
         focus_main_window()
-    else:
-        window = bpy.context.window_manager.windows[0]
-        _xdotool("mousemove", str(window.width // 2), str(window.height // 2))
-    _xdotool("key", keys)
-
-
-def press_over(keys: str, area):
-    """One key press with the pointer over the middle of `area` (a region's keymap, such as the
-    3D view's Numpad 0 for the camera view), the main window focused first."""
-    focus_main_window()
     window = bpy.context.window_manager.windows[0]
-    x = area.x + area.width // 2
-    y = window.height - (area.y + area.height // 2)  # X counts rows from the top
-    _xdotool("mousemove", str(x), str(y))
+    x0, y0, w, h = (area.x, area.y, area.width, area.height) if area else (0, 0, window.width, window.height)
+    # Blender counts rows from the bottom, X from the top.
+    _xdotool("mousemove", str(x0 + w // 2), str(window.height - (y0 + h // 2)))
     _xdotool("key", keys)
 
 

@@ -284,7 +284,7 @@ def camera_view():
     before = s.job.generation
     draws_before = dict(view_draws)
     t0 = time.monotonic()
-    user_input.press_over("KP_0", view3d()[1])  # Numpad 0, over the Rendered view
+    user_input.press("KP_0", area=view3d()[1])  # Numpad 0, over the Rendered view
     s, draw = yield from wait_for_draw(lambda s, d: d["generation"] > before and d["scale"] == 1.0, 120,
                                        "camera view")
     results["camera_view"] = {"seconds": time.monotonic() - t0, "draw": draw, "through_camera": s.job.view.through_camera,
