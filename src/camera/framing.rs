@@ -1062,7 +1062,10 @@ mod round_tests {
             lifted.push(name);
         }
         assert!(kept >= 8, "{kept} scenes filled by the first round");
-        assert!(lifted.contains(&"odd-walker".to_string()) && lifted.contains(&"odd-several".to_string()), "{lifted:?}");
+        assert!(
+            lifted.contains(&"odd-walker".to_string()) && lifted.contains(&"odd-several".to_string()),
+            "{lifted:?}"
+        );
     }
 
     /// The guard refuses a candidate whose fill is mostly one small part just in front of C: a
