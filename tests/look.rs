@@ -37,15 +37,16 @@ fn the_default_look_on_odd_scenes() {
         // cameras), the compact subjects, and the figure on a pedestal four times its width
         // (far, huge, tiny: its silhouette fills about a third of its bounding box seen level;
         // `framing`'s raised view shows the pedestal's top as a plane). Not met: the several
-        // objects spread on a shelf (not a single object; docs/look/README.md).
+        // objects spread on a shelf (not a single object; docs/look/README.md), though the
+        // second round's oblique view overlaps them into one group (39% -> 51%).
         // The pole (a tall thin subject) by the cylindrical camera, the board seen edge-on by
         // `framing`'s broad-side view. Not met either: the stick-thin walker (limbs apart, an
-        // arm reaching out; its silhouette fills under half its bounding box from every side,
-        // docs/look/README.md).
+        // arm reaching out; its silhouette fills under half its bounding box from every side):
+        // C placed behind its bulk lifts it from 32% to 39%, docs/look/README.md).
         let least = match name.as_str() {
             "odd-flat" | "odd-z-up" | "odd-board" => 0.6,
-            "odd-several" => 0.35,
-            "odd-walker" => 0.3,
+            "odd-several" => 0.45,
+            "odd-walker" => 0.35,
             _ => 0.4,
         };
         assert!(r.fill >= least, "{name}: subject fill {:.3}", r.fill);

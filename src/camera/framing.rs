@@ -13,7 +13,8 @@
 //! scene is composed with both and the spherical camera is kept when it composes it better
 //! (`compose` step 7). When the renderer chooses the view and the front fills under
 //! `FILL_FLOOR`, `frame_camera` also tries the raised view and the subject's broad side
-//! (`compose` step 8).
+//! (`compose` step 8), then, still under it, the oblique views and C placed behind the
+//! subject's bulk (step 9).
 
 use glam::DVec3;
 
@@ -301,17 +302,25 @@ pub const BROAD_SIDE_RATIO: f64 = 1.2;
 const BROAD_SIDE_STEP_DEG: f64 = 15.0;
 
 /// A view of the subject: the front view turned about the up axis by `yaw` and tilted down by
-/// `tilt` (radians), with the camera type when the view fixes it (None: as asked).
+/// `tilt` (radians), with the camera type when the view fixes it (None: as asked). `centroid`:
+/// the view axis (from which `compose` places and centres C) passes through the centroid of the
+/// scene's sampled vertices instead of its bounding sphere's centre. `guarded`: candidates that
+/// magnify a part near C over most of the subject are refused (`NearGuard`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct View {
     tilt: f64,
     yaw: f64,
     kind: Option<CameraKind>,
+    centroid: bool,
+    guarded: bool,
 }
 
 impl View {
-    const FRONT: View = View { tilt: 0.0, yaw: 0.0, kind: None };
+    const FRONT: View = View { tilt: 0.0, yaw: 0.0, kind: None, centroid: false, guarded: false };
 }
+
+/// The turn of the oblique views (`frame_camera`'s second round), degrees either side.
+pub const OBLIQUE_VIEW_DEG: f64 = 45.0;
 
 /// How `frame_view` composes: every candidate on `FIT_SAMPLES`, every candidate on
 /// `COARSE_SAMPLES` with a smaller probe (to rank views), or one candidate (its
@@ -347,20 +356,39 @@ enum Search {
 /// only the best is composed again on the full sample, as the front was, and only its candidate
 /// (the same angle cap, stretch and distance). The front view stays whenever it fills, so
 /// subjects facing the viewer keep facing them.
+///
+/// When these still fill under `FILL_FLOOR`, a second round (`second_round`) tries the views
+/// turned by `OBLIQUE_VIEW_DEG` either way and C placed from the centroid of the vertices
+/// (`View::centroid`) from the front, the oblique views and the broad side, each candidate
+/// guarded against a part magnified near C (`NearGuard`); again the fullest is kept when it fills
+/// clearly more. Scenes the first round fills keep their camera.
 pub fn frame_camera(params: &FramingParams, world: &World, accel: &Accel) -> Result<Framed> {
+    let (framed, fill) = first_round(params, world, accel)?;
+    match fill {
+        Some(fill) if fill < FILL_FLOOR => second_round(params, world, accel, (framed, fill)),
+        _ => Ok(framed),
+    }
+}
+
+/// The front composition and, when it fills under `FILL_FLOOR` and the view is the renderer's
+/// own, the raised view and the broad side (`frame_camera`), with the fill of the composition
+/// chosen (None: not the renderer's own composed view, so no other view is tried).
+fn first_round(params: &FramingParams, world: &World, accel: &Accel) -> Result<(Framed, Option<f64>)> {
     let (front, composition) = frame_view(params, world, accel, View::FRONT, Search::Full)?;
     let own_view = params.position.is_none() && params.target.is_none() && world.camera.is_none();
     let fill = match composition {
         Some(k) if own_view && k.fill < FILL_FLOOR => k.fill,
-        _ => return Ok(front),
+        Some(k) if own_view => return Ok((front, Some(k.fill))),
+        _ => return Ok((front, None)),
     };
     let mut views = vec![View { tilt: RAISED_VIEW_DEG.to_radians(), ..View::FRONT }];
     let up = params.up.map(DVec3::from).and_then(|u| u.try_normalize()).unwrap_or(DVec3::Y);
-    if let Some(yaw) = broad_side_yaw(&sample_points(world, COARSE_SAMPLES), up) {
+    let coarse = sample_points(world, COARSE_SAMPLES);
+    let broad = broad_side_yaw(&coarse, up);
+    if let Some(yaw) = broad {
         // Both faces of the broad side: a converging camera magnifies the parts nearest its
         // focal centre, behind the subject, so an arm reaching out fills less from behind.
-        let back = if yaw > 0.0 { yaw - std::f64::consts::PI } else { yaw + std::f64::consts::PI };
-        for yaw in [yaw, back] {
+        for yaw in [yaw, opposite(yaw)] {
             let turned = View { yaw, ..View::FRONT };
             if params.kind == CameraKind::Auto {
                 views.push(View { kind: Some(CameraKind::Cylindrical), ..turned });
@@ -370,9 +398,62 @@ pub fn frame_camera(params: &FramingParams, world: &World, accel: &Accel) -> Res
             }
         }
     }
-    // Rank on the coarse sample (ties: the earlier view), then compose the best in full.
+    let (framed, fill) = best_view(params, world, accel, &views, (front, fill))?;
+    Ok((framed, Some(fill)))
+}
+
+/// `frame_camera`'s second round, for a composition `current` (camera, fill) the first round
+/// left under `FILL_FLOOR`.
+fn second_round(params: &FramingParams, world: &World, accel: &Accel, current: (Framed, f64)) -> Result<Framed> {
+    let up = params.up.map(DVec3::from).and_then(|u| u.try_normalize()).unwrap_or(DVec3::Y);
+    let coarse = sample_points(world, COARSE_SAMPLES);
+    let broad = broad_side_yaw(&coarse, up);
+    // Second round, only for what the first left under the floor (so every scene it already
+    // composes to 40% keeps its camera): the oblique views, and C placed from the subject's
+    // bulk instead of its bounding sphere's centre.
+    // - Turned by `OBLIQUE_VIEW_DEG` either way: objects spread in a row (a shelf, a still life
+    //   on a table) overlap and close up into one group, as the painters' still lifes stack
+    //   theirs; a figure shows its limbs at another angle.
+    // - The axis through the centroid of the vertices (`View::centroid`), from the front, the
+    //   oblique views and the broad side: a converging camera magnifies what lies nearest its
+    //   focal centre, and C behind the bounding sphere's centre sits behind empty space when a
+    //   thin part reaches far out (an arm held out pulls the sphere's centre off the body); C
+    //   behind the bulk magnifies the body (ART.md: the subject fills the canvas).
+    let oblique = OBLIQUE_VIEW_DEG.to_radians();
+    let mut views = Vec::new();
+    for yaw in [oblique, -oblique] {
+        views.push(View { yaw, guarded: true, ..View::FRONT });
+    }
+    let mut yaws = vec![0.0, oblique, -oblique];
+    if let Some(yaw) = broad {
+        yaws.extend([yaw, opposite(yaw)]);
+    }
+    // (Turned or not, the centroid's axis is the centre's when the centroid is at the centre.)
+    if centroid_axis(&coarse, DVec3::ZERO).is_some() {
+        views.extend(yaws.into_iter().map(|yaw| View { yaw, centroid: true, guarded: true, ..View::FRONT }));
+    }
+    Ok(best_view(params, world, accel, &views, current)?.0)
+}
+
+/// The turn opposite `yaw` (the other face of the same side), within -180..180 deg.
+fn opposite(yaw: f64) -> f64 {
+    if yaw > 0.0 { yaw - std::f64::consts::PI } else { yaw + std::f64::consts::PI }
+}
+
+/// The fullest of `views` when it fills clearly more (by 1 / `compose::NEAR_BEST`) than
+/// `current` (a camera and its fill), else `current`, with its fill. The views are ranked on the
+/// coarse sample (ties: the earlier view), then only the best view's chosen candidate is
+/// composed again on the full sample.
+fn best_view(
+    params: &FramingParams,
+    world: &World,
+    accel: &Accel,
+    views: &[View],
+    current: (Framed, f64),
+) -> Result<(Framed, f64)> {
+    let fill = current.1;
     let mut best: Option<(View, CameraKind, compose::Composition)> = None;
-    for &view in &views {
+    for &view in views {
         let (framed, k) = frame_view(params, world, accel, view, Search::Coarse)?;
         if let Some(k) = k
             && best.is_none_or(|(_, _, b)| k.fill > b.fill)
@@ -380,14 +461,34 @@ pub fn frame_camera(params: &FramingParams, world: &World, accel: &Accel) -> Res
             best = Some((view, framed.kind, k));
         }
     }
-    let Some((view, kind, coarse)) = best else { return Ok(front) };
+    let Some((view, kind, coarse)) = best else { return Ok(current) };
     if coarse.fill * compose::NEAR_BEST <= fill {
-        return Ok(front);
+        return Ok(current);
     }
     let view = View { kind: Some(kind), ..view };
     let (other, k) = frame_view(params, world, accel, view, Search::Only(coarse.candidate))?;
-    Ok(if k.is_some_and(|k| k.fill * compose::NEAR_BEST > fill) { other } else { front })
+    Ok(match k {
+        Some(k) if k.fill * compose::NEAR_BEST > fill => (other, k.fill),
+        _ => current,
+    })
 }
+
+/// The point level with the scene's centre (render space: the origin) on the line along
+/// `forward` (a unit vector, or zero: the centroid itself) through the centroid of `points`; None when it is within `CENTROID_OFFSET`
+/// (render units, the scene's radius being about 1) of the centre, where it would change
+/// nothing.
+fn centroid_axis(points: &[DVec3], forward: DVec3) -> Option<DVec3> {
+    if points.is_empty() {
+        return None;
+    }
+    let c = points.iter().copied().sum::<DVec3>() / points.len() as f64;
+    let a = c - forward * c.dot(forward);
+    (a.is_finite() && a.length() > CENTROID_OFFSET).then_some(a)
+}
+
+/// Below this distance (render units) from the scene's centre, the centroid's axis is the
+/// centre's.
+const CENTROID_OFFSET: f64 = 0.05;
 
 /// The turn about `up` (radians, within -90..90 deg, counter-clockwise seen from above) that
 /// faces the subject's broad side: the widest horizontal extent of `points` across the view,
@@ -421,7 +522,7 @@ fn frame_view(
     view: View,
     search: Search,
 ) -> Result<(Framed, Option<compose::Composition>)> {
-    let View { tilt, yaw, kind: view_kind } = view;
+    let View { tilt, yaw, kind: view_kind, centroid, guarded } = view;
     let mut warnings = Vec::new();
     let aspect = params.width as f64 / params.height as f64;
     let sim = world.to_render;
@@ -463,12 +564,12 @@ fn frame_view(
         (None, None) => scene_cam.map(|c| c.position),
     };
     // The point of the view axis level with the scene's centre: C is placed from here.
+    let points = sample_points(world, if search == Search::Coarse { COARSE_SAMPLES } else { FIT_SAMPLES });
     let axis = match given_position {
         Some(p) => p + fwd * (DVec3::ZERO - p).dot(fwd),
+        None if centroid => centroid_axis(&points, fwd).unwrap_or(DVec3::ZERO),
         None => DVec3::ZERO,
     };
-
-    let points = sample_points(world, if search == Search::Coarse { COARSE_SAMPLES } else { FIT_SAMPLES });
     let extent = |v: DVec3| {
         let (lo, hi) =
             points.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| (lo.min(p.dot(v)), hi.max(p.dot(v))));
@@ -549,7 +650,12 @@ fn frame_view(
                     })
                 };
                 let columns = if search == Search::Coarse { COARSE_PROBE_COLUMNS } else { PROBE_COLUMNS };
-                probe_fill(camera.as_ref(), accel, aspect, columns)
+                let guard = guarded.then_some(NearGuard {
+                    centre: k.centre,
+                    line: (kind == CameraKind::Cylindrical).then_some(frame.up),
+                    within: NEAR_C_RADII * radius,
+                });
+                probe_fill(camera.as_ref(), accel, aspect, columns, guard.as_ref())
             };
             let margin = params.fill.unwrap_or(compose::COMPOSE_FILL);
             let run = |kind: CameraKind| match search {
@@ -687,24 +793,56 @@ const PROBE_COLUMNS: u32 = 48;
 /// Columns of the probe when ranking views on the coarse sample.
 const COARSE_PROBE_COLUMNS: u32 = 24;
 
-/// The share of a tiny image (`PROBE_COLUMNS` wide, one ray per pixel centre) whose rays hit
+/// The part of the subject nearest the focal centre a converging camera magnifies most (scale
+/// about 1 / distance from C, or from the focal line): with C right behind a small part (an arm
+/// behind the body, the nearest of several objects), the fullest candidate is that part blown up
+/// over the canvas and the rest shrunk beside it, a "magnified ghost" that no longer reads
+/// (ART.md: cues stay legible). A guarded probe refuses such a candidate: when more than
+/// `NEAR_C_SHARE` of the pixels showing geometry show a point within `within` of C (of the focal
+/// line: `line`, its direction), it counts as filling nothing.
+struct NearGuard {
+    centre: DVec3,
+    line: Option<DVec3>,
+    within: f64,
+}
+
+/// `NearGuard`'s distance from C, in scene radii: a part this close is magnified at least 4x
+/// against a subject about one radius away.
+const NEAR_C_RADII: f64 = 0.25;
+/// `NearGuard`'s share of the subject's pixels the magnified part may take.
+const NEAR_C_SHARE: f64 = 0.5;
+
+/// The share of a tiny image (`columns` wide, one ray per pixel centre) whose rays hit
 /// geometry: `compose`'s estimate of a candidate's subject fill. Deterministic (a hit count).
-fn probe_fill(camera: &dyn Camera, accel: &Accel, aspect: f64, columns: u32) -> f64 {
+/// With `guard`, 0 when the guard refuses the candidate.
+fn probe_fill(camera: &dyn Camera, accel: &Accel, aspect: f64, columns: u32, guard: Option<&NearGuard>) -> f64 {
     use rayon::prelude::*;
     let w = columns;
     let h = ((w as f64 / aspect).round() as u32).clamp(8, 4 * columns);
-    let hits: u32 = (0..h)
+    let (hits, near): (u32, u32) = (0..h)
         .into_par_iter()
         .map(|y| {
-            (0..w)
-                .filter(|&x| {
-                    let p = glam::DVec2::new((x as f64 + 0.5) / w as f64 - 0.5, 0.5 - (y as f64 + 0.5) / h as f64);
-                    let r = camera.ray(p);
-                    accel.closest(r.origin, r.dir, 0.0, f32::INFINITY).is_some()
-                })
-                .count() as u32
+            let (mut hits, mut near) = (0, 0);
+            for x in 0..w {
+                let p = glam::DVec2::new((x as f64 + 0.5) / w as f64 - 0.5, 0.5 - (y as f64 + 0.5) / h as f64);
+                let r = camera.ray(p);
+                let Some(hit) = accel.closest(r.origin, r.dir, 0.0, f32::INFINITY) else { continue };
+                hits += 1;
+                if let Some(g) = guard {
+                    let d = (r.origin + r.dir * hit.t).as_dvec3() - g.centre;
+                    let d = match g.line {
+                        Some(u) => d - u * d.dot(u),
+                        None => d,
+                    };
+                    near += (d.length() < g.within) as u32;
+                }
+            }
+            (hits, near)
         })
-        .sum();
+        .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+    if hits > 0 && near as f64 > NEAR_C_SHARE * hits as f64 {
+        return 0.0;
+    }
     hits as f64 / (w * h) as f64
 }
 
@@ -870,5 +1008,94 @@ mod view_tests {
         let zup: Vec<DVec3> = board.iter().map(|p| DVec3::new(p.x, -p.z, p.y)).collect();
         assert_eq!(broad_side_yaw(&zup, DVec3::Z), None, "seen from above (-Z is the up axis): no level front");
         assert!(broad_side_yaw(&[], DVec3::Y).is_none());
+    }
+}
+
+#[cfg(test)]
+mod round_tests {
+    use super::*;
+    use crate::look::odd::odd_scenes;
+    use crate::pipeline::Prepared;
+    use crate::settings::Settings;
+
+    fn params() -> FramingParams {
+        crate::pipeline::params::framing(&Settings { width: 320, height: 240, ..Settings::default() })
+    }
+
+    /// Camera, angle and band: what a render would see of a framing.
+    fn key(f: &Framed, world: &World) -> String {
+        format!("{} {:?}", f.describe(world), f.view_height)
+    }
+
+    /// Issue 13 item 4: the second round (oblique views, C placed from the subject's bulk) runs
+    /// only for what the first round leaves under `FILL_FLOOR`, so every scene the first round
+    /// composes to 40% keeps its camera; where it runs and finds a fuller view (the walker, the
+    /// shelf of several objects), that view fills clearly more and passes the guard against a
+    /// part magnified near C.
+    #[test]
+    fn the_second_round_leaves_full_scenes_alone_and_lifts_the_others() {
+        let p = params();
+        let aspect = p.width as f64 / p.height as f64;
+        let (mut kept, mut lifted) = (0, Vec::new());
+        for (name, scene) in odd_scenes() {
+            let prep = Prepared::new(scene);
+            let (first, fill) = first_round(&p, &prep.world, &prep.accel).unwrap();
+            let fill = fill.expect("the renderer's own composed view");
+            let last = frame_camera(&p, &prep.world, &prep.accel).unwrap();
+            if fill >= FILL_FLOOR {
+                assert_eq!(key(&last, &prep.world), key(&first, &prep.world), "{name}");
+                kept += 1;
+                continue;
+            }
+            if key(&last, &prep.world) == key(&first, &prep.world) {
+                continue;
+            }
+            let plain = probe_fill(last.camera.as_ref(), &prep.accel, aspect, PROBE_COLUMNS, None);
+            assert!(plain * compose::NEAR_BEST > fill, "{name}: {plain:.3} against the first round's {fill:.3}");
+            let guard = NearGuard {
+                centre: last.focal_centre.unwrap(),
+                line: (last.kind == CameraKind::Cylindrical).then_some(last.frame.up),
+                within: NEAR_C_RADII * prep.world.radius as f64,
+            };
+            let guarded = probe_fill(last.camera.as_ref(), &prep.accel, aspect, PROBE_COLUMNS, Some(&guard));
+            assert_eq!(guarded, plain, "{name}: the chosen view magnifies a part near C");
+            lifted.push(name);
+        }
+        assert!(kept >= 8, "{kept} scenes filled by the first round");
+        assert!(
+            lifted.contains(&"odd-walker".to_string()) && lifted.contains(&"odd-several".to_string()),
+            "{lifted:?}"
+        );
+    }
+
+    /// The guard refuses a candidate whose fill is mostly one small part just in front of C: a
+    /// small ball right before a spherical camera's centre, a big one far beyond it.
+    #[test]
+    fn the_guard_refuses_a_part_magnified_near_c() {
+        use crate::scene::default::ellipsoid;
+        use crate::scene::{Material, Object, Scene};
+        let mut s = Scene::default();
+        s.materials.push(Material::default());
+        for (r, z) in [(0.1f32, -0.5f64), (0.6, 1.5)] {
+            s.meshes.push(ellipsoid("ball", glam::Vec3::splat(r), 12, 24, 0));
+            s.objects.push(Object {
+                name: "ball".into(),
+                mesh: s.meshes.len() - 1,
+                transform: glam::DMat4::from_translation(DVec3::new(0.0, 0.0, z)),
+            });
+        }
+        let prep = Prepared::new(s);
+        let sim = prep.world.to_render;
+        // C just behind the small ball (render space), looking down -Z at both.
+        let centre = sim.point_f64(DVec3::new(0.0, 0.0, -0.65));
+        let (frame, _) = CameraFrame::new(centre + DVec3::Z * 4.0, DVec3::NEG_Z, DVec3::Y).unwrap();
+        let cam = Spherical { frame, centre, distance: 4.0, angle_x: 2.0, angle_y: 1.5, clip_radius: 2.0 };
+        let plain = probe_fill(&cam, &prep.accel, 4.0 / 3.0, PROBE_COLUMNS, None);
+        assert!(plain > 0.3, "the small ball fills the probe: {plain}");
+        let r = prep.world.radius as f64;
+        let guard = |within: f64| NearGuard { centre, line: None, within };
+        assert_eq!(probe_fill(&cam, &prep.accel, 4.0 / 3.0, PROBE_COLUMNS, Some(&guard(NEAR_C_RADII * r))), 0.0);
+        // Nothing within a tiny distance of C: the same fill.
+        assert_eq!(probe_fill(&cam, &prep.accel, 4.0 / 3.0, PROBE_COLUMNS, Some(&guard(1e-3))), plain);
     }
 }
