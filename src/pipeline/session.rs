@@ -741,7 +741,12 @@ fn after_saliency_stages(
             let inputs_key = (traced_gen, plan.faceting.then_some(layout_gen));
             if !keep || !hit(&lane.paint_inputs, &inputs_key) {
                 // (A one-off render paints once: its edges are made at the border width alone.)
-                let value = if keep { PaintInputs::kept_for_changes() } else { PaintInputs::kept() };
+                let old = lane.paint_inputs.take();
+                let value = if keep {
+                    PaintInputs::kept_for_changes_after(old.as_ref().map(|e| &e.value))
+                } else {
+                    PaintInputs::kept()
+                };
                 lane.paint_inputs = Some(Entry { key: inputs_key, id: next(), value });
             }
             let inputs = &lane.paint_inputs.as_ref().expect("just made").value;
@@ -756,22 +761,38 @@ fn after_saliency_stages(
                 _ => None,
             };
             let keep_at = agree.filter(|&n| n > 0 && n < keys.len());
-            let resume = resume.map(|(done, px)| Resume { done: *done, px });
-            let painted = with_film(film, delta.as_deref_mut(), aa.as_deref_mut(), None, |film| {
+            // An opaque canvas resumed after every effect that reads the film's hits, with the
+            // regions held, reads nothing of the film: its colour starts as the kept canvas,
+            // and the moved and refined pixels need not be swapped in (nor out).
+            let opaque = !params.paint.transparent;
+            let film_unread = keep
+                && opaque
+                && resume.is_some_and(|(done, _)| *done > 0 && !painter.value.reads_hits_from(*done))
+                && inputs.has_regions();
+            let mut paint = |film: &mut Film| {
                 if !keep {
                     // A one-off render paints the film in place (no second colour buffer:
                     // tests/memory_bound.rs); the painted colour is then the film's own.
                     let r = timings.time(Stage::Paint.name(), || painter.value.apply(film, facets, lighting.as_ref()));
                     return r.map(|()| (Vec::new(), None));
                 }
-                let mut colour = film.color.clone();
+                // (Opaque: the canvas is the colour itself, so the kept one is copied once.)
+                let (mut colour, resume) = match resume {
+                    Some((done, px)) if opaque => (px.clone(), Some(Resume { done: *done, px: None })),
+                    r => (film.color.clone(), r.map(|(done, px)| Resume { done: *done, px: Some(px) })),
+                };
                 std::mem::swap(&mut film.color, &mut colour);
                 let r = timings.time(Stage::Paint.name(), || {
                     painter.value.apply_from(film, facets, lighting.as_ref(), inputs, resume, keep_at)
                 });
                 std::mem::swap(&mut film.color, &mut colour);
                 r.map(|kept| (colour, kept.map(|px| (keep_at.unwrap_or(0), px))))
-            });
+            };
+            let painted = if film_unread {
+                paint(film)
+            } else {
+                with_film(film, delta.as_deref_mut(), aa.as_deref_mut(), None, paint)
+            };
             let (painted, kept) = match painted {
                 Ok(p) => p,
                 Err(e) => {
