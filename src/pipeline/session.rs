@@ -642,6 +642,10 @@ pub(super) fn run(
     })
 }
 
+/// What the stages from faceting on give: the encoded images, warnings, the camera in words,
+/// the steps reused and the pixels kept.
+type LaterStages = (Encoded, Vec<String>, String, Vec<&'static str>, PixelsKept);
+
 /// `run` from faceting on, with the pre-render (its film holding the saliency map, if any)
 /// taken out of the lane.
 #[allow(clippy::too_many_arguments)]
@@ -655,7 +659,7 @@ fn after_saliency_stages(
     progress: &Progress,
     next: &mut dyn FnMut() -> Gen,
     timings: &mut Timings,
-) -> Result<(Encoded, Vec<String>, String, Vec<&'static str>, PixelsKept)> {
+) -> Result<LaterStages> {
     let mut reused = Vec::new();
     let mut pixels_kept = PixelsKept::default();
     let pre_gen = pre.id;
