@@ -177,8 +177,8 @@ pub struct PaintContext<'a> {
 pub struct PaintInputs {
     keep: bool,
     /// Kept from chain to chain on the same film and facet map (`kept_for_changes`, a
-    /// session's): its edges are made at twice the limit asked for, and effects keep per-pixel
-    /// factors (`PaintContext::factors`).
+    /// session's): its edges are made again at twice a wider limit asked for
+    /// (`PaintContext::edges`), and effects keep per-pixel factors (`PaintContext::factors`).
     across_chains: bool,
     regions: std::sync::Mutex<Option<std::sync::Arc<Vec<u64>>>>,
     planes: std::sync::Mutex<Option<(u64, std::sync::Arc<Vec<planes::Plane>>)>>,
@@ -218,8 +218,8 @@ impl PaintInputs {
         PaintInputs { keep: true, ..PaintInputs::default() }
     }
 
-    /// Kept inputs that also expect the border width to change (a session's lane): the edges
-    /// are made at twice the width asked for (`PaintContext::edges`).
+    /// Kept inputs that also expect the border width to change (a session's lane): edges made
+    /// again for a wider border are made at twice its width (`PaintContext::edges`).
     pub fn kept_for_changes() -> PaintInputs {
         PaintInputs { keep: true, across_chains: true, ..PaintInputs::default() }
     }
@@ -313,20 +313,22 @@ impl<'a> PaintContext<'a> {
     /// region), the nearest such pixel and its distance. Pixels at `limit` or farther may hold
     /// a nearest edge too: callers read only those closer than `limit`.
     ///
-    /// A session's inputs (`kept_for_changes`) are computed at twice the limit and serve every
-    /// limit up to that, so a
+    /// A session's inputs (`kept_for_changes`) are computed at the limit first (a facet or
+    /// camera change paints once at that width), then, when a wider limit is asked of the same
+    /// inputs, at twice that: they serve every limit up to the one they were made at, so a
     /// border width dragged narrower, or wider within the margin, reuses them: below a limit,
     /// the feature transform gives the same nearest pixel at any larger limit (the features
     /// a larger limit adds are all farther than it, so they never change which parabola is
     /// lowest just left of a pixel, the one `distance::nearest_features` takes on a tie;
     /// `edges_below_a_limit_do_not_depend_on_it` checks it, ties included).
     pub fn edges(&self, width: u32, height: u32, limit: f32) -> std::sync::Arc<Edges> {
-        if let Some((l, e)) = self.inputs.edges.lock().ok().and_then(|g| g.clone())
-            && limit <= f32::from_bits(l)
+        let held = self.inputs.edges.lock().ok().and_then(|g| g.clone());
+        if let Some((l, e)) = &held
+            && limit <= f32::from_bits(*l)
         {
-            return e;
+            return e.clone();
         }
-        let limit = if self.inputs.across_chains { 2.0 * limit } else { limit };
+        let limit = if self.inputs.across_chains && held.is_some() { 2.0 * limit } else { limit };
         let (w, h) = (width as usize, height as usize);
         let r = self.regions(w * h);
         let is_edge = |i: usize| {
