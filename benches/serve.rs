@@ -79,7 +79,14 @@ fn main() {
     let quarter = Settings { width: SIDE / 4, height: SIDE / 4, ..Settings::default() };
     let paint =
         |s: &Settings, i: usize| Settings { border_width: if i.is_multiple_of(2) { 11.0 } else { 12.0 }, ..s.clone() };
-    let facets = |s: &Settings, i: usize| Settings {
+    // The default faceting (Planes) makes its facets from `planes` and `plane_detail`: one
+    // plane more or less redraws a few facets (most keep their pixels and aims, so most pixels
+    // keep their re-trace and anti-aliasing); another detail redraws every facet. The Segment
+    // faceting's `segments` are not read by Planes: the same facets come out.
+    let facets = |s: &Settings, i: usize| Settings { planes: if i.is_multiple_of(2) { 151 } else { 150 }, ..s.clone() };
+    let detail =
+        |s: &Settings, i: usize| Settings { plane_detail: if i.is_multiple_of(2) { 5.5 } else { 5.0 }, ..s.clone() };
+    let unread = |s: &Settings, i: usize| Settings {
         segments: if i.is_multiple_of(2) { vec![5, 31, 120] } else { vec![5, 30, 120] },
         ..s.clone()
     };
@@ -105,7 +112,19 @@ fn main() {
             |_| paint(&full, 0),
         ),
         measure(&only, &mut session, "paint-only change (border width)", 50.0, runs, &full, |i| paint(&full, i)),
-        measure(&only, &mut session, "facet change (Segment segments)", 300.0, runs, &full, |i| facets(&full, i)),
+        measure(&only, &mut session, "facet change (plane count)", 300.0, runs, &full, |i| facets(&full, i)),
+        measure(&only, &mut session, "facet change, every facet redrawn (plane detail)", f64::NAN, runs, &full, |i| {
+            detail(&full, i)
+        }),
+        measure(
+            &only,
+            &mut session,
+            "facet setting Planes does not read (Segment segments)",
+            f64::NAN,
+            runs,
+            &full,
+            |i| unread(&full, i),
+        ),
         measure(&only, &mut session, "camera change (convergence angle)", 600.0, runs, &full, |i| camera(&full, i)),
         measure(&only, &mut session, "unchanged (F12 again), before encoding", 100.0, runs, &full, |_| full.clone()),
         measure(&only, &mut session, "1/4 preview (250x250), paint change", 100.0, runs, &quarter, |i| {

@@ -521,6 +521,14 @@ fn agree(film: &Film, js: impl Iterator<Item = usize>) -> Known {
     Known { occlusion: Occlusion { known, blocked: all_blocked & known }, object }
 }
 
+/// serve5 (issue 14): what anti-aliasing takes as known of pixel `i`'s lights
+/// (`agreed_occlusion`), as one number: a pixel refined through the same rays with the same
+/// number gets the same colour (a session reuses it, `pipeline::antialias_reusing`).
+pub fn antialias_known(film: &Film, facets: &[u32], i: usize) -> u64 {
+    let k = agreed_occlusion(film, facets, i);
+    ((k.object as u64) << 16) | ((k.occlusion.known as u64) << 8) | k.occlusion.blocked as u64
+}
+
 /// The lights whose occlusion pixel `i`'s centre sample and those of its facet neighbours
 /// agree on (SPEC: cast shadow rays only where a light is partly occluded).
 fn agreed_occlusion(film: &Film, facets: &[u32], i: usize) -> Known {

@@ -63,8 +63,10 @@ fn each_change_reruns_only_what_it_invalidates_and_gives_a_fresh_renders_pixels(
     let aim = Settings { discontinuity: 80.0, ..chiaro.clone() };
     assert_eq!(same(&mut session, &scene, &aim, "discontinuity"), reused_up_to("faceting"));
 
-    // Facets: faceting onwards.
-    let facet = Settings { segments: vec![4, 12], thresholds: vec![0.0, 0.3], ..aim.clone() };
+    // Facets: faceting onwards (a facet change that changes the facets: the Segment faceting
+    // instead of the default Planes).
+    let facet =
+        Settings { faceting: Faceting::Segment, segments: vec![4, 12], thresholds: vec![0.0, 0.3], ..aim.clone() };
     assert_eq!(same(&mut session, &scene, &facet, "segments"), reused_up_to("saliency"));
     let voronoi = Settings { faceting: Faceting::Voronoi, facet_count: 30, ..facet.clone() };
     assert_eq!(same(&mut session, &scene, &voronoi, "voronoi"), reused_up_to("saliency"));
@@ -83,6 +85,39 @@ fn each_change_reruns_only_what_it_invalidates_and_gives_a_fresh_renders_pixels(
     let with_saliency = Settings { passes: vec![Pass::Saliency, Pass::Facets, Pass::Objects], ..random };
     let reused = same(&mut session, &scene, &with_saliency, "saliency passes");
     assert!(reused.contains(&"faceting") && reused.contains(&"imprecision"), "{reused:?}");
+}
+
+#[test]
+fn a_facet_change_keeps_the_pixels_whose_rays_and_neighbours_did_not_change() {
+    // The default faceting (Planes): one plane more or less redraws a few facets, the others
+    // keep their pixels and aims, so most pixels keep their re-trace and anti-aliasing;
+    // another detail redraws every facet. Each step gives a fresh render's pixels.
+    let scene = Scene::default_scene();
+    let mut session = Session::new();
+    session.set_scene(scene.clone());
+    let s = Settings { width: 200, height: 150, spp: 2, passes: vec![], ..Settings::default() };
+    same(&mut session, &scene, &s, "first");
+    let mut kept = Vec::new();
+    for (planes, plane_detail) in [(151, 5.0), (150, 5.0), (150, 5.5), (149, 5.5), (150, 5.0)] {
+        let c = Settings { planes, plane_detail, ..s.clone() };
+        let what = format!("planes {planes}, detail {plane_detail}");
+        let frame = session.render(&c, &Progress::silent()).unwrap();
+        let fresh = cubist::render(&Prepared::new(scene.clone()), &c, &Progress::silent()).unwrap();
+        check(&frame, &fresh, &what);
+        assert_eq!(frame.reused, vec!["pre-render", "saliency"], "{what}");
+        let k = frame.pixels_kept;
+        assert!(k.retrace_kept + k.retrace_traced > 0 && k.antialiasing_kept + k.antialiasing_traced > 0, "{what}");
+        kept.push(k);
+    }
+    assert!(kept[0].retrace_kept > kept[0].retrace_traced, "{kept:?}");
+    assert!(kept[0].antialiasing_kept > kept[0].antialiasing_traced, "{kept:?}");
+    assert!(kept.iter().any(|k| k.retrace_traced > 0 && k.antialiasing_traced > 0), "{kept:?}");
+    // A setting the faceting method does not read gives the same facets: every later stage
+    // is kept.
+    let unread = Settings { planes: 150, plane_detail: 5.0, segments: vec![5, 31, 120], ..s.clone() };
+    let mut all_but_faceting = ALL.to_vec();
+    all_but_faceting.retain(|s| *s != "faceting");
+    assert_eq!(same(&mut session, &scene, &unread, "segments under Planes"), all_but_faceting);
 }
 
 #[test]

@@ -4,7 +4,7 @@ use image::RgbaImage;
 use rayon::prelude::*;
 
 use crate::film::Film;
-use crate::scene::srgb::srgb8;
+use crate::scene::srgb::Srgb8;
 
 /// Encodes a film's colour. Opaque: the background is already blended in. Transparent: the
 /// background is un-blended using the coverage alpha, so edges composite correctly. Rows in
@@ -13,6 +13,8 @@ pub fn encode(film: &Film, background: [f32; 3], transparent: bool) -> RgbaImage
     let bg = glam::Vec3::from(background);
     let mut img = RgbaImage::new(film.width, film.height);
     let raw: &mut [u8] = &mut img;
+    let lut = Srgb8::get();
+    let srgb8 = |v: f32| lut.code(v);
     raw.par_chunks_mut(4 * 1024).zip(film.color.par_chunks(1024)).for_each(|(out, colour)| {
         for (px, c) in out.chunks_exact_mut(4).zip(colour) {
             let (rgb, a) = if transparent {

@@ -72,7 +72,7 @@ impl Effect for CanvasGrain {
         "canvas grain"
     }
 
-    fn apply(&self, canvas: &mut Canvas<'_>, _ctx: &PaintContext) -> Result<()> {
+    fn apply(&self, canvas: &mut Canvas<'_>, ctx: &PaintContext) -> Result<()> {
         let fade = ((self.period - FADE.0) / (FADE.1 - FADE.0)).clamp(0.0, 1.0);
         let depth = DEPTH * self.amount * fade;
         if !(depth > 0.0) {
@@ -89,15 +89,34 @@ impl Effect for CanvasGrain {
                 + mean(&rows, |t| t.profile) * mean(&columns, |t| t.dip));
         let thickness = (THICKNESS_PERIOD * ((w * h) as f32).sqrt()).max(8.0);
         let grid = Grid2::new(seed ^ 1, (0.0, w as f32 / thickness), (0.0, h as f32 / thickness));
+        let factor = |x: usize, y: usize| {
+            let shows = 0.5 + grid.value2(seed ^ 1, (x as f32 + 0.5) / thickness, (y as f32 + 0.5) / thickness);
+            1.0 + depth * shows * (CanvasGrain::weave(&columns[x], &rows[y]) - mean)
+        };
+        if ctx.kept_across_chains() {
+            // A session keeps each pixel's factor: it depends on the image size and these
+            // settings alone, so it serves every later paint (`PaintInputs::kept_for_changes_after`).
+            let key =
+                [w as u64, h as u64, ((self.amount.to_bits() as u64) << 32) | self.period.to_bits() as u64, self.seed];
+            let f = ctx
+                .factors(self.name(), key, true, || (0..w * h).into_par_iter().map(|i| factor(i % w, i / w)).collect());
+            let (coverage, px) = canvas.coverage_and_pixels();
+            px.par_chunks_mut(w).zip(f.par_chunks(w)).enumerate().for_each(|(y, (row, f))| {
+                for (x, (p, &f)) in row.iter_mut().zip(f).enumerate() {
+                    if coverage.is_painted(y * w + x) {
+                        *p = (p.truncate() * f).extend(p.w);
+                    }
+                }
+            });
+            return Ok(());
+        }
         let (coverage, px) = canvas.coverage_and_pixels();
         px.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-            let ry = &rows[y];
             for (x, p) in row.iter_mut().enumerate() {
                 if !coverage.is_painted(y * w + x) {
                     continue;
                 }
-                let shows = 0.5 + grid.value2(seed ^ 1, (x as f32 + 0.5) / thickness, (y as f32 + 0.5) / thickness);
-                let f = 1.0 + depth * shows * (CanvasGrain::weave(&columns[x], ry) - mean);
+                let f = factor(x, y);
                 *p = (p.truncate() * f).extend(p.w);
             }
         });

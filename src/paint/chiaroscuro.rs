@@ -102,6 +102,10 @@ impl Effect for Chiaroscuro {
         "chiaroscuro"
     }
 
+    fn reads_hits(&self) -> bool {
+        true
+    }
+
     fn apply(&self, canvas: &mut Canvas<'_>, ctx: &PaintContext) -> Result<()> {
         let Some(lighting) = ctx.lighting else {
             return Err(Error::Internal("chiaroscuro: relighting needs the scene's lights; none were given".into()));

@@ -176,8 +176,10 @@ pub struct PaintContext<'a> {
 #[derive(Default)]
 pub struct PaintInputs {
     keep: bool,
-    /// Edges made at twice the limit asked for (`kept_for_changes`).
-    wide_edges: bool,
+    /// Kept from chain to chain on the same film and facet map (`kept_for_changes`, a
+    /// session's): its edges are made again at twice a wider limit asked for
+    /// (`PaintContext::edges`), and effects keep per-pixel factors (`PaintContext::factors`).
+    across_chains: bool,
     regions: std::sync::Mutex<Option<std::sync::Arc<Vec<u64>>>>,
     planes: std::sync::Mutex<Option<(u64, std::sync::Arc<Vec<planes::Plane>>)>>,
     edges: std::sync::Mutex<Option<(u32, std::sync::Arc<Edges>)>>,
@@ -186,6 +188,20 @@ pub struct PaintInputs {
     /// The brushwork's key in the last chain (kept only): its strokes are recorded from the
     /// second chain with the same key on.
     strokes_seen: std::sync::Mutex<Option<[u64; 3]>>,
+    /// Per-pixel factors an effect derives from its settings alone, the last per effect
+    /// (kept only, `PaintContext::factors`).
+    factors: std::sync::Mutex<Vec<Factors>>,
+}
+
+/// One effect's per-pixel factors and what they were made from: `lasting` ones depend on the
+/// effect's settings and the image size alone (not the film nor the facet map), so they
+/// outlive the inputs they were kept in (`PaintInputs::kept_for_changes_after`).
+#[derive(Clone)]
+struct Factors {
+    effect: &'static str,
+    key: [u64; 4],
+    lasting: bool,
+    values: std::sync::Arc<Vec<f32>>,
 }
 
 /// The nearest region edge of every pixel within a distance (`distance::nearest_features`).
@@ -202,10 +218,26 @@ impl PaintInputs {
         PaintInputs { keep: true, ..PaintInputs::default() }
     }
 
-    /// Kept inputs that also expect the border width to change (a session's lane): the edges
-    /// are made at twice the width asked for (`PaintContext::edges`).
+    /// Kept inputs that also expect the border width to change (a session's lane): edges made
+    /// again for a wider border are made at twice its width (`PaintContext::edges`).
     pub fn kept_for_changes() -> PaintInputs {
-        PaintInputs { keep: true, wide_edges: true, ..PaintInputs::default() }
+        PaintInputs { keep: true, across_chains: true, ..PaintInputs::default() }
+    }
+
+    /// `kept_for_changes` for another film or facet map, taking over what `old` (the inputs
+    /// of the previous one) holds that reads neither: the lasting per-pixel factors (the
+    /// canvas weave).
+    pub fn kept_for_changes_after(old: Option<&PaintInputs>) -> PaintInputs {
+        let lasting = old
+            .and_then(|o| o.factors.lock().ok().map(|f| f.iter().filter(|f| f.lasting).cloned().collect()))
+            .unwrap_or_default();
+        PaintInputs { factors: std::sync::Mutex::new(lasting), ..PaintInputs::kept_for_changes() }
+    }
+
+    /// Whether each pixel's region is held (then no effect but chiaroscuro reads the film's
+    /// hits: `Painter::reads_hits_from`).
+    pub fn has_regions(&self) -> bool {
+        self.regions.lock().is_ok_and(|r| r.is_some())
     }
 
     /// Bytes held.
@@ -218,7 +250,8 @@ impl PaintInputs {
                 .map_or(0, |(_, e)| e.dist.len() * 4 + e.near.len() * 4 + e.passage.get().map_or(0, |p| p.bytes()))
         });
         let strokes = self.strokes.lock().map_or(0, |s| s.as_ref().map_or(0, |s| s.bytes()));
-        (regions + planes + edges + strokes) as u64
+        let factors = self.factors.lock().map_or(0, |f| f.iter().map(|f| f.values.len() * 4).sum());
+        (regions + planes + edges + strokes + factors) as u64
     }
 }
 
@@ -253,6 +286,12 @@ impl<'a> PaintContext<'a> {
         self.inputs.keep
     }
 
+    /// Whether the inputs serve several chains (a session's, `PaintInputs::kept_for_changes`):
+    /// then an effect's per-pixel factors are worth keeping (`factors`).
+    pub fn kept_across_chains(&self) -> bool {
+        self.inputs.across_chains
+    }
+
     /// The facets as planes (`planes::planes`; one plane without a facet map) for `seed`.
     pub fn planes(&self, width: u32, pixels: usize, seed: u64) -> std::sync::Arc<Vec<planes::Plane>> {
         if let Some((s, p)) = self.inputs.planes.lock().ok().and_then(|g| g.clone())
@@ -274,20 +313,22 @@ impl<'a> PaintContext<'a> {
     /// region), the nearest such pixel and its distance. Pixels at `limit` or farther may hold
     /// a nearest edge too: callers read only those closer than `limit`.
     ///
-    /// A session's inputs (`kept_for_changes`) are computed at twice the limit and serve every
-    /// limit up to that, so a
+    /// A session's inputs (`kept_for_changes`) are computed at the limit first (a facet or
+    /// camera change paints once at that width), then, when a wider limit is asked of the same
+    /// inputs, at twice that: they serve every limit up to the one they were made at, so a
     /// border width dragged narrower, or wider within the margin, reuses them: below a limit,
     /// the feature transform gives the same nearest pixel at any larger limit (the features
     /// a larger limit adds are all farther than it, so they never change which parabola is
     /// lowest just left of a pixel, the one `distance::nearest_features` takes on a tie;
     /// `edges_below_a_limit_do_not_depend_on_it` checks it, ties included).
     pub fn edges(&self, width: u32, height: u32, limit: f32) -> std::sync::Arc<Edges> {
-        if let Some((l, e)) = self.inputs.edges.lock().ok().and_then(|g| g.clone())
-            && limit <= f32::from_bits(l)
+        let held = self.inputs.edges.lock().ok().and_then(|g| g.clone());
+        if let Some((l, e)) = &held
+            && limit <= f32::from_bits(*l)
         {
-            return e;
+            return e.clone();
         }
-        let limit = if self.inputs.wide_edges { 2.0 * limit } else { limit };
+        let limit = if self.inputs.across_chains && held.is_some() { 2.0 * limit } else { limit };
         let (w, h) = (width as usize, height as usize);
         let r = self.regions(w * h);
         let is_edge = |i: usize| {
@@ -306,6 +347,33 @@ impl<'a> PaintContext<'a> {
             *g = Some((limit.to_bits(), e.clone()));
         }
         e
+    }
+
+    /// The per-pixel factors `effect` made for `key`, made by `make` when not held; `lasting`:
+    /// they depend on `key` alone, not on the film nor the facet map. For inputs kept across
+    /// chains (`kept_across_chains`): an effect of a one-off chain computes its factors as it
+    /// applies them, holding no buffer.
+    pub fn factors(
+        &self,
+        effect: &'static str,
+        key: [u64; 4],
+        lasting: bool,
+        make: impl FnOnce() -> Vec<f32>,
+    ) -> std::sync::Arc<Vec<f32>> {
+        let held = self.inputs.factors.lock().ok().and_then(|f| {
+            f.iter().find(|f| f.effect == effect && f.key == key && f.lasting == lasting).map(|f| f.values.clone())
+        });
+        if let Some(v) = held {
+            return v;
+        }
+        let values = std::sync::Arc::new(make());
+        if self.inputs.across_chains
+            && let Ok(mut f) = self.inputs.factors.lock()
+        {
+            f.retain(|f| f.effect != effect);
+            f.push(Factors { effect, key, lasting, values: values.clone() });
+        }
+        values
     }
 
     /// The brushwork's strokes kept by an earlier chain (`brushwork::StrokePlan`), if any.
@@ -343,6 +411,10 @@ impl<'a> PaintContext<'a> {
 /// keep the canvas's alpha conventions (see the module doc).
 pub trait Effect: Send + Sync {
     fn name(&self) -> &'static str;
+    /// Whether it reads the film's hits (`PaintContext::hits`) besides the regions.
+    fn reads_hits(&self) -> bool {
+        false
+    }
     fn apply(&self, canvas: &mut Canvas<'_>, ctx: &PaintContext) -> Result<()>;
 }
 
@@ -459,10 +531,11 @@ pub struct Painter {
 }
 
 /// Where a chain may start: the canvas after its first `done` effects, as an earlier run of a
-/// chain with the same first `done` effects keys left it (`Painter::apply_from`).
+/// chain with the same first `done` effects keys left it (`Painter::apply_from`); `px` None:
+/// the film's colour holds that canvas already.
 pub struct Resume<'a> {
     pub done: usize,
-    pub px: &'a [Vec4],
+    pub px: Option<&'a [Vec4]>,
 }
 
 impl Painter {
@@ -530,6 +603,12 @@ impl Painter {
         self.effects.is_empty()
     }
 
+    /// Whether an effect from the `start`-th on reads the film's hits besides the regions
+    /// (`Effect::reads_hits`).
+    pub fn reads_hits_from(&self, start: usize) -> bool {
+        self.effects.iter().skip(start).any(|e| e.reads_hits())
+    }
+
     /// Names of the enabled effects, in chain order.
     pub fn names(&self) -> Vec<&'static str> {
         self.effects.iter().map(|e| e.name()).collect()
@@ -580,8 +659,12 @@ impl Painter {
         let mut canvas = Canvas::new(w, h, &mut film.color, self.background, self.transparent);
         let ctx = PaintContext { hits: &film.hits, facets, lighting, inputs };
         let mut start = 0;
-        if let Some(r) = resume.filter(|r| r.done <= self.effects.len() && r.px.len() == canvas.px.len()) {
-            canvas.px.par_iter_mut().zip(r.px).for_each(|(p, q)| *p = *q);
+        if let Some(r) =
+            resume.filter(|r| r.done <= self.effects.len() && r.px.is_none_or(|px| px.len() == canvas.px.len()))
+        {
+            if let Some(px) = r.px {
+                canvas.px.par_iter_mut().zip(px).for_each(|(p, q)| *p = *q);
+            }
             start = r.done;
         }
         let mut kept = None;

@@ -213,18 +213,30 @@ fn paint_both(passage: Passage, frame: &Film, facets: Option<&FacetMap>, transpa
     let old = Painter::from_effects(vec![Box::new(Reference(passage))], bg, transparent);
     let (mut a, mut b, mut c) = (frame.clone(), frame.clone(), frame.clone());
     pool.install(|| new.apply(&mut a, facets, None)).unwrap();
-    // Through kept inputs twice: the second run reuses the edges (made at twice the width)
-    // and the pairs.
+    // Through kept inputs: a narrower width, then this one (the edges made again, at twice
+    // it), then a wider one within that (reusing the edges and the pairs).
     let kept = PaintInputs::kept_for_changes();
-    let wider =
-        Painter::from_effects(vec![Box::new(Passage { width: passage.width * 1.5, ..passage })], bg, transparent);
+    let with_width = |f: f32| {
+        Painter::from_effects(vec![Box::new(Passage { width: passage.width * f, ..passage })], bg, transparent)
+    };
     let mut d = frame.clone();
-    pool.install(|| wider.apply_with(&mut d, facets, None, &kept)).unwrap();
+    pool.install(|| with_width(0.5).apply_with(&mut d, facets, None, &kept)).unwrap();
     pool.install(|| new.apply_with(&mut c, facets, None, &kept)).unwrap();
+    let mut e = frame.clone();
+    pool.install(|| with_width(1.5).apply_with(&mut e, facets, None, &kept)).unwrap();
+    let mut f = frame.clone();
+    Painter::from_effects(
+        vec![Box::new(Reference(Passage { width: passage.width * 1.5, ..passage }))],
+        bg,
+        transparent,
+    )
+    .apply(&mut f, facets, None)
+    .unwrap();
     old.apply(&mut b, facets, None).unwrap();
     let bits = super::tests_plane::bits;
     assert_eq!(bits(&a), bits(&b), "one-off");
     assert_eq!(bits(&c), bits(&b), "kept inputs");
+    assert_eq!(bits(&e), bits(&f), "kept inputs, wider");
 }
 
 proptest! {

@@ -61,7 +61,7 @@ pub use params::StageParams;
 pub use prepared::Prepared;
 pub use prerender::{PreRender, Shading, View, prerender};
 pub use saliency_map::{SaliencyRender, saliency_map};
-pub use session::{DEFAULT_BUDGET, Frame, LANES, LaneStats, SceneUpdate, Session, SessionStats};
+pub use session::{DEFAULT_BUDGET, Frame, LANES, LaneStats, PixelsKept, SceneUpdate, Session, SessionStats};
 pub use stage::{MESH_SALIENCY_OVERLAPPED, Plan, Stage, Timings, process_cpu};
 
 /// What a render produces.
@@ -371,6 +371,52 @@ pub fn antialias_stage(
     timings: &mut Timings,
 ) {
     antialias_with(&view.tracer(prep, trace), ctx, trace, map, aims, film, progress, timings);
+}
+
+/// serve5 (issue 14): `antialias_stage` for a session, which keeps the refined pixels' colours:
+/// each pixel to refine whose colour `reuse(pixel, known)` gives (`trace::antialias_known`:
+/// the lights its neighbours agree on) takes it, the others are traced. Returns the refined
+/// pixels (ascending), their `known` numbers and colours, and how many were traced; the film's
+/// colour is left as it was.
+#[allow(clippy::too_many_arguments)]
+pub fn antialias_reusing(
+    prep: &Prepared,
+    view: &View,
+    ctx: &AimContext,
+    trace: &TraceParams,
+    map: &FacetMap,
+    aims: &[FacetAim],
+    film: &mut Film,
+    reuse: &(dyn Fn(u32, u64) -> Option<glam::Vec4> + Sync),
+    progress: &Progress,
+    timings: &mut Timings,
+) -> (Vec<u32>, Vec<u64>, Vec<glam::Vec4>, usize) {
+    use rayon::prelude::*;
+    let tracer = view.tracer(prep, trace);
+    let rays = facet_rays(ctx, map, aims);
+    let out = timings.time(Stage::AntiAliasing.name(), || {
+        // As `antialias_with`: one facet where no facet moved.
+        let one_facet;
+        let ids: &[u32] = if aims.iter().any(|a| a.moved()) {
+            &map.ids
+        } else {
+            one_facet = vec![0u32; map.ids.len()];
+            &one_facet
+        };
+        let pixels = crate::trace::pixels_to_refine(film, ids, trace.aa_threshold);
+        let known: Vec<u64> =
+            pixels.par_iter().map(|&i| crate::trace::antialias_known(film, ids, i as usize)).collect();
+        let mut colours: Vec<Option<glam::Vec4>> = pixels.par_iter().zip(&known).map(|(&i, &k)| reuse(i, k)).collect();
+        let again: Vec<u32> = pixels.iter().zip(&colours).filter(|(_, c)| c.is_none()).map(|(&i, _)| i).collect();
+        progress.begin(Stage::AntiAliasing.name(), again.len() as u64);
+        let before: Vec<glam::Vec4> = again.iter().map(|&i| film.color[i as usize]).collect();
+        tracer.antialias(film, &rays, &again, ids, trace.spp, progress);
+        let mut traced = again.iter().zip(before).map(|(&i, c)| std::mem::replace(&mut film.color[i as usize], c));
+        let colours = colours.iter_mut().map(|c| c.take().or_else(|| traced.next()).unwrap_or_default()).collect();
+        (pixels, known, colours, again.len())
+    });
+    progress.finish();
+    out
 }
 
 /// `antialias_stage` with any tracer (an animation frame's posed scene and lights) and the

@@ -181,6 +181,63 @@ struct Delta {
     hits: Vec<PixelHit>,
     occlusion: Vec<u8>,
     samples: Vec<SampleHit>,
+    /// What the pixels were traced through (a session's; the next re-trace reuses the pixels
+    /// whose rays and facet neighbours are the same, `Traced::same`).
+    traced: Option<std::sync::Arc<Traced>>,
+}
+
+/// A facet's rays as a trace reads them: None for the camera's (not moved), else its re-aim.
+type FacetRays = Option<(Option<imprecision::Reaim>, Option<imprecision::Linear>)>;
+
+fn facet_rays_of(aim: &FacetAim) -> FacetRays {
+    aim.moved().then_some((aim.reaim, aim.linear))
+}
+
+/// The facet map and each facet's rays a re-trace and an anti-aliasing traced through, and
+/// the pre-render they traced over.
+struct Traced {
+    pre: Gen,
+    ids: Vec<u32>,
+    rays: Vec<FacetRays>,
+}
+
+impl Traced {
+    fn new(pre: Gen, map: &FacetMap, aims: &[FacetAim]) -> Traced {
+        Traced { pre, ids: map.ids.clone(), rays: aims.iter().map(facet_rays_of).collect() }
+    }
+
+    fn rays_at(&self, i: usize) -> FacetRays {
+        self.rays.get(self.ids[i] as usize).copied().flatten()
+    }
+
+    /// Whether pixel `i` is traced through the same rays in `self` and `new`, and each of
+    /// `neighbours` shares its facet in both or in neither: a re-trace or anti-aliasing then
+    /// gives it the same result (its rays, and what it reads of the pixels around it through
+    /// the facet map: the coarse shadow grid, `trace::Tracer::render`; for anti-aliasing the
+    /// occlusion the neighbours agree on is compared too).
+    fn same(&self, new: &Traced, i: usize, neighbours: impl Iterator<Item = usize>) -> bool {
+        if self.pre != new.pre || self.ids.len() != new.ids.len() || self.rays_at(i) != new.rays_at(i) {
+            return false;
+        }
+        let (a, b) = (self.ids[i], new.ids[i]);
+        neighbours.into_iter().all(|j| (self.ids[j] == a) == (new.ids[j] == b))
+    }
+}
+
+/// The coarse shadow grid's pixels (even x, even y) that pixel `i` of a `w` x `h` film reads
+/// (`trace::coarse_occlusion`); none for a grid pixel.
+fn coarse_neighbours(w: usize, h: usize, i: usize) -> impl Iterator<Item = usize> {
+    let (x, y) = (i % w, i / w);
+    let around = |c: usize, n: usize| {
+        let lo = c - c % 2;
+        [Some(lo), (c % 2 == 1 && lo + 2 < n).then_some(lo + 2)]
+    };
+    let grid = x % 2 == 0 && y % 2 == 0;
+    let (xs, ys) = (around(x, w), around(y, h));
+    ys.into_iter()
+        .flatten()
+        .flat_map(move |cy| xs.into_iter().flatten().map(move |cx| cy * w + cx))
+        .filter(move |_| !grid)
 }
 
 impl Delta {
@@ -197,7 +254,17 @@ impl Delta {
             occlusion: pixels.iter().map(|&i| film.occlusion[i as usize]).collect(),
             samples,
             pixels,
+            traced: None,
         }
+    }
+
+    /// Copies pixel `k` of `self` (as traced) into `film` at `i`.
+    fn put(&self, k: usize, film: &mut Film, i: usize) {
+        let spp = film.spp as usize;
+        film.color[i] = self.color[k];
+        film.hits[i] = self.hits[k];
+        film.occlusion[i] = self.occlusion[k];
+        film.samples[i * spp..(i + 1) * spp].copy_from_slice(&self.samples[k * spp..(k + 1) * spp]);
     }
 
     /// Exchanges the delta's pixels with the film's.
@@ -214,6 +281,7 @@ impl Delta {
 
     fn bytes(&self) -> u64 {
         (self.pixels.len() * 4
+            + self.traced.as_ref().map_or(0, |t| t.ids.len() * 4)
             + self.color.len() * size_of::<Vec4>()
             + self.hits.len() * size_of::<PixelHit>()
             + self.occlusion.len()
@@ -227,6 +295,11 @@ impl Delta {
 struct ColourDelta {
     pixels: Vec<u32>,
     color: Vec<Vec4>,
+    /// A session's: each pixel's `trace::antialias_known`, and the rays it was refined
+    /// through (the next anti-aliasing reuses the pixels refined again through the same rays
+    /// with the same lights known).
+    known: Vec<u64>,
+    traced: Option<std::sync::Arc<Traced>>,
 }
 
 impl ColourDelta {
@@ -237,7 +310,8 @@ impl ColourDelta {
     }
 
     fn bytes(&self) -> u64 {
-        (self.pixels.len() * 4 + self.color.len() * size_of::<Vec4>()) as u64
+        (self.pixels.len() * 4 + self.color.len() * size_of::<Vec4>() + self.known.len() * 8) as u64
+            + self.traced.as_ref().map_or(0, |t| t.ids.len() as u64 * 4)
     }
 }
 
@@ -397,6 +471,19 @@ pub struct Frame {
     pub camera: String,
     /// The steps whose output was kept from an earlier render, in pipeline order.
     pub reused: Vec<&'static str>,
+    /// Pixels the re-trace and the anti-aliasing took from the previous render's instead of
+    /// tracing them again (zero when the stage did not run or kept nothing).
+    pub pixels_kept: PixelsKept,
+}
+
+/// How many pixels a facet change's re-trace and anti-aliasing kept from the previous render
+/// (traced through the same rays, reading the same neighbours) and traced.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PixelsKept {
+    pub retrace_kept: usize,
+    pub retrace_traced: usize,
+    pub antialiasing_kept: usize,
+    pub antialiasing_traced: usize,
 }
 
 /// Hash of a file's bytes (None when it cannot be read: the stage reading it reports why).
@@ -541,7 +628,7 @@ pub(super) fn run(
         lane.saliency = sal;
     }
     lane.pre = Some(pre);
-    let (encoded, warnings, camera, mut later) = result?;
+    let (encoded, warnings, camera, mut later, pixels_kept) = result?;
     reused.append(&mut later);
     Ok(Frame {
         image: encoded.image,
@@ -551,8 +638,13 @@ pub(super) fn run(
         warnings,
         camera,
         reused,
+        pixels_kept,
     })
 }
+
+/// What the stages from faceting on give: the encoded images, warnings, the camera in words,
+/// the steps reused and the pixels kept.
+type LaterStages = (Encoded, Vec<String>, String, Vec<&'static str>, PixelsKept);
 
 /// `run` from faceting on, with the pre-render (its film holding the saliency map, if any)
 /// taken out of the lane.
@@ -567,8 +659,9 @@ fn after_saliency_stages(
     progress: &Progress,
     next: &mut dyn FnMut() -> Gen,
     timings: &mut Timings,
-) -> Result<(Encoded, Vec<String>, String, Vec<&'static str>)> {
+) -> Result<LaterStages> {
     let mut reused = Vec::new();
+    let mut pixels_kept = PixelsKept::default();
     let pre_gen = pre.id;
     let PreRender { film, view, warnings: pre_warnings, unshaded } = &mut pre.value;
     let mut warnings = pre_warnings.clone();
@@ -584,11 +677,18 @@ fn after_saliency_stages(
             reused.push(Stage::Faceting.name());
         }
     } else {
-        lane.layout = None;
+        let old = lane.layout.take();
         let mut w = Vec::new();
         let (layout, map) = layout_stage(&params.facets, film, progress, timings, &mut w)?;
         progress.check()?;
-        lane.layout = Some(Entry { key: layout_key, id: next(), value: LayoutOut { layout, map, warnings: w } });
+        // The later stages read the facet map alone (a saved layout is written from the new
+        // one): a change that gives the same map (a setting the method does not read) keeps
+        // their outputs.
+        let id = match old {
+            Some(o) if o.value.map == map => o.id,
+            _ => next(),
+        };
+        lane.layout = Some(Entry { key: layout_key, id, value: LayoutOut { layout, map, warnings: w } });
     }
     let layout_gen = gen_of(&lane.layout);
     let out = &lane.layout.as_ref().expect("layout just made").value;
@@ -630,7 +730,7 @@ fn after_saliency_stages(
                 reused.push(Stage::ReTrace.name());
             }
         } else {
-            lane.retrace = None;
+            let old = lane.retrace.take();
             // The originals, then the re-trace in place, then swapped: the film is the
             // pre-render's again and the delta holds the moved pixels as traced again. A
             // one-off render keeps no originals (no copy of the moved pixels'
@@ -638,7 +738,31 @@ fn after_saliency_stages(
             let moved = moved_pixels(map, aims);
             let delta = if lane.keep {
                 let mut delta = Delta::gather(film, moved);
-                if !delta.pixels.is_empty() {
+                let traced = std::sync::Arc::new(Traced::new(pre_gen, map, aims));
+                // Pixels the previous re-trace traced through the same rays, reading the same
+                // neighbours: put back as they were; the others traced again.
+                let (w, h) = (film.width as usize, film.height as usize);
+                let mut again = Vec::with_capacity(delta.pixels.len());
+                let old = old.as_ref().and_then(|e| e.value.traced.as_ref().map(|t| (&e.value, t)));
+                let mut next_old = 0;
+                for &i in &delta.pixels {
+                    let reused = old.and_then(|(d, t)| {
+                        while next_old < d.pixels.len() && d.pixels[next_old] < i {
+                            next_old += 1;
+                        }
+                        let k = next_old;
+                        (d.pixels.get(k) == Some(&i)
+                            && t.same(&traced, i as usize, coarse_neighbours(w, h, i as usize)))
+                        .then_some(k)
+                    });
+                    match reused {
+                        Some(k) => old.expect("reused from it").0.put(k, film, i as usize),
+                        None => again.push(i),
+                    }
+                }
+                pixels_kept.retrace_kept = delta.pixels.len() - again.len();
+                pixels_kept.retrace_traced = again.len();
+                if !again.is_empty() {
                     retrace_stage(
                         prep,
                         view,
@@ -646,15 +770,16 @@ fn after_saliency_stages(
                         &params.trace,
                         map,
                         aims,
-                        &delta.pixels,
+                        &again,
                         centre.take().as_ref(),
                         film,
                         progress,
                         timings,
                     );
-                    delta.swap(film);
-                    progress.check()?;
                 }
+                delta.swap(film);
+                progress.check()?;
+                delta.traced = Some(traced);
                 delta
             } else {
                 if std::mem::take(unshaded) {
@@ -694,26 +819,56 @@ fn after_saliency_stages(
         if hit(&lane.aa, &key) {
             reused.push(Stage::AntiAliasing.name());
         } else {
-            lane.aa = None;
+            let old = lane.aa.take();
             let ctx = aim_context(prep, view, &params.trace);
             let aims: &[FacetAim] = match (&lane.aims, aims_gen) {
                 (Some(e), Some(_)) => &e.value,
                 _ => &[],
             };
             let keep = lane.keep;
+            let traced = delta
+                .as_ref()
+                .and_then(|d| d.traced.clone())
+                .unwrap_or_else(|| std::sync::Arc::new(Traced::new(pre_gen, map, aims)));
             let refined = with_film(film, delta.as_deref_mut(), None, None, |film| {
                 if !keep {
                     antialias_stage(prep, view, &ctx, &params.trace, map, aims, film, progress, timings);
                     return ColourDelta::default();
                 }
-                let before = film.color.clone();
-                antialias_stage(prep, view, &ctx, &params.trace, map, aims, film, progress, timings);
-                let pixels: Vec<u32> =
-                    (0..before.len() as u32).filter(|&i| before[i as usize] != film.color[i as usize]).collect();
-                let color = pixels.iter().map(|&i| film.color[i as usize]).collect();
-                film.color = before;
-                ColourDelta { pixels, color }
+                // The previous anti-aliasing's colour of a pixel refined again through the
+                // same rays with the same lights known (`Traced::same`; what it reads of its
+                // neighbours is in `known`).
+                let old = old.as_ref().and_then(|e| e.value.traced.as_ref().map(|t| (&e.value, t)));
+                // Each pixel's place in the previous refined list, plus one (0: not refined).
+                let at = old.map(|(o, _)| {
+                    let mut at = vec![0u32; film.pixel_count()];
+                    for (k, &i) in o.pixels.iter().enumerate() {
+                        at[i as usize] = k as u32 + 1;
+                    }
+                    at
+                });
+                let reuse = |i: u32, known: u64| -> Option<Vec4> {
+                    let ((o, t), at) = old.zip(at.as_ref())?;
+                    let k = at[i as usize].checked_sub(1)? as usize;
+                    (o.known[k] == known && t.same(&traced, i as usize, std::iter::empty())).then(|| o.color[k])
+                };
+                let (pixels, known, color, traced_count) = super::antialias_reusing(
+                    prep,
+                    view,
+                    &ctx,
+                    &params.trace,
+                    map,
+                    aims,
+                    film,
+                    &reuse,
+                    progress,
+                    timings,
+                );
+                pixels_kept.antialiasing_kept = pixels.len() - traced_count;
+                pixels_kept.antialiasing_traced = traced_count;
+                ColourDelta { pixels, color, known, traced: Some(traced.clone()) }
             });
+
             progress.check()?;
             lane.aa = Some(Entry { key, id: next(), value: refined });
         }
@@ -741,7 +896,12 @@ fn after_saliency_stages(
             let inputs_key = (traced_gen, plan.faceting.then_some(layout_gen));
             if !keep || !hit(&lane.paint_inputs, &inputs_key) {
                 // (A one-off render paints once: its edges are made at the border width alone.)
-                let value = if keep { PaintInputs::kept_for_changes() } else { PaintInputs::kept() };
+                let old = lane.paint_inputs.take();
+                let value = if keep {
+                    PaintInputs::kept_for_changes_after(old.as_ref().map(|e| &e.value))
+                } else {
+                    PaintInputs::kept()
+                };
                 lane.paint_inputs = Some(Entry { key: inputs_key, id: next(), value });
             }
             let inputs = &lane.paint_inputs.as_ref().expect("just made").value;
@@ -756,22 +916,38 @@ fn after_saliency_stages(
                 _ => None,
             };
             let keep_at = agree.filter(|&n| n > 0 && n < keys.len());
-            let resume = resume.map(|(done, px)| Resume { done: *done, px });
-            let painted = with_film(film, delta.as_deref_mut(), aa.as_deref_mut(), None, |film| {
+            // An opaque canvas resumed after every effect that reads the film's hits, with the
+            // regions held, reads nothing of the film: its colour starts as the kept canvas,
+            // and the moved and refined pixels need not be swapped in (nor out).
+            let opaque = !params.paint.transparent;
+            let film_unread = keep
+                && opaque
+                && resume.is_some_and(|(done, _)| *done > 0 && !painter.value.reads_hits_from(*done))
+                && inputs.has_regions();
+            let mut paint = |film: &mut Film| {
                 if !keep {
                     // A one-off render paints the film in place (no second colour buffer:
                     // tests/memory_bound.rs); the painted colour is then the film's own.
                     let r = timings.time(Stage::Paint.name(), || painter.value.apply(film, facets, lighting.as_ref()));
                     return r.map(|()| (Vec::new(), None));
                 }
-                let mut colour = film.color.clone();
+                // (Opaque: the canvas is the colour itself, so the kept one is copied once.)
+                let (mut colour, resume) = match resume {
+                    Some((done, px)) if opaque => (px.clone(), Some(Resume { done: *done, px: None })),
+                    r => (film.color.clone(), r.map(|(done, px)| Resume { done: *done, px: Some(px) })),
+                };
                 std::mem::swap(&mut film.color, &mut colour);
                 let r = timings.time(Stage::Paint.name(), || {
                     painter.value.apply_from(film, facets, lighting.as_ref(), inputs, resume, keep_at)
                 });
                 std::mem::swap(&mut film.color, &mut colour);
                 r.map(|kept| (colour, kept.map(|px| (keep_at.unwrap_or(0), px))))
-            });
+            };
+            let painted = if film_unread {
+                paint(film)
+            } else {
+                with_film(film, delta.as_deref_mut(), aa.as_deref_mut(), None, paint)
+            };
             let (painted, kept) = match painted {
                 Ok(p) => p,
                 Err(e) => {
@@ -833,7 +1009,7 @@ fn after_saliency_stages(
     if let Some(path) = &params.save_facets {
         facets::io::save(path, &out.layout, &out.map)?;
     }
-    Ok((encoded, warnings, view.describe_camera(prep), reused))
+    Ok((encoded, warnings, view.describe_camera(prep), reused, pixels_kept))
 }
 
 /// What `Session::set_scene` or `Session::load_scene` did.

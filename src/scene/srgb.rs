@@ -44,28 +44,59 @@ fn srgb8_starts() -> &'static [u8] {
 }
 
 /// `srgb8_formula(v)` without a power per channel: the number of code thresholds at or below
-/// `v`, counted from its bucket's start (`srgb8_starts`; a bucket holds at most a threshold or
-/// two). The same code wherever the rounded formula is monotone (`srgb_codes_match_the_formula`
-/// checks every float near every threshold); NaN and values at or below 0 give 0.
+/// `v`, counted from its bucket's start (`srgb8_starts`; a bucket holds at most one threshold,
+/// `a_bucket_holds_at_most_one_threshold`). The same code wherever the rounded formula is
+/// monotone (`srgb_codes_match_the_formula` checks every float near every threshold); NaN and
+/// values at or below 0 give 0.
 pub fn srgb8(v: f32) -> u8 {
-    if !(v > 0.0) {
-        return 0;
+    Srgb8::get().code(v)
+}
+
+/// `srgb8`'s tables, fetched once for a loop over many values (the encoder's).
+#[derive(Clone, Copy)]
+pub struct Srgb8 {
+    starts: &'static [u8],
+    /// The thresholds, then +infinity (so the count needs no bound check).
+    thresholds: &'static [f32; 256],
+}
+
+impl Srgb8 {
+    pub fn get() -> Srgb8 {
+        static T: std::sync::OnceLock<[f32; 256]> = std::sync::OnceLock::new();
+        let thresholds = T.get_or_init(|| {
+            let t = srgb8_thresholds();
+            std::array::from_fn(|k| t.get(k).copied().unwrap_or(f32::INFINITY))
+        });
+        Srgb8 { starts: srgb8_starts(), thresholds }
     }
-    if v >= 1.0 {
-        // Every threshold is at most 1.
-        return 255;
+
+    /// `srgb8(v)`.
+    #[inline]
+    pub fn code(&self, v: f32) -> u8 {
+        if !(v > 0.0) {
+            return 0;
+        }
+        if v >= 1.0 {
+            // Every threshold is at most 1.
+            return 255;
+        }
+        let c = self.starts[(v.to_bits() >> BUCKET_SHIFT) as usize] as usize;
+        (c + (self.thresholds[c] <= v) as usize) as u8
     }
-    let t = srgb8_thresholds();
-    let mut c = srgb8_starts()[(v.to_bits() >> BUCKET_SHIFT) as usize] as usize;
-    while c < t.len() && t[c] <= v {
-        c += 1;
-    }
-    c as u8
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_bucket_holds_at_most_one_threshold() {
+        let t = srgb8_thresholds();
+        for w in t.windows(2) {
+            assert!(w[0] < w[1], "{w:?}");
+            assert_ne!(w[0].to_bits() >> BUCKET_SHIFT, w[1].to_bits() >> BUCKET_SHIFT, "{w:?}");
+        }
+    }
 
     #[test]
     fn srgb_codes_match_the_formula() {
