@@ -237,7 +237,8 @@ impl Tracer<'_> {
             self.render_rows(film, rays, progress, |i| !on_grid(i), |i| known[i], centre);
             return;
         };
-        let (grid, rest): (Vec<u32>, Vec<u32>) = list.iter().partition(|&&i| on_grid(i as usize));
+        let grid: Vec<u32> = list.par_iter().copied().filter(|&i| on_grid(i as usize)).collect();
+        let rest: Vec<u32> = list.par_iter().copied().filter(|&i| !on_grid(i as usize)).collect();
         self.render_subset(film, rays, &grid, None, centre, progress);
         let traced = &*film;
         let known: Vec<Known> = rest.par_iter().map(|&i| coarse_occlusion(traced, ids, i as usize)).collect();
@@ -392,7 +393,7 @@ impl Tracer<'_> {
             .concat();
         drop(wanted);
         let on_grid = |i: usize| (i % w).is_multiple_of(2) && (i / w).is_multiple_of(2);
-        let rest: Vec<u32> = pixels.iter().copied().filter(|&i| !on_grid(i as usize)).collect();
+        let rest: Vec<u32> = pixels.par_iter().copied().filter(|&i| !on_grid(i as usize)).collect();
         shade(film, &grid, false);
         shade(film, &rest, true);
     }
@@ -459,16 +460,42 @@ fn centre_hit(film: &Film, i: usize) -> Option<Option<Hit>> {
     Some(h.is_hit().then_some(Hit { tri: h.tri, object: h.object, t: h.t, u: h.u, v: h.v }))
 }
 
-/// Stores `trace_subset`'s chunks for the pixels of `list` in `film`.
+/// Stores `trace_subset`'s chunks for the pixels of `list` in `film`: bands of rows in
+/// parallel when `list` ascends (every caller's does; perf7, issue 16), else in turn.
 fn write_subset(film: &mut Film, list: &[u32], chunks: Vec<SubsetChunk>) {
     let spp = film.spp as usize;
-    for (chunk, (out, samples)) in list.chunks(CHUNK).zip(chunks) {
-        for (k, &i) in chunk.iter().enumerate() {
-            let i = i as usize;
-            (film.color[i], film.hits[i], film.occlusion[i]) = out[k];
-            film.samples[i * spp..(i + 1) * spp].copy_from_slice(&samples[k * spp..(k + 1) * spp]);
+    let ascending = list.windows(2).all(|p| p[0] < p[1]);
+    if !ascending {
+        for (chunk, (out, samples)) in list.chunks(CHUNK).zip(chunks) {
+            for (k, &i) in chunk.iter().enumerate() {
+                let i = i as usize;
+                (film.color[i], film.hits[i], film.occlusion[i]) = out[k];
+                film.samples[i * spp..(i + 1) * spp].copy_from_slice(&samples[k * spp..(k + 1) * spp]);
+            }
         }
+        return;
     }
+    const ROWS: usize = 16;
+    let band = film.width as usize * ROWS;
+    let chunks = &chunks;
+    film.color
+        .par_chunks_mut(band)
+        .zip(film.hits.par_chunks_mut(band))
+        .zip(film.occlusion.par_chunks_mut(band))
+        .zip(film.samples.par_chunks_mut(band * spp))
+        .enumerate()
+        .for_each(|(b, (((color, hits), occlusion), samples))| {
+            let base = b * band;
+            let first = list.partition_point(|&i| (i as usize) < base);
+            let last = list.partition_point(|&i| (i as usize) < base + color.len());
+            for (k, &i) in list.iter().enumerate().take(last).skip(first) {
+                let j = i as usize - base;
+                let (out, traced) = &chunks[k / CHUNK];
+                let c = k % CHUNK;
+                (color[j], hits[j], occlusion[j]) = out[c];
+                samples[j * spp..(j + 1) * spp].copy_from_slice(&traced[c * spp..(c + 1) * spp]);
+            }
+        });
 }
 
 /// The 8-neighbours of pixel `i` in the same facet, and `i` itself.
