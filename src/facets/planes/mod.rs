@@ -107,9 +107,9 @@ pub fn layout(input: &PlanesInput, params: &PlanesParams) -> FacetLayout {
                 return Vec::new();
             }
             let mut labels: Vec<u32> =
-                hits.iter().map(|h| if h.is_hit() { h.object } else { outlines::BACKGROUND }).collect();
+                hits.par_iter().map(|h| if h.is_hit() { h.object } else { outlines::BACKGROUND }).collect();
             outlines::clean_labels(&mut labels, w, h, ((SPECK_SHARE * n as f64) as usize).max(4));
-            let depth: Vec<f32> = hits.iter().map(|h| h.t).collect();
+            let depth: Vec<f32> = hits.par_iter().map(|h| h.t).collect();
             outlines::layers(
                 &labels,
                 &depth,

@@ -372,12 +372,36 @@ pub fn layers(
                 .collect(),
         }
     };
-    let all: Vec<bool> = labels.iter().map(|&l| l != BACKGROUND).collect();
+    let all: Vec<bool> = labels.par_iter().map(|&l| l != BACKGROUND).collect();
     if !all.contains(&true) {
         return result;
     }
     result.push(simplify(trace(&all, w, h)));
-    // Objects by area, with their mean depth.
+    // Objects by area (counted by rows in parallel), then, when two or more are large
+    // enough to matter, with their mean depth (summed in pixel order, as ever).
+    let areas = labels
+        .par_chunks(w.max(1))
+        .fold(Vec::new, |mut areas: Vec<(u32, usize)>, row| {
+            for &l in row.iter().filter(|&&l| l != BACKGROUND) {
+                match areas.iter_mut().find(|a| a.0 == l) {
+                    Some(a) => a.1 += 1,
+                    None => areas.push((l, 1)),
+                }
+            }
+            areas
+        })
+        .reduce(Vec::new, |mut a, b| {
+            for (l, k) in b {
+                match a.iter_mut().find(|e| e.0 == l) {
+                    Some(e) => e.1 += k,
+                    None => a.push((l, k)),
+                }
+            }
+            a
+        });
+    if areas.iter().filter(|a| a.1 >= min_object_area).count() < 2 {
+        return result;
+    }
     let mut stats: Vec<(u32, usize, f64)> = Vec::new();
     for (i, &l) in labels.iter().enumerate() {
         if l == BACKGROUND {
