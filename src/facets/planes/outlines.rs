@@ -491,7 +491,7 @@ mod tests {
                 let (x, y) = ((i % w) as f64 / w as f64, (i / w) as f64 / h as f64);
                 match next() % 23 {
                     0 => (next() % values as u64) as u32,
-                    1 if (i % w + i / w) % 2 == 0 => BACKGROUND,
+                    1 if (i % w + i / w).is_multiple_of(2) => BACKGROUND,
                     _ => centres
                         .iter()
                         .min_by(|a, b| {
