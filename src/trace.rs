@@ -460,12 +460,17 @@ fn centre_hit(film: &Film, i: usize) -> Option<Option<Hit>> {
     Some(h.is_hit().then_some(Hit { tri: h.tri, object: h.object, t: h.t, u: h.u, v: h.v }))
 }
 
+/// Pixels from which `write_subset` writes in parallel (smaller lists, such as
+/// `shade_traced`'s batches, cost more in tasks than they gain).
+const PARALLEL_WRITE: usize = 1 << 16;
+
 /// Stores `trace_subset`'s chunks for the pixels of `list` in `film`: bands of rows in
-/// parallel when `list` ascends (every caller's does; perf7, issue 16), else in turn.
+/// parallel when `list` is long and ascends (the re-trace's does; perf7, issue 16), else in
+/// turn.
 fn write_subset(film: &mut Film, list: &[u32], chunks: Vec<SubsetChunk>) {
     let spp = film.spp as usize;
-    let ascending = list.windows(2).all(|p| p[0] < p[1]);
-    if !ascending {
+    let parallel = list.len() >= PARALLEL_WRITE && list.windows(2).all(|p| p[0] < p[1]);
+    if !parallel {
         for (chunk, (out, samples)) in list.chunks(CHUNK).zip(chunks) {
             for (k, &i) in chunk.iter().enumerate() {
                 let i = i as usize;
@@ -800,6 +805,46 @@ mod tests {
                 assert_eq!(deferred.film.hits[i], lit.film.hits[i]);
                 assert_eq!(deferred.film.samples[i], lit.film.samples[i]);
             }
+        }
+    }
+
+    /// `write_subset` in parallel bands (perf7) stores what the serial loop stores, for lists
+    /// long enough to take the parallel path and for short or unordered ones.
+    #[test]
+    fn write_subset_in_bands_matches_the_serial_loop() {
+        let (w, h, spp) = (600u32, 400u32, 2usize);
+        let fill = |i: u32| {
+            let hit = PixelHit { tri: i, object: i % 5, t: i as f32 * 0.5, normal: Vec3::Y, u: 0.25, v: 0.5 };
+            (Vec4::splat(i as f32), hit, (i % 7) as u8)
+        };
+        let stride3: Vec<u32> = (0..w * h).filter(|i| i % 3 == 0).collect();
+        let short: Vec<u32> = (0..w * h).filter(|i| i % 17 == 0).take(5000).collect();
+        let mut unordered = stride3.clone();
+        unordered.swap(10, 20_000);
+        for list in [stride3, short, unordered] {
+            let chunks: Vec<SubsetChunk> = list
+                .chunks(CHUNK)
+                .map(|c| {
+                    let out = c.iter().map(|&i| fill(i)).collect();
+                    let samples = c
+                        .iter()
+                        .flat_map(|&i| (0..spp as u32).map(move |s| SampleHit { tri: i * 2 + s, u: 0.1, v: 0.2 }))
+                        .collect();
+                    (out, samples)
+                })
+                .collect();
+            let mut want = Film::new(w, h, spp as u32);
+            for (chunk, (out, samples)) in list.chunks(CHUNK).zip(&chunks) {
+                for (k, &i) in chunk.iter().enumerate() {
+                    let i = i as usize;
+                    (want.color[i], want.hits[i], want.occlusion[i]) = out[k];
+                    want.samples[i * spp..(i + 1) * spp].copy_from_slice(&samples[k * spp..(k + 1) * spp]);
+                }
+            }
+            let mut got = Film::new(w, h, spp as u32);
+            write_subset(&mut got, &list, chunks);
+            assert!(got.color == want.color && got.hits == want.hits, "{} pixels", list.len());
+            assert!(got.occlusion == want.occlusion && got.samples == want.samples);
         }
     }
 
