@@ -14,7 +14,6 @@
 //! facet is all subject or all backdrop, so the rule rarely has to weigh a mixed one.
 
 use glam::DVec2;
-use rayon::prelude::*;
 
 use super::cues::CueVertices;
 use super::{AimContext, AimParams, FacetAim, FacetProjection};
@@ -58,38 +57,24 @@ pub fn hold_background(aims: &mut [FacetAim], coverage: &[f64], min_coverage: f6
 pub fn facet_widths(map: &FacetMap) -> Vec<f64> {
     let (w, h) = (map.width as usize, map.height as usize);
     let n = map.facet_count as usize;
-    // Bands of rows in parallel, their integer counts summed (perf7, issue 16).
-    const BAND: usize = 32;
-    let band = |k: usize| {
-        let (mut area, mut perimeter) = (vec![0u64; n], vec![0u64; n]);
-        for y in k * BAND..((k + 1) * BAND).min(h) {
-            for x in 0..w {
-                let i = y * w + x;
-                let id = map.ids[i] as usize;
-                area[id] += 1;
-                let differs = |j: Option<usize>| j.is_none_or(|j| map.ids[j] as usize != id);
-                perimeter[id] += [
-                    differs((x > 0).then(|| i - 1)),
-                    differs((x + 1 < w).then(|| i + 1)),
-                    differs((y > 0).then(|| i - w)),
-                    differs((y + 1 < h).then(|| i + w)),
-                ]
-                .iter()
-                .filter(|&&d| d)
-                .count() as u64;
-            }
+    let (mut area, mut perimeter) = (vec![0u64; n], vec![0u64; n]);
+    for y in 0..h {
+        for x in 0..w {
+            let i = y * w + x;
+            let id = map.ids[i] as usize;
+            area[id] += 1;
+            let differs = |j: Option<usize>| j.is_none_or(|j| map.ids[j] as usize != id);
+            perimeter[id] += [
+                differs((x > 0).then(|| i - 1)),
+                differs((x + 1 < w).then(|| i + 1)),
+                differs((y > 0).then(|| i - w)),
+                differs((y + 1 < h).then(|| i + w)),
+            ]
+            .iter()
+            .filter(|&&d| d)
+            .count() as u64;
         }
-        (area, perimeter)
-    };
-    let (area, perimeter) = (0..h.div_ceil(BAND))
-        .into_par_iter()
-        .map(band)
-        .reduce_with(|(mut a1, mut p1), (a2, p2)| {
-            a1.iter_mut().zip(a2).for_each(|(x, y)| *x += y);
-            p1.iter_mut().zip(p2).for_each(|(x, y)| *x += y);
-            (a1, p1)
-        })
-        .unwrap_or_else(|| (vec![0; n], vec![0; n]));
+    }
     area.iter().zip(&perimeter).map(|(&a, &p)| if p > 0 { 2.0 * a as f64 / p as f64 } else { 0.0 }).collect()
 }
 
@@ -129,18 +114,17 @@ pub const CUE_PIXEL_SHARE: f64 = 0.15;
 /// shown at least as often as in the unfaceted render). The salient pixels are the top
 /// `CUE_PIXEL_SHARE` of `saliency` over the pixels that show geometry.
 pub fn keep_cues(aims: &mut [FacetAim], ctx: &AimContext, map: &FacetMap, saliency: &[f32]) {
-    let mut values: Vec<f32> = saliency.par_iter().copied().filter(|&v| v > 0.0).collect();
+    let mut values: Vec<f32> = saliency.iter().copied().filter(|&v| v > 0.0).collect();
     if values.is_empty() || saliency.len() != map.ids.len() {
         return;
     }
     let k = ((values.len() as f64 * (1.0 - CUE_PIXEL_SHARE)) as usize).min(values.len() - 1);
     let (_, &mut threshold, _) = values.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
     let (offsets, pixels) = map.pixels_by_facet();
-    // Each facet on its own (its aim alone changes): in parallel.
-    aims.par_iter_mut().enumerate().for_each(|(f, aim)| {
-        let (Some(fc), Some(sc)) = (aim.fc, aim.sc) else { return };
+    for (f, aim) in aims.iter_mut().enumerate() {
+        let (Some(fc), Some(sc)) = (aim.fc, aim.sc) else { continue };
         if aim.reaim.is_none() {
-            return;
+            continue;
         }
         let salient: Vec<u32> = pixels[offsets[f] as usize..offsets[f + 1] as usize]
             .iter()
@@ -149,10 +133,10 @@ pub fn keep_cues(aims: &mut [FacetAim], ctx: &AimContext, map: &FacetMap, salien
             .collect();
         let scale = shift_scale_keeping(map, &salient, f, sc - fc);
         if scale == 1.0 {
-            return;
+            continue;
         }
         super::cues::reaim_at(aim, ctx, fc, fc + (sc - fc) * scale);
-    });
+    }
 }
 
 /// The largest of 1, 1/2, 1/4 (else 0) such that facet `f`'s view shifted by that much of
@@ -185,17 +169,12 @@ pub fn apply(
     cues: Option<&CueVertices>,
     params: &AimParams,
 ) -> Option<super::cues::CentreHits> {
-    // Coverage and widths read only the map and the film: made side by side (perf7, issue 16).
-    let limits = params.width_share > 0.0 && params.projection == FacetProjection::Converging;
-    let (coverage, widths) = rayon::join(
-        || (params.min_coverage > 0.0).then(|| facet_coverage(map, |i| film.color[i].w)),
-        || limits.then(|| facet_widths(map)),
-    );
-    if let Some(c) = coverage {
+    if params.min_coverage > 0.0 {
+        let c = facet_coverage(map, |i| film.color[i].w);
         hold_background(aims, &c, params.min_coverage);
     }
-    if let Some(widths) = widths {
-        limit_shift(aims, &widths, params.width_share, ctx);
+    if params.width_share > 0.0 && params.projection == FacetProjection::Converging {
+        limit_shift(aims, &facet_widths(map), params.width_share, ctx);
         // Only when re-aiming reads the saliency map anyway (what the aims depend on stays
         // what `reads_saliency` says: the session's stage cache keys on it).
         if let Some(s) = film.saliency.as_deref().filter(|_| params.reads_saliency()) {
@@ -212,46 +191,6 @@ pub fn apply(
 mod tests {
     use super::*;
     use glam::{DVec2, DVec3};
-
-    /// A map of blocky random facets (some ids unused), `w` x `h`.
-    fn random_map(w: u32, h: u32, facets: u32, seed: u64) -> FacetMap {
-        let mut state = seed;
-        let blocks: Vec<u32> = (0..64)
-            .map(|_| {
-                state = crate::util::rng::splitmix64(state);
-                (state % facets as u64) as u32
-            })
-            .collect();
-        let ids = (0..w * h).map(|i| blocks[(((i % w) * 8 / w) + ((i / w) * 8 / h) * 8) as usize]).collect();
-        FacetMap { width: w, height: h, ids, facet_count: facets }
-    }
-
-    /// Widths, counted in bands of rows in parallel (perf7), equal the one pass over the
-    /// image.
-    #[test]
-    fn widths_match_one_pass() {
-        for (w, h, seed) in [(1u32, 1u32, 1u64), (97, 61, 2), (300, 170, 3), (16, 500, 4)] {
-            let map = random_map(w, h, 11, seed);
-            let n = map.facet_count as usize;
-            let (wu, hu) = (w as usize, h as usize);
-            let (mut area, mut perimeter) = (vec![0u64; n], vec![0u64; n]);
-            for i in 0..wu * hu {
-                let (x, y, id) = (i % wu, i / wu, map.ids[i]);
-                area[id as usize] += 1;
-                let other = |j: Option<usize>| j.is_none_or(|j| map.ids[j] != id) as u64;
-                perimeter[id as usize] += other((x > 0).then(|| i - 1))
-                    + other((x + 1 < wu).then(|| i + 1))
-                    + other((y > 0).then(|| i - wu))
-                    + other((y + 1 < hu).then(|| i + wu));
-            }
-            let want: Vec<f64> = area
-                .iter()
-                .zip(&perimeter)
-                .map(|(&a, &p)| if p > 0 { 2.0 * a as f64 / p as f64 } else { 0.0 })
-                .collect();
-            assert_eq!(facet_widths(&map), want);
-        }
-    }
 
     use crate::imprecision::Reaim;
 
