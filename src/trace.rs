@@ -237,7 +237,8 @@ impl Tracer<'_> {
             self.render_rows(film, rays, progress, |i| !on_grid(i), |i| known[i], centre);
             return;
         };
-        let (grid, rest): (Vec<u32>, Vec<u32>) = list.iter().partition(|&&i| on_grid(i as usize));
+        let grid: Vec<u32> = list.par_iter().copied().filter(|&i| on_grid(i as usize)).collect();
+        let rest: Vec<u32> = list.par_iter().copied().filter(|&i| !on_grid(i as usize)).collect();
         self.render_subset(film, rays, &grid, None, centre, progress);
         let traced = &*film;
         let known: Vec<Known> = rest.par_iter().map(|&i| coarse_occlusion(traced, ids, i as usize)).collect();
@@ -392,7 +393,7 @@ impl Tracer<'_> {
             .concat();
         drop(wanted);
         let on_grid = |i: usize| (i % w).is_multiple_of(2) && (i / w).is_multiple_of(2);
-        let rest: Vec<u32> = pixels.iter().copied().filter(|&i| !on_grid(i as usize)).collect();
+        let rest: Vec<u32> = pixels.par_iter().copied().filter(|&i| !on_grid(i as usize)).collect();
         shade(film, &grid, false);
         shade(film, &rest, true);
     }
@@ -459,16 +460,47 @@ fn centre_hit(film: &Film, i: usize) -> Option<Option<Hit>> {
     Some(h.is_hit().then_some(Hit { tri: h.tri, object: h.object, t: h.t, u: h.u, v: h.v }))
 }
 
-/// Stores `trace_subset`'s chunks for the pixels of `list` in `film`.
+/// Pixels from which `write_subset` writes in parallel (smaller lists, such as
+/// `shade_traced`'s batches, cost more in tasks than they gain).
+const PARALLEL_WRITE: usize = 1 << 16;
+
+/// Stores `trace_subset`'s chunks for the pixels of `list` in `film`: bands of rows in
+/// parallel when `list` is long and ascends (the re-trace's does; perf7, issue 16), else in
+/// turn.
 fn write_subset(film: &mut Film, list: &[u32], chunks: Vec<SubsetChunk>) {
     let spp = film.spp as usize;
-    for (chunk, (out, samples)) in list.chunks(CHUNK).zip(chunks) {
-        for (k, &i) in chunk.iter().enumerate() {
-            let i = i as usize;
-            (film.color[i], film.hits[i], film.occlusion[i]) = out[k];
-            film.samples[i * spp..(i + 1) * spp].copy_from_slice(&samples[k * spp..(k + 1) * spp]);
+    let parallel = list.len() >= PARALLEL_WRITE && list.windows(2).all(|p| p[0] < p[1]);
+    if !parallel {
+        for (chunk, (out, samples)) in list.chunks(CHUNK).zip(chunks) {
+            for (k, &i) in chunk.iter().enumerate() {
+                let i = i as usize;
+                (film.color[i], film.hits[i], film.occlusion[i]) = out[k];
+                film.samples[i * spp..(i + 1) * spp].copy_from_slice(&samples[k * spp..(k + 1) * spp]);
+            }
         }
+        return;
     }
+    const ROWS: usize = 16;
+    let band = film.width as usize * ROWS;
+    let chunks = &chunks;
+    film.color
+        .par_chunks_mut(band)
+        .zip(film.hits.par_chunks_mut(band))
+        .zip(film.occlusion.par_chunks_mut(band))
+        .zip(film.samples.par_chunks_mut(band * spp))
+        .enumerate()
+        .for_each(|(b, (((color, hits), occlusion), samples))| {
+            let base = b * band;
+            let first = list.partition_point(|&i| (i as usize) < base);
+            let last = list.partition_point(|&i| (i as usize) < base + color.len());
+            for (k, &i) in list.iter().enumerate().take(last).skip(first) {
+                let j = i as usize - base;
+                let (out, traced) = &chunks[k / CHUNK];
+                let c = k % CHUNK;
+                (color[j], hits[j], occlusion[j]) = out[c];
+                samples[j * spp..(j + 1) * spp].copy_from_slice(&traced[c * spp..(c + 1) * spp]);
+            }
+        });
 }
 
 /// The 8-neighbours of pixel `i` in the same facet, and `i` itself.
@@ -781,6 +813,46 @@ mod tests {
                 assert_eq!(deferred.film.hits[i], lit.film.hits[i]);
                 assert_eq!(deferred.film.samples[i], lit.film.samples[i]);
             }
+        }
+    }
+
+    /// `write_subset` in parallel bands (perf7) stores what the serial loop stores, for lists
+    /// long enough to take the parallel path and for short or unordered ones.
+    #[test]
+    fn write_subset_in_bands_matches_the_serial_loop() {
+        let (w, h, spp) = (600u32, 400u32, 2usize);
+        let fill = |i: u32| {
+            let hit = PixelHit { tri: i, object: i % 5, t: i as f32 * 0.5, normal: Vec3::Y, u: 0.25, v: 0.5 };
+            (Vec4::splat(i as f32), hit, (i % 7) as u8)
+        };
+        let stride3: Vec<u32> = (0..w * h).filter(|i| i % 3 == 0).collect();
+        let short: Vec<u32> = (0..w * h).filter(|i| i % 17 == 0).take(5000).collect();
+        let mut unordered = stride3.clone();
+        unordered.swap(10, 20_000);
+        for list in [stride3, short, unordered] {
+            let chunks: Vec<SubsetChunk> = list
+                .chunks(CHUNK)
+                .map(|c| {
+                    let out = c.iter().map(|&i| fill(i)).collect();
+                    let samples = c
+                        .iter()
+                        .flat_map(|&i| (0..spp as u32).map(move |s| SampleHit { tri: i * 2 + s, u: 0.1, v: 0.2 }))
+                        .collect();
+                    (out, samples)
+                })
+                .collect();
+            let mut want = Film::new(w, h, spp as u32);
+            for (chunk, (out, samples)) in list.chunks(CHUNK).zip(&chunks) {
+                for (k, &i) in chunk.iter().enumerate() {
+                    let i = i as usize;
+                    (want.color[i], want.hits[i], want.occlusion[i]) = out[k];
+                    want.samples[i * spp..(i + 1) * spp].copy_from_slice(&samples[k * spp..(k + 1) * spp]);
+                }
+            }
+            let mut got = Film::new(w, h, spp as u32);
+            write_subset(&mut got, &list, chunks);
+            assert!(got.color == want.color && got.hits == want.hits, "{} pixels", list.len());
+            assert!(got.occlusion == want.occlusion && got.samples == want.samples);
         }
     }
 

@@ -250,7 +250,9 @@ pub fn aims_stage_traced(
 
 /// The pixels of the facets whose rays moved (what the re-trace traces again).
 pub fn moved_pixels(map: &FacetMap, aims: &[FacetAim]) -> Vec<u32> {
-    (0..map.ids.len() as u32).filter(|&i| aims[map.ids[i as usize] as usize].moved()).collect()
+    use rayon::prelude::*;
+    // In parallel, in pixel order (rayon's collect keeps it).
+    (0..map.ids.len() as u32).into_par_iter().filter(|&i| aims[map.ids[i as usize] as usize].moved()).collect()
 }
 
 /// Each pixel's ray through its facet: the camera's, re-aimed where the facet's aim moved
@@ -288,14 +290,15 @@ pub fn shade_stage(
     progress: &Progress,
     timings: &mut Timings,
 ) {
-    let n = film.pixel_count() as u32;
-    let mut kept = Vec::with_capacity(n as usize - moved.len().min(n as usize));
-    let mut next = moved.iter().copied().peekable();
-    for i in 0..n {
-        if next.next_if_eq(&i).is_none() {
-            kept.push(i);
-        }
+    use rayon::prelude::*;
+    let n = film.pixel_count();
+    // The complement of `moved` (ascending), in parallel, in pixel order.
+    let mut is_moved = vec![false; n];
+    for &i in moved {
+        is_moved[i as usize] = true;
     }
+    let kept: Vec<u32> = (0..n as u32).into_par_iter().filter(|&i| !is_moved[i as usize]).collect();
+    drop(is_moved);
     progress.begin(Stage::ReTrace.name(), kept.len() as u64);
     let tracer = view.tracer(prep, trace);
     let rays = ctx.camera.centre_rays(film.width, film.height);

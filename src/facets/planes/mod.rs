@@ -26,6 +26,7 @@ pub mod polygon;
 pub mod split;
 
 use glam::DVec2;
+use rayon::prelude::*;
 
 use crate::facets::{FacetLayout, FacetPolygon, MAX_FACETS};
 use crate::film::PixelHit;
@@ -96,26 +97,30 @@ pub fn layout(input: &PlanesInput, params: &PlanesParams) -> FacetLayout {
     let diag = (wf * wf + hf * hf).sqrt();
     let hits = input.hits;
     let covered = |i: usize| hits[i].is_hit();
-    let density = density::Density::new(input.width, input.height, &covered, input.saliency, params.detail);
-
-    // 2. Outlines.
-    let layers = if params.outlines {
-        let mut labels: Vec<u32> =
-            hits.iter().map(|h| if h.is_hit() { h.object } else { outlines::BACKGROUND }).collect();
-        outlines::clean_labels(&mut labels, w, h, ((SPECK_SHARE * n as f64) as usize).max(4));
-        let depth: Vec<f32> = hits.iter().map(|h| h.t).collect();
-        outlines::layers(
-            &labels,
-            &depth,
-            w,
-            h,
-            ((OBJECT_SHARE * n as f64) as usize).max(1),
-            OUTLINE_TOLERANCE * diag,
-            OUTLINE_MIN_EDGE * diag,
-        )
-    } else {
-        Vec::new()
-    };
+    // The density and the outlines read only the pre-render: made side by side (perf7,
+    // issue 16: the outlines' labelling is serial).
+    let (density, layers) = rayon::join(
+        || density::Density::new(input.width, input.height, &covered, input.saliency, params.detail),
+        || {
+            // 2. Outlines.
+            if !params.outlines {
+                return Vec::new();
+            }
+            let mut labels: Vec<u32> =
+                hits.par_iter().map(|h| if h.is_hit() { h.object } else { outlines::BACKGROUND }).collect();
+            outlines::clean_labels(&mut labels, w, h, ((SPECK_SHARE * n as f64) as usize).max(4));
+            let depth: Vec<f32> = hits.par_iter().map(|h| h.t).collect();
+            outlines::layers(
+                &labels,
+                &depth,
+                w,
+                h,
+                ((OBJECT_SHARE * n as f64) as usize).max(1),
+                OUTLINE_TOLERANCE * diag,
+                OUTLINE_MIN_EDGE * diag,
+            )
+        },
+    );
     let runs: Vec<split::Run> = layers
         .iter()
         .flat_map(|l| l.rings.iter())
@@ -221,29 +226,47 @@ fn merge_small(ids: &[u32], w: usize, h: usize, count: usize, side: &[u32], min_
     let mut parent: Vec<u32> = (0..count as u32).collect();
     let min_area = (min_side * min_side) as u64;
     for _round in 0..3 {
-        let mut area = vec![0u64; count];
-        let mut perimeter = vec![0u64; count];
-        // Shared border lengths between current roots, as (a, b) -> count with a < b.
-        let mut shared: std::collections::BTreeMap<(u32, u32), u64> = Default::default();
         let mut current: Vec<u32> = (0..count as u32).collect();
         for f in 0..count as u32 {
             current[f as usize] = root(&mut parent, f);
         }
-        for y in 0..h {
-            for x in 0..w {
-                let i = y * w + x;
-                let a = current[ids[i] as usize];
-                area[a as usize] += 1;
-                for j in [(x + 1 < w).then(|| i + 1), (y + 1 < h).then(|| i + w)].into_iter().flatten() {
-                    let b = current[ids[j] as usize];
-                    if a != b {
-                        perimeter[a as usize] += 1;
-                        perimeter[b as usize] += 1;
-                        *shared.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+        // Areas, inner perimeters and shared border lengths (a, b) -> count with a < b
+        // between current roots: bands of rows in parallel, their integer counts summed
+        // (the same totals in any order; perf7, issue 16).
+        let band = |rows: std::ops::Range<usize>| {
+            let mut area = vec![0u64; count];
+            let mut perimeter = vec![0u64; count];
+            let mut shared: std::collections::BTreeMap<(u32, u32), u64> = Default::default();
+            for y in rows {
+                for x in 0..w {
+                    let i = y * w + x;
+                    let a = current[ids[i] as usize];
+                    area[a as usize] += 1;
+                    for j in [(x + 1 < w).then(|| i + 1), (y + 1 < h).then(|| i + w)].into_iter().flatten() {
+                        let b = current[ids[j] as usize];
+                        if a != b {
+                            perimeter[a as usize] += 1;
+                            perimeter[b as usize] += 1;
+                            *shared.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+                        }
                     }
                 }
             }
-        }
+            (area, perimeter, shared)
+        };
+        const BAND: usize = 32;
+        let (area, perimeter, shared) = (0..h.div_ceil(BAND))
+            .into_par_iter()
+            .map(|k| band(k * BAND..((k + 1) * BAND).min(h)))
+            .reduce_with(|(mut a1, mut p1, mut s1), (a2, p2, s2)| {
+                a1.iter_mut().zip(a2).for_each(|(x, y)| *x += y);
+                p1.iter_mut().zip(p2).for_each(|(x, y)| *x += y);
+                for (k, v) in s2 {
+                    *s1.entry(k).or_insert(0) += v;
+                }
+                (a1, p1, s1)
+            })
+            .unwrap_or_else(|| (vec![0; count], vec![0; count], Default::default()));
         let mut small: Vec<u32> = (0..count as u32)
             .filter(|&f| {
                 let (a, p) = (area[f as usize], perimeter[f as usize]);
@@ -283,4 +306,128 @@ fn merge_small(ids: &[u32], w: usize, h: usize, count: usize, side: &[u32], min_
         }
     }
     (0..count as u32).map(|f| root(&mut parent, f)).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `merge_small` as it was before its counts were made in parallel bands (perf7): the
+    /// reference the parallel form must match.
+    fn merge_small_serial(
+        ids: &[u32],
+        w: usize,
+        h: usize,
+        count: usize,
+        side: &[u32],
+        min_side: f64,
+        min_width: f64,
+    ) -> Vec<u32> {
+        let mut parent: Vec<u32> = (0..count as u32).collect();
+        let min_area = (min_side * min_side) as u64;
+        for _round in 0..3 {
+            let mut area = vec![0u64; count];
+            let mut perimeter = vec![0u64; count];
+            let mut shared: std::collections::BTreeMap<(u32, u32), u64> = Default::default();
+            let mut current: Vec<u32> = (0..count as u32).collect();
+            for f in 0..count as u32 {
+                current[f as usize] = root(&mut parent, f);
+            }
+            for y in 0..h {
+                for x in 0..w {
+                    let i = y * w + x;
+                    let a = current[ids[i] as usize];
+                    area[a as usize] += 1;
+                    for j in [(x + 1 < w).then(|| i + 1), (y + 1 < h).then(|| i + w)].into_iter().flatten() {
+                        let b = current[ids[j] as usize];
+                        if a != b {
+                            perimeter[a as usize] += 1;
+                            perimeter[b as usize] += 1;
+                            *shared.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+                        }
+                    }
+                }
+            }
+            let mut small: Vec<u32> = (0..count as u32)
+                .filter(|&f| {
+                    let (a, p) = (area[f as usize], perimeter[f as usize]);
+                    a > 0 && p > 0 && (a < min_area || 2.0 * (a as f64) / (p as f64) < min_width)
+                })
+                .collect();
+            if small.is_empty() {
+                break;
+            }
+            small.sort_by_key(|&f| (area[f as usize], f));
+            let mut neighbours: Vec<Vec<(u32, u64)>> = vec![Vec::new(); count];
+            for (&(a, b), &len) in &shared {
+                neighbours[a as usize].push((b, len));
+                neighbours[b as usize].push((a, len));
+            }
+            let mut merged_any = false;
+            for f in small {
+                let rf = root(&mut parent, f);
+                if rf != f {
+                    continue;
+                }
+                let best = neighbours[f as usize]
+                    .iter()
+                    .map(|&(g, len)| (root(&mut parent, g), g, len))
+                    .filter(|&(r, _, _)| r != rf)
+                    .max_by(|a, b| {
+                        let same = |g: u32| (side[g as usize] == side[f as usize]) as u8;
+                        same(a.1).cmp(&same(b.1)).then(a.2.cmp(&b.2)).then(b.0.cmp(&a.0))
+                    });
+                if let Some((r, _, _)) = best {
+                    parent[rf as usize] = r;
+                    merged_any = true;
+                }
+            }
+            if !merged_any {
+                break;
+            }
+        }
+        (0..count as u32).map(|f| root(&mut parent, f)).collect()
+    }
+
+    /// Merging small facets with its counts made in parallel bands of rows gives the serial
+    /// form's result, on random layouts of many small facets, bands cut anywhere.
+    #[test]
+    fn merge_small_matches_the_serial_counts() {
+        for (case, (w, h, cells)) in
+            [(97usize, 61usize, 9usize), (300, 170, 23), (64, 33, 4), (517, 89, 41)].into_iter().enumerate()
+        {
+            let mut state = 0x9e37_79b9_7f4a_7c15u64 ^ case as u64;
+            let mut next = || {
+                state = crate::util::rng::splitmix64(state);
+                state
+            };
+            // Voronoi-like cells of random sites, some tiny, with speckle.
+            let sites: Vec<(usize, usize)> =
+                (0..cells * cells).map(|_| ((next() % w as u64) as usize, (next() % h as u64) as usize)).collect();
+            let count = sites.len() + 5;
+            let ids: Vec<u32> = (0..w * h)
+                .map(|i| {
+                    let (x, y) = (i % w, i / w);
+                    if next() % 97 == 0 {
+                        return (sites.len() + (next() % 5) as usize) as u32;
+                    }
+                    (0..sites.len())
+                        .min_by_key(|&k| {
+                            let (sx, sy) = sites[k];
+                            (sx as i64 - x as i64).pow(2) + (sy as i64 - y as i64).pow(2)
+                        })
+                        .unwrap() as u32
+                })
+                .collect();
+            let side: Vec<u32> = (0..count as u32).map(|f| f % 3).collect();
+            let mut merged = 0;
+            for (min_side, min_width) in [(6.0, 2.0), (12.0, 4.0), (3.0, 0.5)] {
+                let want = merge_small_serial(&ids, w, h, count, &side, min_side, min_width);
+                let got = merge_small(&ids, w, h, count, &side, min_side, min_width);
+                assert_eq!(got, want, "case {case}, {min_side} {min_width}");
+                merged += want.iter().enumerate().filter(|(f, r)| **r != *f as u32).count();
+            }
+            assert!(merged > 0, "case {case}: something merged");
+        }
+    }
 }

@@ -13,6 +13,7 @@
 use std::collections::VecDeque;
 
 use glam::DVec2;
+use rayon::prelude::*;
 
 use crate::util::grid::Grid;
 
@@ -29,8 +30,86 @@ pub struct Layer {
 pub const MAX_OBJECT_LAYERS: usize = 16;
 
 /// Connected components (4-neighbourhood, equal values) of `labels`: component id per pixel
-/// and each component's (value, area). Scan order, so deterministic.
+/// and each component's (value, area). Numbered in scan order of each component's first
+/// pixel, so deterministic.
+///
+/// By runs (perf7, issue 16): each row's runs of equal values are joined (union-find) to the
+/// runs of the row above they touch with the same value, then numbered in scan order of their
+/// first run, which holds the component's first pixel: the numbering a flood fill started at
+/// each unvisited pixel in scan order gives (`components_by_flood`, the tests' reference), at
+/// a cost in runs, not pixels.
 fn components(labels: &[u32], w: usize, h: usize) -> (Vec<u32>, Vec<(u32, usize)>) {
+    if w == 0 || h == 0 {
+        return (Vec::new(), Vec::new());
+    }
+    // Runs (start pixel, end pixel exclusive, value) in scan order; each row's first run index.
+    let mut runs: Vec<(usize, usize, u32)> = Vec::new();
+    let mut row_start = Vec::with_capacity(h + 1);
+    for y in 0..h {
+        row_start.push(runs.len());
+        let row = &labels[y * w..(y + 1) * w];
+        let mut x0 = 0;
+        for x in 1..=w {
+            if x == w || row[x] != row[x0] {
+                runs.push((y * w + x0, y * w + x, row[x0]));
+                x0 = x;
+            }
+        }
+    }
+    row_start.push(runs.len());
+    let mut parent: Vec<u32> = (0..runs.len() as u32).collect();
+    fn find(parent: &mut [u32], mut a: u32) -> u32 {
+        while parent[a as usize] != a {
+            parent[a as usize] = parent[parent[a as usize] as usize];
+            a = parent[a as usize];
+        }
+        a
+    }
+    for y in 1..h {
+        let (above, here) = (row_start[y - 1]..row_start[y], row_start[y]..row_start[y + 1]);
+        let mut k = above.start;
+        for r in here {
+            let (a0, a1, v) = runs[r];
+            let (x0, x1) = (a0 - y * w, a1 - y * w);
+            // Runs above overlapping [x0, x1): advance past those ending at or before x0.
+            while k < above.end && runs[k].1 - (y - 1) * w <= x0 {
+                k += 1;
+            }
+            let mut j = k;
+            while j < above.end && runs[j].0 - (y - 1) * w < x1 {
+                if runs[j].2 == v {
+                    let (ra, rb) = (find(&mut parent, r as u32), find(&mut parent, j as u32));
+                    if ra != rb {
+                        // The lower index stays the root: no order matters for the numbering,
+                        // which reads roots only.
+                        let (lo, hi) = (ra.min(rb), ra.max(rb));
+                        parent[hi as usize] = lo;
+                    }
+                }
+                j += 1;
+            }
+        }
+    }
+    let mut id_of_root = vec![u32::MAX; runs.len()];
+    let mut info: Vec<(u32, usize)> = Vec::new();
+    let mut comp = vec![0u32; labels.len()];
+    for (r, &(a, b, v)) in runs.iter().enumerate() {
+        let root = find(&mut parent, r as u32) as usize;
+        if id_of_root[root] == u32::MAX {
+            id_of_root[root] = info.len() as u32;
+            info.push((v, 0));
+        }
+        let id = id_of_root[root];
+        info[id as usize].1 += b - a;
+        comp[a..b].fill(id);
+    }
+    (comp, info)
+}
+
+/// `components` by flood fill from each unvisited pixel in scan order: the definition, kept
+/// as the tests' reference.
+#[cfg(test)]
+fn components_by_flood(labels: &[u32], w: usize, h: usize) -> (Vec<u32>, Vec<(u32, usize)>) {
     let grid = Grid { width: w, height: h };
     let mut comp = vec![u32::MAX; labels.len()];
     let mut info = Vec::new();
@@ -133,28 +212,12 @@ pub fn trace(mask: &[bool], w: usize, h: usize) -> Vec<Vec<DVec2>> {
     let vw = w + 1;
     let at =
         |x: i64, y: i64| x >= 0 && y >= 0 && (x as usize) < w && (y as usize) < h && mask[y as usize * w + x as usize];
-    // Outgoing boundary edges per lattice vertex, one bit per direction.
+    // Outgoing boundary edges per lattice vertex, one bit per direction, each vertex from
+    // the four pixels around it (rows of vertices in parallel; perf7, issue 16): the edge
+    // going right along the top of pixel (x, y), down the right of (x - 1, y), left along the
+    // bottom of (x - 1, y - 1) and up the left of (x, y - 1), each where the mask ends.
     let mut out = vec![0u8; vw * (h + 1)];
-    for y in 0..h as i64 {
-        for x in 0..w as i64 {
-            if !at(x, y) {
-                continue;
-            }
-            let v = |x: i64, y: i64| y as usize * vw + x as usize;
-            if !at(x, y - 1) {
-                out[v(x, y)] |= 1 << 0; // top edge, going right
-            }
-            if !at(x + 1, y) {
-                out[v(x + 1, y)] |= 1 << 1; // right edge, going down
-            }
-            if !at(x, y + 1) {
-                out[v(x + 1, y + 1)] |= 1 << 2; // bottom edge, going left
-            }
-            if !at(x - 1, y) {
-                out[v(x, y + 1)] |= 1 << 3; // left edge, going up
-            }
-        }
-    }
+    out.par_chunks_mut(vw).enumerate().for_each(|(y, row)| lattice_row(&at, y, row));
     let mut rings = Vec::new();
     for start in 0..out.len() {
         while out[start] != 0 {
@@ -191,6 +254,22 @@ pub fn trace(mask: &[bool], w: usize, h: usize) -> Vec<Vec<DVec2>> {
         }
     }
     rings
+}
+
+/// Row `y` of `trace`'s lattice vertices: each vertex's outgoing boundary edges from the four
+/// pixels around it (`at(x, y)`: pixel in the mask): right along the top of pixel (x, y), down
+/// the right of (x - 1, y), left along the bottom of (x - 1, y - 1), up the left of (x, y - 1),
+/// each where the mask ends; the mask on the right of the direction of travel.
+fn lattice_row(at: &(impl Fn(i64, i64) -> bool + Sync), y: usize, row: &mut [u8]) {
+    let y = y as i64;
+    for (x, bits) in row.iter_mut().enumerate() {
+        let x = x as i64;
+        let (here, left, up, up_left) = (at(x, y), at(x - 1, y), at(x, y - 1), at(x - 1, y - 1));
+        *bits = (here && !up) as u8
+            | ((left && !here) as u8) << 1
+            | ((up_left && !left) as u8) << 2
+            | ((up && !up_left) as u8) << 3;
+    }
 }
 
 /// Douglas-Peucker simplification of a closed ring at `tolerance`: split at the point farthest
@@ -293,12 +372,36 @@ pub fn layers(
                 .collect(),
         }
     };
-    let all: Vec<bool> = labels.iter().map(|&l| l != BACKGROUND).collect();
+    let all: Vec<bool> = labels.par_iter().map(|&l| l != BACKGROUND).collect();
     if !all.contains(&true) {
         return result;
     }
     result.push(simplify(trace(&all, w, h)));
-    // Objects by area, with their mean depth.
+    // Objects by area (counted by rows in parallel), then, when two or more are large
+    // enough to matter, with their mean depth (summed in pixel order, as ever).
+    let areas = labels
+        .par_chunks(w.max(1))
+        .fold(Vec::new, |mut areas: Vec<(u32, usize)>, row| {
+            for &l in row.iter().filter(|&&l| l != BACKGROUND) {
+                match areas.iter_mut().find(|a| a.0 == l) {
+                    Some(a) => a.1 += 1,
+                    None => areas.push((l, 1)),
+                }
+            }
+            areas
+        })
+        .reduce(Vec::new, |mut a, b| {
+            for (l, k) in b {
+                match a.iter_mut().find(|e| e.0 == l) {
+                    Some(e) => e.1 += k,
+                    None => a.push((l, k)),
+                }
+            }
+            a
+        });
+    if areas.iter().filter(|a| a.1 >= min_object_area).count() < 2 {
+        return result;
+    }
     let mut stats: Vec<(u32, usize, f64)> = Vec::new();
     for (i, &l) in labels.iter().enumerate() {
         if l == BACKGROUND {
@@ -337,6 +440,99 @@ mod tests {
 
     fn area(rings: &[Vec<DVec2>]) -> f64 {
         rings.iter().map(|r| signed_area(r)).sum()
+    }
+
+    /// `trace`'s lattice edges as the loop over mask pixels made them before they were made
+    /// per vertex in parallel (perf7): the reference.
+    fn edges_by_pixel(mask: &[bool], w: usize, h: usize) -> Vec<u8> {
+        let vw = w + 1;
+        let at = |x: i64, y: i64| {
+            x >= 0 && y >= 0 && (x as usize) < w && (y as usize) < h && mask[y as usize * w + x as usize]
+        };
+        let mut out = vec![0u8; vw * (h + 1)];
+        let v = |x: i64, y: i64| y as usize * vw + x as usize;
+        for y in 0..h as i64 {
+            for x in 0..w as i64 {
+                if !at(x, y) {
+                    continue;
+                }
+                if !at(x, y - 1) {
+                    out[v(x, y)] |= 1;
+                }
+                if !at(x + 1, y) {
+                    out[v(x + 1, y)] |= 2;
+                }
+                if !at(x, y + 1) {
+                    out[v(x + 1, y + 1)] |= 4;
+                }
+                if !at(x - 1, y) {
+                    out[v(x, y + 1)] |= 8;
+                }
+            }
+        }
+        out
+    }
+
+    /// Random label images: blobs of a few values with speckle, checkerboard saddles and
+    /// single-pixel rows and columns.
+    fn random_labels(w: usize, h: usize, values: u32, seed: u64) -> Vec<u32> {
+        let mut state = seed;
+        let mut next = || {
+            state = crate::util::rng::splitmix64(state);
+            state
+        };
+        let centres: Vec<(f64, f64, u32)> = (0..6)
+            .map(|_| {
+                ((next() % 1000) as f64 / 1000.0, (next() % 1000) as f64 / 1000.0, (next() % values as u64) as u32)
+            })
+            .collect();
+        (0..w * h)
+            .map(|i| {
+                let (x, y) = ((i % w) as f64 / w as f64, (i / w) as f64 / h as f64);
+                match next() % 23 {
+                    0 => (next() % values as u64) as u32,
+                    1 if (i % w + i / w).is_multiple_of(2) => BACKGROUND,
+                    _ => centres
+                        .iter()
+                        .min_by(|a, b| {
+                            ((a.0 - x).powi(2) + (a.1 - y).powi(2)).total_cmp(&((b.0 - x).powi(2) + (b.1 - y).powi(2)))
+                        })
+                        .map_or(0, |c| c.2),
+                }
+            })
+            .collect()
+    }
+
+    /// Components by runs (perf7) number and measure them as the flood fill does.
+    #[test]
+    fn components_by_runs_match_the_flood_fill() {
+        for (k, (w, h, values)) in
+            [(1usize, 1usize, 1u32), (1, 37, 2), (41, 1, 3), (64, 48, 3), (200, 90, 5), (13, 211, 2)]
+                .into_iter()
+                .enumerate()
+        {
+            for seed in 0..4u64 {
+                let labels = random_labels(w, h, values, seed * 31 + k as u64);
+                assert_eq!(components(&labels, w, h), components_by_flood(&labels, w, h), "{w}x{h} seed {seed}");
+            }
+        }
+    }
+
+    /// The lattice edges made per vertex (perf7) are those made per mask pixel.
+    #[test]
+    fn lattice_edges_match_the_per_pixel_loop() {
+        for (w, h) in [(1usize, 1usize), (5, 1), (1, 6), (64, 48), (97, 33)] {
+            for seed in 0..3u64 {
+                let mask: Vec<bool> = random_labels(w, h, 2, seed).iter().map(|&l| l == 1).collect();
+                let vw = w + 1;
+                let mut out = vec![0u8; vw * (h + 1)];
+                let at = |x: i64, y: i64| {
+                    x >= 0 && y >= 0 && (x as usize) < w && (y as usize) < h && mask[y as usize * w + x as usize]
+                };
+                out.par_chunks_mut(vw).enumerate().for_each(|(y, row)| lattice_row(&at, y, row));
+                assert_eq!(out, edges_by_pixel(&mask, w, h), "{w}x{h} seed {seed}");
+            }
+        }
     }
 
     #[test]
