@@ -398,14 +398,8 @@ pub fn antialias_reusing(
     let tracer = view.tracer(prep, trace);
     let rays = facet_rays(ctx, map, aims);
     let out = timings.time(Stage::AntiAliasing.name(), || {
-        // As `antialias_with`: one facet where no facet moved.
-        let one_facet;
-        let ids: &[u32] = if aims.iter().any(|a| a.moved()) {
-            &map.ids
-        } else {
-            one_facet = vec![0u32; map.ids.len()];
-            &one_facet
-        };
+        let ids = aa_facets(map, aims);
+        let ids: &[u32] = &ids;
         let pixels = crate::trace::pixels_to_refine(film, ids, trace.aa_threshold);
         let known: Vec<u64> =
             pixels.par_iter().map(|&i| crate::trace::antialias_known(film, ids, i as usize)).collect();
@@ -420,6 +414,17 @@ pub fn antialias_reusing(
     });
     progress.finish();
     out
+}
+
+/// The facets anti-aliasing compares pixels within: the map's, or one facet where no facet
+/// moved (every ray is then the camera's, so facet borders are no edges of the picture and the
+/// image is the unfaceted one).
+fn aa_facets<'a>(map: &'a FacetMap, aims: &[FacetAim]) -> std::borrow::Cow<'a, [u32]> {
+    if aims.iter().any(|a| a.moved()) {
+        std::borrow::Cow::Borrowed(&map.ids)
+    } else {
+        std::borrow::Cow::Owned(vec![0u32; map.ids.len()])
+    }
 }
 
 /// `antialias_stage` with any tracer (an animation frame's posed scene and lights) and the
@@ -437,15 +442,8 @@ pub fn antialias_with(
 ) {
     let rays = facet_rays(ctx, map, aims);
     timings.time(Stage::AntiAliasing.name(), || {
-        // Where no facet moved, every ray is the camera's: facet borders are no edges of the
-        // picture, and the image is the unfaceted one (one facet for the comparisons).
-        let one_facet;
-        let ids: &[u32] = if aims.iter().any(|a| a.moved()) {
-            &map.ids
-        } else {
-            one_facet = vec![0u32; map.ids.len()];
-            &one_facet
-        };
+        let ids = aa_facets(map, aims);
+        let ids: &[u32] = &ids;
         let pixels = crate::trace::pixels_to_refine(film, ids, trace.aa_threshold);
         progress.begin(Stage::AntiAliasing.name(), pixels.len() as u64);
         tracer.antialias(film, &rays, &pixels, ids, trace.spp, progress);
