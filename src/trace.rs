@@ -12,7 +12,7 @@ use crate::camera::CameraRay;
 use crate::film::{Film, NO_HIT, PixelHit, SampleHit};
 use crate::progress::Progress;
 use crate::scene::World;
-use crate::scene::srgb::srgb8;
+use crate::scene::srgb::Srgb8;
 use crate::shading::{LightRig, Occlusion, SurfacePoint, shade_with, surface};
 use crate::util::rng::{splitmix64, unit_f64};
 
@@ -570,16 +570,24 @@ fn agreed_occlusion(film: &Film, facets: &[u32], i: usize) -> Known {
 /// What the coarse grid (even x, even y) around pixel `i` agrees on, in its facet (`facets`
 /// empty: one facet).
 fn coarse_occlusion(film: &Film, facets: &[u32], i: usize) -> Known {
-    let (w, h) = (film.width as usize, film.height as usize);
+    let same_facet = |j: usize| facets.is_empty() || facets[j] == facets[i];
+    let js = coarse_grid_around(film.width as usize, film.height as usize, i);
+    agree(film, js.filter(|&j| same_facet(j)))
+}
+
+/// The coarse shadow grid's pixels (even x, even y) `coarse_occlusion` reads for pixel `i` of
+/// a `w` x `h` film: `i` itself on the grid, else the two or four grid pixels around it. A
+/// session's re-trace reuses a pixel only while these keep their facet relation
+/// (`pipeline::session`).
+#[inline]
+pub(crate) fn coarse_grid_around(w: usize, h: usize, i: usize) -> impl Iterator<Item = usize> {
     let (x, y) = (i % w, i / w);
     let around = |c: usize, n: usize| {
         let lo = c - c % 2;
         [Some(lo), (c % 2 == 1 && lo + 2 < n).then_some(lo + 2)]
     };
     let (xs, ys) = (around(x, w), around(y, h));
-    let same_facet = |j: usize| facets.is_empty() || facets[j] == facets[i];
-    let js = ys.into_iter().flatten().flat_map(|cy| xs.into_iter().flatten().map(move |cx| cy * w + cx));
-    agree(film, js.filter(|&j| same_facet(j)))
+    ys.into_iter().flatten().flat_map(move |cy| xs.into_iter().flatten().map(move |cx| cy * w + cx))
 }
 
 /// The pixels adaptive anti-aliasing gives more samples: those whose one-sample colour differs
@@ -596,9 +604,10 @@ pub fn pixels_to_refine(film: &Film, facets: &[u32], threshold: f32) -> Vec<u32>
     // power per channel), rows in parallel.
     let (w, h) = (film.width as usize, film.height as usize);
     let mut srgb = vec![[0u8; 3]; n];
+    let lut = Srgb8::get();
     srgb.par_chunks_mut(w.max(1)).zip(film.color.par_chunks(w.max(1))).for_each(|(out, colour)| {
         for (o, c) in out.iter_mut().zip(colour) {
-            *o = [srgb8(c.x), srgb8(c.y), srgb8(c.z)];
+            *o = [lut.code(c.x), lut.code(c.y), lut.code(c.z)];
         }
     });
     let limit = (threshold * 255.0).round().max(1.0) as i32;

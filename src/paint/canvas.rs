@@ -100,26 +100,10 @@ impl Effect for CanvasGrain {
                 [w as u64, h as u64, ((self.amount.to_bits() as u64) << 32) | self.period.to_bits() as u64, self.seed];
             let f = ctx
                 .factors(self.name(), key, true, || (0..w * h).into_par_iter().map(|i| factor(i % w, i / w)).collect());
-            let (coverage, px) = canvas.coverage_and_pixels();
-            px.par_chunks_mut(w).zip(f.par_chunks(w)).enumerate().for_each(|(y, (row, f))| {
-                for (x, (p, &f)) in row.iter_mut().zip(f).enumerate() {
-                    if coverage.is_painted(y * w + x) {
-                        *p = (p.truncate() * f).extend(p.w);
-                    }
-                }
-            });
-            return Ok(());
+            canvas.scale_painted(|x, y| f[y * w + x]);
+        } else {
+            canvas.scale_painted(factor);
         }
-        let (coverage, px) = canvas.coverage_and_pixels();
-        px.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-            for (x, p) in row.iter_mut().enumerate() {
-                if !coverage.is_painted(y * w + x) {
-                    continue;
-                }
-                let f = factor(x, y);
-                *p = (p.truncate() * f).extend(p.w);
-            }
-        });
         Ok(())
     }
 }

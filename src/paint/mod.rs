@@ -97,6 +97,21 @@ impl<'a> Canvas<'a> {
     pub fn coverage_and_pixels(&mut self) -> (Coverage<'_>, &mut [Vec4]) {
         (Coverage(self.coverage.as_deref()), &mut *self.px)
     }
+
+    /// Multiplies the colour (not the alpha) of every painted pixel (`Coverage::is_painted`)
+    /// by `factor(x, y)`, rows in parallel: the plane light's and the canvas grain's step,
+    /// whether their factors are computed on the spot or kept (`PaintContext::factors`).
+    pub fn scale_painted(&mut self, factor: impl Fn(usize, usize) -> f32 + Sync) {
+        let w = self.width as usize;
+        let (coverage, px) = self.coverage_and_pixels();
+        px.par_chunks_mut(w.max(1)).enumerate().for_each(|(y, row)| {
+            for (x, p) in row.iter_mut().enumerate() {
+                if coverage.is_painted(y * w + x) {
+                    *p = (p.truncate() * factor(x, y)).extend(p.w);
+                }
+            }
+        });
+    }
 }
 
 /// Reads a pixel's rendered coverage (see `Canvas::coverage_and_pixels`).

@@ -50,35 +50,20 @@ impl Effect for PlaneLight {
         let Some(facets) = ctx.facets else { return Ok(()) };
         let w = canvas.width as usize;
         let planes = ctx.planes(canvas.width, canvas.pixel_count(), self.seed);
-        let factor =
-            |i: usize| self.at(&planes[facets.ids[i] as usize], Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5));
+        let factor = |x: usize, y: usize| {
+            self.at(&planes[facets.ids[y * w + x] as usize], Vec2::new(x as f32 + 0.5, y as f32 + 0.5))
+        };
         if ctx.kept_across_chains() {
             // A session keeps each pixel's factor (it reads the planes and the facet map):
             // a paint-only change multiplies by it.
             let n = canvas.pixel_count();
             let key = [self.amount.to_bits() as u64, self.seed, w as u64, n as u64];
-            let f = ctx.factors(self.name(), key, false, || (0..n).into_par_iter().map(factor).collect());
-            let (coverage, px) = canvas.coverage_and_pixels();
-            px.par_chunks_mut(w).zip(f.par_chunks(w)).enumerate().for_each(|(y, (row, f))| {
-                for (x, (p, &f)) in row.iter_mut().zip(f).enumerate() {
-                    if coverage.is_painted(y * w + x) {
-                        *p = (p.truncate() * f).extend(p.w);
-                    }
-                }
-            });
-            return Ok(());
+            let f =
+                ctx.factors(self.name(), key, false, || (0..n).into_par_iter().map(|i| factor(i % w, i / w)).collect());
+            canvas.scale_painted(|x, y| f[y * w + x]);
+        } else {
+            canvas.scale_painted(factor);
         }
-        let (coverage, px) = canvas.coverage_and_pixels();
-        px.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-            for (x, p) in row.iter_mut().enumerate() {
-                let i = y * w + x;
-                if !coverage.is_painted(i) {
-                    continue;
-                }
-                let f = factor(i);
-                *p = (p.truncate() * f).extend(p.w);
-            }
-        });
         Ok(())
     }
 }

@@ -224,22 +224,6 @@ impl Traced {
     }
 }
 
-/// The coarse shadow grid's pixels (even x, even y) that pixel `i` of a `w` x `h` film reads
-/// (`trace::coarse_occlusion`); none for a grid pixel.
-fn coarse_neighbours(w: usize, h: usize, i: usize) -> impl Iterator<Item = usize> {
-    let (x, y) = (i % w, i / w);
-    let around = |c: usize, n: usize| {
-        let lo = c - c % 2;
-        [Some(lo), (c % 2 == 1 && lo + 2 < n).then_some(lo + 2)]
-    };
-    let grid = x % 2 == 0 && y % 2 == 0;
-    let (xs, ys) = (around(x, w), around(y, h));
-    ys.into_iter()
-        .flatten()
-        .flat_map(move |cy| xs.into_iter().flatten().map(move |cx| cy * w + cx))
-        .filter(move |_| !grid)
-}
-
 impl Delta {
     /// `pixels`' current colour, hits and samples in `film`.
     fn gather(film: &Film, pixels: Vec<u32>) -> Delta {
@@ -752,7 +736,7 @@ fn after_saliency_stages(
                         }
                         let k = next_old;
                         (d.pixels.get(k) == Some(&i)
-                            && t.same(&traced, i as usize, coarse_neighbours(w, h, i as usize)))
+                            && t.same(&traced, i as usize, crate::trace::coarse_grid_around(w, h, i as usize)))
                         .then_some(k)
                     });
                     match reused {
