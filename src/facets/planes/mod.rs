@@ -223,41 +223,13 @@ fn root(parent: &mut [u32], mut a: u32) -> u32 {
 /// shares the longest border with (preferring the same `side` of the outline), smallest first,
 /// in a few rounds. Deterministic: fixed orders, ties to the lower id.
 fn merge_small(ids: &[u32], w: usize, h: usize, count: usize, side: &[u32], min_side: f64, min_width: f64) -> Vec<u32> {
-    let mut parent: Vec<u32> = (0..count as u32).collect();
-    let min_area = (min_side * min_side) as u64;
-    for _round in 0..3 {
-        let mut current: Vec<u32> = (0..count as u32).collect();
-        for f in 0..count as u32 {
-            current[f as usize] = root(&mut parent, f);
-        }
-        // Areas, inner perimeters and shared border lengths (a, b) -> count with a < b
-        // between current roots: bands of rows in parallel, their integer counts summed
-        // (the same totals in any order; perf7, issue 16).
-        let band = |rows: std::ops::Range<usize>| {
-            let mut area = vec![0u64; count];
-            let mut perimeter = vec![0u64; count];
-            let mut shared: std::collections::BTreeMap<(u32, u32), u64> = Default::default();
-            for y in rows {
-                for x in 0..w {
-                    let i = y * w + x;
-                    let a = current[ids[i] as usize];
-                    area[a as usize] += 1;
-                    for j in [(x + 1 < w).then(|| i + 1), (y + 1 < h).then(|| i + w)].into_iter().flatten() {
-                        let b = current[ids[j] as usize];
-                        if a != b {
-                            perimeter[a as usize] += 1;
-                            perimeter[b as usize] += 1;
-                            *shared.entry((a.min(b), a.max(b))).or_insert(0) += 1;
-                        }
-                    }
-                }
-            }
-            (area, perimeter, shared)
-        };
+    // The counts by bands of rows in parallel, summed (integers: the same totals in any
+    // order; perf7, issue 16).
+    let counts = |current: &[u32]| {
         const BAND: usize = 32;
-        let (area, perimeter, shared) = (0..h.div_ceil(BAND))
+        (0..h.div_ceil(BAND))
             .into_par_iter()
-            .map(|k| band(k * BAND..((k + 1) * BAND).min(h)))
+            .map(|k| border_counts(ids, w, h, count, current, k * BAND..((k + 1) * BAND).min(h)))
             .reduce_with(|(mut a1, mut p1, mut s1), (a2, p2, s2)| {
                 a1.iter_mut().zip(a2).for_each(|(x, y)| *x += y);
                 p1.iter_mut().zip(p2).for_each(|(x, y)| *x += y);
@@ -266,7 +238,62 @@ fn merge_small(ids: &[u32], w: usize, h: usize, count: usize, side: &[u32], min_
                 }
                 (a1, p1, s1)
             })
-            .unwrap_or_else(|| (vec![0; count], vec![0; count], Default::default()));
+            .unwrap_or_else(|| (vec![0; count], vec![0; count], Default::default()))
+    };
+    merge_small_counted(count, side, min_side, min_width, counts)
+}
+
+/// Each facet root's area and inner perimeter, and the shared border lengths (a, b) -> count
+/// with a < b between roots (`current`: each facet's root).
+type BorderCounts = (Vec<u64>, Vec<u64>, std::collections::BTreeMap<(u32, u32), u64>);
+
+/// `BorderCounts` of the pixels in `rows` (each pixel with its right and lower neighbours).
+fn border_counts(
+    ids: &[u32],
+    w: usize,
+    h: usize,
+    count: usize,
+    current: &[u32],
+    rows: std::ops::Range<usize>,
+) -> BorderCounts {
+    let mut area = vec![0u64; count];
+    let mut perimeter = vec![0u64; count];
+    let mut shared: std::collections::BTreeMap<(u32, u32), u64> = Default::default();
+    for y in rows {
+        for x in 0..w {
+            let i = y * w + x;
+            let a = current[ids[i] as usize];
+            area[a as usize] += 1;
+            for j in [(x + 1 < w).then(|| i + 1), (y + 1 < h).then(|| i + w)].into_iter().flatten() {
+                let b = current[ids[j] as usize];
+                if a != b {
+                    perimeter[a as usize] += 1;
+                    perimeter[b as usize] += 1;
+                    *shared.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+                }
+            }
+        }
+    }
+    (area, perimeter, shared)
+}
+
+/// `merge_small`'s rounds, with `counts` giving the `BorderCounts` for each facet's current
+/// root.
+fn merge_small_counted(
+    count: usize,
+    side: &[u32],
+    min_side: f64,
+    min_width: f64,
+    counts: impl Fn(&[u32]) -> BorderCounts,
+) -> Vec<u32> {
+    let mut parent: Vec<u32> = (0..count as u32).collect();
+    let min_area = (min_side * min_side) as u64;
+    for _round in 0..3 {
+        let mut current: Vec<u32> = (0..count as u32).collect();
+        for f in 0..count as u32 {
+            current[f as usize] = root(&mut parent, f);
+        }
+        let (area, perimeter, shared) = counts(&current);
         let mut small: Vec<u32> = (0..count as u32)
             .filter(|&f| {
                 let (a, p) = (area[f as usize], perimeter[f as usize]);
@@ -312,8 +339,8 @@ fn merge_small(ids: &[u32], w: usize, h: usize, count: usize, side: &[u32], min_
 mod tests {
     use super::*;
 
-    /// `merge_small` as it was before its counts were made in parallel bands (perf7): the
-    /// reference the parallel form must match.
+    /// `merge_small` with its counts made in one pass over every row, as before they were made
+    /// in parallel bands (perf7): the reference the parallel form must match.
     fn merge_small_serial(
         ids: &[u32],
         w: usize,
@@ -323,70 +350,7 @@ mod tests {
         min_side: f64,
         min_width: f64,
     ) -> Vec<u32> {
-        let mut parent: Vec<u32> = (0..count as u32).collect();
-        let min_area = (min_side * min_side) as u64;
-        for _round in 0..3 {
-            let mut area = vec![0u64; count];
-            let mut perimeter = vec![0u64; count];
-            let mut shared: std::collections::BTreeMap<(u32, u32), u64> = Default::default();
-            let mut current: Vec<u32> = (0..count as u32).collect();
-            for f in 0..count as u32 {
-                current[f as usize] = root(&mut parent, f);
-            }
-            for y in 0..h {
-                for x in 0..w {
-                    let i = y * w + x;
-                    let a = current[ids[i] as usize];
-                    area[a as usize] += 1;
-                    for j in [(x + 1 < w).then(|| i + 1), (y + 1 < h).then(|| i + w)].into_iter().flatten() {
-                        let b = current[ids[j] as usize];
-                        if a != b {
-                            perimeter[a as usize] += 1;
-                            perimeter[b as usize] += 1;
-                            *shared.entry((a.min(b), a.max(b))).or_insert(0) += 1;
-                        }
-                    }
-                }
-            }
-            let mut small: Vec<u32> = (0..count as u32)
-                .filter(|&f| {
-                    let (a, p) = (area[f as usize], perimeter[f as usize]);
-                    a > 0 && p > 0 && (a < min_area || 2.0 * (a as f64) / (p as f64) < min_width)
-                })
-                .collect();
-            if small.is_empty() {
-                break;
-            }
-            small.sort_by_key(|&f| (area[f as usize], f));
-            let mut neighbours: Vec<Vec<(u32, u64)>> = vec![Vec::new(); count];
-            for (&(a, b), &len) in &shared {
-                neighbours[a as usize].push((b, len));
-                neighbours[b as usize].push((a, len));
-            }
-            let mut merged_any = false;
-            for f in small {
-                let rf = root(&mut parent, f);
-                if rf != f {
-                    continue;
-                }
-                let best = neighbours[f as usize]
-                    .iter()
-                    .map(|&(g, len)| (root(&mut parent, g), g, len))
-                    .filter(|&(r, _, _)| r != rf)
-                    .max_by(|a, b| {
-                        let same = |g: u32| (side[g as usize] == side[f as usize]) as u8;
-                        same(a.1).cmp(&same(b.1)).then(a.2.cmp(&b.2)).then(b.0.cmp(&a.0))
-                    });
-                if let Some((r, _, _)) = best {
-                    parent[rf as usize] = r;
-                    merged_any = true;
-                }
-            }
-            if !merged_any {
-                break;
-            }
-        }
-        (0..count as u32).map(|f| root(&mut parent, f)).collect()
+        merge_small_counted(count, side, min_side, min_width, |current| border_counts(ids, w, h, count, current, 0..h))
     }
 
     /// Merging small facets with its counts made in parallel bands of rows gives the serial
