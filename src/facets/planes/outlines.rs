@@ -58,13 +58,6 @@ fn components(labels: &[u32], w: usize, h: usize) -> (Vec<u32>, Vec<(u32, usize)
     }
     row_start.push(runs.len());
     let mut parent: Vec<u32> = (0..runs.len() as u32).collect();
-    fn find(parent: &mut [u32], mut a: u32) -> u32 {
-        while parent[a as usize] != a {
-            parent[a as usize] = parent[parent[a as usize] as usize];
-            a = parent[a as usize];
-        }
-        a
-    }
     for y in 1..h {
         let (above, here) = (row_start[y - 1]..row_start[y], row_start[y]..row_start[y + 1]);
         let mut k = above.start;
@@ -78,7 +71,7 @@ fn components(labels: &[u32], w: usize, h: usize) -> (Vec<u32>, Vec<(u32, usize)
             let mut j = k;
             while j < above.end && runs[j].0 - (y - 1) * w < x1 {
                 if runs[j].2 == v {
-                    let (ra, rb) = (find(&mut parent, r as u32), find(&mut parent, j as u32));
+                    let (ra, rb) = (super::root(&mut parent, r as u32), super::root(&mut parent, j as u32));
                     if ra != rb {
                         // The lower index stays the root: no order matters for the numbering,
                         // which reads roots only.
@@ -94,7 +87,7 @@ fn components(labels: &[u32], w: usize, h: usize) -> (Vec<u32>, Vec<(u32, usize)
     let mut info: Vec<(u32, usize)> = Vec::new();
     let mut comp = vec![0u32; labels.len()];
     for (r, &(a, b, v)) in runs.iter().enumerate() {
-        let root = find(&mut parent, r as u32) as usize;
+        let root = super::root(&mut parent, r as u32) as usize;
         if id_of_root[root] == u32::MAX {
             id_of_root[root] = info.len() as u32;
             info.push((v, 0));
