@@ -17,9 +17,9 @@ bl_info = {
 
 
 def _modules():
-    from . import colour, engine, preferences, properties, ui, viewport
+    from . import colour, engine, preferences, properties, turns, ui, viewport
 
-    return (preferences, properties, colour, engine, viewport, ui)
+    return (preferences, properties, colour, turns, engine, viewport, ui)
 
 
 def register():

@@ -26,7 +26,7 @@ import numpy as np
 
 import bpy
 
-from . import export, mapping, pngio, runner, viewport
+from . import export, mapping, pngio, runner, turns, viewport
 from .properties import panel_values
 from .serve_client import ServerError, ServerGone
 
@@ -157,6 +157,9 @@ class CubistRenderEngine(bpy.types.RenderEngine):
     # -----------------------------------------------------------------------------------------
 
     def _cancelled(self) -> bool:
+        # Asked between exported objects and while the renderer runs: the interface may draw
+        # now (turns.py: while a frame renders, a thread keeps the GIL until it gives it up).
+        turns.yield_turn()
         if bool(self.test_break()) or (cancel_hook is not None and bool(cancel_hook())):
             last_run.setdefault("cancel_seen", time.monotonic())  # when (diagnostics, UI test)
             return True

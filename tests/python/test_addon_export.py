@@ -439,8 +439,10 @@ RENDER_PATH = ("_render", "_cancelled", "_export", "_export_frame", "_run", "_la
 def test_the_render_path_uses_no_operator_context_or_scene_frame(engine, export):
     """What render() reaches never calls bpy.ops, bpy.context, temp_override or a scene's
     frame_set (only the engine's own self.frame_set), checked on the code's syntax tree."""
-    pngio, runner, mapping = (sys.modules[f"blender_addon.{m}"] for m in ("pngio", "runner", "mapping"))
+    pngio, runner, mapping, turns = (sys.modules[f"blender_addon.{m}"] for m in ("pngio", "runner", "mapping", "turns"))
+    # turns.py's handlers run on the render thread too (render_pre, render_post).
     sources = [inspect.getsource(m) for m in (export, pngio, runner, mapping)]
+    sources += [inspect.getsource(f) for f in (turns._long_turns, turns._short_turns, turns.yield_turn)]
     cls = engine.CubistRenderEngine
     sources += [inspect.getsource(cls.__dict__[name]) for name in ("render", *RENDER_PATH)]
     sources += [inspect.getsource(f) for f in (engine.addon_preferences, engine.layout_folder, engine._panel,

@@ -154,3 +154,17 @@ def test_ui_colours_the_user_set_are_left_with_a_warning(ui):
     assert (c["view_transform"], c["look"], c["switched_from"]) == ("Filmic", "Medium High Contrast", "")
     assert any("change the painting's colours" in line for line in c["panel"]), c["panel"]
     assert "[cubist.painting_colours]" in c["panel"]
+
+
+def test_ui_render_thread_leaves_blenders_write_guard_as_it_found_it(ui):
+    """With slow panels and a render_pre handler that waits (other add-ons'), the main thread
+    can still write to the scene after every F12 and Render Animation (turns.py): without the
+    add-on's turns every run here failed with 'Writing to ID classes in this context is not
+    allowed' and Blender could not quit."""
+    busy = ui["results"]["busy"]
+    assert [b["what"] for b in busy] == ["f12", "f12_lock", "animation", "f12"]
+    for b in busy:
+        assert b["operator"] == ["RUNNING_MODAL"] and b["write"] == "ok" and not b["errors"], b
+    assert busy[2]["frames"] == [1, 2, 3]
+    # The slow draws really ran (about eight per render).
+    assert ui["results"]["busy_draws"] >= 10
