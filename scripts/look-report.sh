@@ -67,7 +67,7 @@ tables=$(target/release/cubist look "${scenes[@]}" --still-life --odd --before t
     echo "edges, and was refused. Also measured on the walker and not adopted: 96 other views (turned"
     echo "every 30 deg, tilted -20 to 55 deg, C from the sphere's centre or the centroid), the cylindrical"
     echo "camera, a tighter margin and a portrait canvas. Those over 40% (up to 52%) all magnify the part"
-    echo "nearest C: the back arm as a club over half the canvas, or the torso as a ball (the numbers in"
+    echo "nearest C: the back arm as a club over the left half of the canvas, or the torso as a ball (the numbers in"
     echo "src/camera/compose.rs's module doc)."
     echo
     echo "$tables"

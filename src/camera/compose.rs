@@ -80,7 +80,7 @@
 //!   45-52%, all gain by magnifying the part nearest C: the front raised 30 deg (48%) draws the
 //!   torso as a ball and the limbs as blobs; looking up 5-20 deg (the broad side, C behind the
 //!   centroid: 43-52%) lifts C to the shoulders, where the back arm hangs between C and the
-//!   torso, and the club grows to about half the canvas. The fill also jumps 39% -> 50% for 5 deg
+//!   torso, and the club grows over the canvas's left half. The fill also jumps 39% -> 50% for 5 deg
 //!   of tilt: a rule keyed on it would be unstable on other figures.
 //! - The cylindrical camera from the side, the back and 20 deg off either (tilt 0 and 15 deg):
 //!   at most 32%.
