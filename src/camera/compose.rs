@@ -78,13 +78,13 @@
 //! - Other views: yaw every 30 deg x tilt -20, 0, 30 and 55 deg, C from the sphere's centre and
 //!   from the centroid (96 compositions, both converging cameras under `auto`). The fullest,
 //!   45-52%, all gain by magnifying the part nearest C: the front raised 30 deg (48%) draws the
-//!   torso as a ball and the limbs as blobs; looking up 5-20 deg (the broad side, C behind the
-//!   centroid: 43-52%) lifts C to the shoulders, where the back arm hangs between C and the
-//!   torso, and the club grows over the canvas's left half. The fill also jumps 39% -> 50% for 5 deg
-//!   of tilt: a rule keyed on it would be unstable on other figures.
+//!   torso as a ball and the limbs as blobs; looking up 5-20 deg (the broad side and 10 deg off
+//!   it, C behind the centroid: 43-52%) lifts C to the shoulders, where the back arm hangs
+//!   between C and the torso, and the club grows over the canvas's left half. The fill also
+//!   jumps 39% -> 50% for 5 deg of tilt: a rule keyed on it would be unstable on other figures.
 //! - The cylindrical camera from the side, the back and 20 deg off either (tilt 0 and 15 deg):
 //!   at most 32%.
-//! - A tighter margin (`fill` 0.96-0.98 instead of 0.94): 36-40%; the spans tighten, but C moves
+//! - A tighter margin (`fill` 0.96-0.98 instead of 0.94): 36-39.8%; the spans tighten, but C moves
 //!   back with them and magnifies less.
 //! - A portrait canvas (480 x 640; the 1910 portraits are upright): 43%, the torso a ball again.
 //!
