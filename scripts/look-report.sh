@@ -64,7 +64,11 @@ tables=$(target/release/cubist look "${scenes[@]}" --still-life --odd --before t
     echo "half its bounding box from every side; its back arm, nearest C, is drawn as a large club), and"
     echo "the still life (35%), which keeps its own scene camera. Placing the focal line on the figure"
     echo "(by hand: 47-51% with the line inside the torso) turns torso and head into stripes cut at both"
-    echo "edges, and was refused."
+    echo "edges, and was refused. Also measured on the walker and not adopted: 96 other views (turned"
+    echo "every 30 deg, tilted -20 to 55 deg, C from the sphere's centre or the centroid), the cylindrical"
+    echo "camera, a tighter margin and a portrait canvas. Those over 40% (up to 52%) all magnify the part"
+    echo "nearest C: the back arm as a club over the left half of the canvas, or the torso as a ball (the numbers in"
+    echo "src/camera/compose.rs's module doc)."
     echo
     echo "$tables"
 } > "$out/README.md"

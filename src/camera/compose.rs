@@ -73,6 +73,26 @@
 //! stripes across the canvas, cut at both edges (at 360 deg the figure unrolls into a vase);
 //! just behind its back, 150 deg, 39% with the back arm smeared along the edge, cut off.
 //!
+//! Tried in session 8 and not adopted (the walker at 640 x 480, fill before re-aiming; each
+//! candidate `compose`d in full, guarded as step 9's are):
+//! - Other views: yaw every 30 deg x tilt -20, 0, 30 and 55 deg, C from the sphere's centre and
+//!   from the centroid (96 compositions, both converging cameras under `auto`). The fullest,
+//!   45-52%, all gain by magnifying the part nearest C: the front raised 30 deg (48%) draws the
+//!   torso as a ball and the limbs as blobs; looking up 5-20 deg (the broad side and 10 deg off
+//!   it, C behind the centroid: 43-52%) lifts C to the shoulders, where the back arm hangs
+//!   between C and the torso, and the club grows over the canvas's left half. The fill also
+//!   jumps 39% -> 50% for 5 deg of tilt: a rule keyed on it would be unstable on other figures.
+//! - The cylindrical camera from the side, the back and 20 deg off either (tilt 0 and 15 deg):
+//!   at most 32%.
+//! - A tighter margin (`fill` 0.96-0.98 instead of 0.94): 36-39.8%; the spans tighten, but C moves
+//!   back with them and magnifies less.
+//! - A portrait canvas (480 x 640; the 1910 portraits are upright): 43%, the torso a ball again.
+//!
+//! The walker's outline fills about 47% of its bounding box from its broad side, and the box
+//! at most margin^2 of the canvas (88% at the default 0.94), so about 41% is the most a framing
+//! reaches without magnifying one part over the others; from either face of the broad side an
+//! arm lies between C and the torso, so the part magnified is that arm. No rule was adopted.
+//!
 //! No constant depends on a particular scene: the angle cap is the thesis's best ambiguity
 //! range's top (150 deg, section 5), the margin the `fill` setting.
 
