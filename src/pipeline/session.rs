@@ -345,6 +345,9 @@ pub(super) struct Lane {
     keep: bool,
     pre: Option<Entry<PreKey, PreRender>>,
     saliency: Option<Entry<SalKey, Vec<f32>>>,
+    /// What the planes faceting reads of the pre-render whatever its plane count and detail
+    /// (keyed by the pre-render, the saliency map and whether outlines are cut).
+    planes: Option<Entry<(Gen, Option<Gen>, bool), facets::planes::Prepared>>,
     layout: Option<Entry<LayoutKey, LayoutOut>>,
     aims: Option<Entry<AimKey, Vec<FacetAim>>>,
     retrace: Option<Entry<Gen, Delta>>,
@@ -364,6 +367,7 @@ impl Lane {
             keep,
             pre: None,
             saliency: None,
+            planes: None,
             layout: None,
             aims: None,
             retrace: None,
@@ -388,6 +392,7 @@ impl Lane {
         let image = |i: &RgbaImage| i.as_raw().len() as u64;
         self.pre.as_ref().map_or(0, |e| film(&e.value.film))
             + self.saliency.as_ref().map_or(0, |e| e.value.len() as u64 * 4)
+            + self.planes.as_ref().map_or(0, |e| e.value.bytes())
             + self.layout.as_ref().map_or(0, |e| e.value.map.ids.len() as u64 * 4)
             + self.retrace.as_ref().map_or(0, |e| e.value.bytes())
             + self.aa.as_ref().map_or(0, |e| e.value.bytes())
@@ -409,6 +414,7 @@ impl Lane {
         let slots = [
             (Stage::PreRender.name(), self.pre.is_some()),
             (Stage::Saliency.name(), self.saliency.is_some()),
+            ("faceting inputs", self.planes.is_some()),
             (Stage::Faceting.name(), self.layout.is_some()),
             (Stage::Imprecision.name(), self.aims.is_some()),
             (Stage::ReTrace.name(), self.retrace.is_some()),
@@ -663,7 +669,32 @@ fn after_saliency_stages(
     } else {
         let old = lane.layout.take();
         let mut w = Vec::new();
-        let (layout, map) = layout_stage(&params.facets, film, progress, timings, &mut w)?;
+        let (layout, map) = if params.facets.method == FacetMethod::Planes
+            && params.facets.layout_file.is_none()
+            && (film.width, film.height) == (params.facets.width, params.facets.height)
+        {
+            // The planes from what they read of the pre-render whatever their count and
+            // detail (the density's cues, the outlines), made once per pre-render.
+            let key = (pre_gen, sal_gen, params.facets.planes.outlines);
+            let planes = &mut lane.planes;
+            progress.begin(Stage::Faceting.name(), 1);
+            timings.time(Stage::Faceting.name(), || {
+                let input = facets::planes::PlanesInput {
+                    width: film.width,
+                    height: film.height,
+                    hits: &film.hits,
+                    saliency: film.saliency.as_deref(),
+                };
+                if !hit(planes, &key) {
+                    let value = facets::planes::prepare(&input, key.2);
+                    *planes = Some(Entry { key, id: next(), value });
+                }
+                let prep = &planes.as_ref().expect("just made").value;
+                facets::planes::layout_prepared(&input, &params.facets.planes, prep)
+            })
+        } else {
+            layout_stage(&params.facets, film, progress, timings, &mut w)?
+        };
         progress.check()?;
         // The later stages read the facet map alone (a saved layout is written from the new
         // one): a change that gives the same map (a setting the method does not read) keeps
