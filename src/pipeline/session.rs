@@ -227,19 +227,23 @@ impl Traced {
 impl Delta {
     /// `pixels`' current colour, hits and samples in `film`.
     fn gather(film: &Film, pixels: Vec<u32>) -> Delta {
-        let spp = film.spp as usize;
-        let mut samples = Vec::with_capacity(pixels.len() * spp);
-        for &i in &pixels {
-            samples.extend_from_slice(film.pixel_samples(i as usize));
-        }
-        Delta {
-            color: pixels.iter().map(|&i| film.color[i as usize]).collect(),
-            hits: pixels.iter().map(|&i| film.hits[i as usize]).collect(),
-            occlusion: pixels.iter().map(|&i| film.occlusion[i as usize]).collect(),
-            samples,
-            pixels,
-            traced: None,
-        }
+        use rayon::prelude::*;
+        // In parallel, in the pixels' order (rayon's collect keeps it).
+        let ((color, hits), (occlusion, samples)) = rayon::join(
+            || {
+                rayon::join(
+                    || pixels.par_iter().map(|&i| film.color[i as usize]).collect(),
+                    || pixels.par_iter().map(|&i| film.hits[i as usize]).collect(),
+                )
+            },
+            || {
+                rayon::join(
+                    || pixels.par_iter().map(|&i| film.occlusion[i as usize]).collect(),
+                    || pixels.par_iter().flat_map_iter(|&i| film.pixel_samples(i as usize).iter().copied()).collect(),
+                )
+            },
+        );
+        Delta { color, hits, occlusion, samples, pixels, traced: None }
     }
 
     /// Copies pixel `k` of `self` (as traced) into `film` at `i`.
@@ -253,14 +257,36 @@ impl Delta {
 
     /// Exchanges the delta's pixels with the film's.
     fn swap(&mut self, film: &mut Film) {
+        self.swap_read(film, Reads::All);
+    }
+
+    /// Exchanges the delta's pixels with the film's in the buffers a stage reads (`Reads`):
+    /// swapping twice leaves the film as it was either way. The colour and hits on one
+    /// thread, the occlusion and samples on another (disjoint buffers).
+    fn swap_read(&mut self, film: &mut Film, reads: Reads) {
         let spp = film.spp as usize;
-        for (k, &i) in self.pixels.iter().enumerate() {
-            let i = i as usize;
-            std::mem::swap(&mut self.color[k], &mut film.color[i]);
-            std::mem::swap(&mut self.hits[k], &mut film.hits[i]);
-            std::mem::swap(&mut self.occlusion[k], &mut film.occlusion[i]);
-            self.samples[k * spp..(k + 1) * spp].swap_with_slice(&mut film.samples[i * spp..(i + 1) * spp]);
-        }
+        let Delta { pixels, color, hits, occlusion, samples, .. } = self;
+        let Film { color: film_color, hits: film_hits, occlusion: film_occlusion, samples: film_samples, .. } = film;
+        let pixels = &*pixels;
+        rayon::join(
+            || {
+                for (k, &i) in pixels.iter().enumerate() {
+                    let i = i as usize;
+                    std::mem::swap(&mut color[k], &mut film_color[i]);
+                    std::mem::swap(&mut hits[k], &mut film_hits[i]);
+                }
+            },
+            || {
+                if reads == Reads::ColourAndHits {
+                    return;
+                }
+                for (k, &i) in pixels.iter().enumerate() {
+                    let i = i as usize;
+                    std::mem::swap(&mut occlusion[k], &mut film_occlusion[i]);
+                    samples[k * spp..(k + 1) * spp].swap_with_slice(&mut film_samples[i * spp..(i + 1) * spp]);
+                }
+            },
+        );
     }
 
     fn bytes(&self) -> u64 {
@@ -299,18 +325,27 @@ impl ColourDelta {
     }
 }
 
+/// Which of the film's per-pixel buffers a stage reads (`with_film`).
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Reads {
+    All,
+    /// The paint reads the colour and the hits alone (`Painter::apply_from`).
+    ColourAndHits,
+}
+
 /// Runs `f` on the film as the stages after the re-trace see it: the moved pixels swapped in
-/// and, when given, the painted colour; both are swapped back out afterwards, whatever `f`
-/// returns.
+/// (in the buffers `f` `reads`) and, when given, the painted colour; both are swapped back out
+/// afterwards, whatever `f` returns.
 fn with_film<T>(
     film: &mut Film,
+    reads: Reads,
     mut delta: Option<&mut Delta>,
     mut aa: Option<&mut ColourDelta>,
     mut colour: Option<&mut Vec<Vec4>>,
     f: impl FnOnce(&mut Film) -> T,
 ) -> T {
     if let Some(d) = delta.as_deref_mut() {
-        d.swap(film);
+        d.swap_read(film, reads);
     }
     if let Some(a) = aa.as_deref_mut() {
         a.swap(film);
@@ -326,7 +361,7 @@ fn with_film<T>(
         a.swap(film);
     }
     if let Some(d) = delta {
-        d.swap(film);
+        d.swap_read(film, reads);
     }
     out
 }
@@ -845,7 +880,7 @@ fn after_saliency_stages(
                 .as_ref()
                 .and_then(|d| d.traced.clone())
                 .unwrap_or_else(|| std::sync::Arc::new(Traced::new(pre_gen, map, aims)));
-            let refined = with_film(film, delta.as_deref_mut(), None, None, |film| {
+            let refined = with_film(film, Reads::All, delta.as_deref_mut(), None, None, |film| {
                 if !keep {
                     antialias_stage(prep, view, &ctx, &params.trace, map, aims, film, progress, timings);
                     return ColourDelta::default();
@@ -961,7 +996,7 @@ fn after_saliency_stages(
             let painted = if film_unread {
                 paint(film)
             } else {
-                with_film(film, delta.as_deref_mut(), aa.as_deref_mut(), None, paint)
+                with_film(film, Reads::ColourAndHits, delta.as_deref_mut(), aa.as_deref_mut(), None, paint)
             };
             let (painted, kept) = match painted {
                 Ok(p) => p,
@@ -1013,7 +1048,7 @@ fn after_saliency_stages(
         let film_read = params.passes.is_empty() && colour.is_some();
         let (delta, aa) = if film_read { (None, None) } else { (delta, aa) };
         let (image, passes, passes16) =
-            with_film(film, delta, aa, colour, |film| encode_stage(film, map, aims, params, timings));
+            with_film(film, Reads::All, delta, aa, colour, |film| encode_stage(film, map, aims, params, timings));
         let encoded = Encoded { image, passes, passes16 };
         if lane.keep {
             lane.encoded = Some(Entry { key, id: next(), value: encoded.clone() });
