@@ -165,6 +165,10 @@ struct EncodeKey {
     scale: f64,
 }
 
+/// What the planes faceting's kept inputs were made from: the pre-render, the saliency map,
+/// whether outlines are cut.
+type PlanesKey = (Gen, Option<Gen>, bool);
+
 struct LayoutOut {
     layout: FacetLayout,
     map: FacetMap,
@@ -382,7 +386,7 @@ pub(super) struct Lane {
     saliency: Option<Entry<SalKey, Vec<f32>>>,
     /// What the planes faceting reads of the pre-render whatever its plane count and detail
     /// (keyed by the pre-render, the saliency map and whether outlines are cut).
-    planes: Option<Entry<(Gen, Option<Gen>, bool), facets::planes::Prepared>>,
+    planes: Option<Entry<PlanesKey, facets::planes::Prepared>>,
     layout: Option<Entry<LayoutKey, LayoutOut>>,
     aims: Option<Entry<AimKey, Vec<FacetAim>>>,
     retrace: Option<Entry<Gen, Delta>>,
