@@ -589,6 +589,7 @@ pub(super) fn run(
     } else {
         // Everything traced before is stale: freed before tracing, for a lower peak.
         lane.pre = None;
+        lane.planes = None;
         lane.retrace = None;
         lane.aa = None;
         lane.paint_inputs = None;
