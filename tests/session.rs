@@ -121,6 +121,35 @@ fn a_facet_change_keeps_the_pixels_whose_rays_and_neighbours_did_not_change() {
 }
 
 #[test]
+fn the_planes_inputs_kept_per_pre_render_give_a_fresh_renders_facets() {
+    // A session makes what the Planes faceting reads of the pre-render (the density's cues
+    // and the outlines) once per pre-render and outlines setting: another plane count,
+    // detail, seed or outlines setting, and a camera change (a new pre-render), each give a
+    // fresh render's pixels, and the facet map is the layout rasterised.
+    let scene = Scene::default_scene();
+    let mut session = Session::new();
+    session.set_scene(scene.clone());
+    let s = Settings { width: 160, height: 120, spp: 2, passes: vec![Pass::FacetIds], ..Settings::default() };
+    same(&mut session, &scene, &s, "first");
+    let lane = |session: &Session| session.stats().lanes[0].outputs.clone();
+    assert!(lane(&session).contains(&"faceting inputs"), "{:?}", lane(&session));
+    let steps = [
+        ("detail 6", Settings { plane_detail: 6.0, ..s.clone() }),
+        ("no outlines", Settings { plane_detail: 6.0, plane_outlines: false, ..s.clone() }),
+        ("no outlines, 90 planes", Settings { planes: 90, plane_outlines: false, ..s.clone() }),
+        ("outlines again, seed 3", Settings { planes: 90, seed: 3, ..s.clone() }),
+        ("camera", Settings { planes: 90, seed: 3, ambiguity: Some(120.0), ..s.clone() }),
+        ("camera, detail 2", Settings { planes: 90, seed: 3, plane_detail: 2.0, ambiguity: Some(120.0), ..s.clone() }),
+    ];
+    for (what, c) in steps {
+        same(&mut session, &scene, &c, what);
+        let (layout, map, _) = session.facets(c.width, c.height).expect("facets kept");
+        assert!(*map == layout.rasterize(c.width, c.height), "{what}: the map is the layout rasterised");
+        assert!(map.facet_count > 1, "{what}");
+    }
+}
+
+#[test]
 fn each_painterly_setting_of_issue_13_reruns_paint_only() {
     // Per-plane light, passage, brushwork and canvas: each one alone re-runs paint only, and
     // each changes the picture (else a key that missed it would go unnoticed). 720x540: the

@@ -165,6 +165,10 @@ struct EncodeKey {
     scale: f64,
 }
 
+/// What the planes faceting's kept inputs were made from: the pre-render, the saliency map,
+/// whether outlines are cut.
+type PlanesKey = (Gen, Option<Gen>, bool);
+
 struct LayoutOut {
     layout: FacetLayout,
     map: FacetMap,
@@ -227,19 +231,23 @@ impl Traced {
 impl Delta {
     /// `pixels`' current colour, hits and samples in `film`.
     fn gather(film: &Film, pixels: Vec<u32>) -> Delta {
-        let spp = film.spp as usize;
-        let mut samples = Vec::with_capacity(pixels.len() * spp);
-        for &i in &pixels {
-            samples.extend_from_slice(film.pixel_samples(i as usize));
-        }
-        Delta {
-            color: pixels.iter().map(|&i| film.color[i as usize]).collect(),
-            hits: pixels.iter().map(|&i| film.hits[i as usize]).collect(),
-            occlusion: pixels.iter().map(|&i| film.occlusion[i as usize]).collect(),
-            samples,
-            pixels,
-            traced: None,
-        }
+        use rayon::prelude::*;
+        // In parallel, in the pixels' order (rayon's collect keeps it).
+        let ((color, hits), (occlusion, samples)) = rayon::join(
+            || {
+                rayon::join(
+                    || pixels.par_iter().map(|&i| film.color[i as usize]).collect(),
+                    || pixels.par_iter().map(|&i| film.hits[i as usize]).collect(),
+                )
+            },
+            || {
+                rayon::join(
+                    || pixels.par_iter().map(|&i| film.occlusion[i as usize]).collect(),
+                    || pixels.par_iter().flat_map_iter(|&i| film.pixel_samples(i as usize).iter().copied()).collect(),
+                )
+            },
+        );
+        Delta { color, hits, occlusion, samples, pixels, traced: None }
     }
 
     /// Copies pixel `k` of `self` (as traced) into `film` at `i`.
@@ -253,14 +261,36 @@ impl Delta {
 
     /// Exchanges the delta's pixels with the film's.
     fn swap(&mut self, film: &mut Film) {
+        self.swap_read(film, Reads::All);
+    }
+
+    /// Exchanges the delta's pixels with the film's in the buffers a stage reads (`Reads`):
+    /// swapping twice leaves the film as it was either way. The colour and hits on one
+    /// thread, the occlusion and samples on another (disjoint buffers).
+    fn swap_read(&mut self, film: &mut Film, reads: Reads) {
         let spp = film.spp as usize;
-        for (k, &i) in self.pixels.iter().enumerate() {
-            let i = i as usize;
-            std::mem::swap(&mut self.color[k], &mut film.color[i]);
-            std::mem::swap(&mut self.hits[k], &mut film.hits[i]);
-            std::mem::swap(&mut self.occlusion[k], &mut film.occlusion[i]);
-            self.samples[k * spp..(k + 1) * spp].swap_with_slice(&mut film.samples[i * spp..(i + 1) * spp]);
-        }
+        let Delta { pixels, color, hits, occlusion, samples, .. } = self;
+        let Film { color: film_color, hits: film_hits, occlusion: film_occlusion, samples: film_samples, .. } = film;
+        let pixels = &*pixels;
+        rayon::join(
+            || {
+                for (k, &i) in pixels.iter().enumerate() {
+                    let i = i as usize;
+                    std::mem::swap(&mut color[k], &mut film_color[i]);
+                    std::mem::swap(&mut hits[k], &mut film_hits[i]);
+                }
+            },
+            || {
+                if reads == Reads::ColourAndHits {
+                    return;
+                }
+                for (k, &i) in pixels.iter().enumerate() {
+                    let i = i as usize;
+                    std::mem::swap(&mut occlusion[k], &mut film_occlusion[i]);
+                    samples[k * spp..(k + 1) * spp].swap_with_slice(&mut film_samples[i * spp..(i + 1) * spp]);
+                }
+            },
+        );
     }
 
     fn bytes(&self) -> u64 {
@@ -299,18 +329,27 @@ impl ColourDelta {
     }
 }
 
+/// Which of the film's per-pixel buffers a stage reads (`with_film`).
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Reads {
+    All,
+    /// The paint reads the colour and the hits alone (`Painter::apply_from`).
+    ColourAndHits,
+}
+
 /// Runs `f` on the film as the stages after the re-trace see it: the moved pixels swapped in
-/// and, when given, the painted colour; both are swapped back out afterwards, whatever `f`
-/// returns.
+/// (in the buffers `f` `reads`) and, when given, the painted colour; both are swapped back out
+/// afterwards, whatever `f` returns.
 fn with_film<T>(
     film: &mut Film,
+    reads: Reads,
     mut delta: Option<&mut Delta>,
     mut aa: Option<&mut ColourDelta>,
     mut colour: Option<&mut Vec<Vec4>>,
     f: impl FnOnce(&mut Film) -> T,
 ) -> T {
     if let Some(d) = delta.as_deref_mut() {
-        d.swap(film);
+        d.swap_read(film, reads);
     }
     if let Some(a) = aa.as_deref_mut() {
         a.swap(film);
@@ -326,7 +365,7 @@ fn with_film<T>(
         a.swap(film);
     }
     if let Some(d) = delta {
-        d.swap(film);
+        d.swap_read(film, reads);
     }
     out
 }
@@ -345,6 +384,9 @@ pub(super) struct Lane {
     keep: bool,
     pre: Option<Entry<PreKey, PreRender>>,
     saliency: Option<Entry<SalKey, Vec<f32>>>,
+    /// What the planes faceting reads of the pre-render whatever its plane count and detail
+    /// (keyed by the pre-render, the saliency map and whether outlines are cut).
+    planes: Option<Entry<PlanesKey, facets::planes::Prepared>>,
     layout: Option<Entry<LayoutKey, LayoutOut>>,
     aims: Option<Entry<AimKey, Vec<FacetAim>>>,
     retrace: Option<Entry<Gen, Delta>>,
@@ -364,6 +406,7 @@ impl Lane {
             keep,
             pre: None,
             saliency: None,
+            planes: None,
             layout: None,
             aims: None,
             retrace: None,
@@ -388,6 +431,7 @@ impl Lane {
         let image = |i: &RgbaImage| i.as_raw().len() as u64;
         self.pre.as_ref().map_or(0, |e| film(&e.value.film))
             + self.saliency.as_ref().map_or(0, |e| e.value.len() as u64 * 4)
+            + self.planes.as_ref().map_or(0, |e| e.value.bytes())
             + self.layout.as_ref().map_or(0, |e| e.value.map.ids.len() as u64 * 4)
             + self.retrace.as_ref().map_or(0, |e| e.value.bytes())
             + self.aa.as_ref().map_or(0, |e| e.value.bytes())
@@ -409,6 +453,7 @@ impl Lane {
         let slots = [
             (Stage::PreRender.name(), self.pre.is_some()),
             (Stage::Saliency.name(), self.saliency.is_some()),
+            ("faceting inputs", self.planes.is_some()),
             (Stage::Faceting.name(), self.layout.is_some()),
             (Stage::Imprecision.name(), self.aims.is_some()),
             (Stage::ReTrace.name(), self.retrace.is_some()),
@@ -544,6 +589,7 @@ pub(super) fn run(
     } else {
         // Everything traced before is stale: freed before tracing, for a lower peak.
         lane.pre = None;
+        lane.planes = None;
         lane.retrace = None;
         lane.aa = None;
         lane.paint_inputs = None;
@@ -663,7 +709,32 @@ fn after_saliency_stages(
     } else {
         let old = lane.layout.take();
         let mut w = Vec::new();
-        let (layout, map) = layout_stage(&params.facets, film, progress, timings, &mut w)?;
+        let (layout, map) = if params.facets.method == FacetMethod::Planes
+            && params.facets.layout_file.is_none()
+            && (film.width, film.height) == (params.facets.width, params.facets.height)
+        {
+            // The planes from what they read of the pre-render whatever their count and
+            // detail (the density's cues, the outlines), made once per pre-render.
+            let key = (pre_gen, sal_gen, params.facets.planes.outlines);
+            let planes = &mut lane.planes;
+            progress.begin(Stage::Faceting.name(), 1);
+            timings.time(Stage::Faceting.name(), || {
+                let input = facets::planes::PlanesInput {
+                    width: film.width,
+                    height: film.height,
+                    hits: &film.hits,
+                    saliency: film.saliency.as_deref(),
+                };
+                if !hit(planes, &key) {
+                    let value = facets::planes::prepare(&input, key.2);
+                    *planes = Some(Entry { key, id: next(), value });
+                }
+                let prep = &planes.as_ref().expect("just made").value;
+                facets::planes::layout_prepared(&input, &params.facets.planes, prep)
+            })
+        } else {
+            layout_stage(&params.facets, film, progress, timings, &mut w)?
+        };
         progress.check()?;
         // The later stages read the facet map alone (a saved layout is written from the new
         // one): a change that gives the same map (a setting the method does not read) keeps
@@ -814,7 +885,7 @@ fn after_saliency_stages(
                 .as_ref()
                 .and_then(|d| d.traced.clone())
                 .unwrap_or_else(|| std::sync::Arc::new(Traced::new(pre_gen, map, aims)));
-            let refined = with_film(film, delta.as_deref_mut(), None, None, |film| {
+            let refined = with_film(film, Reads::All, delta.as_deref_mut(), None, None, |film| {
                 if !keep {
                     antialias_stage(prep, view, &ctx, &params.trace, map, aims, film, progress, timings);
                     return ColourDelta::default();
@@ -930,7 +1001,7 @@ fn after_saliency_stages(
             let painted = if film_unread {
                 paint(film)
             } else {
-                with_film(film, delta.as_deref_mut(), aa.as_deref_mut(), None, paint)
+                with_film(film, Reads::ColourAndHits, delta.as_deref_mut(), aa.as_deref_mut(), None, paint)
             };
             let (painted, kept) = match painted {
                 Ok(p) => p,
@@ -982,7 +1053,7 @@ fn after_saliency_stages(
         let film_read = params.passes.is_empty() && colour.is_some();
         let (delta, aa) = if film_read { (None, None) } else { (delta, aa) };
         let (image, passes, passes16) =
-            with_film(film, delta, aa, colour, |film| encode_stage(film, map, aims, params, timings));
+            with_film(film, Reads::All, delta, aa, colour, |film| encode_stage(film, map, aims, params, timings));
         let encoded = Encoded { image, passes, passes16 };
         if lane.keep {
             lane.encoded = Some(Entry { key, id: next(), value: encoded.clone() });

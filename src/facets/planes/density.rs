@@ -66,6 +66,24 @@ impl Density {
         saliency: Option<&[f32]>,
         detail: f64,
     ) -> Density {
+        Cues::new(width, height, covered, saliency).density(detail)
+    }
+}
+
+/// The weighted cues D of a pre-render, quantised to `LEVELS` steps, on the density grid:
+/// everything of the density but `detail`, so a session keeps them while the pre-render is
+/// the same and another detail costs one pass over the grid.
+#[derive(Clone, Debug)]
+pub struct Cues {
+    pub columns: usize,
+    pub rows: usize,
+    /// round(D LEVELS) per grid cell, in 0..=LEVELS.
+    pub steps: Vec<f64>,
+}
+
+impl Cues {
+    /// The cues of a pre-render (as `Density::new`).
+    pub fn new(width: u32, height: u32, covered: &(dyn Fn(usize) -> bool + Sync), saliency: Option<&[f32]>) -> Cues {
         let (w, h) = (width as usize, height as usize);
         let columns = GRID_COLUMNS.min(w).max(1);
         let rows = ((columns as f64 * h as f64 / w as f64).round() as usize).clamp(1, h.max(1));
@@ -124,7 +142,7 @@ impl Density {
         }
         let centre = if sw > 0.0 { (sx / sw, sy / sw) } else { (columns as f64 / 2.0, rows as f64 / 2.0) };
         let half_diag = 0.5 * diag;
-        let values = (0..n)
+        let steps = (0..n)
             .map(|k| {
                 let (x, y) = ((k % columns) as f64 + 0.5, (k / columns) as f64 + 0.5);
                 let r = (((x - centre.0).powi(2) + (y - centre.1).powi(2)).sqrt() / half_diag).min(1.0);
@@ -132,10 +150,16 @@ impl Density {
                 // Quantised to `LEVELS` steps: the split compares planes' weights, and a
                 // pre-render that differs by a few ulps (a scene moved or scaled) must give the
                 // same planes, not a cascade of different choices.
-                1.0 + (detail - 1.0).max(0.0) * (d.clamp(0.0, 1.0) * LEVELS).round() / LEVELS
+                (d.clamp(0.0, 1.0) * LEVELS).round()
             })
             .collect();
-        Density { columns, rows, values }
+        Cues { columns, rows, steps }
+    }
+
+    /// The site density at `detail`: 1 + (detail - 1) D per cell.
+    pub fn density(&self, detail: f64) -> Density {
+        let values = self.steps.iter().map(|&q| 1.0 + (detail - 1.0).max(0.0) * q / LEVELS).collect();
+        Density { columns: self.columns, rows: self.rows, values }
     }
 }
 

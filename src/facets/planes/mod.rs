@@ -28,7 +28,7 @@ pub mod split;
 use glam::DVec2;
 use rayon::prelude::*;
 
-use crate::facets::{FacetLayout, FacetPolygon, MAX_FACETS};
+use crate::facets::{FacetLayout, FacetMap, FacetPolygon, MAX_FACETS};
 use crate::film::PixelHit;
 
 /// The planes faceting's parameters (settings `planes`, `plane_detail`, `plane_outlines`, `seed`).
@@ -91,6 +91,32 @@ pub const SPLIT_WIDTH: f64 = 0.02;
 
 /// The planes layout of a pre-render.
 pub fn layout(input: &PlanesInput, params: &PlanesParams) -> FacetLayout {
+    layout_prepared(input, params, &prepare(input, params.outlines)).0
+}
+
+/// What the planes read of the pre-render whatever their count, detail and seed: the
+/// density's cues and the subject's outlines (steps 1 and 2). A render server keeps it while
+/// the pre-render is the same (`pipeline::Session`), so another plane count or detail only
+/// splits, cuts and merges again.
+#[derive(Clone, Debug)]
+pub struct Prepared {
+    pub cues: density::Cues,
+    /// The outline layers; empty when made without outlines.
+    pub layers: Vec<outlines::Layer>,
+    /// Whether the outlines were made (`PlanesParams::outlines`).
+    pub outlines: bool,
+}
+
+impl Prepared {
+    /// Bytes held (for a cache's budget).
+    pub fn bytes(&self) -> u64 {
+        let rings: usize = self.layers.iter().flat_map(|l| l.rings.iter()).map(|r| r.len()).sum();
+        (self.cues.steps.len() * 8 + rings * size_of::<DVec2>()) as u64
+    }
+}
+
+/// Steps 1 and 2 of a pre-render (`Prepared`); the outlines only when `outlines`.
+pub fn prepare(input: &PlanesInput, outlines: bool) -> Prepared {
     let (w, h) = (input.width as usize, input.height as usize);
     let (wf, hf) = (w as f64, h as f64);
     let n = w * h;
@@ -99,11 +125,11 @@ pub fn layout(input: &PlanesInput, params: &PlanesParams) -> FacetLayout {
     let covered = |i: usize| hits[i].is_hit();
     // The density and the outlines read only the pre-render: made side by side (perf7,
     // issue 16: the outlines' labelling is serial).
-    let (density, layers) = rayon::join(
-        || density::Density::new(input.width, input.height, &covered, input.saliency, params.detail),
+    let (cues, layers) = rayon::join(
+        || density::Cues::new(input.width, input.height, &covered, input.saliency),
         || {
             // 2. Outlines.
-            if !params.outlines {
+            if !outlines {
                 return Vec::new();
             }
             let mut labels: Vec<u32> =
@@ -121,6 +147,19 @@ pub fn layout(input: &PlanesInput, params: &PlanesParams) -> FacetLayout {
             )
         },
     );
+    Prepared { cues, layers, outlines }
+}
+
+/// The planes layout of a pre-render from its `prepare` (made with `params.outlines`), and
+/// its facet map at the pre-render's size (the layout rasterised, as `FacetLayout::rasterize`
+/// gives it: the merge's map renumbered, not drawn a second time).
+pub fn layout_prepared(input: &PlanesInput, params: &PlanesParams, prep: &Prepared) -> (FacetLayout, FacetMap) {
+    debug_assert_eq!(prep.outlines, params.outlines, "prepared with another outlines setting");
+    let (w, h) = (input.width as usize, input.height as usize);
+    let (wf, hf) = (w as f64, h as f64);
+    let diag = (wf * wf + hf * hf).sqrt();
+    let density = prep.cues.density(params.detail);
+    let layers: &[outlines::Layer] = if params.outlines { &prep.layers } else { &[] };
     let runs: Vec<split::Run> = layers
         .iter()
         .flat_map(|l| l.rings.iter())
@@ -171,7 +210,7 @@ pub fn layout(input: &PlanesInput, params: &PlanesParams) -> FacetLayout {
 
     // 5. Rasterise here, merge the planes too small or thin to read, renumber.
     let mut layout = to_layout(next, &polygons, wf, hf);
-    let map = layout.rasterize(input.width, input.height);
+    let mut map = layout.rasterize(input.width, input.height);
     let relabel = merge_small(&map.ids, w, h, next as usize, &side, MIN_SIDE * diag, MIN_WIDTH * diag);
     let mut used = vec![false; next as usize];
     for &id in &map.ids {
@@ -192,7 +231,13 @@ pub fn layout(input: &PlanesInput, params: &PlanesParams) -> FacetLayout {
     });
     layout.facet_count = count.max(1);
     debug_assert!(layout.validate().is_ok(), "{:?}", layout.validate());
-    layout
+    // The renumbered layout drawn again would give each pixel the new number of the polygon
+    // on top of it there: the polygons dropped are on top nowhere (their facet is used by no
+    // pixel), and `fill_uncovered` fills the same pixels from the same neighbours whatever
+    // their numbers (a test holds the two maps equal).
+    map.ids.par_iter_mut().for_each(|id| *id = compact[relabel[*id as usize] as usize]);
+    map.facet_count = layout.facet_count;
+    (layout, map)
 }
 
 /// The polygons (pixel units) as a layout in normalised coordinates.
@@ -351,6 +396,52 @@ mod tests {
         min_width: f64,
     ) -> Vec<u32> {
         merge_small_counted(count, side, min_side, min_width, |current| border_counts(ids, w, h, count, current, 0..h))
+    }
+
+    /// A synthetic pre-render: two overlapping discs of two objects (nearer on the right) and
+    /// a saliency blob, at `w` x `h`.
+    fn discs(w: u32, h: u32) -> (Vec<PixelHit>, Vec<f32>) {
+        let (wf, hf) = (w as f32, h as f32);
+        let mut hits = vec![PixelHit::MISS; (w * h) as usize];
+        let mut sal = vec![0.0f32; (w * h) as usize];
+        for y in 0..h {
+            for x in 0..w {
+                let i = (y * w + x) as usize;
+                let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
+                let d = |cx: f32, cy: f32, r: f32| ((px - cx * wf).powi(2) + (py - cy * hf).powi(2)).sqrt() < r * hf;
+                if d(0.62, 0.55, 0.22) {
+                    hits[i] = PixelHit { tri: 1, object: 1, t: 2.0, ..PixelHit::MISS };
+                } else if d(0.4, 0.45, 0.3) {
+                    hits[i] = PixelHit { tri: 0, object: 0, t: 3.0, ..PixelHit::MISS };
+                }
+                sal[i] = (1.0 - ((px / wf - 0.45).powi(2) + (py / hf - 0.4).powi(2)).sqrt() * 4.0).max(0.0);
+            }
+        }
+        (hits, sal)
+    }
+
+    /// The map `layout_prepared` gives is the layout rasterised again, bit for bit; one
+    /// `prepare` serves every plane count, detail and seed as a fresh one would.
+    #[test]
+    fn a_prepared_layout_is_the_fresh_one_and_its_map_the_rasterised_one() {
+        for (w, h) in [(320u32, 240u32), (211, 307)] {
+            let (hits, sal) = discs(w, h);
+            for saliency in [Some(sal.as_slice()), None] {
+                let input = PlanesInput { width: w, height: h, hits: &hits, saliency };
+                for outlines in [true, false] {
+                    let prep = prepare(&input, outlines);
+                    for (planes, detail, seed) in [(150, 5.0, 0), (151, 5.5, 0), (40, 1.0, 3), (400, 8.0, 1)] {
+                        let params = PlanesParams { planes, detail, outlines, seed };
+                        let (layout, map) = layout_prepared(&input, &params, &prep);
+                        assert_eq!(layout, super::layout(&input, &params), "{w}x{h} {params:?}");
+                        let drawn = layout.rasterize(w, h);
+                        assert_eq!(map.ids, drawn.ids, "{w}x{h} {params:?}");
+                        assert_eq!(map.facet_count, drawn.facet_count);
+                        assert!(map.facet_count > 1, "{w}x{h} {params:?}: several facets");
+                    }
+                }
+            }
+        }
     }
 
     /// Merging small facets with its counts made in parallel bands of rows gives the serial
