@@ -13,7 +13,7 @@ use crate::film::{Film, NO_HIT, PixelHit, SampleHit};
 use crate::progress::Progress;
 use crate::scene::World;
 use crate::scene::srgb::Srgb8;
-use crate::shading::{LightRig, Occlusion, SurfacePoint, shade_with, surface};
+use crate::shading::{LightRig, Occlusion, SurfacePoint, shade_with, shading_normal, surface};
 use crate::util::rng::{splitmix64, unit_f64};
 
 /// Strata of `spp` samples: a `nx x ny` grid with nx * ny = spp, as square as spp allows.
@@ -167,8 +167,9 @@ impl Tracer<'_> {
                     covered += 1;
                     if nearest {
                         // The surface is needed for the pixel's representative hit.
-                        let sp = sp.unwrap_or_else(|| surface(self.world, &h, ray.origin, ray.dir));
-                        let hit = PixelHit { tri: h.tri, object: h.object, t: h.t, normal: sp.normal, u: h.u, v: h.v };
+                        // (Its shading normal: a trace without lights finds only that.)
+                        let normal = sp.map_or_else(|| shading_normal(self.world, &h, ray.dir), |sp| sp.normal);
+                        let hit = PixelHit { tri: h.tri, object: h.object, t: h.t, normal, u: h.u, v: h.v };
                         best = (centre_dist, hit, blocked);
                     }
                 }
