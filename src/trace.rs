@@ -826,7 +826,7 @@ mod tests {
                 [c.x, c.y, c.z].map(|v| crate::scene::srgb::srgb8(v) as i32)
             };
             let limit = (threshold * 255.0).round().max(1.0) as i32;
-            (0..w * h as usize)
+            (0..w * h)
                 .filter(|&i| {
                     facet_neighbourhood(w, h, facets, i).any(|j| {
                         let (a, b) = (code(i), code(j));
