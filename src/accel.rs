@@ -374,7 +374,7 @@ impl Blas {
         best: &mut Option<Hit>,
     ) {
         let mut hit = obvhs::ray::RayHit::none();
-        self.bvh.ray_traverse(Ray::new(ray.o, ray.d, tmin, tmax), &mut hit, |r, slot| {
+        traverse_closest(&self.bvh, Ray::new(ray.o, ray.d, tmin, tmax), &mut hit, |r, slot| {
             let tri = &self.tris[slot];
             match tri.intersect_axes::<KX, KY, KZ>(&ray.sheared, tmin, r.tmax) {
                 Some((t, u, v)) => {
@@ -410,7 +410,7 @@ impl Blas {
         tmax: f32,
     ) -> Option<f32> {
         let mut found = None;
-        self.bvh.ray_traverse_miss(Ray::new(ray.o, ray.d, tmin, tmax), |_, slot| {
+        traverse_miss(&self.bvh, Ray::new(ray.o, ray.d, tmin, tmax), |_, slot| {
             match self.tris[slot].intersect_axes::<KX, KY, KZ>(&ray.sheared, tmin, tmax) {
                 Some((t, _, _)) => {
                     found = Some(t);
@@ -421,6 +421,69 @@ impl Blas {
         });
         found
     }
+}
+
+/// A traversal stack sized by `bvh`'s depth, as `$stack`, for `$body`. obvhs's `ray_traverse`
+/// zero-fills one of 96 or 192 slots per traversal (two per camera ray, one more per shadow
+/// ray; about 1% of a render's CPU, perf8, issue 16); our trees mostly need 32 or fewer.
+macro_rules! with_stack {
+    ($bvh:expr, $stack:ident, $body:block) => {{
+        use obvhs::faststack::{HeapStack, StackStack};
+        match $bvh.max_depth {
+            d if d <= 32 => {
+                let mut $stack = StackStack::<u32, 32>::default();
+                $body
+            }
+            d if d <= 96 => {
+                let mut $stack = StackStack::<u32, 96>::default();
+                $body
+            }
+            d if d <= 192 => {
+                let mut $stack = StackStack::<u32, 192>::default();
+                $body
+            }
+            d => {
+                let mut $stack = HeapStack::<u32>::new_with_capacity(d);
+                $body
+            }
+        }
+    }};
+}
+
+/// obvhs's `Bvh2::ray_traverse` (the same traversal, so the same hits) on a stack from
+/// `with_stack!`: `f(ray, slot)` gives a primitive's distance (infinite: missed).
+#[inline(always)]
+fn traverse_closest<F: FnMut(&Ray, usize) -> f32>(bvh: &Bvh2, ray: Ray, hit: &mut obvhs::ray::RayHit, mut f: F) {
+    let mut prims = |node: &obvhs::bvh2::node::Bvh2Node, ray: &mut Ray, hit: &mut obvhs::ray::RayHit| {
+        for id in node.first_index..node.first_index + node.prim_count {
+            let t = f(ray, id as usize);
+            if t < ray.tmax {
+                hit.primitive_id = id;
+                hit.t = t;
+                ray.tmax = t;
+            }
+        }
+        true
+    };
+    with_stack!(bvh, stack, { bvh.ray_traverse_dynamic(&mut stack, ray, hit, &mut prims) });
+}
+
+/// obvhs's `Bvh2::ray_traverse_miss` on a stack from `with_stack!`: whether no primitive lies
+/// along the ray (stops at the first).
+#[inline(always)]
+fn traverse_miss<F: FnMut(&Ray, usize) -> f32>(bvh: &Bvh2, ray: Ray, mut f: F) -> bool {
+    let mut miss = true;
+    let mut prims = |node: &obvhs::bvh2::node::Bvh2Node, ray: &mut Ray, _: &mut obvhs::ray::RayHit| {
+        for id in node.first_index..node.first_index + node.prim_count {
+            if f(ray, id as usize) < ray.tmax {
+                miss = false;
+                return false;
+            }
+        }
+        true
+    };
+    with_stack!(bvh, stack, { bvh.ray_traverse_dynamic(&mut stack, ray, &mut obvhs::ray::RayHit::none(), &mut prims) });
+    miss
 }
 
 /// A ray in some BLAS's base space, ready for traversal and the watertight test.
@@ -707,7 +770,7 @@ impl Accel {
         let world = LocalRay::new(Vec3A::from(origin), Vec3A::from(dir));
         let mut best: Option<Hit> = None;
         let mut hit = obvhs::ray::RayHit::none();
-        tlas.ray_traverse(Ray::new(world.o, world.d, tmin, tmax), &mut hit, |r, slot| {
+        traverse_closest(tlas, Ray::new(world.o, world.d, tmin, tmax), &mut hit, |r, slot| {
             let inst = &self.instances[slot];
             let before = best.map(|b| (b.t, b.tri));
             self.blas[inst.blas as usize].closest(
@@ -736,7 +799,7 @@ impl Accel {
             return false;
         }
         let world = LocalRay::new(Vec3A::from(origin), Vec3A::from(dir));
-        !tlas.ray_traverse_miss(Ray::new(world.o, world.d, tmin, tmax), |_, slot| {
+        !traverse_miss(tlas, Ray::new(world.o, world.d, tmin, tmax), |_, slot| {
             let inst = &self.instances[slot];
             self.blas[inst.blas as usize].any_hit(&inst.ray(&world), tmin, tmax).unwrap_or(f32::INFINITY)
         })

@@ -127,18 +127,9 @@ pub fn surface(world: &World, hit: &Hit, origin: Vec3, dir: Vec3) -> SurfacePoin
     let g = &world.geometries[object.geometry];
     let local = hit.tri - object.first_triangle;
     let [i0, i1, i2] = g.triangles[local as usize].map(|i| i as usize);
-    let (p0, p1, p2) = (g.positions[i0], g.positions[i1], g.positions[i2]);
     let w = Vec3::new(1.0 - hit.u - hit.v, hit.u, hit.v);
     let position = origin + dir * hit.t;
-    let mut geometric = object.normal((p1 - p0).cross(p2 - p0)).try_normalize().unwrap_or(-dir);
-    if geometric.dot(dir) > 0.0 {
-        geometric = -geometric;
-    }
-    let (n0, n1, n2) = (g.normals[i0], g.normals[i1], g.normals[i2]);
-    let mut normal = object.normal(n0 * w.x + n1 * w.y + n2 * w.z).try_normalize().unwrap_or(geometric);
-    if normal.dot(geometric) < 0.0 {
-        normal = -normal;
-    }
+    let (geometric, normal) = normals(object, g, [i0, i1, i2], w, dir);
     let material = &world.materials[object.material];
     let mut albedo = material.base_color;
     if let Some(tex) = material.base_color_texture {
@@ -156,6 +147,39 @@ pub fn surface(world: &World, hit: &Hit, origin: Vec3, dir: Vec3) -> SurfacePoin
         albedo *= c[i0] * w.x + c[i1] * w.y + c[i2] * w.z;
     }
     SurfacePoint { position, geometric, normal, albedo, roughness: material.roughness, unlit: material.unlit }
+}
+
+/// A hit's unit shading normal facing the incoming ray, as `surface` gives it, without the
+/// material: all a trace with no lights keeps of the surface (perf8, issue 16).
+pub fn shading_normal(world: &World, hit: &Hit, dir: Vec3) -> Vec3 {
+    let object = &world.objects[hit.object as usize];
+    let g = &world.geometries[object.geometry];
+    let local = hit.tri - object.first_triangle;
+    let corners = g.triangles[local as usize].map(|i| i as usize);
+    normals(object, g, corners, Vec3::new(1.0 - hit.u - hit.v, hit.u, hit.v), dir).1
+}
+
+/// The unit geometric and shading normals at barycentric weights `w` of the triangle with
+/// vertices `[i0, i1, i2]` of `g` as `object` places it, both facing the ray `dir`.
+#[inline(always)]
+fn normals(
+    object: &crate::scene::world::WorldObject,
+    g: &crate::scene::world::Geometry,
+    [i0, i1, i2]: [usize; 3],
+    w: Vec3,
+    dir: Vec3,
+) -> (Vec3, Vec3) {
+    let (p0, p1, p2) = (g.positions[i0], g.positions[i1], g.positions[i2]);
+    let mut geometric = object.normal((p1 - p0).cross(p2 - p0)).try_normalize().unwrap_or(-dir);
+    if geometric.dot(dir) > 0.0 {
+        geometric = -geometric;
+    }
+    let (n0, n1, n2) = (g.normals[i0], g.normals[i1], g.normals[i2]);
+    let mut normal = object.normal(n0 * w.x + n1 * w.y + n2 * w.z).try_normalize().unwrap_or(geometric);
+    if normal.dot(geometric) < 0.0 {
+        normal = -normal;
+    }
+    (geometric, normal)
 }
 
 /// Radiance towards the viewer (linear RGB).

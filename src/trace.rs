@@ -13,7 +13,7 @@ use crate::film::{Film, NO_HIT, PixelHit, SampleHit};
 use crate::progress::Progress;
 use crate::scene::World;
 use crate::scene::srgb::Srgb8;
-use crate::shading::{LightRig, Occlusion, SurfacePoint, shade_with, surface};
+use crate::shading::{LightRig, Occlusion, SurfacePoint, shade_with, shading_normal, surface};
 use crate::util::rng::{splitmix64, unit_f64};
 
 /// Strata of `spp` samples: a `nx x ny` grid with nx * ny = spp, as square as spp allows.
@@ -90,6 +90,10 @@ pub type KnownHits<'r> = dyn Fn(usize) -> Option<Option<Hit>> + Sync + 'r;
 /// Pixels per parallel work item of the subset traces.
 const CHUNK: usize = 256;
 
+/// Rows per parallel work item of `Tracer::render_subset_in_place` (4000 pixels at 1000 wide:
+/// small enough that bands full of moved pixels and empty ones balance across threads).
+const BAND_ROWS: usize = 4;
+
 /// Pixels `Tracer::shade_traced` traces before writing them (64 work items): its results
 /// held at once stay about 4 MB whatever the image.
 const SHADE_BATCH: usize = 64 * CHUNK;
@@ -163,8 +167,9 @@ impl Tracer<'_> {
                     covered += 1;
                     if nearest {
                         // The surface is needed for the pixel's representative hit.
-                        let sp = sp.unwrap_or_else(|| surface(self.world, &h, ray.origin, ray.dir));
-                        let hit = PixelHit { tri: h.tri, object: h.object, t: h.t, normal: sp.normal, u: h.u, v: h.v };
+                        // (Its shading normal: a trace without lights finds only that.)
+                        let normal = sp.map_or_else(|| shading_normal(self.world, &h, ray.dir), |sp| sp.normal);
+                        let hit = PixelHit { tri: h.tri, object: h.object, t: h.t, normal, u: h.u, v: h.v };
                         best = (centre_dist, hit, blocked);
                     }
                 }
@@ -304,8 +309,56 @@ impl Tracer<'_> {
         centre: Option<&KnownHits>,
         progress: &Progress,
     ) {
+        if list.windows(2).all(|p| p[0] < p[1]) {
+            self.render_subset_in_place(film, rays, list, known, centre, progress);
+            return;
+        }
         let chunks = self.trace_subset(film, rays, list, known, centre, progress);
         write_subset(film, list, chunks);
+    }
+
+    /// `render_subset` for an ascending `list` (the re-trace's moved pixels, its grid and the
+    /// rest): bands of rows in parallel, each tracing its pixels of `list` straight into the
+    /// film. perf8 (issue 16): no result buffer for the whole list (about 27 MB of fresh pages
+    /// for venus_11k's 480K moved pixels at 1000 x 1000) and no copy out of it. The same pixels:
+    /// each is traced as before, only stored at once.
+    fn render_subset_in_place(
+        &self,
+        film: &mut Film,
+        rays: &Rays,
+        list: &[u32],
+        known: Option<&[Known]>,
+        centre: Option<&KnownHits>,
+        progress: &Progress,
+    ) {
+        if list.is_empty() {
+            return;
+        }
+        let (w, h, spp) = (film.width, film.height, film.spp as usize);
+        let band = w as usize * BAND_ROWS;
+        film.color
+            .par_chunks_mut(band)
+            .zip(film.hits.par_chunks_mut(band))
+            .zip(film.occlusion.par_chunks_mut(band))
+            .zip(film.samples.par_chunks_mut(band * spp))
+            .enumerate()
+            .for_each(|(b, (((color, hits), occlusion), samples))| {
+                let base = b * band;
+                let first = list.partition_point(|&i| (i as usize) < base);
+                let last = list.partition_point(|&i| (i as usize) < base + color.len());
+                // Cancelled (cubist serve): the caller checks `progress.check()` and throws
+                // the film away.
+                if first == last || progress.cancelled() {
+                    return;
+                }
+                for (k, &i) in list.iter().enumerate().take(last).skip(first) {
+                    let j = i as usize - base;
+                    let known = known.map_or(Known::NONE, |v| v[k]);
+                    let px = &mut samples[j * spp..(j + 1) * spp];
+                    (color[j], hits[j], occlusion[j]) = self.trace_pixel(i as usize, w, h, px, rays, known, centre);
+                }
+                progress.add((last - first) as u64);
+            });
     }
 
     /// `render_subset`'s tracing, reading nothing of `film` but its size and samples (so
@@ -503,7 +556,9 @@ fn write_subset(film: &mut Film, list: &[u32], chunks: Vec<SubsetChunk>) {
         });
 }
 
-/// The 8-neighbours of pixel `i` in the same facet, and `i` itself.
+/// The 8-neighbours of pixel `i` in the same facet, and `i` itself: what `agreed_occlusion`
+/// and `pixels_to_refine` compare (written as loops there; the tests hold them to this).
+#[cfg(test)]
 fn facet_neighbourhood(width: usize, height: usize, facets: &[u32], i: usize) -> impl Iterator<Item = usize> + '_ {
     let (x, y) = ((i % width) as isize, (i / width) as isize);
     let f = facets[i];
@@ -564,15 +619,46 @@ pub fn antialias_known(film: &Film, facets: &[u32], i: usize) -> u64 {
 /// The lights whose occlusion pixel `i`'s centre sample and those of its facet neighbours
 /// agree on (SPEC: cast shadow rays only where a light is partly occluded).
 fn agreed_occlusion(film: &Film, facets: &[u32], i: usize) -> Known {
-    agree(film, facet_neighbourhood(film.width as usize, film.height as usize, facets, i))
+    // `facet_neighbourhood`'s pixels, gathered by plain loops (its chain of iterators cost
+    // more than `agree` itself; `agree` does not depend on their order). perf8, issue 16.
+    let (w, h) = (film.width as usize, film.height as usize);
+    let (x, y) = (i % w, i / w);
+    let f = facets[i];
+    let mut js = [0usize; 9];
+    let mut n = 0;
+    for ny in y.saturating_sub(1)..=(y + 1).min(h - 1) {
+        for nx in x.saturating_sub(1)..=(x + 1).min(w - 1) {
+            let j = ny * w + nx;
+            if facets[j] == f {
+                js[n] = j;
+                n += 1;
+            }
+        }
+    }
+    agree(film, js[..n].iter().copied())
 }
 
 /// What the coarse grid (even x, even y) around pixel `i` agrees on, in its facet (`facets`
 /// empty: one facet).
 fn coarse_occlusion(film: &Film, facets: &[u32], i: usize) -> Known {
-    let same_facet = |j: usize| facets.is_empty() || facets[j] == facets[i];
-    let js = coarse_grid_around(film.width as usize, film.height as usize, i);
-    agree(film, js.filter(|&j| same_facet(j)))
+    // `coarse_grid_around`'s pixels by plain loops, as `agreed_occlusion` gathers its own.
+    let (w, h) = (film.width as usize, film.height as usize);
+    let (x, y) = (i % w, i / w);
+    let (lx, ly) = (x - x % 2, y - y % 2);
+    let nx = if x % 2 == 1 && lx + 2 < w { 2 } else { 1 };
+    let ny = if y % 2 == 1 && ly + 2 < h { 2 } else { 1 };
+    let mut js = [0usize; 4];
+    let mut n = 0;
+    for dy in 0..ny {
+        for dx in 0..nx {
+            let j = (ly + 2 * dy) * w + lx + 2 * dx;
+            if facets.is_empty() || facets[j] == facets[i] {
+                js[n] = j;
+                n += 1;
+            }
+        }
+    }
+    agree(film, js[..n].iter().copied())
 }
 
 /// The coarse shadow grid's pixels (even x, even y) `coarse_occlusion` reads for pixel `i` of
@@ -600,43 +686,54 @@ pub fn pixels_to_refine(film: &Film, facets: &[u32], threshold: f32) -> Vec<u32>
     if threshold <= 0.0 {
         return (0..n as u32).collect();
     }
-    // The 8-bit sRGB codes by the encoder's threshold table (the formula's codes, without a
-    // power per channel), rows in parallel.
+    if n == 0 {
+        return Vec::new();
+    }
+    // Each pixel's object and 8-bit sRGB codes (the encoder's threshold table, not a power per
+    // channel) in one word, rows in parallel: every pixel is read by its 8 neighbours, so
+    // they read 8 bytes, not a 32-byte hit and a colour. perf8 (issue 16).
     let (w, h) = (film.width as usize, film.height as usize);
-    let mut srgb = vec![[0u8; 3]; n];
     let lut = Srgb8::get();
-    srgb.par_chunks_mut(w.max(1)).zip(film.color.par_chunks(w.max(1))).for_each(|(out, colour)| {
-        for (o, c) in out.iter_mut().zip(colour) {
-            *o = [lut.code(c.x), lut.code(c.y), lut.code(c.z)];
-        }
-    });
+    let mut keys = vec![0u64; n];
+    keys.par_chunks_mut(w).zip(film.color.par_chunks(w)).zip(film.hits.par_chunks(w)).for_each(
+        |((out, colour), hits)| {
+            for ((o, c), hit) in out.iter_mut().zip(colour).zip(hits) {
+                let rgb = (lut.code(c.x) as u64) << 16 | (lut.code(c.y) as u64) << 8 | lut.code(c.z) as u64;
+                *o = (hit.object as u64) << 32 | rgb;
+            }
+        },
+    );
     let limit = (threshold * 255.0).round().max(1.0) as i32;
-    let differs = |i: usize, j: usize| {
-        let (a, b) = (&film.hits[i], &film.hits[j]);
-        let (ca, cb) = (srgb[i], srgb[j]);
-        a.object != b.object || (0..3).any(|c| (ca[c] as i32 - cb[c] as i32).abs() > limit)
+    // Another object, or a channel's codes further apart than `limit` (no short cut, so the
+    // loops below run without branches).
+    let differs = |a: u64, b: u64| {
+        let far = |s: u32| (((a >> s) & 0xff) as i32 - ((b >> s) & 0xff) as i32).abs() > limit;
+        ((a >> 32) != (b >> 32)) | far(0) | far(8) | far(16)
+    };
+    // Marks in `flag` the pixels of row `a` that differ from their partner in row `b` of the
+    // same facet (the slices already shifted by the neighbour's offset).
+    let mark = |flag: &mut [bool], (ka, fa): (&[u64], &[u32]), (kb, fb): (&[u64], &[u32])| {
+        for ((((f, &ka), &fa), &kb), &fb) in flag.iter_mut().zip(ka).zip(fa).zip(kb).zip(fb) {
+            *f |= (fa == fb) & differs(ka, kb);
+        }
     };
     // Each row's pixels whose facet neighbours (`facet_neighbourhood`) disagree, in order.
     let rows: Vec<Vec<u32>> = (0..h)
         .into_par_iter()
         .map(|y| {
-            let (y0, y1) = (y.saturating_sub(1), (y + 1).min(h - 1));
-            let mut out = Vec::new();
-            for x in 0..w {
-                let i = y * w + x;
-                let (x0, x1) = (x.saturating_sub(1), (x + 1).min(w - 1));
-                let f = facets[i];
-                let refine = (y0..=y1).any(|ny| {
-                    (x0..=x1).any(|nx| {
-                        let j = ny * w + nx;
-                        j != i && facets[j] == f && differs(i, j)
-                    })
-                });
-                if refine {
-                    out.push(i as u32);
+            let row = |r: usize| (&keys[r * w..(r + 1) * w], &facets[r * w..(r + 1) * w]);
+            let (k0, f0) = row(y);
+            let mut flag = vec![false; w];
+            for ny in y.saturating_sub(1)..=(y + 1).min(h - 1) {
+                let (k1, f1) = row(ny);
+                // Neighbour x - 1, then x + 1, then x itself in the rows above and below.
+                mark(&mut flag[1..], (&k0[1..], &f0[1..]), (&k1[..w - 1], &f1[..w - 1]));
+                mark(&mut flag[..w - 1], (&k0[..w - 1], &f0[..w - 1]), (&k1[1..], &f1[1..]));
+                if ny != y {
+                    mark(&mut flag, (k0, f0), (k1, f1));
                 }
             }
-            out
+            flag.iter().enumerate().filter(|&(_, &f)| f).map(|(x, _)| (y * w + x) as u32).collect()
         })
         .collect();
     rows.concat()
@@ -715,6 +812,141 @@ mod tests {
             }
         }
         assert!(pixels_to_refine(&film, &facets, 0.02).is_empty());
+    }
+
+    /// perf8: the word-per-pixel comparison in shifted rows picks exactly the pixels the
+    /// plain loop over each pixel's facet neighbours picks, on random films with a few
+    /// facets, objects, misses and colours near the threshold.
+    #[test]
+    fn pixels_to_refine_matches_the_neighbour_loop() {
+        let reference = |film: &Film, facets: &[u32], threshold: f32| -> Vec<u32> {
+            let (w, h) = (film.width as usize, film.height as usize);
+            let code = |i: usize| {
+                let c = film.color[i];
+                [c.x, c.y, c.z].map(|v| crate::scene::srgb::srgb8(v) as i32)
+            };
+            let limit = (threshold * 255.0).round().max(1.0) as i32;
+            (0..w * h)
+                .filter(|&i| {
+                    facet_neighbourhood(w, h, facets, i).any(|j| {
+                        let (a, b) = (code(i), code(j));
+                        j != i
+                            && (film.hits[i].object != film.hits[j].object
+                                || (0..3).any(|c| (a[c] - b[c]).abs() > limit))
+                    })
+                })
+                .map(|i| i as u32)
+                .collect()
+        };
+        let mut state = 7u64;
+        let mut next = || {
+            state = splitmix64(state);
+            state
+        };
+        for (w, h) in [(1u32, 1u32), (1, 9), (9, 1), (2, 2), (37, 23), (64, 40)] {
+            let n = (w * h) as usize;
+            let mut film = grey_film(w, h);
+            let facets: Vec<u32> = (0..n).map(|_| (next() % 3) as u32).collect();
+            for i in 0..n {
+                let r = next();
+                film.color[i] = Vec4::new(0.2 + (r % 8) as f32 * 0.002, 0.2, 0.2 + ((r >> 8) % 3) as f32 * 0.05, 1.0);
+                match (r >> 16) % 10 {
+                    0 => film.hits[i] = PixelHit::MISS,
+                    1 => film.hits[i].object = 1,
+                    _ => {}
+                }
+            }
+            for threshold in [0.005, 0.02, 0.1] {
+                let want = reference(&film, &facets, threshold);
+                assert_eq!(pixels_to_refine(&film, &facets, threshold), want, "{w} x {h}, threshold {threshold}");
+                if w * h > 100 {
+                    assert!(!want.is_empty() && want.len() < n, "{w} x {h}: some refined, not all");
+                }
+            }
+        }
+    }
+
+    /// perf8: an ascending list is traced in place by bands of rows; it gives the film the
+    /// pixels the chunked trace and copy (any order) gives it, sparse shadow rays included,
+    /// on 1 and 3 threads.
+    #[test]
+    fn subset_traced_in_place_matches_the_chunked_trace() {
+        use crate::pipeline::{Prepared, Shading, StageParams, Timings, prerender};
+        use crate::settings::Settings;
+        let prep = Prepared::load(None).unwrap();
+        let s = Settings { width: 163, height: 97, spp: 1, ..Settings::default() };
+        let params = StageParams::new(&s);
+        let pre = prerender(
+            &prep,
+            &params.framing,
+            &params.trace,
+            Shading::Lit,
+            &Progress::silent(),
+            &mut Timings::default(),
+        )
+        .unwrap();
+        let tracer = pre.view.tracer(&prep, &params.trace);
+        let camera = pre.view.framed.camera.as_ref();
+        // A moved ray: the camera's, shifted, so the subset's pixels really change.
+        let rays = |_: usize, p: DVec2| camera.ray(p + DVec2::new(0.01, 0.0));
+        let (w, n) = (163usize, 163 * 97);
+        let facets: Vec<u32> = (0..n).map(|i| ((i % w) / 20 + (i / w) / 15) as u32 % 4).collect();
+        let list: Vec<u32> = (0..n as u32).filter(|&i| facets[i as usize] == 1).collect();
+        // Reversed in fives: not ascending, so the chunked trace and `write_subset` store it.
+        let mut unordered = list.clone();
+        unordered.chunks_mut(5).for_each(|c| c.reverse());
+        for threads in [1, 3] {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            let run = |l: &[u32]| {
+                let mut film = pre.film.clone();
+                pool.install(|| tracer.render(&mut film, &rays, Some(l), Some(&facets), &Progress::silent()));
+                film
+            };
+            let (a, b) = (run(&list), run(&unordered));
+            assert!(a.hits != pre.film.hits, "the subset was traced again");
+            assert_eq!(
+                a.color.iter().map(|c| c.to_array().map(f32::to_bits)).collect::<Vec<_>>(),
+                b.color.iter().map(|c| c.to_array().map(f32::to_bits)).collect::<Vec<_>>()
+            );
+            assert!(a.hits == b.hits && a.occlusion == b.occlusion && a.samples == b.samples);
+        }
+    }
+
+    /// perf8: the loops gathering the neighbours of `agreed_occlusion` and `coarse_occlusion`
+    /// agree with `facet_neighbourhood` and `coarse_grid_around` on random films of odd and
+    /// even sizes, with and without facets.
+    #[test]
+    fn neighbour_loops_match_the_neighbourhood_iterators() {
+        let mut state = 11u64;
+        let mut next = || {
+            state = splitmix64(state);
+            state
+        };
+        for (w, h) in [(1u32, 1u32), (1, 6), (7, 1), (2, 3), (9, 8), (16, 11)] {
+            let n = (w * h) as usize;
+            let mut film = grey_film(w, h);
+            for i in 0..n {
+                let r = next();
+                film.occlusion[i] = (r % 4) as u8;
+                match (r >> 8) % 8 {
+                    0 => film.hits[i] = PixelHit::MISS,
+                    1 => film.hits[i].object = 1,
+                    _ => {}
+                }
+            }
+            let facets: Vec<u32> = (0..n).map(|_| (next() % 2) as u32).collect();
+            let key = |k: Known| (k.object, k.occlusion);
+            for i in 0..n {
+                let (wu, hu) = (w as usize, h as usize);
+                let want = agree(&film, facet_neighbourhood(wu, hu, &facets, i));
+                assert_eq!(key(agreed_occlusion(&film, &facets, i)), key(want), "{w} x {h}, pixel {i}");
+                for ids in [&facets[..], &[]] {
+                    let same = |j: &usize| ids.is_empty() || ids[*j] == ids[i];
+                    let want = agree(&film, coarse_grid_around(wu, hu, i).filter(same));
+                    assert_eq!(key(coarse_occlusion(&film, ids, i)), key(want), "{w} x {h}, pixel {i}");
+                }
+            }
+        }
     }
 
     #[test]
