@@ -335,30 +335,20 @@ impl Tracer<'_> {
             return;
         }
         let (w, h, spp) = (film.width, film.height, film.spp as usize);
-        let band = w as usize * BAND_ROWS;
-        film.color
-            .par_chunks_mut(band)
-            .zip(film.hits.par_chunks_mut(band))
-            .zip(film.occlusion.par_chunks_mut(band))
-            .zip(film.samples.par_chunks_mut(band * spp))
-            .enumerate()
-            .for_each(|(b, (((color, hits), occlusion), samples))| {
-                let base = b * band;
-                let first = list.partition_point(|&i| (i as usize) < base);
-                let last = list.partition_point(|&i| (i as usize) < base + color.len());
-                // Cancelled (cubist serve): the caller checks `progress.check()` and throws
-                // the film away.
-                if first == last || progress.cancelled() {
-                    return;
-                }
-                for (k, &i) in list.iter().enumerate().take(last).skip(first) {
-                    let j = i as usize - base;
-                    let known = known.map_or(Known::NONE, |v| v[k]);
-                    let px = &mut samples[j * spp..(j + 1) * spp];
-                    (color[j], hits[j], occlusion[j]) = self.trace_pixel(i as usize, w, h, px, rays, known, centre);
-                }
-                progress.add((last - first) as u64);
-            });
+        for_each_band_of(film, BAND_ROWS, list, |base, first, last, (color, hits, occlusion, samples)| {
+            // Cancelled (cubist serve): the caller checks `progress.check()` and throws the
+            // film away.
+            if first == last || progress.cancelled() {
+                return;
+            }
+            for (k, &i) in list.iter().enumerate().take(last).skip(first) {
+                let j = i as usize - base;
+                let known = known.map_or(Known::NONE, |v| v[k]);
+                let px = &mut samples[j * spp..(j + 1) * spp];
+                (color[j], hits[j], occlusion[j]) = self.trace_pixel(i as usize, w, h, px, rays, known, centre);
+            }
+            progress.add((last - first) as u64);
+        });
     }
 
     /// `render_subset`'s tracing, reading nothing of `film` but its size and samples (so
@@ -533,9 +523,30 @@ fn write_subset(film: &mut Film, list: &[u32], chunks: Vec<SubsetChunk>) {
         }
         return;
     }
-    const ROWS: usize = 16;
-    let band = film.width as usize * ROWS;
     let chunks = &chunks;
+    for_each_band_of(film, 16, list, |base, first, last, (color, hits, occlusion, samples)| {
+        for (k, &i) in list.iter().enumerate().take(last).skip(first) {
+            let j = i as usize - base;
+            let (out, traced) = &chunks[k / CHUNK];
+            let c = k % CHUNK;
+            (color[j], hits[j], occlusion[j]) = out[c];
+            samples[j * spp..(j + 1) * spp].copy_from_slice(&traced[c * spp..(c + 1) * spp]);
+        }
+    });
+}
+
+/// A band of `rows` rows of a film's per-pixel buffers: colour, hits, occlusion and samples.
+type FilmBand<'a> = (&'a mut [Vec4], &'a mut [PixelHit], &'a mut [u8], &'a mut [SampleHit]);
+
+/// Calls `f(base, first, last, band)` for each band of `rows` rows of `film`, in parallel:
+/// `base` is the band's first pixel and `list[first..last]` the pixels of the ascending `list`
+/// inside it (what the in-place re-trace and `write_subset` store, band by band).
+fn for_each_band_of<F>(film: &mut Film, rows: usize, list: &[u32], f: F)
+where
+    F: Fn(usize, usize, usize, FilmBand<'_>) + Sync,
+{
+    let band = film.width as usize * rows;
+    let spp = film.spp as usize;
     film.color
         .par_chunks_mut(band)
         .zip(film.hits.par_chunks_mut(band))
@@ -546,13 +557,7 @@ fn write_subset(film: &mut Film, list: &[u32], chunks: Vec<SubsetChunk>) {
             let base = b * band;
             let first = list.partition_point(|&i| (i as usize) < base);
             let last = list.partition_point(|&i| (i as usize) < base + color.len());
-            for (k, &i) in list.iter().enumerate().take(last).skip(first) {
-                let j = i as usize - base;
-                let (out, traced) = &chunks[k / CHUNK];
-                let c = k % CHUNK;
-                (color[j], hits[j], occlusion[j]) = out[c];
-                samples[j * spp..(j + 1) * spp].copy_from_slice(&traced[c * spp..(c + 1) * spp]);
-            }
+            f(base, first, last, (color, hits, occlusion, samples));
         });
 }
 
