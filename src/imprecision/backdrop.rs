@@ -14,23 +14,25 @@
 //! facet is all subject or all backdrop, so the rule rarely has to weigh a mixed one.
 
 use glam::DVec2;
+use rayon::prelude::*;
 
 use super::cues::CueVertices;
 use super::{AimContext, AimParams, FacetAim, FacetProjection};
-use crate::facets::FacetMap;
+use crate::facets::{FacetMap, FacetPixels};
 use crate::film::Film;
 
 /// Each facet's share of pixel coverage (the fraction of samples that hit geometry, averaged
-/// over its pixels) in the pre-render whose per-pixel coverage is `coverage`.
-pub fn facet_coverage(map: &FacetMap, coverage: impl Fn(usize) -> f32) -> Vec<f64> {
-    let n = map.facet_count as usize;
-    let mut sum = vec![(0.0f64, 0u64); n];
-    for (i, &id) in map.ids.iter().enumerate() {
-        let s = &mut sum[id as usize];
-        s.0 += coverage(i).clamp(0.0, 1.0) as f64;
-        s.1 += 1;
-    }
-    sum.iter().map(|&(c, k)| if k > 0 { c / k as f64 } else { 0.0 }).collect()
+/// over its pixels) in the pre-render whose per-pixel coverage is `coverage`. Facets in
+/// parallel, each summed over its pixels in ascending order (`by_facet`): one serial pass's bits.
+pub fn facet_coverage(by_facet: &FacetPixels, coverage: impl Fn(usize) -> f32 + Sync) -> Vec<f64> {
+    (0..by_facet.facet_count())
+        .into_par_iter()
+        .map(|f| {
+            let own = by_facet.of(f);
+            let c: f64 = own.iter().fold(0.0, |c, &i| c + coverage(i as usize).clamp(0.0, 1.0) as f64);
+            if own.is_empty() { 0.0 } else { c / own.len() as f64 }
+        })
+        .collect()
 }
 
 /// Undoes the re-aim of every facet whose pre-render coverage is below `min_coverage`; returns
@@ -53,28 +55,40 @@ pub fn hold_background(aims: &mut [FacetAim], coverage: &[f64], min_coverage: f6
 }
 
 /// Each facet's mean width, pixels: twice its area over its perimeter (pixel edges facing
-/// another facet or the image's edge); 0 for a facet with no pixel.
+/// another facet or the image's edge); 0 for a facet with no pixel. Counted by bands of rows
+/// in parallel (integers: the same on any thread count).
 pub fn facet_widths(map: &FacetMap) -> Vec<f64> {
+    const BAND_ROWS: usize = 64;
     let (w, h) = (map.width as usize, map.height as usize);
     let n = map.facet_count as usize;
-    let (mut area, mut perimeter) = (vec![0u64; n], vec![0u64; n]);
-    for y in 0..h {
-        for x in 0..w {
-            let i = y * w + x;
-            let id = map.ids[i] as usize;
-            area[id] += 1;
-            let differs = |j: Option<usize>| j.is_none_or(|j| map.ids[j] as usize != id);
-            perimeter[id] += [
-                differs((x > 0).then(|| i - 1)),
-                differs((x + 1 < w).then(|| i + 1)),
-                differs((y > 0).then(|| i - w)),
-                differs((y + 1 < h).then(|| i + w)),
-            ]
-            .iter()
-            .filter(|&&d| d)
-            .count() as u64;
-        }
-    }
+    let zero = || (vec![0u64; n], vec![0u64; n]);
+    let (area, perimeter) = (0..h.div_ceil(BAND_ROWS))
+        .into_par_iter()
+        .fold(zero, |(mut area, mut perimeter), b| {
+            for y in b * BAND_ROWS..((b + 1) * BAND_ROWS).min(h) {
+                for x in 0..w {
+                    let i = y * w + x;
+                    let id = map.ids[i] as usize;
+                    area[id] += 1;
+                    let differs = |j: Option<usize>| j.is_none_or(|j| map.ids[j] as usize != id);
+                    perimeter[id] += [
+                        differs((x > 0).then(|| i - 1)),
+                        differs((x + 1 < w).then(|| i + 1)),
+                        differs((y > 0).then(|| i - w)),
+                        differs((y + 1 < h).then(|| i + w)),
+                    ]
+                    .iter()
+                    .filter(|&&d| d)
+                    .count() as u64;
+                }
+            }
+            (area, perimeter)
+        })
+        .reduce(zero, |(mut a, mut p), (b, q)| {
+            a.iter_mut().zip(b).for_each(|(x, y)| *x += y);
+            p.iter_mut().zip(q).for_each(|(x, y)| *x += y);
+            (a, p)
+        });
     area.iter().zip(&perimeter).map(|(&a, &p)| if p > 0 { 2.0 * a as f64 / p as f64 } else { 0.0 }).collect()
 }
 
@@ -114,23 +128,29 @@ pub const CUE_PIXEL_SHARE: f64 = 0.15;
 /// shown at least as often as in the unfaceted render). The salient pixels are the top
 /// `CUE_PIXEL_SHARE` of `saliency` over the pixels that show geometry.
 pub fn keep_cues(aims: &mut [FacetAim], ctx: &AimContext, map: &FacetMap, saliency: &[f32]) {
+    keep_cues_with(aims, ctx, map, &map.facet_pixels(), saliency)
+}
+
+/// `keep_cues` with the facets' pixels (`FacetMap::facet_pixels`) made already.
+pub fn keep_cues_with(
+    aims: &mut [FacetAim],
+    ctx: &AimContext,
+    map: &FacetMap,
+    by_facet: &FacetPixels,
+    saliency: &[f32],
+) {
     let mut values: Vec<f32> = saliency.iter().copied().filter(|&v| v > 0.0).collect();
     if values.is_empty() || saliency.len() != map.ids.len() {
         return;
     }
     let k = ((values.len() as f64 * (1.0 - CUE_PIXEL_SHARE)) as usize).min(values.len() - 1);
     let (_, &mut threshold, _) = values.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
-    let (offsets, pixels) = map.pixels_by_facet();
     for (f, aim) in aims.iter_mut().enumerate() {
         let (Some(fc), Some(sc)) = (aim.fc, aim.sc) else { continue };
         if aim.reaim.is_none() {
             continue;
         }
-        let salient: Vec<u32> = pixels[offsets[f] as usize..offsets[f + 1] as usize]
-            .iter()
-            .copied()
-            .filter(|&i| saliency[i as usize] >= threshold)
-            .collect();
+        let salient: Vec<u32> = by_facet.of(f).iter().copied().filter(|&i| saliency[i as usize] >= threshold).collect();
         let scale = shift_scale_keeping(map, &salient, f, sc - fc);
         if scale == 1.0 {
             continue;
@@ -165,12 +185,13 @@ pub fn apply(
     aims: &mut [FacetAim],
     ctx: &AimContext,
     map: &FacetMap,
+    by_facet: &FacetPixels,
     film: &Film,
     cues: Option<&CueVertices>,
     params: &AimParams,
 ) -> Option<super::cues::CentreHits> {
     if params.min_coverage > 0.0 {
-        let c = facet_coverage(map, |i| film.color[i].w);
+        let c = facet_coverage(by_facet, |i| film.color[i].w);
         hold_background(aims, &c, params.min_coverage);
     }
     if params.width_share > 0.0 && params.projection == FacetProjection::Converging {
@@ -178,9 +199,9 @@ pub fn apply(
         // Only when re-aiming reads the saliency map anyway (what the aims depend on stays
         // what `reads_saliency` says: the session's stage cache keys on it).
         if let Some(s) = film.saliency.as_deref().filter(|_| params.reads_saliency()) {
-            keep_cues(aims, ctx, map, s);
+            keep_cues_with(aims, ctx, map, by_facet, s);
             if let Some(c) = cues {
-                return super::cues::keep_cue_vertices_traced(aims, ctx, map, film, c).1;
+                return super::cues::keep_cue_vertices_traced(aims, ctx, map, by_facet, film, c).1;
             }
         }
     }
@@ -199,7 +220,7 @@ mod tests {
         // Facet 0: all background; facet 1: 3 of 4 pixels on geometry.
         let map = FacetMap { width: 4, height: 2, ids: vec![0, 0, 1, 1, 0, 0, 1, 1], facet_count: 2 };
         let cov = [0.0, 0.0, 1.0, 1.0, 0.0, 0.2, 1.0, 0.0];
-        let c = facet_coverage(&map, |i| cov[i]);
+        let c = facet_coverage(&map.facet_pixels(), |i| cov[i]);
         assert!((c[0] - 0.05).abs() < 1e-6 && (c[1] - 0.75).abs() < 1e-6, "{c:?}");
         let moved = FacetAim {
             fc: Some(DVec2::ONE),

@@ -72,7 +72,7 @@ pub fn carry_aims(
     let fc_now = super::facet_centres(map);
     let radius = params.discontinuity * params.scale;
     let linear = params.projection == FacetProjection::Linear;
-    let (offsets, pixels) = if linear { map.pixels_by_facet() } else { (Vec::new(), Vec::new()) };
+    let by_facet = if linear { map.facet_pixels() } else { Default::default() };
     let (w, h) = (ctx.width as f64, ctx.height as f64);
     let now = |a: Option<Anchor>| -> Option<(DVec2, DVec3)> {
         let a = a?;
@@ -107,8 +107,7 @@ pub fn carry_aims(
                 }
             }
             if linear && k.aim.linear.is_some() {
-                let own = &pixels[offsets[f] as usize..offsets[f + 1] as usize];
-                aim.linear = ctx.linear(c, aim.reaim.as_ref(), own, params.facet_fov);
+                aim.linear = ctx.linear(c, aim.reaim.as_ref(), by_facet.of(f), params.facet_fov);
             }
             aim
         })
@@ -121,10 +120,9 @@ mod tests {
 
     use super::*;
     use crate::camera::{Camera, Moved};
-    use crate::imprecision::{AimMode, aim_facets};
-    use crate::pipeline::{Prepared, Shading, StageParams, Timings, prerender};
-    use crate::progress::Progress;
-    use crate::settings::Settings;
+    use crate::imprecision::aim_facets;
+    use crate::imprecision::test_grid::Grid;
+    use crate::pipeline::Shading;
 
     /// The default still life's aims on a grid of 48 facets (random aim points within 30
     /// pixels: no saliency map needed), anchored, then carried to the same camera (the key
@@ -132,39 +130,19 @@ mod tests {
     /// turntable step: each facet keeps aiming at the scene point it aimed at).
     #[test]
     fn carried_aims_keep_the_key_frames_view() {
-        let prep = Prepared::load(None).unwrap();
-        let (w, h) = (160u32, 120u32);
-        let s = Settings { width: w, height: h, ..Settings::default() };
-        let params = StageParams::new(&s);
-        let pre = prerender(
-            &prep,
-            &params.framing,
-            &params.trace,
-            Shading::HitsOnly,
-            &Progress::silent(),
-            &mut Timings::default(),
-        )
-        .unwrap();
-        let ids = (0..w * h).map(|i| (i % w) / 20 + 8 * ((i / w) / 20)).collect();
-        let map = FacetMap { width: w, height: h, ids, facet_count: 48 };
-        let clip_radius = prep.world.radius as f64 * 1.001;
+        let grid = Grid::new(Shading::HitsOnly);
+        let (prep, pre, map, clip_radius) = (&grid.prep, &grid.pre, &grid.map, grid.clip_radius);
         let camera = pre.view.framed.camera.as_ref();
-        let key_ctx = AimContext { camera, accel: &prep.accel, width: w, height: h, clip_radius };
-        let aim = AimParams {
-            mode: AimMode::Random,
-            discontinuity: 30.0,
-            scale: 1.0,
-            min_coverage: 0.0,
-            ..params.aim.clone()
-        };
-        let key = aim_facets(&key_ctx, &map, None, &aim);
+        let key_ctx = grid.ctx();
+        let aim = grid.random_aims(30.0);
+        let key = aim_facets(&key_ctx, map, None, &aim);
         let anchors = anchor_aims(&key_ctx, &key);
         let corners = |t: u32| Some(prep.world.triangle(t));
         let anchored = anchors.iter().filter(|k| k.aim.moved() && k.centre.is_some() && k.target.is_some()).count();
         assert!(anchored >= 4, "only {anchored} facets re-aimed at the still life");
 
         // At the key frame itself: the key frame's aims, to rounding.
-        let same = carry_aims(&key_ctx, &anchors, &map, &corners, &aim);
+        let same = carry_aims(&key_ctx, &anchors, map, &corners, &aim);
         for (k, c) in anchors.iter().zip(&same) {
             if !(k.aim.moved() && k.centre.is_some() && k.target.is_some()) {
                 continue;
@@ -185,7 +163,7 @@ mod tests {
             clip_radius,
         };
         let ctx = AimContext { camera: &turned, ..key_ctx };
-        let carried = carry_aims(&ctx, &anchors, &map, &corners, &aim);
+        let carried = carry_aims(&ctx, &anchors, map, &corners, &aim);
         let mut checked = 0;
         for (k, c) in anchors.iter().zip(&carried) {
             let (Some(centre), Some(target)) = (k.centre, k.target) else { continue };

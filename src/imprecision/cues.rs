@@ -18,7 +18,7 @@ use rayon::prelude::*;
 
 use super::{AimContext, FacetAim};
 use crate::accel::Hit;
-use crate::facets::FacetMap;
+use crate::facets::{FacetMap, FacetPixels};
 use crate::film::{Film, NO_HIT};
 use crate::scene::{Scene, World};
 use crate::trace::screen_point;
@@ -232,7 +232,7 @@ pub fn keep_cue_vertices(
     film: &Film,
     cues: &CueVertices,
 ) -> usize {
-    keep_cue_vertices_traced(aims, ctx, map, film, cues).0
+    keep_cue_vertices_traced(aims, ctx, map, &map.facet_pixels(), film, cues).0
 }
 
 /// `keep_cue_vertices`, also returning the centre hits it traced through the aims it kept
@@ -241,6 +241,7 @@ pub fn keep_cue_vertices_traced(
     aims: &mut [FacetAim],
     ctx: &AimContext,
     map: &FacetMap,
+    by_facet: &FacetPixels,
     film: &Film,
     cues: &CueVertices,
 ) -> (usize, Option<CentreHits>) {
@@ -248,8 +249,7 @@ pub fn keep_cue_vertices_traced(
         return (0, None);
     }
     let n = aims.len();
-    let (offsets, pixels) = map.pixels_by_facet();
-    let own = |f: usize| &pixels[offsets[f] as usize..offsets[f + 1] as usize];
+    let own = |f: usize| by_facet.of(f);
     // What the pre-render showed, per facet: the slots its pixels saw.
     let held_slots: Vec<Vec<usize>> = (0..n)
         .into_par_iter()
@@ -362,10 +362,10 @@ pub fn keep_cue_vertices_traced(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::imprecision::{AimMode, AimParams, aim_facets};
-    use crate::pipeline::{Prepared, Shading, StageParams, Timings, moved_pixels, prerender, retrace_stage};
+    use crate::imprecision::aim_facets;
+    use crate::imprecision::test_grid::Grid;
+    use crate::pipeline::{Shading, Timings, moved_pixels, retrace_stage};
     use crate::progress::Progress;
-    use crate::settings::Settings;
 
     /// The still life on a grid of 48 facets, each re-aimed at a random point up to 40 pixels
     /// away (far more than the default's shifts): some salient vertices drop out of view.
@@ -373,13 +373,9 @@ mod tests {
     /// showed is shown again, and only some facets gave up part of their shift.
     #[test]
     fn every_salient_vertex_shown_before_is_shown_after() {
-        let prep = Prepared::load(None).unwrap();
-        let (w, h) = (160u32, 120u32);
-        let s = Settings { width: w, height: h, ..Settings::default() };
-        let params = StageParams::new(&s);
+        let grid = Grid::new(Shading::Lit);
+        let (prep, pre, map, params) = (&grid.prep, &grid.pre, &grid.map, &grid.params);
         let silent = Progress::silent();
-        let mut t = Timings::default();
-        let pre = prerender(&prep, &params.framing, &params.trace, Shading::Lit, &silent, &mut t).unwrap();
         assert_eq!(pre.film.spp, 1);
         let mesh =
             crate::saliency::for_film(&prep.scene, &prep.world, &prep.saliency, &pre.film, &params.saliency).unwrap();
@@ -387,33 +383,18 @@ mod tests {
         let before = cues.seen(&pre.film);
         let shown_before = before.iter().filter(|&&b| b).count();
         assert!(shown_before >= 10, "{shown_before}");
-        let ids = (0..w * h).map(|i| (i % w) / 20 + 8 * ((i / w) / 20)).collect();
-        let map = FacetMap { width: w, height: h, ids, facet_count: 48 };
-        let clip_radius = prep.world.radius as f64 * 1.001;
-        let ctx = AimContext {
-            camera: pre.view.framed.camera.as_ref(),
-            accel: &prep.accel,
-            width: w,
-            height: h,
-            clip_radius,
-        };
-        let aim = AimParams {
-            mode: AimMode::Random,
-            discontinuity: 40.0,
-            scale: 1.0,
-            min_coverage: 0.0,
-            ..params.aim.clone()
-        };
-        let wild = aim_facets(&ctx, &map, None, &aim);
+        let ctx = grid.ctx();
+        let aim = grid.random_aims(40.0);
+        let wild = aim_facets(&ctx, map, None, &aim);
         let retraced = |aims: &[FacetAim], centre: Option<&CentreHits>| {
             let mut film = pre.film.clone();
-            let moved = moved_pixels(&map, aims);
+            let moved = moved_pixels(map, aims);
             retrace_stage(
-                &prep,
+                prep,
                 &pre.view,
                 &ctx,
                 &params.trace,
-                &map,
+                map,
                 aims,
                 &moved,
                 centre,
@@ -427,17 +408,17 @@ mod tests {
         let lost = |after: &[bool]| before.iter().zip(after).filter(|&(&b, &a)| b && !a).count();
         assert!(lost(&traced(&wild)) > 0, "the wild aims lose no cue: the test shows nothing");
         let mut kept = wild.clone();
-        let (reduced, centre) = keep_cue_vertices_traced(&mut kept, &ctx, &map, &pre.film, &cues);
+        let (reduced, centre) = keep_cue_vertices_traced(&mut kept, &ctx, map, &map.facet_pixels(), &pre.film, &cues);
         assert_eq!(lost(&traced(&kept)), 0, "{reduced} facets reduced");
         // The centre hits the check traced are those the re-trace finds: the same film with
         // them as without, and none taken for facets whose aim is not the one kept.
         let centre = centre.expect("facets were checked");
-        let known = centre.known(&map, &kept);
+        let known = centre.known(map, &kept);
         let taken = (0..map.ids.len()).filter(|&i| known(i).is_some()).count();
         assert!(taken > 0 && taken == centre.len(), "{taken} of {} hits taken", centre.len());
         let (a, b) = (retraced(&kept, Some(&centre)), retraced(&kept, None));
         assert!(a.color == b.color && a.hits == b.hits && a.samples == b.samples && a.occlusion == b.occlusion);
-        let known = centre.known(&map, &wild);
+        let known = centre.known(map, &wild);
         let stale = (0..map.ids.len())
             .filter(|&i| known(i).is_some() && kept[map.ids[i] as usize] != wild[map.ids[i] as usize]);
         assert_eq!(stale.count(), 0);

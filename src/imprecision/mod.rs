@@ -22,16 +22,18 @@ pub mod carried;
 mod centres;
 pub mod cues;
 mod rays;
+#[cfg(test)]
+mod test_grid;
 
 use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 
 use crate::camera::CameraRay;
-use crate::facets::FacetMap;
+use crate::facets::{FacetMap, FacetPixels};
 
 pub use centres::{
     NEIGHBOURHOOD_BUDGET, check_neighbourhood, facet_centres, limit_discontinuity, neighbourhood_work, random_centre,
-    saliency_centres,
+    saliency_centres, saliency_centres_with,
 };
 pub use rays::{AimContext, D_AI_SAMPLES, Linear, Reaim};
 
@@ -140,11 +142,24 @@ pub fn changes_rays(params: &AimParams) -> bool {
 /// Decides every facet's aim: centres, the discontinuity limit (pixels at 1000 px, scaled to
 /// this image), the re-aim and the linear facet. `saliency` None counts as zero saliency.
 pub fn aim_facets(ctx: &AimContext, map: &FacetMap, saliency: Option<&[f32]>, params: &AimParams) -> Vec<FacetAim> {
+    aim_facets_with(ctx, map, &map.facet_pixels(), saliency, params)
+}
+
+/// `aim_facets` with the facets' pixels (`FacetMap::facet_pixels`) made already: the
+/// imprecision stage makes them once for the centres, the linear facets and the rules of
+/// `backdrop::apply`.
+pub fn aim_facets_with(
+    ctx: &AimContext,
+    map: &FacetMap,
+    by_facet: &FacetPixels,
+    saliency: Option<&[f32]>,
+    params: &AimParams,
+) -> Vec<FacetAim> {
     let scale = params.scale;
     let radius = params.discontinuity * scale;
     let fc = facet_centres(map);
     let sc_raw: Vec<Option<DVec2>> = match (params.mode, saliency) {
-        (AimMode::Saliency, Some(s)) => saliency_centres(map, s, &fc, params.neighborhood * scale),
+        (AimMode::Saliency, Some(s)) => saliency_centres_with(map, by_facet, s, &fc, params.neighborhood * scale),
         _ => fc.clone(),
     };
     let sc: Vec<Option<DVec2>> = match params.mode {
@@ -158,7 +173,6 @@ pub fn aim_facets(ctx: &AimContext, map: &FacetMap, saliency: Option<&[f32]>, pa
         }
     };
     let linear = params.projection == FacetProjection::Linear;
-    let (offsets, pixels) = if linear { map.pixels_by_facet() } else { (Vec::new(), Vec::new()) };
     (0..map.facet_count as usize)
         .into_par_iter()
         .map(|f| {
@@ -173,8 +187,7 @@ pub fn aim_facets(ctx: &AimContext, map: &FacetMap, saliency: Option<&[f32]>, pa
                 aim.target = p;
             }
             if linear {
-                let own = &pixels[offsets[f] as usize..offsets[f + 1] as usize];
-                aim.linear = ctx.linear(c, aim.reaim.as_ref(), own, params.facet_fov);
+                aim.linear = ctx.linear(c, aim.reaim.as_ref(), by_facet.of(f), params.facet_fov);
             }
             aim
         })

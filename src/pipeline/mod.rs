@@ -233,7 +233,9 @@ pub fn aims_stage_traced(
 ) -> (Vec<FacetAim>, Option<CentreHits>) {
     progress.begin(Stage::Imprecision.name(), 1);
     timings.time(Stage::Imprecision.name(), || {
-        let mut aims = imprecision::aim_facets(ctx, map, film.saliency.as_deref(), params);
+        // Every facet's pixels, made once for the centres, the coverage and the cue checks.
+        let by_facet = map.facet_pixels();
+        let mut aims = imprecision::aim_facets_with(ctx, map, &by_facet, film.saliency.as_deref(), params);
         // What a facet may show (issue 13): backdrop kept, shifts within the facet's width,
         // the most salient vertices kept in view. The mesh saliency is the memo's since the
         // saliency stage (a failure there was reported there).
@@ -243,7 +245,7 @@ pub fn aims_stage_traced(
         let cues = mesh
             .zip(saliency.as_ref())
             .and_then(|((prep, _), s)| imprecision::cues::CueVertices::new(&prep.scene, &prep.world, &s.per_mesh));
-        let hits = imprecision::backdrop::apply(&mut aims, ctx, map, film, cues.as_ref(), params);
+        let hits = imprecision::backdrop::apply(&mut aims, ctx, map, &by_facet, film, cues.as_ref(), params);
         (aims, hits)
     })
 }

@@ -369,60 +369,73 @@ pub fn layers(
     if !all.contains(&true) {
         return result;
     }
-    result.push(simplify(trace(&all, w, h)));
-    // Objects by area (counted by rows in parallel), then, when two or more are large
-    // enough to matter, with their mean depth (summed in pixel order, as ever).
-    let areas = labels
-        .par_chunks(w.max(1))
-        .fold(Vec::new, |mut areas: Vec<(u32, usize)>, row| {
-            for &l in row.iter().filter(|&&l| l != BACKGROUND) {
-                match areas.iter_mut().find(|a| a.0 == l) {
-                    Some(a) => a.1 += 1,
-                    None => areas.push((l, 1)),
+    // Layer 0 beside the objects' layers (facet9, issue 14).
+    let (first, objects) = rayon::join(
+        || simplify(trace(&all, w, h)),
+        || -> Vec<Layer> {
+            // Objects by area (counted by rows in parallel), then, when two or more are large
+            // enough to matter, with their mean depth (summed in pixel order, as ever).
+            let areas = labels
+                .par_chunks(w.max(1))
+                .fold(Vec::new, |mut areas: Vec<(u32, usize)>, row| {
+                    for &l in row.iter().filter(|&&l| l != BACKGROUND) {
+                        match areas.iter_mut().find(|a| a.0 == l) {
+                            Some(a) => a.1 += 1,
+                            None => areas.push((l, 1)),
+                        }
+                    }
+                    areas
+                })
+                .reduce(Vec::new, |mut a, b| {
+                    for (l, k) in b {
+                        match a.iter_mut().find(|e| e.0 == l) {
+                            Some(e) => e.1 += k,
+                            None => a.push((l, k)),
+                        }
+                    }
+                    a
+                });
+            if areas.iter().filter(|a| a.1 >= min_object_area).count() < 2 {
+                return Vec::new();
+            }
+            let mut stats: Vec<(u32, usize, f64)> = Vec::new();
+            for (i, &l) in labels.iter().enumerate() {
+                if l == BACKGROUND {
+                    continue;
+                }
+                let t = if depth[i].is_finite() { depth[i] as f64 } else { 0.0 };
+                match stats.iter_mut().find(|s| s.0 == l) {
+                    Some(s) => {
+                        s.1 += 1;
+                        s.2 += t;
+                    }
+                    None => stats.push((l, 1, t)),
                 }
             }
-            areas
-        })
-        .reduce(Vec::new, |mut a, b| {
-            for (l, k) in b {
-                match a.iter_mut().find(|e| e.0 == l) {
-                    Some(e) => e.1 += k,
-                    None => a.push((l, k)),
-                }
+            stats.retain(|s| s.1 >= min_object_area);
+            if stats.len() < 2 {
+                return Vec::new();
             }
-            a
-        });
-    if areas.iter().filter(|a| a.1 >= min_object_area).count() < 2 {
-        return result;
-    }
-    let mut stats: Vec<(u32, usize, f64)> = Vec::new();
-    for (i, &l) in labels.iter().enumerate() {
-        if l == BACKGROUND {
-            continue;
-        }
-        let t = if depth[i].is_finite() { depth[i] as f64 } else { 0.0 };
-        match stats.iter_mut().find(|s| s.0 == l) {
-            Some(s) => {
-                s.1 += 1;
-                s.2 += t;
-            }
-            None => stats.push((l, 1, t)),
-        }
-    }
-    stats.retain(|s| s.1 >= min_object_area);
-    if stats.len() < 2 {
-        return result;
-    }
-    stats.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
-    stats.truncate(MAX_OBJECT_LAYERS);
-    // Far to near.
-    stats.sort_by(|a, b| (b.2 / b.1 as f64).total_cmp(&(a.2 / a.1 as f64)).then(a.0.cmp(&b.0)));
-    for (k, &(object, _, _)) in stats.iter().enumerate() {
-        let nearer: Vec<u32> = stats[k + 1..].iter().map(|s| s.0).collect();
-        let mut mask: Vec<bool> = labels.iter().map(|&l| l == object || nearer.contains(&l)).collect();
-        keep_seeded(&mut mask, w, h, |i| labels[i] == object);
-        result.push(simplify(trace(&mask, w, h)));
-    }
+            stats.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+            stats.truncate(MAX_OBJECT_LAYERS);
+            // Far to near.
+            stats.sort_by(|a, b| (b.2 / b.1 as f64).total_cmp(&(a.2 / a.1 as f64)).then(a.0.cmp(&b.0)));
+            // Each object's layer on its own (their masks, fills and walks are serial): side by
+            // side, in this order (facet9, issue 14: the camera change makes them anew).
+            (0..stats.len())
+                .into_par_iter()
+                .map(|k| {
+                    let object = stats[k].0;
+                    let nearer: Vec<u32> = stats[k + 1..].iter().map(|s| s.0).collect();
+                    let mut mask: Vec<bool> = labels.par_iter().map(|&l| l == object || nearer.contains(&l)).collect();
+                    keep_seeded(&mut mask, w, h, |i| labels[i] == object);
+                    simplify(trace(&mask, w, h))
+                })
+                .collect()
+        },
+    );
+    result.push(first);
+    result.extend(objects);
     result
 }
 
