@@ -269,23 +269,52 @@ fn root(parent: &mut [u32], mut a: u32) -> u32 {
 /// in a few rounds. Deterministic: fixed orders, ties to the lower id.
 fn merge_small(ids: &[u32], w: usize, h: usize, count: usize, side: &[u32], min_side: f64, min_width: f64) -> Vec<u32> {
     // The counts by bands of rows in parallel, summed (integers: the same totals in any
-    // order; perf7, issue 16).
+    // order; perf7, issue 16), once over the pixels: a later round's counts are the first
+    // round's summed over each facet's root (facet9, issue 14: one pass over the image
+    // instead of one a round).
+    let first = std::cell::OnceCell::new();
     let counts = |current: &[u32]| {
-        const BAND: usize = 32;
-        (0..h.div_ceil(BAND))
-            .into_par_iter()
-            .map(|k| border_counts(ids, w, h, count, current, k * BAND..((k + 1) * BAND).min(h)))
-            .reduce_with(|(mut a1, mut p1, mut s1), (a2, p2, s2)| {
-                a1.iter_mut().zip(a2).for_each(|(x, y)| *x += y);
-                p1.iter_mut().zip(p2).for_each(|(x, y)| *x += y);
-                for (k, v) in s2 {
-                    *s1.entry(k).or_insert(0) += v;
-                }
-                (a1, p1, s1)
-            })
-            .unwrap_or_else(|| (vec![0; count], vec![0; count], Default::default()))
+        let (area, _, shared): &BorderCounts = first.get_or_init(|| {
+            let identity: Vec<u32> = (0..count as u32).collect();
+            const BAND: usize = 32;
+            (0..h.div_ceil(BAND))
+                .into_par_iter()
+                .map(|k| border_counts(ids, w, h, count, &identity, k * BAND..((k + 1) * BAND).min(h)))
+                .reduce_with(|(mut a1, mut p1, mut s1), (a2, p2, s2)| {
+                    a1.iter_mut().zip(a2).for_each(|(x, y)| *x += y);
+                    p1.iter_mut().zip(p2).for_each(|(x, y)| *x += y);
+                    for (k, v) in s2 {
+                        *s1.entry(k).or_insert(0) += v;
+                    }
+                    (a1, p1, s1)
+                })
+                .unwrap_or_else(|| (vec![0; count], vec![0; count], Default::default()))
+        });
+        counts_by_root(area, shared, current)
     };
     merge_small_counted(count, side, min_side, min_width, counts)
+}
+
+/// The `BorderCounts` of the facets' roots (`current`: each facet's root) from those of the
+/// facets themselves (`area`, `shared`): a root's area is its facets' areas; two roots share
+/// the borders their facets share; a root's inner perimeter is the borders it shares (each
+/// differing pair of neighbouring pixels counts once on either side, as `border_counts` does).
+fn counts_by_root(area: &[u64], shared: &std::collections::BTreeMap<(u32, u32), u64>, current: &[u32]) -> BorderCounts {
+    let mut root_area = vec![0u64; area.len()];
+    for (f, &a) in area.iter().enumerate() {
+        root_area[current[f] as usize] += a;
+    }
+    let mut perimeter = vec![0u64; area.len()];
+    let mut root_shared: std::collections::BTreeMap<(u32, u32), u64> = Default::default();
+    for (&(a, b), &len) in shared {
+        let (ra, rb) = (current[a as usize], current[b as usize]);
+        if ra != rb {
+            perimeter[ra as usize] += len;
+            perimeter[rb as usize] += len;
+            *root_shared.entry((ra.min(rb), ra.max(rb))).or_insert(0) += len;
+        }
+    }
+    (root_area, perimeter, root_shared)
 }
 
 /// Each facet root's area and inner perimeter, and the shared border lengths (a, b) -> count
@@ -384,8 +413,9 @@ fn merge_small_counted(
 mod tests {
     use super::*;
 
-    /// `merge_small` with its counts made in one pass over every row, as before they were made
-    /// in parallel bands (perf7): the reference the parallel form must match.
+    /// `merge_small` with its counts made in one pass over every row for every round, as
+    /// before they were made in parallel bands (perf7) and once for all rounds (facet9): the
+    /// reference the parallel, summed form must match.
     fn merge_small_serial(
         ids: &[u32],
         w: usize,
@@ -483,6 +513,17 @@ mod tests {
                 merged += want.iter().enumerate().filter(|(f, r)| **r != *f as u32).count();
             }
             assert!(merged > 0, "case {case}: something merged");
+            // A later round's counts summed from the first's are those counted again over
+            // the pixels, for roots of every kind (facets folded into lower, higher, one).
+            let first = border_counts(&ids, w, h, count, &(0..count as u32).collect::<Vec<_>>(), 0..h);
+            for fold in [1u32, 2, 3, 7] {
+                let current: Vec<u32> = (0..count as u32).map(|f| (f / fold * fold + fold / 2).min(f)).collect();
+                let want = border_counts(&ids, w, h, count, &current, 0..h);
+                assert_eq!(counts_by_root(&first.0, &first.2, &current), want, "case {case}, fold {fold}");
+            }
+            let reversed: Vec<u32> = (0..count as u32).map(|f| count as u32 - 1 - f / 2).collect();
+            let want = border_counts(&ids, w, h, count, &reversed, 0..h);
+            assert_eq!(counts_by_root(&first.0, &first.2, &reversed), want, "case {case}, reversed");
         }
     }
 }
