@@ -101,18 +101,19 @@ pub fn limit_shift(aims: &mut [FacetAim], widths: &[f64], share: f64, ctx: &AimC
     if share <= 0.0 {
         return;
     }
-    for (aim, &width) in aims.iter_mut().zip(widths) {
-        let (Some(fc), Some(sc)) = (aim.fc, aim.sc) else { continue };
+    // Each facet on its own (a re-aim traces a ray): in parallel.
+    aims.par_iter_mut().zip(widths).for_each(|(aim, &width)| {
+        let (Some(fc), Some(sc)) = (aim.fc, aim.sc) else { return };
         if aim.reaim.is_none() {
-            continue;
+            return;
         }
         let limit = share * width;
         let d = (sc - fc).length();
         if d <= limit {
-            continue;
+            return;
         }
         super::cues::reaim_at(aim, ctx, fc, fc + (sc - fc) * (limit / d));
-    }
+    });
 }
 
 /// Share of the pixels showing geometry `keep_cues` guards (the top of the pre-render's
@@ -139,24 +140,26 @@ pub fn keep_cues_with(
     by_facet: &FacetPixels,
     saliency: &[f32],
 ) {
-    let mut values: Vec<f32> = saliency.iter().copied().filter(|&v| v > 0.0).collect();
+    // (The k-th smallest value is the same whatever order the values are gathered in.)
+    let mut values: Vec<f32> = saliency.par_iter().copied().filter(|&v| v > 0.0).collect();
     if values.is_empty() || saliency.len() != map.ids.len() {
         return;
     }
     let k = ((values.len() as f64 * (1.0 - CUE_PIXEL_SHARE)) as usize).min(values.len() - 1);
     let (_, &mut threshold, _) = values.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
-    for (f, aim) in aims.iter_mut().enumerate() {
-        let (Some(fc), Some(sc)) = (aim.fc, aim.sc) else { continue };
+    // Each facet on its own: in parallel.
+    aims.par_iter_mut().enumerate().for_each(|(f, aim)| {
+        let (Some(fc), Some(sc)) = (aim.fc, aim.sc) else { return };
         if aim.reaim.is_none() {
-            continue;
+            return;
         }
         let salient: Vec<u32> = by_facet.of(f).iter().copied().filter(|&i| saliency[i as usize] >= threshold).collect();
         let scale = shift_scale_keeping(map, &salient, f, sc - fc);
         if scale == 1.0 {
-            continue;
+            return;
         }
         super::cues::reaim_at(aim, ctx, fc, fc + (sc - fc) * scale);
-    }
+    });
 }
 
 /// The largest of 1, 1/2, 1/4 (else 0) such that facet `f`'s view shifted by that much of

@@ -214,6 +214,21 @@ impl Traced {
         self.rays.get(self.ids[i] as usize).copied().flatten()
     }
 
+    /// Whether some pixel can be traced through the same moved rays in `self` and `new`
+    /// (`same`): over the same pre-render, some facet of `new` re-aimed as a facet of `self`
+    /// was. When none is (another plane detail, a camera change), no pixel need be compared.
+    fn may_share_rays(&self, new: &Traced) -> bool {
+        if self.pre != new.pre || self.ids.len() != new.ids.len() {
+            return false;
+        }
+        let old: Vec<&FacetRays> = self.rays.iter().filter(|r| r.is_some()).collect();
+        // Many facets (a fine Segment layout): the pixels are compared instead.
+        if old.len().saturating_mul(new.rays.len()) > 1 << 22 {
+            return true;
+        }
+        new.rays.iter().filter(|r| r.is_some()).any(|r| old.contains(&r))
+    }
+
     /// Whether pixel `i` is traced through the same rays in `self` and `new`, and each of
     /// `neighbours` shares its facet in both or in neither: a re-trace or anti-aliasing then
     /// gives it the same result (its rays, and what it reads of the pixels around it through
@@ -798,9 +813,15 @@ fn after_saliency_stages(
                 // neighbours: put back as they were; the others traced again.
                 let (w, h) = (film.width as usize, film.height as usize);
                 let mut again = Vec::with_capacity(delta.pixels.len());
-                let old = old.as_ref().and_then(|e| e.value.traced.as_ref().map(|t| (&e.value, t)));
+                let old = old
+                    .as_ref()
+                    .and_then(|e| e.value.traced.as_ref().map(|t| (&e.value, t)))
+                    .filter(|(_, t)| t.may_share_rays(&traced));
                 let mut next_old = 0;
-                for &i in &delta.pixels {
+                if old.is_none() {
+                    again.extend_from_slice(&delta.pixels);
+                }
+                for &i in delta.pixels.iter().filter(|_| old.is_some()) {
                     let reused = old.and_then(|(d, t)| {
                         while next_old < d.pixels.len() && d.pixels[next_old] < i {
                             next_old += 1;
