@@ -194,6 +194,44 @@ fn keep_seeded(mask: &mut [bool], w: usize, h: usize, seed: impl Fn(usize) -> bo
     mask.copy_from_slice(&keep);
 }
 
+/// The smallest box (x0, y0, x1, y1, inclusive) holding every pixel `inside` of a w x h image,
+/// None when there is none (rows in parallel).
+fn bounding_box(w: usize, h: usize, inside: &(dyn Fn(usize) -> bool + Sync)) -> Option<(usize, usize, usize, usize)> {
+    (0..h)
+        .into_par_iter()
+        .filter_map(|y| {
+            let x0 = (0..w).find(|&x| inside(y * w + x))?;
+            let x1 = (x0..w).rev().find(|&x| inside(y * w + x))?;
+            Some((x0, y, x1, y))
+        })
+        .reduce_with(|a, b| (a.0.min(b.0), a.1.min(b.1), a.2.max(b.2), a.3.max(b.3)))
+}
+
+/// `trace` of the mask of the pixels `inside` (with `seed`: only its 4-connected components
+/// holding a pixel where `seed` is true, `keep_seeded`), made, filled and walked within the
+/// mask's bounding box alone (facet9, issue 14: an object's layer is a part of the image). The
+/// same rings as over the whole image: outside the box the lattice has no edge, and inside it
+/// the vertices come in the same order (rows, then columns); the points are moved back by the
+/// box's corner (whole numbers: exact).
+fn trace_within_box(
+    w: usize,
+    h: usize,
+    inside: &(dyn Fn(usize) -> bool + Sync),
+    seed: Option<&(dyn Fn(usize) -> bool + Sync)>,
+) -> Vec<Vec<DVec2>> {
+    let Some((x0, y0, x1, y1)) = bounding_box(w, h, inside) else { return Vec::new() };
+    let (bw, bh) = (x1 - x0 + 1, y1 - y0 + 1);
+    let at = |k: usize| (y0 + k / bw) * w + x0 + k % bw;
+    let mut mask: Vec<bool> = (0..bw * bh).into_par_iter().map(|k| inside(at(k))).collect();
+    if let Some(seed) = seed {
+        keep_seeded(&mut mask, bw, bh, |k| seed(at(k)));
+    }
+    let corner = DVec2::new(x0 as f64, y0 as f64);
+    let mut rings = trace(&mask, bw, bh);
+    rings.iter_mut().flatten().for_each(|p| *p += corner);
+    rings
+}
+
 // Directions on the pixel-corner lattice (y down): right, down, left, up.
 const DIRS: [(i64, i64); 4] = [(1, 0), (0, 1), (-1, 0), (0, -1)];
 
@@ -365,13 +403,12 @@ pub fn layers(
                 .collect(),
         }
     };
-    let all: Vec<bool> = labels.par_iter().map(|&l| l != BACKGROUND).collect();
-    if !all.contains(&true) {
+    if !labels.par_iter().any(|&l| l != BACKGROUND) {
         return result;
     }
     // Layer 0 beside the objects' layers (facet9, issue 14).
     let (first, objects) = rayon::join(
-        || simplify(trace(&all, w, h)),
+        || simplify(trace_within_box(w, h, &|i| labels[i] != BACKGROUND, None)),
         || -> Vec<Layer> {
             // Objects by area (counted by rows in parallel), then, when two or more are large
             // enough to matter, with their mean depth (summed in pixel order, as ever).
@@ -427,9 +464,8 @@ pub fn layers(
                 .map(|k| {
                     let object = stats[k].0;
                     let nearer: Vec<u32> = stats[k + 1..].iter().map(|s| s.0).collect();
-                    let mut mask: Vec<bool> = labels.par_iter().map(|&l| l == object || nearer.contains(&l)).collect();
-                    keep_seeded(&mut mask, w, h, |i| labels[i] == object);
-                    simplify(trace(&mask, w, h))
+                    let inside = |i: usize| labels[i] == object || nearer.contains(&labels[i]);
+                    simplify(trace_within_box(w, h, &inside, Some(&|i: usize| labels[i] == object)))
                 })
                 .collect()
         },
@@ -522,6 +558,31 @@ mod tests {
                 assert_eq!(components(&labels, w, h), components_by_flood(&labels, w, h), "{w}x{h} seed {seed}");
             }
         }
+    }
+
+    /// Rings traced within the mask's bounding box are those traced over the whole image,
+    /// with and without a seed: random masks, one pixel, none, touching every edge.
+    #[test]
+    fn rings_traced_within_the_box_are_those_of_the_whole_image() {
+        for (w, h) in [(1usize, 1usize), (7, 1), (1, 9), (64, 48), (97, 33), (120, 130)] {
+            for seed in 0..4u64 {
+                let labels = random_labels(w, h, 3, seed + 11);
+                for value in [0u32, 1, 2, BACKGROUND, 77] {
+                    let inside = |i: usize| labels[i] == value || (value == 1 && labels[i] == 2);
+                    let full: Vec<bool> = (0..w * h).map(inside).collect();
+                    assert_eq!(trace_within_box(w, h, &inside, None), trace(&full, w, h), "{w}x{h} {seed} {value}");
+                    let first = (0..w * h).find(|&i| labels[i] == value);
+                    let seeded = |i: usize| Some(i) == first;
+                    let mut kept = full.clone();
+                    keep_seeded(&mut kept, w, h, seeded);
+                    assert_eq!(trace_within_box(w, h, &inside, Some(&seeded)), trace(&kept, w, h), "{w}x{h} {seed}");
+                }
+            }
+        }
+        // A lone pixel and an empty mask.
+        let lone: Vec<bool> = (0..20).map(|i| i == 13).collect();
+        assert_eq!(trace_within_box(5, 4, &|i| i == 13, None), trace(&lone, 5, 4));
+        assert!(trace_within_box(5, 4, &|_| false, None).is_empty());
     }
 
     /// The lattice edges made per vertex (perf7) are those made per mask pixel.
