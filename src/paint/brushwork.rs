@@ -280,8 +280,16 @@ impl Brushwork {
     }
 
     /// The strokes of layer `layer` (0 coarse, 1 fine), in cell order: one per grid cell,
-    /// anchored at a seeded point of the cell, on a painted pixel.
-    fn strokes(&self, layer: u64, (length, width): (f32, f32), surface: &Surface, angle: &[Vec2]) -> Vec<Stroke> {
+    /// anchored at a seeded point of the cell, on a painted pixel; `keep(anchor)`, when
+    /// given, says whether the cell gets its stroke.
+    fn strokes(
+        &self,
+        layer: u64,
+        (length, width): (f32, f32),
+        surface: &Surface,
+        angle: &[Vec2],
+        keep: Option<&(dyn Fn(Vec2) -> bool + Sync)>,
+    ) -> Vec<Stroke> {
         let (w, h) = (surface.w, surface.h);
         let cell = width * SPACING;
         let (nx, ny) = ((w as f32 / cell).ceil() as usize, (h as f32 / cell).ceil() as usize);
@@ -298,7 +306,7 @@ impl Brushwork {
                         return None;
                     }
                     let i = y * w + x;
-                    if !surface.coverage.is_painted(i) {
+                    if !surface.coverage.is_painted(i) || keep.is_some_and(|keep| !keep(centre)) {
                         return None;
                     }
                     let region = surface.region(i);
@@ -539,11 +547,12 @@ fn span(s: &Stroke, py: f32, x0: usize, x1: usize) -> Option<(usize, usize)> {
 type Probes = [(u32, f32); 5];
 
 /// The fine layer of one chain: a kept plan's fragments, a layer being recorded (every
-/// cell's stroke), or the strokes to trace (every cell's, in cell order; the test picks).
+/// cell's stroke), or strokes to trace (those of the cells the test keeps).
 enum Fine<'p> {
     Kept(&'p Fragments),
     Recorded(Layer),
-    Traced(Vec<Stroke>),
+    /// The fine strokes' size and the picture before the layers.
+    Traced((f32, f32), Vec<Vec4>),
 }
 
 impl Effect for Brushwork {
@@ -580,7 +589,7 @@ impl Effect for Brushwork {
         // Everything the layers read of the picture before them is read first, in cell order
         // (no copy of the picture): the tints (every stroke's colour comes from the picture
         // under the layers), and the fine layer's test's values of that picture.
-        let coarse_new = old.is_none().then(|| Layer::new(self.strokes(0, (length, width), &surface, &angle), h));
+        let coarse_new = old.is_none().then(|| Layer::new(self.strokes(0, (length, width), &surface, &angle, None), h));
         let coarse_layer = match (&old, &coarse_new) {
             (Some(plan), _) => &plan.coarse.layer,
             (None, Some(layer)) => layer,
@@ -619,19 +628,15 @@ impl Effect for Brushwork {
                     l.in_cell_order(|s| before(s.centre)),
                 ))
             }
-            (None, Some(size)) => {
-                let strokes = self.strokes(1, size, &surface, &angle);
-                if record {
-                    let l = Layer::new(strokes, h);
-                    let (t, b) =
-                        (l.to_key_order(&l.in_cell_order(|s| s.tint(source))), l.in_cell_order(|s| before(s.centre)));
-                    Some((Fine::Recorded(l), t, b))
-                } else {
-                    let t = strokes.par_iter().map(|s| s.tint(source)).collect();
-                    let b = strokes.par_iter().map(|s| before(s.centre)).collect();
-                    Some((Fine::Traced(strokes), t, b))
-                }
+            (None, Some(size)) if record => {
+                let l = Layer::new(self.strokes(1, size, &surface, &angle, None), h);
+                let (t, b) =
+                    (l.to_key_order(&l.in_cell_order(|s| s.tint(source))), l.in_cell_order(|s| before(s.centre)));
+                Some((Fine::Recorded(l), t, b))
             }
+            // Traced: only the cells the test keeps get a stroke (most do not), so the test
+            // and the tints read a copy of the picture before the layers.
+            (None, Some(size)) => Some((Fine::Traced(size, source.to_vec()), Vec::new(), Vec::new())),
         };
 
         let coarse = match coarse_new {
@@ -669,13 +674,23 @@ impl Effect for Brushwork {
                     let a = l.to_key_order(&l.in_cell_order(|s| keep(&before[s.order as usize])));
                     recorded_fine = Some(Fragments::build(l, &surface, opacity, &tints, Some(&a), px));
                 }
-                Fine::Traced(strokes) => {
-                    let on: Vec<bool> = before.par_iter().map(keep).collect();
-                    let (strokes, tints): (Vec<Stroke>, Vec<Tint>) =
-                        strokes.into_iter().zip(tints).zip(&on).filter(|(_, on)| **on).map(|(st, _)| st).unzip();
-                    let layer = Layer::new(strokes, h);
+                Fine::Traced(size, source) => {
+                    let keep = |p: Vec2| {
+                        let (x, y) = (p.x as isize, p.y as isize);
+                        let (mut e, mut n) = (0.0, 0.0);
+                        for (dx, dy) in probes {
+                            let (sx, sy) = (x + dx, y + dy);
+                            if sx >= 0 && sy >= 0 && (sx as usize) < w && (sy as usize) < h {
+                                let j = sy as usize * w + sx as usize;
+                                e += (value(painted[j]) - value(source[j])).abs();
+                                n += 1.0;
+                            }
+                        }
+                        e / n > FINE_THRESHOLD
+                    };
+                    let layer = Layer::new(self.strokes(1, size, &surface, &angle, Some(&keep)), h);
                     if !layer.strokes.is_empty() {
-                        let tints: Vec<Tint> = layer.strokes.iter().map(|s| tints[s.order as usize]).collect();
+                        let tints = layer.to_key_order(&layer.in_cell_order(|s| s.tint(&source)));
                         composite(&layer, &tints, None, px, &surface, opacity);
                     }
                 }
