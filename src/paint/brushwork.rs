@@ -89,6 +89,8 @@ struct Stroke {
     /// `u32::MAX` for a point outside), and that colour's value jitter factor.
     samples: [u32; 3],
     jitter: f32,
+    /// Its place among its layer's strokes in cell (scan) order (`Layer::by_cell`).
+    order: u32,
 }
 
 /// A stroke's flat colour: the mean of the picture at its samples, value jittered.
@@ -128,11 +130,23 @@ struct Layer {
     start: Vec<u32>,
     items: Vec<u32>,
     strokes: Vec<Stroke>,
+    /// The strokes' indices in cell order: what reads the picture at each stroke (its tint,
+    /// the fine layer's test) walks them so, in scan order, not in key order, which jumps
+    /// across the whole picture from one stroke to the next (a cache miss each).
+    by_cell: Vec<u32>,
 }
 
 impl Layer {
+    /// The layer of `strokes`, given in cell order.
     fn new(mut strokes: Vec<Stroke>, height: usize) -> Layer {
+        for (k, s) in strokes.iter_mut().enumerate() {
+            s.order = k as u32;
+        }
         strokes.sort_unstable_by_key(|s| s.key);
+        let mut by_cell = vec![0u32; strokes.len()];
+        for (k, s) in strokes.iter().enumerate() {
+            by_cell[s.order as usize] = k as u32;
+        }
         let nb = height.div_ceil(BAND).max(1);
         // The bands of the rows a stroke may paint: a painted pixel has |u| < half_len and
         // |v| < half_wid + 0.5, so |dy| < |dir.y| half_len + |dir.x| (half_wid + 0.5);
@@ -167,7 +181,17 @@ impl Layer {
                 }
             }
         }
-        Layer { start, items, strokes }
+        Layer { start, items, strokes, by_cell }
+    }
+
+    /// `f` of every stroke, computed and listed in cell order (`by_cell`).
+    fn in_cell_order<T: Send>(&self, f: impl Fn(&Stroke) -> T + Sync) -> Vec<T> {
+        self.by_cell.par_iter().map(|&k| f(&self.strokes[k as usize])).collect()
+    }
+
+    /// Values listed in cell order (`in_cell_order`), listed in key order.
+    fn to_key_order<T: Send + Sync + Copy>(&self, by_cell: &[T]) -> Vec<T> {
+        self.strokes.par_iter().map(|s| by_cell[s.order as usize]).collect()
     }
 }
 
@@ -255,16 +279,16 @@ impl Brushwork {
             .collect()
     }
 
-    /// The strokes of layer `layer` (0 coarse, 1 fine): one per grid cell, anchored at a
-    /// seeded point of the cell, on a painted pixel; `keep(anchor)` says whether the cell
-    /// gets its stroke.
+    /// The strokes of layer `layer` (0 coarse, 1 fine), in cell order: one per grid cell,
+    /// anchored at a seeded point of the cell, on a painted pixel; `keep(anchor)`, when
+    /// given, says whether the cell gets its stroke.
     fn strokes(
         &self,
         layer: u64,
         (length, width): (f32, f32),
         surface: &Surface,
         angle: &[Vec2],
-        keep: &(dyn Fn(Vec2) -> bool + Sync),
+        keep: Option<&(dyn Fn(Vec2) -> bool + Sync)>,
     ) -> Vec<Stroke> {
         let (w, h) = (surface.w, surface.h);
         let cell = width * SPACING;
@@ -282,7 +306,7 @@ impl Brushwork {
                         return None;
                     }
                     let i = y * w + x;
-                    if !surface.coverage.is_painted(i) || !keep(centre) {
+                    if !surface.coverage.is_painted(i) || keep.is_some_and(|keep| !keep(centre)) {
                         return None;
                     }
                     let region = surface.region(i);
@@ -312,6 +336,7 @@ impl Brushwork {
                         inv_dir: dir.recip(),
                         samples,
                         jitter: 1.0 + VALUE_JITTER * (2.0 * r(5) - 1.0),
+                        order: 0,
                     })
                 })
             })
@@ -413,7 +438,12 @@ impl Fragments {
         px: &mut [Vec4],
     ) -> Fragments {
         let w = surface.w;
-        let mut bands: Vec<Vec<Fragment>> = (0..surface.h.div_ceil(BAND)).map(|_| Vec::new()).collect();
+        // Each band's room for its fragments, from the strokes' mean cover (their area over
+        // the image's) with a margin: pushing into it does not move it as it grows (only the
+        // pages written are touched).
+        let area: f64 = layer.strokes.iter().map(|s| 4.0 * s.half_len as f64 * (s.half_wid as f64 + 0.5)).sum();
+        let room = (1.15 * area / (w * surface.h).max(1) as f64 * (BAND * w) as f64) as usize + 64;
+        let mut bands: Vec<Vec<Fragment>> = (0..surface.h.div_ceil(BAND)).map(|_| Vec::with_capacity(room)).collect();
         let regions = surface.regions;
         each_band(
             &layer,
@@ -439,7 +469,7 @@ impl Fragments {
     fn bytes(&self) -> usize {
         self.bands.iter().map(|b| b.capacity() * size_of::<Fragment>()).sum::<usize>()
             + self.layer.strokes.len() * size_of::<Stroke>()
-            + (self.layer.items.len() + self.layer.start.len()) * 4
+            + (self.layer.items.len() + self.layer.start.len() + self.layer.by_cell.len()) * 4
     }
 
     /// `composite` from the kept fragments: the same pixels.
@@ -474,10 +504,17 @@ impl StrokePlan {
     }
 }
 
+/// How far (pixels) `span` reaches beyond the exact bounds of a row, against the rounding of
+/// its bounds and of `shape`'s u and v (both read the same `dy`; the rest differs by a few
+/// ulps of the coordinates, under 0.01 px below 2^16 px): a pixel `shape` paints is always
+/// visited, and about half a pixel per row is visited for nothing (four with the whole-pixel
+/// margin before: 30-45% of the visits, `span_holds_every_painted_pixel`).
+const SPAN_MARGIN: f32 = 0.25;
+
 /// The columns in [x0, x1) of row centre `py` that stroke `s` may paint: where
-/// |u| < half_len and |v| < half_wid + 0.5 (`paint`'s first tests), widened by a pixel on
-/// each side against rounding; None when there are none. An axis nearly parallel to the rows
-/// does not bound the span (its bound would be large and imprecise).
+/// |u| < half_len and |v| < half_wid + 0.5 (`shape`'s first tests), widened by `SPAN_MARGIN`
+/// on each side against rounding; None when there are none. An axis nearly parallel to the
+/// rows does not bound the span (its bound would be large and imprecise).
 fn span(s: &Stroke, py: f32, x0: usize, x1: usize) -> Option<(usize, usize)> {
     let dy = py - s.centre.y;
     let (mut lo, mut hi) = (f32::NEG_INFINITY, f32::INFINITY);
@@ -496,12 +533,26 @@ fn span(s: &Stroke, py: f32, x0: usize, x1: usize) -> Option<(usize, usize)> {
     } else if (dy * s.dir.x).abs() >= hw + 1.0 {
         return None;
     }
-    // Pixel x has dx = x + 0.5 - centre.x.
-    let a = (lo + s.centre.x - 0.5).floor() - 1.0;
-    let b = (hi + s.centre.x - 0.5).ceil() + 2.0;
+    // Pixel x has dx = x + 0.5 - centre.x: the span holds every x in
+    // (lo + centre.x - 0.5, hi + centre.x - 0.5), widened by the margin.
+    let a = (lo + s.centre.x - 0.5 - SPAN_MARGIN).ceil();
+    let b = (hi + s.centre.x - 0.5 + SPAN_MARGIN).floor() + 1.0;
     let a = if a.is_finite() { a.max(x0 as f32) as usize } else { x0 };
     let b = if b.is_finite() { (b.max(0.0) as usize).min(x1) } else { x1 };
     (a < b).then_some((a, b))
+}
+
+/// The fine layer's test's probes of one stroke (`Brushwork::apply`): each pixel (u32::MAX
+/// outside the image) and the picture's value there before the layers.
+type Probes = [(u32, f32); 5];
+
+/// The fine layer of one chain: a kept plan's fragments, a layer being recorded (every
+/// cell's stroke), or strokes to trace (those of the cells the test keeps).
+enum Fine<'p> {
+    Kept(&'p Fragments),
+    Recorded(Layer),
+    /// The fine strokes' size and the picture before the layers.
+    Traced((f32, f32), Vec<Vec4>),
 }
 
 impl Effect for Brushwork {
@@ -518,7 +569,6 @@ impl Effect for Brushwork {
         let length = self.length.max(width);
         let planes = ctx.planes(canvas.width, w * h, self.seed);
         let angle = self.directions(&planes);
-        let source: Vec<Vec4> = canvas.px.to_vec();
         let opacity = self.opacity.min(1.0);
         // A session keeps the strokes and their fragments (opaque canvases: a transparent
         // one's coverage comes from the colour, which may change under the same regions).
@@ -528,82 +578,209 @@ impl Effect for Brushwork {
         let surface = Surface { w, h, regions: &regions, coverage };
         let fine_width = 0.5 * width;
         let fine_size = (fine_width >= MIN_WIDTH).then_some((0.5 * length, fine_width));
-        let tints = |strokes: &[Stroke], active: Option<&[bool]>| -> Vec<Tint> {
-            strokes
-                .par_iter()
-                .enumerate()
-                .map(|(k, s)| if active.is_none_or(|a| a[k]) { s.tint(&source) } else { Tint::default() })
-                .collect()
-        };
         let key = [((length.to_bits() as u64) << 32) | width.to_bits() as u64, opacity.to_bits() as u64, self.seed];
         let old = ctx.stroke_plan().filter(|p| kept && p.key == key);
         // Each layer: from the kept fragments; else traced stroke by stroke, and recorded
         // (the fine layer's for every cell, `StrokePlan`) from the second chain on these
         // inputs with these strokes on: recording costs more than tracing, so a facet or
         // camera change, whose inputs serve one chain, does not pay it.
-        let kept = kept && old.is_none() && ctx.stroke_plan_seen(key);
-        let coarse = match &old {
-            Some(plan) => {
-                plan.coarse.composite(&tints(&plan.coarse.layer.strokes, None), None, px, w);
+        let record = kept && old.is_none() && ctx.stroke_plan_seen(key);
+
+        // Everything the layers read of the picture before them is read first, in cell order
+        // (no copy of the picture): the tints (every stroke's colour comes from the picture
+        // under the layers), and the fine layer's test's values of that picture.
+        let coarse_new = old.is_none().then(|| Layer::new(self.strokes(0, (length, width), &surface, &angle, None), h));
+        let coarse_layer = match (&old, &coarse_new) {
+            (Some(plan), _) => &plan.coarse.layer,
+            (None, Some(layer)) => layer,
+            (None, None) => unreachable!("a layer is made when no plan is kept"),
+        };
+        let source: &[Vec4] = px;
+        let coarse_tints = coarse_layer.to_key_order(&coarse_layer.in_cell_order(|s| s.tint(source)));
+        // The fine layer (Hertzmann's next brush): half the size, where the coarse layer
+        // strays from the picture. Its candidates: a stroke in every cell (a kept plan's or
+        // a recorded one's, all of them; traced, those the test keeps).
+        let value = |c: Vec4| luminance(c.truncate()).max(0.0).sqrt();
+        let r = fine_size.map_or(0, |size| size.1.ceil() as isize);
+        let probes = [(0, 0), (-r, 0), (r, 0), (0, -r), (0, r)];
+        // The test's probes around anchor p within the image, and the picture's value there
+        // before the layers.
+        let before = |p: Vec2| -> Probes {
+            let (x, y) = (p.x as isize, p.y as isize);
+            probes.map(|(dx, dy)| {
+                let (sx, sy) = (x + dx, y + dy);
+                if sx >= 0 && sy >= 0 && (sx as usize) < w && (sy as usize) < h {
+                    let j = sy as usize * w + sx as usize;
+                    (j as u32, value(source[j]))
+                } else {
+                    (u32::MAX, 0.0)
+                }
+            })
+        };
+        // The fine layer with its tints (key order) and probes (cell order).
+        let fine: Option<(Fine, Vec<Tint>, Vec<Probes>)> = match (old.as_deref(), fine_size) {
+            (_, None) | (Some(StrokePlan { fine: None, .. }), _) => None,
+            (Some(StrokePlan { fine: Some(frags), .. }), _) => {
+                let l = &frags.layer;
+                Some((
+                    Fine::Kept(frags),
+                    l.to_key_order(&l.in_cell_order(|s| s.tint(source))),
+                    l.in_cell_order(|s| before(s.centre)),
+                ))
+            }
+            (None, Some(size)) if record => {
+                let l = Layer::new(self.strokes(1, size, &surface, &angle, None), h);
+                let (t, b) =
+                    (l.to_key_order(&l.in_cell_order(|s| s.tint(source))), l.in_cell_order(|s| before(s.centre)));
+                Some((Fine::Recorded(l), t, b))
+            }
+            // Traced: only the cells the test keeps get a stroke (most do not), so the test
+            // and the tints read a copy of the picture before the layers.
+            (None, Some(size)) => Some((Fine::Traced(size, source.to_vec()), Vec::new(), Vec::new())),
+        };
+
+        let coarse = match coarse_new {
+            None => {
+                if let Some(plan) = &old {
+                    plan.coarse.composite(&coarse_tints, None, px, w);
+                }
                 None
             }
-            None => {
-                let layer = Layer::new(self.strokes(0, (length, width), &surface, &angle, &|_| true), h);
-                let t = tints(&layer.strokes, None);
-                if kept {
-                    Some(Fragments::build(layer, &surface, opacity, &t, None, px))
-                } else {
-                    composite(&layer, &t, None, px, &surface, opacity);
-                    None
-                }
+            Some(layer) if record => Some(Fragments::build(layer, &surface, opacity, &coarse_tints, None, px)),
+            Some(layer) => {
+                composite(&layer, &coarse_tints, None, px, &surface, opacity);
+                None
             }
         };
-        // The fine layer (Hertzmann's next brush): half the size, where the coarse layer
-        // strays from the picture.
-        let mut fine = None;
-        if let Some(size) = fine_size {
-            let value = |c: Vec4| luminance(c.truncate()).max(0.0).sqrt();
+        let mut recorded_fine = None;
+        if let Some((fine, tints, before)) = fine {
             let painted: &[Vec4] = px;
-            let r = size.1.ceil() as isize;
-            let error = |p: Vec2| {
-                let (x, y) = (p.x as isize, p.y as isize);
+            // Whether the probes' mean value after the coarse layer strays from before.
+            let keep = |b: &Probes| {
                 let (mut e, mut n) = (0.0, 0.0);
-                for (dx, dy) in [(0, 0), (-r, 0), (r, 0), (0, -r), (0, r)] {
-                    let (sx, sy) = (x + dx, y + dy);
-                    if sx >= 0 && sy >= 0 && (sx as usize) < w && (sy as usize) < h {
-                        let j = sy as usize * w + sx as usize;
-                        e += (value(painted[j]) - value(source[j])).abs();
-                        n += 1.0;
-                    }
+                for &(j, v) in b.iter().filter(|(j, _)| *j != u32::MAX) {
+                    e += (value(painted[j as usize]) - v).abs();
+                    n += 1.0;
                 }
-                e / n
+                e / n > FINE_THRESHOLD
             };
-            let keep = |p: Vec2| error(p) > FINE_THRESHOLD;
-            let active = |layer: &Layer| -> Vec<bool> { layer.strokes.par_iter().map(|s| keep(s.centre)).collect() };
-            match (&old, kept) {
-                (Some(plan), _) => {
-                    if let Some(frags) = &plan.fine {
-                        let a = active(&frags.layer);
-                        frags.composite(&tints(&frags.layer.strokes, Some(&a)), Some(&a), px, w);
-                    }
+            match fine {
+                Fine::Kept(frags) => {
+                    let l = &frags.layer;
+                    let a = l.to_key_order(&l.in_cell_order(|s| keep(&before[s.order as usize])));
+                    frags.composite(&tints, Some(&a), px, w);
                 }
-                (None, true) => {
-                    let layer = Layer::new(self.strokes(1, size, &surface, &angle, &|_| true), h);
-                    let a = active(&layer);
-                    let t = tints(&layer.strokes, Some(&a));
-                    fine = Some(Fragments::build(layer, &surface, opacity, &t, Some(&a), px));
+                Fine::Recorded(l) => {
+                    let a = l.to_key_order(&l.in_cell_order(|s| keep(&before[s.order as usize])));
+                    recorded_fine = Some(Fragments::build(l, &surface, opacity, &tints, Some(&a), px));
                 }
-                (None, false) => {
-                    let layer = Layer::new(self.strokes(1, size, &surface, &angle, &keep), h);
+                Fine::Traced(size, source) => {
+                    let keep = |p: Vec2| {
+                        let (x, y) = (p.x as isize, p.y as isize);
+                        let (mut e, mut n) = (0.0, 0.0);
+                        for (dx, dy) in probes {
+                            let (sx, sy) = (x + dx, y + dy);
+                            if sx >= 0 && sy >= 0 && (sx as usize) < w && (sy as usize) < h {
+                                let j = sy as usize * w + sx as usize;
+                                e += (value(painted[j]) - value(source[j])).abs();
+                                n += 1.0;
+                            }
+                        }
+                        e / n > FINE_THRESHOLD
+                    };
+                    let layer = Layer::new(self.strokes(1, size, &surface, &angle, Some(&keep)), h);
                     if !layer.strokes.is_empty() {
-                        composite(&layer, &tints(&layer.strokes, None), None, px, &surface, opacity);
+                        let tints = layer.to_key_order(&layer.in_cell_order(|s| s.tint(&source)));
+                        composite(&layer, &tints, None, px, &surface, opacity);
                     }
                 }
             }
         }
         if let Some(coarse) = coarse {
-            ctx.keep_stroke_plan(std::sync::Arc::new(StrokePlan { key, coarse, fine }));
+            ctx.keep_stroke_plan(std::sync::Arc::new(StrokePlan { key, coarse, fine: recorded_fine }));
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A stroke of the given shape at `centre` along `angle` (radians).
+    fn stroke(centre: Vec2, angle: f32, half_len: f32, half_wid: f32) -> Stroke {
+        let dir = Vec2::from_angle(angle);
+        Stroke {
+            centre,
+            dir,
+            half_len,
+            half_wid,
+            region: 0,
+            inv_half_len: 1.0 / half_len,
+            inv_half_wid: 1.0 / half_wid,
+            bristles: [1.0; BRISTLES + 1],
+            key: 0,
+            inv_dir: dir.recip(),
+            samples: [u32::MAX; 3],
+            jitter: 1.0,
+            order: 0,
+        }
+    }
+
+    #[test]
+    fn span_holds_every_painted_pixel() {
+        // Every pixel `shape` paints (tested on whole rows, far beyond the stroke) lies in its
+        // row's span, at any angle (axis-parallel ones included), size and place; the span
+        // is at most two pixels wider than a row's run of candidates (pixels passing the
+        // rectangle tests), and about as many pixels are visited as there are candidates.
+        let w = 9000usize;
+        let mut visited = 0usize;
+        let mut candidates = 0usize;
+        for k in 0..4000u64 {
+            let r = |j: u64| unit_f64(splitmix64(k * 16 + j)) as f32;
+            let angle = match k % 8 {
+                0 => 0.0,
+                1 => std::f32::consts::FRAC_PI_2,
+                2 => std::f32::consts::PI,
+                3 => 0.004,
+                _ => r(0) * std::f32::consts::TAU,
+            };
+            let centre = Vec2::new(20.0 + r(1) * (w as f32 - 40.0), 20.0 + r(2) * 8000.0);
+            let s = stroke(centre, angle, 0.5 + r(3) * 30.0, 0.5 + r(4) * 8.0);
+            let reach = (s.half_len + s.half_wid + 3.0).ceil() as i64;
+            let cy = centre.y as i64;
+            for y in (cy - reach).max(0)..cy + reach {
+                let py = y as f32 + 0.5;
+                let dy = py - s.centre.y;
+                let dy_dir = (dy * s.dir.y, dy * s.dir.x);
+                let sp = span(&s, py, 0, w);
+                let (x_lo, x_hi) = ((centre.x as i64 - reach).max(0) as usize, (centre.x as i64 + reach) as usize);
+                let mut run = 0;
+                for x in x_lo..x_hi.min(w) {
+                    let dx = (x as f32 + 0.5) - s.centre.x;
+                    let u = dx * s.dir.x + dy_dir.0;
+                    let v = (dx * s.dir.y - dy_dir.1).abs();
+                    if u.abs() < s.half_len && v < s.half_wid + 0.5 {
+                        run += 1;
+                    }
+                    if shape(&s, dx, dy_dir, 0, 1.0).is_some() {
+                        let (a, b) = sp.unwrap_or_else(|| panic!("stroke {k} row {y}: no span, pixel {x} painted"));
+                        assert!((a..b).contains(&x), "stroke {k} row {y}: pixel {x} painted outside {a}..{b}");
+                    }
+                }
+                candidates += run;
+                visited += sp.map_or(0, |(a, b)| b - a);
+                // (An axis within 0.01 of the rows does not bound the span: `span`.)
+                if let Some((a, b)) = sp
+                    && run > 0
+                    && s.dir.x.abs() >= 0.01
+                    && s.dir.y.abs() >= 0.01
+                {
+                    assert!(b - a <= run + 2, "stroke {k} row {y}: span {a}..{b} for {run} candidates");
+                }
+            }
+        }
+        assert!(candidates > 100_000);
+        assert!((visited as f64) < 1.2 * candidates as f64, "{visited} visits for {candidates} candidates");
     }
 }
