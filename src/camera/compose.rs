@@ -178,19 +178,42 @@ fn extents(points: &[DVec3], kind: CameraKind, f: &CameraFrame, c: DVec3) -> ((f
     (h, v)
 }
 
-/// The spans that hold `points` seen from `c`, step 3 and 4 of the rule.
-#[allow(clippy::too_many_arguments)]
-fn spans(
-    points: &[DVec3],
+/// What the spans of step 3 and 4 read of `points` seen from a focal centre `c`: their
+/// `extents` and, for the cylindrical camera, their mean distance from the focal line. It
+/// depends on C alone, so perf9 (issue 16) measures it once per centre for the candidates'
+/// four stretch ratios (it was measured once per candidate, a quarter of framing's time).
+struct Seen {
+    c: DVec3,
+    h: (f64, f64),
+    v: (f64, f64),
+    /// Cylindrical: the mean distance from the focal line (at least 1e-9); else unused.
+    r: f64,
+}
+
+impl Seen {
+    fn new(points: &[DVec3], kind: CameraKind, f: &CameraFrame, c: DVec3) -> Seen {
+        let (h, v) = extents(points, kind, f, c);
+        let r = if kind == CameraKind::Cylindrical {
+            let centre = c + f.up * (0.5 * (v.0 + v.1));
+            mean_distance_from_line(points, f, centre).max(1e-9)
+        } else {
+            0.0
+        };
+        Seen { c, h, v, r }
+    }
+}
+
+/// The spans that hold the points seen from C (`Seen`), step 3 and 4 of the rule.
+fn spans_seen(
+    seen: &Seen,
     kind: CameraKind,
     f: &CameraFrame,
-    c: DVec3,
     aspect: f64,
     margin: f64,
     anisotropy: f64,
     max_half: f64,
 ) -> Composition {
-    let (h, v) = extents(points, kind, f, c);
+    let Seen { c, h, v, r } = *seen;
     let widest = 2.0 * max_half / margin;
     let span_x = (2.0 * h.0.abs().max(h.1.abs()) / margin).clamp(1e-6, widest);
     let mut angle_x = span_x;
@@ -200,7 +223,6 @@ fn spans(
         let mut height = ((v.1 - v.0) / margin).max(1e-6);
         // Scale per pixel: angle_x r / width (r = the scene's mean distance from the focal
         // line) against height / rows, both per image height here.
-        let r = mean_distance_from_line(points, f, centre).max(1e-9);
         let sx = angle_x * r / aspect;
         if sx > anisotropy * height {
             height = sx / anisotropy;
@@ -242,6 +264,7 @@ pub fn compose(
         if let Some(k) = fills.iter().position(|&v| v >= FILL_GOAL) {
             return Composition { fill: fills[k], rank: rank + k, candidate: rank + k, ..candidates[k] };
         }
+        debug_assert_eq!(fills.len(), candidates.len(), "every fill is measured when none reaches the goal");
         rank += candidates.len();
         // A wider wrap is kept only when it fills clearly more.
         let best = fills.iter().copied().fold(0.0, f64::max);
@@ -281,19 +304,22 @@ pub fn compose_candidate(
     let candidate = candidate.min(HALF_ANGLE_CAPS.len() * per_cap - 1);
     let cap = HALF_ANGLE_CAPS[candidate / per_cap];
     let (a, d) = ((candidate % per_cap) / DEPTH_STEPS.len(), candidate % DEPTH_STEPS.len());
-    let c = centre_at(points, kind, f, axis, radius, margin, cap, DEPTH_STEPS[d]);
-    let k = spans(points, kind, f, c, aspect, margin, ANISOTROPY_STEPS[a], cap);
+    let first = fit_depth(points, kind, f, axis, (cap, cap), radius, margin);
+    let c = centre_at(points, kind, f, axis, first, radius, margin, cap, DEPTH_STEPS[d]);
+    let k = spans_seen(&Seen::new(points, kind, f, c), kind, f, aspect, margin, ANISOTROPY_STEPS[a], cap);
     let fill = fill_of(&k);
     Composition { fill, rank: if fill >= FILL_GOAL { candidate } else { usize::MAX }, candidate, ..k }
 }
 
 /// Step 1 and 2 for C `step` scene radii behind its closest place: the focal centre.
+/// `first`: `fit_depth` at `axis` itself (the same for every step, so found once).
 #[allow(clippy::too_many_arguments)]
 fn centre_at(
     points: &[DVec3],
     kind: CameraKind,
     f: &CameraFrame,
     axis: DVec3,
+    first: f64,
     radius: f64,
     margin: f64,
     cap: f64,
@@ -305,7 +331,7 @@ fn centre_at(
         |axis: DVec3, back: f64| axis + f.forward * (fit_depth(points, kind, f, axis, half, radius, margin) + back);
     let back = step * radius;
     let mut axis = axis;
-    let mut c = place(axis, back);
+    let mut c = axis + f.forward * (first + back);
     for _ in 0..CENTRING_PASSES {
         let (h, v) = extents(points, kind, f, c);
         // Typical depth of the scene in front of C: the slide that turns the extent's
@@ -322,7 +348,11 @@ fn centre_at(
     c
 }
 
-/// Every candidate at one angle cap, in order of preference, with its fill.
+/// Every candidate at one angle cap, in order of preference, with the fills of the candidates
+/// up to the first that reaches `FILL_GOAL` (all of them when none does): perf9 (issue 16),
+/// `compose` reads no fill after that one, so the later candidates are not probed (each probe
+/// is a trace of a tiny image; they were about 40% of framing's time). Measured a few at a
+/// time in order, in parallel, so the fills are the same whatever the thread count.
 #[allow(clippy::too_many_arguments)]
 fn candidates_at(
     points: &[DVec3],
@@ -335,17 +365,24 @@ fn candidates_at(
     cap: f64,
     fill_of: &(dyn Fn(&Composition) -> f64 + Sync),
 ) -> (Vec<Composition>, Vec<f64>) {
-    let centres: Vec<DVec3> =
-        DEPTH_STEPS.par_iter().map(|&step| centre_at(points, kind, f, axis, radius, margin, cap, step)).collect();
+    let first = fit_depth(points, kind, f, axis, (cap, cap), radius, margin);
+    let seen: Vec<Seen> = DEPTH_STEPS
+        .par_iter()
+        .map(|&step| Seen::new(points, kind, f, centre_at(points, kind, f, axis, first, radius, margin, cap, step)))
+        .collect();
     // Candidates in order of preference: least distortion first, then the closest C.
     let candidates: Vec<Composition> = ANISOTROPY_STEPS
         .iter()
-        .flat_map(|&a| centres.iter().map(move |&c| (a, c)))
-        .collect::<Vec<_>>()
-        .par_iter()
-        .map(|&(a, c)| spans(points, kind, f, c, aspect, margin, a, cap))
+        .flat_map(|&a| seen.iter().map(move |s| spans_seen(s, kind, f, aspect, margin, a, cap)))
         .collect();
-    let fills: Vec<f64> = candidates.par_iter().map(fill_of).collect();
+    let batch = rayon::current_num_threads().clamp(2, 8);
+    let mut fills: Vec<f64> = Vec::with_capacity(candidates.len());
+    for group in candidates.chunks(batch) {
+        fills.par_extend(group.par_iter().map(fill_of));
+        if fills.iter().any(|&v| v >= FILL_GOAL) {
+            break;
+        }
+    }
     (candidates, fills)
 }
 
