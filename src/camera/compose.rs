@@ -489,12 +489,7 @@ mod tests {
     }
 
     /// `extents` as it was: every point's angles.
-    fn extents_every_point(
-        points: &[DVec3],
-        kind: CameraKind,
-        f: &CameraFrame,
-        c: DVec3,
-    ) -> ((f64, f64), (f64, f64)) {
+    fn extents_every_point(points: &[DVec3], kind: CameraKind, f: &CameraFrame, c: DVec3) -> ((f64, f64), (f64, f64)) {
         let mut h = (f64::INFINITY, f64::NEG_INFINITY);
         let mut v = (f64::INFINITY, f64::NEG_INFINITY);
         for p in points {
