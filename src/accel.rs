@@ -4,7 +4,7 @@
 
 use std::time::Duration;
 
-use glam::{Affine3A, Vec3, Vec3A};
+use glam::{Affine3A, Vec3, Vec3A, Vec4Swizzles};
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
 use obvhs::bvh2::builder::{build_bvh2, build_bvh2_from_tris};
@@ -220,6 +220,8 @@ fn hittable([a, b, c]: [Vec3; 3]) -> bool {
 /// A bottom-level BVH: one geometry's triangles in their base space.
 struct Blas {
     bvh: Bvh2,
+    /// `bvh` laid out for traversal.
+    pairs: Pairs,
     /// Triangles in leaf order (leaves index them directly).
     tris: Vec<Tri>,
     /// Bounds of the triangles, base space.
@@ -323,7 +325,8 @@ impl Blas {
         // Leaves index `ordered` directly: the mapping is not needed any more.
         bvh.primitive_indices = Vec::new();
         let bounds = *bvh.nodes[0].aabb();
-        Some(Blas { bvh, tris: ordered, bounds, key })
+        let pairs = Pairs::new(&bvh);
+        Some(Blas { bvh, pairs, tris: ordered, bounds, key })
     }
 
     /// New corners from the geometry (same triangles), leaf boxes recomputed and the tree
@@ -349,6 +352,7 @@ impl Blas {
             }
         }
         self.bvh.refit_all();
+        self.pairs = Pairs::new(&self.bvh);
         self.bounds = *self.bvh.nodes[0].aabb();
         true
     }
@@ -373,8 +377,7 @@ impl Blas {
         object: u32,
         best: &mut Option<Hit>,
     ) {
-        let mut hit = obvhs::ray::RayHit::none();
-        traverse_closest(&self.bvh, Ray::new(ray.o, ray.d, tmin, tmax), &mut hit, |r, slot| {
+        traverse_closest(&self.pairs, Ray::new(ray.o, ray.d, tmin, tmax), |r, slot| {
             let tri = &self.tris[slot];
             match tri.intersect_axes::<KX, KY, KZ>(&ray.sheared, tmin, r.tmax) {
                 Some((t, u, v)) => {
@@ -410,7 +413,7 @@ impl Blas {
         tmax: f32,
     ) -> Option<f32> {
         let mut found = None;
-        traverse_miss(&self.bvh, Ray::new(ray.o, ray.d, tmin, tmax), |_, slot| {
+        traverse_miss(&self.pairs, Ray::new(ray.o, ray.d, tmin, tmax), |_, slot| {
             match self.tris[slot].intersect_axes::<KX, KY, KZ>(&ray.sheared, tmin, tmax) {
                 Some((t, _, _)) => {
                     found = Some(t);
@@ -423,66 +426,238 @@ impl Blas {
     }
 }
 
-/// A traversal stack sized by `bvh`'s depth, as `$stack`, for `$body`. obvhs's `ray_traverse`
-/// zero-fills one of 96 or 192 slots per traversal (two per camera ray, one more per shadow
-/// ray; about 1% of a render's CPU, perf8, issue 16); our trees mostly need 32 or fewer.
-macro_rules! with_stack {
-    ($bvh:expr, $stack:ident, $body:block) => {{
-        use obvhs::faststack::{HeapStack, StackStack};
-        match $bvh.max_depth {
-            d if d <= 32 => {
-                let mut $stack = StackStack::<u32, 32>::default();
-                $body
-            }
-            d if d <= 96 => {
-                let mut $stack = StackStack::<u32, 96>::default();
-                $body
-            }
-            d if d <= 192 => {
-                let mut $stack = StackStack::<u32, 192>::default();
-                $body
-            }
-            d => {
-                let mut $stack = HeapStack::<u32>::new_with_capacity(d);
-                $body
-            }
-        }
-    }};
+/// A BVH2 laid out for traversal (perf9, issue 16): for each inner node, its two children's
+/// boxes side by side, one four-lane vector per axis ([left min, right min, left max, right
+/// max]), so one slab test of a few vector operations serves both children; with what each child
+/// is (an inner node's own pair, or a leaf's triangles), 64 bytes, one cache line, per pair
+/// instead of two 48-byte nodes. The traversal (`Pairs::traverse`) is obvhs's
+/// `Bvh2::ray_traverse_dynamic` step for step: each child's entry distance is its slab test's
+/// (the same subtractions, products, minima and maxima per lane), the nearer child first, the
+/// same stack; so the same leaves are visited in the same order, with the same hits.
+struct Pairs {
+    /// The root's box and, when the root is a leaf, its (first primitive, count).
+    root: Aabb,
+    root_leaf: Option<(u32, u32)>,
+    /// Pair 0 is the root's children (when the root is inner).
+    pairs: Vec<Pair>,
+    /// Longest path from the root in pairs: the most the stack holds.
+    depth: usize,
 }
 
-/// obvhs's `Bvh2::ray_traverse` (the same traversal, so the same hits) on a stack from
-/// `with_stack!`: `f(ray, slot)` gives a primitive's distance (infinite: missed).
+/// Aligned to a cache line (64 bytes): one line per pair in every run, whatever address the
+/// allocation gets (at 16 bytes, most pairs straddled two lines in some runs).
+#[derive(Clone, Copy)]
+#[repr(C, align(64))]
+struct Pair {
+    x: glam::Vec4,
+    y: glam::Vec4,
+    z: glam::Vec4,
+    /// Per child: its pair (inner node) or first primitive (leaf).
+    index: [u32; 2],
+    /// Per child: its primitive count, 0 for an inner node.
+    count: [u32; 2],
+}
+
+impl Pairs {
+    /// The pair layout of `bvh` (an empty tree: nothing is ever hit).
+    fn new(bvh: &Bvh2) -> Pairs {
+        let empty = Pairs { root: Aabb::empty(), root_leaf: Some((0, 0)), pairs: Vec::new(), depth: 0 };
+        let Some(root) = bvh.nodes.first() else { return empty };
+        let mut out = Pairs { root: *root.aabb(), root_leaf: None, pairs: Vec::new(), depth: 0 };
+        if root.is_leaf() {
+            out.root_leaf = Some((root.first_index, root.prim_count));
+            return out;
+        }
+        // Depth first: (node index of the left child, pair slot to fill, depth).
+        let mut todo = vec![(root.first_index as usize, 0usize, 1usize)];
+        out.pairs.push(Pair::EMPTY);
+        while let Some((first, slot, depth)) = todo.pop() {
+            out.depth = out.depth.max(depth);
+            let (l, r) = (&bvh.nodes[first], &bvh.nodes[first + 1]);
+            let (lb, rb) = (l.aabb(), r.aabb());
+            let mut pair = Pair {
+                x: glam::Vec4::new(lb.min.x, rb.min.x, lb.max.x, rb.max.x),
+                y: glam::Vec4::new(lb.min.y, rb.min.y, lb.max.y, rb.max.y),
+                z: glam::Vec4::new(lb.min.z, rb.min.z, lb.max.z, rb.max.z),
+                index: [0; 2],
+                count: [l.prim_count, r.prim_count],
+            };
+            for (k, node) in [l, r].into_iter().enumerate() {
+                if node.is_leaf() {
+                    pair.index[k] = node.first_index;
+                } else {
+                    pair.index[k] = out.pairs.len() as u32;
+                    todo.push((node.first_index as usize, out.pairs.len(), depth + 1));
+                    out.pairs.push(Pair::EMPTY);
+                }
+            }
+            out.pairs[slot] = pair;
+        }
+        out
+    }
+
+    /// obvhs's `ray_traverse_dynamic` on this layout: `leaf(first, count, &mut ray)` is called
+    /// for each leaf the ray reaches (it may lower `ray.tmax`); it returns false to stop.
+    #[inline(always)]
+    fn traverse<F: FnMut(u32, u32, &mut Ray) -> bool>(&self, ray: Ray, leaf: F) {
+        if self.depth <= INLINE_STACK {
+            self.traverse_on(
+                &mut InlineStack { data: [std::mem::MaybeUninit::uninit(); INLINE_STACK], len: 0 },
+                ray,
+                leaf,
+            )
+        } else {
+            self.traverse_on(&mut Vec::with_capacity(self.depth), ray, leaf)
+        }
+    }
+
+    /// `traverse` on `stack`.
+    #[inline(always)]
+    fn traverse_on<S: NodeStack, F: FnMut(u32, u32, &mut Ray) -> bool>(
+        &self,
+        stack: &mut S,
+        mut ray: Ray,
+        mut leaf: F,
+    ) {
+        if !(self.root.intersect_ray(&ray) < ray.tmax) {
+            return;
+        }
+        if let Some((first, count)) = self.root_leaf {
+            if count > 0 {
+                leaf(first, count, &mut ray);
+            }
+            return;
+        }
+        let (o, inv) = (ray.origin, ray.inv_direction);
+        let (ox, oy, oz) = (glam::Vec4::splat(o.x), glam::Vec4::splat(o.y), glam::Vec4::splat(o.z));
+        let (ix, iy, iz) = (glam::Vec4::splat(inv.x), glam::Vec4::splat(inv.y), glam::Vec4::splat(inv.z));
+        let mut current = 0u32;
+        loop {
+            let pair = unsafe { self.pairs.get_unchecked(current as usize) };
+            // Lanes: (t at min, t at max) of the left and right child along each axis, then
+            // each child's near and far t, as `Aabb::intersect_ray` computes them.
+            let tx = (pair.x - ox) * ix;
+            let ty = (pair.y - oy) * iy;
+            let tz = (pair.z - oz) * iz;
+            let (sx, sy, sz) = (tx.zwxy(), ty.zwxy(), tz.zwxy());
+            let near = tx.min(sx).max(ty.min(sy).max(tz.min(sz)));
+            let far = tx.max(sx).min(ty.max(sy).min(tz.max(sz)));
+            let crossed = far.cmpge(near) & far.cmpge(glam::Vec4::ZERO);
+            let t = glam::Vec4::select(crossed, near, glam::Vec4::INFINITY);
+            let (mut lt, mut rt) = (t.x, t.y);
+            let (mut l, mut r) = (0usize, 1usize);
+            if lt > rt {
+                std::mem::swap(&mut lt, &mut rt);
+                std::mem::swap(&mut l, &mut r);
+            }
+            // Whether to go down child `k` (entry `t`, against the ray's tmax as it is then): a
+            // leaf is handed to `leaf` at once instead. None: `leaf` said stop.
+            let mut go = |k: usize, t: f32, ray: &mut Ray| -> Option<bool> {
+                let hit = t < ray.tmax;
+                if hit && pair.count[k] != 0 {
+                    return leaf(pair.index[k], pair.count[k], ray).then_some(false);
+                }
+                Some(hit)
+            };
+            let Some(go_left) = go(l, lt, &mut ray) else { return };
+            let Some(go_right) = go(r, rt, &mut ray) else { return };
+            match (go_left, go_right) {
+                (true, true) => {
+                    current = pair.index[l];
+                    stack.push(pair.index[r]);
+                }
+                (true, false) => current = pair.index[l],
+                (false, true) => current = pair.index[r],
+                (false, false) => match stack.pop() {
+                    Some(next) => current = next,
+                    None => return,
+                },
+            }
+        }
+    }
+}
+
+impl Pair {
+    const EMPTY: Pair =
+        Pair { x: glam::Vec4::ZERO, y: glam::Vec4::ZERO, z: glam::Vec4::ZERO, index: [0; 2], count: [0; 2] };
+}
+
+/// Depth up to which the traversal stack lives on the machine stack (the trees here are about
+/// 20-40 deep).
+const INLINE_STACK: usize = 64;
+
+/// The traversal stack of pair indices.
+trait NodeStack {
+    fn push(&mut self, v: u32);
+    fn pop(&mut self) -> Option<u32>;
+}
+
+/// A stack on the machine stack, never zero-filled (obvhs's stacks zero-fill their slots per
+/// traversal, about 1% of a render's CPU).
+struct InlineStack {
+    data: [std::mem::MaybeUninit<u32>; INLINE_STACK],
+    len: usize,
+}
+
+impl NodeStack for InlineStack {
+    #[inline(always)]
+    fn push(&mut self, v: u32) {
+        // At most one push per level of the tree, so `len` stays under its depth.
+        self.data[self.len] = std::mem::MaybeUninit::new(v);
+        self.len += 1;
+    }
+
+    #[inline(always)]
+    fn pop(&mut self) -> Option<u32> {
+        if self.len == 0 {
+            return None;
+        }
+        self.len -= 1;
+        // SAFETY: the slots below `len` were written by `push`.
+        Some(unsafe { self.data[self.len].assume_init() })
+    }
+}
+
+impl NodeStack for Vec<u32> {
+    #[inline(always)]
+    fn push(&mut self, v: u32) {
+        Vec::push(self, v)
+    }
+
+    #[inline(always)]
+    fn pop(&mut self) -> Option<u32> {
+        Vec::pop(self)
+    }
+}
+
+/// The closest-hit traversal of `tree`: `f(ray, slot)` gives a primitive's distance
+/// (infinite: missed), and the ray's `tmax` drops to each nearer one.
 #[inline(always)]
-fn traverse_closest<F: FnMut(&Ray, usize) -> f32>(bvh: &Bvh2, ray: Ray, hit: &mut obvhs::ray::RayHit, mut f: F) {
-    let mut prims = |node: &obvhs::bvh2::node::Bvh2Node, ray: &mut Ray, hit: &mut obvhs::ray::RayHit| {
-        for id in node.first_index..node.first_index + node.prim_count {
+fn traverse_closest<F: FnMut(&Ray, usize) -> f32>(tree: &Pairs, ray: Ray, mut f: F) {
+    tree.traverse(ray, |first, count, ray| {
+        for id in first..first + count {
             let t = f(ray, id as usize);
             if t < ray.tmax {
-                hit.primitive_id = id;
-                hit.t = t;
                 ray.tmax = t;
             }
         }
         true
-    };
-    with_stack!(bvh, stack, { bvh.ray_traverse_dynamic(&mut stack, ray, hit, &mut prims) });
+    });
 }
 
-/// obvhs's `Bvh2::ray_traverse_miss` on a stack from `with_stack!`: whether no primitive lies
-/// along the ray (stops at the first).
+/// Whether no primitive of `tree` lies along the ray (stops at the first).
 #[inline(always)]
-fn traverse_miss<F: FnMut(&Ray, usize) -> f32>(bvh: &Bvh2, ray: Ray, mut f: F) -> bool {
+fn traverse_miss<F: FnMut(&Ray, usize) -> f32>(tree: &Pairs, ray: Ray, mut f: F) -> bool {
     let mut miss = true;
-    let mut prims = |node: &obvhs::bvh2::node::Bvh2Node, ray: &mut Ray, _: &mut obvhs::ray::RayHit| {
-        for id in node.first_index..node.first_index + node.prim_count {
+    tree.traverse(ray, |first, count, ray| {
+        for id in first..first + count {
             if f(ray, id as usize) < ray.tmax {
                 miss = false;
                 return false;
             }
         }
         true
-    };
-    with_stack!(bvh, stack, { bvh.ray_traverse_dynamic(&mut stack, ray, &mut obvhs::ray::RayHit::none(), &mut prims) });
+    });
     miss
 }
 
@@ -543,7 +718,8 @@ pub struct Accel {
     geometry_blas: Vec<Option<u32>>,
     /// TLAS leaves in leaf order.
     instances: Vec<Instance>,
-    tlas: Option<Bvh2>,
+    /// The TLAS and its traversal layout.
+    tlas: Option<(Bvh2, Pairs)>,
 }
 
 /// What `Accel::update` did.
@@ -689,7 +865,8 @@ impl Accel {
         let mut tlas = build_bvh2(&boxes, BUILD, &mut Duration::default());
         self.instances = tlas.primitive_indices.iter().map(|&i| instances[i as usize]).collect();
         tlas.primitive_indices = Vec::new();
-        self.tlas = Some(tlas);
+        let pairs = Pairs::new(&tlas);
+        self.tlas = Some((tlas, pairs));
     }
 
     /// After `World::set_vertices` on a small deformation (skinning, a wave): the BLAS of
@@ -755,7 +932,11 @@ impl Accel {
             .iter()
             .map(|b| b.bvh.nodes.capacity() * node + b.tris.capacity() * std::mem::size_of::<Tri>())
             .sum::<usize>()
-            + self.tlas.as_ref().map_or(0, |t| t.nodes.capacity() * node)
+            + self.blas.iter().map(|b| b.pairs.pairs.capacity() * std::mem::size_of::<Pair>()).sum::<usize>()
+            + self
+                .tlas
+                .as_ref()
+                .map_or(0, |(t, p)| t.nodes.capacity() * node + p.pairs.capacity() * std::mem::size_of::<Pair>())
             + self.instances.capacity() * std::mem::size_of::<Instance>()
     }
 
@@ -763,14 +944,13 @@ impl Accel {
     /// the lowest triangle id, so the result never depends on traversal order.
     #[inline]
     pub fn closest(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
-        let tlas = self.tlas.as_ref()?;
+        let (_, tlas) = self.tlas.as_ref()?;
         if !(origin.is_finite() && dir.is_finite()) || dir == Vec3::ZERO {
             return None;
         }
         let world = LocalRay::new(Vec3A::from(origin), Vec3A::from(dir));
         let mut best: Option<Hit> = None;
-        let mut hit = obvhs::ray::RayHit::none();
-        traverse_closest(tlas, Ray::new(world.o, world.d, tmin, tmax), &mut hit, |r, slot| {
+        traverse_closest(tlas, Ray::new(world.o, world.d, tmin, tmax), |r, slot| {
             let inst = &self.instances[slot];
             let before = best.map(|b| (b.t, b.tri));
             self.blas[inst.blas as usize].closest(
@@ -792,7 +972,7 @@ impl Accel {
     /// Whether anything lies along `origin + t dir` for t in [tmin, tmax] (shadow rays).
     #[inline]
     pub fn occluded(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> bool {
-        let Some(tlas) = self.tlas.as_ref() else {
+        let Some((_, tlas)) = self.tlas.as_ref() else {
             return false;
         };
         if !(origin.is_finite() && dir.is_finite()) || dir == Vec3::ZERO {
@@ -808,7 +988,7 @@ impl Accel {
     /// Closest hit with bare obvhs traversals (TLAS, then each BLAS) and our triangle test,
     /// no tie-break: the baseline the benchmark compares the pipeline against.
     pub fn bare_traversal(&self, origin: Vec3, dir: Vec3) -> bool {
-        let Some(tlas) = self.tlas.as_ref() else {
+        let Some((tlas, _)) = self.tlas.as_ref() else {
             return false;
         };
         let world = LocalRay::new(Vec3A::from(origin), Vec3A::from(dir));
@@ -830,6 +1010,75 @@ impl Accel {
 mod tests {
     use super::*;
     use crate::scene::World;
+
+    /// perf9: the pair layout's traversal reaches the same leaves in the same order as obvhs's
+    /// `ray_traverse_dynamic`, with the same distances handed on, for closest hits (tmax
+    /// lowered by each hit) and any-hit queries, on random triangle soups of several sizes
+    /// (one triangle: a root leaf) and rays from inside and outside, axis-aligned ones included.
+    #[test]
+    fn pair_traversal_visits_the_leaves_obvhs_visits() {
+        use crate::util::rng::{splitmix64, unit_f64};
+        let mut state = 3u64;
+        let mut next = || {
+            state = splitmix64(state);
+            unit_f64(state) as f32 * 2.0 - 1.0
+        };
+        for n in [1usize, 2, 3, 17, 400, 3000] {
+            let tris: Vec<Triangle> = (0..n)
+                .map(|_| {
+                    let c = Vec3A::new(next(), next(), next());
+                    let s = 0.05 + 0.2 * next().abs();
+                    let mut corner = || c + Vec3A::new(next(), next(), next()) * s;
+                    Triangle { v0: corner(), v1: corner(), v2: corner() }
+                })
+                .collect();
+            let bvh = build_bvh2_from_tris(&tris, BUILD, &mut Duration::default());
+            let pairs = Pairs::new(&bvh);
+            let sheared: Vec<Tri> = bvh
+                .primitive_indices
+                .iter()
+                .map(|&i| {
+                    let t = &tris[i as usize];
+                    Tri { p: [t.v0.into(), t.v1.into(), t.v2.into()], id: i }
+                })
+                .collect();
+            for r in 0..300 {
+                let o = Vec3A::new(next(), next(), next()) * if r % 2 == 0 { 3.0 } else { 0.5 };
+                let mut d = Vec3A::new(next(), next(), next());
+                if r % 7 == 0 {
+                    d = Vec3A::new(0.0, 0.0, if r % 2 == 0 { 1.0 } else { -1.0 });
+                }
+                let ray = LocalRay::new(o, d.normalize_or(Vec3A::Z));
+                let t_of = |slot: usize| {
+                    sheared[slot].intersect(&ray.sheared, 0.0, f32::INFINITY).map_or(f32::INFINITY, |h| h.0)
+                };
+                for any in [false, true] {
+                    let (mut ours, mut theirs) = (Vec::new(), Vec::new());
+                    let visit = |seen: &mut Vec<(u32, u32, u32)>, first: u32, count: u32, ray: &mut Ray| {
+                        seen.push((first, count, ray.tmax.to_bits()));
+                        for id in first..first + count {
+                            let t = t_of(id as usize);
+                            if t < ray.tmax {
+                                if any {
+                                    return false;
+                                }
+                                ray.tmax = t;
+                            }
+                        }
+                        true
+                    };
+                    let start = Ray::new(ray.o, ray.d, 0.0, f32::INFINITY);
+                    pairs.traverse(start, |f, c, r| visit(&mut ours, f, c, r));
+                    let mut stack = obvhs::faststack::HeapStack::<u32>::new_with_capacity(256);
+                    let mut hit = obvhs::ray::RayHit::none();
+                    bvh.ray_traverse_dynamic(&mut stack, start, &mut hit, |node, r, _| {
+                        visit(&mut theirs, node.first_index, node.prim_count, r)
+                    });
+                    assert_eq!(ours, theirs, "{n} triangles, ray {r}, any-hit {any}");
+                }
+            }
+        }
+    }
 
     fn world_of(tris: Vec<[Vec3; 3]>) -> World {
         World::from_triangles(&tris)

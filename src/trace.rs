@@ -871,16 +871,16 @@ mod tests {
         }
     }
 
-    /// perf8: an ascending list is traced in place by bands of rows; it gives the film the
-    /// pixels the chunked trace and copy (any order) gives it, sparse shadow rays included,
-    /// on 1 and 3 threads.
-    #[test]
-    fn subset_traced_in_place_matches_the_chunked_trace() {
+    /// The built-in still life, its default stage parameters at `width x height` and one sample
+    /// per pixel, and its lit pre-render.
+    fn still_life_prerender(
+        width: u32,
+        height: u32,
+    ) -> (crate::pipeline::Prepared, crate::pipeline::StageParams, crate::pipeline::PreRender) {
         use crate::pipeline::{Prepared, Shading, StageParams, Timings, prerender};
         use crate::settings::Settings;
         let prep = Prepared::load(None).unwrap();
-        let s = Settings { width: 163, height: 97, spp: 1, ..Settings::default() };
-        let params = StageParams::new(&s);
+        let params = StageParams::new(&Settings { width, height, spp: 1, ..Settings::default() });
         let pre = prerender(
             &prep,
             &params.framing,
@@ -890,6 +890,15 @@ mod tests {
             &mut Timings::default(),
         )
         .unwrap();
+        (prep, params, pre)
+    }
+
+    /// perf8: an ascending list is traced in place by bands of rows; it gives the film the
+    /// pixels the chunked trace and copy (any order) gives it, sparse shadow rays included,
+    /// on 1 and 3 threads.
+    #[test]
+    fn subset_traced_in_place_matches_the_chunked_trace() {
+        let (prep, params, pre) = still_life_prerender(163, 97);
         let tracer = pre.view.tracer(&prep, &params.trace);
         let camera = pre.view.framed.camera.as_ref();
         // A moved ray: the camera's, shifted, so the subset's pixels really change.
@@ -980,21 +989,8 @@ mod tests {
     /// cast shadows: the grid pixels are exact, and the others differ only at a few.
     #[test]
     fn coarse_shadow_rays_match_casting_every_one() {
-        use crate::pipeline::{Prepared, Shading, StageParams, Timings, prerender};
-        use crate::settings::Settings;
-        let prep = Prepared::load(None).unwrap();
-        let s = Settings { width: 160, height: 120, spp: 1, ..Settings::default() };
-        let params = StageParams::new(&s);
+        let (prep, params, pre) = still_life_prerender(160, 120);
         assert!(params.trace.shadows);
-        let pre = prerender(
-            &prep,
-            &params.framing,
-            &params.trace,
-            Shading::Lit,
-            &Progress::silent(),
-            &mut Timings::default(),
-        )
-        .unwrap();
         let coarse = pre.film;
         let tracer = pre.view.tracer(&prep, &params.trace);
         let camera = pre.view.framed.camera.as_ref();
