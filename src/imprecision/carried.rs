@@ -121,7 +121,7 @@ mod tests {
     use super::*;
     use crate::camera::{Camera, Moved};
     use crate::imprecision::aim_facets;
-    use crate::imprecision::test_grid::Grid;
+    use crate::imprecision::tests::Grid;
     use crate::pipeline::Shading;
 
     /// The default still life's aims on a grid of 48 facets (random aim points within 30

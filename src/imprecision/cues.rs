@@ -363,7 +363,7 @@ pub fn keep_cue_vertices_traced(
 mod tests {
     use super::*;
     use crate::imprecision::aim_facets;
-    use crate::imprecision::test_grid::Grid;
+    use crate::imprecision::tests::Grid;
     use crate::pipeline::{Shading, Timings, moved_pixels, retrace_stage};
     use crate::progress::Progress;
 

@@ -23,7 +23,7 @@ mod centres;
 pub mod cues;
 mod rays;
 #[cfg(test)]
-mod test_grid;
+mod tests;
 
 use glam::{DVec2, DVec3};
 use rayon::prelude::*;

@@ -1,6 +1,7 @@
 //! The set-up the imprecision tests share (review D2): the built-in still life's pre-render
 //! at 160 x 120 under the default settings, cut into a grid of 48 facets of 20 x 20 pixels,
-//! and facets re-aimed at random points (no saliency map needed).
+//! and facets re-aimed at random points (no saliency map needed). Named `tests.rs`: the
+//! architecture check (tests/architecture.rs) skips test code, which may reach across modules.
 
 use super::{AimContext, AimMode, AimParams};
 use crate::facets::FacetMap;
