@@ -67,6 +67,32 @@ pub struct Film {
     pub saliency: Option<Vec<f32>>,
 }
 
+// SAFETY: plain numbers (u32, f32 and glam's f32 vectors), for which zero bits are a value.
+unsafe impl bytemuck::Zeroable for PixelHit {}
+// SAFETY: as for `PixelHit`.
+unsafe impl bytemuck::Zeroable for SampleHit {}
+
+/// `n` values of zero bits, allocated zeroed: large blocks come from the system as fresh zero
+/// pages, so nothing is written here (`vec![Vec4::ZERO; n]` wrote 16 MB on one thread for a
+/// million pixels; perf10, issue 16).
+fn zeroed_vec<T: bytemuck::Zeroable>(n: usize) -> Vec<T> {
+    let layout = match std::alloc::Layout::array::<T>(n) {
+        Ok(l) if l.size() > 0 => l,
+        // Nothing to allocate, or too much (`collect` then reports the overflow as `vec!` does).
+        _ => return (0..n).map(|_| T::zeroed()).collect(),
+    };
+    // SAFETY: `layout` has a non-zero size; zero bits are a `T` (`Zeroable`); the block holds
+    // `n` of them and was allocated by the global allocator with the layout `Vec<T>` uses for
+    // capacity `n`.
+    unsafe {
+        let p = std::alloc::alloc_zeroed(layout) as *mut T;
+        if p.is_null() {
+            std::alloc::handle_alloc_error(layout);
+        }
+        Vec::from_raw_parts(p, n, n)
+    }
+}
+
 impl Film {
     pub fn new(width: u32, height: u32, spp: u32) -> Film {
         let n = width as usize * height as usize;
@@ -74,10 +100,28 @@ impl Film {
             width,
             height,
             spp,
-            color: vec![Vec4::ZERO; n],
+            color: zeroed_vec(n),
             // Filled on every thread: a million pixels' buffers are tens of MB (issue 16).
             hits: rayon::iter::repeat_n(PixelHit::MISS, n).collect(),
             samples: rayon::iter::repeat_n(SampleHit::MISS, n * spp as usize).collect(),
+            occlusion: vec![0; n],
+            saliency: None,
+        }
+    }
+
+    /// A film for a trace that writes every pixel (the pre-render): its buffers hold zero bits,
+    /// not misses, until then, so nothing is written twice (the miss fill of the hits and
+    /// samples was 44 MB at a million pixels; perf10, issue 16). A trace cut short (cancelled)
+    /// leaves pixels that read as hits on triangle 0: such a film must be thrown away.
+    pub fn to_be_traced(width: u32, height: u32, spp: u32) -> Film {
+        let n = width as usize * height as usize;
+        Film {
+            width,
+            height,
+            spp,
+            color: zeroed_vec(n),
+            hits: zeroed_vec(n),
+            samples: zeroed_vec(n * spp as usize),
             occlusion: vec![0; n],
             saliency: None,
         }
@@ -91,5 +135,30 @@ impl Film {
     pub fn pixel_samples(&self, i: usize) -> &[SampleHit] {
         let s = self.spp as usize;
         &self.samples[i * s..(i + 1) * s]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The zeroed buffers hold what their zero values are: `Film::new`'s colour is the zero
+    /// colour it always was, and a film to be traced holds zeroed hits of every size asked.
+    #[test]
+    fn zeroed_buffers_hold_zero_values() {
+        let film = Film::new(7, 5, 3);
+        assert!(film.color.len() == 35 && film.color.iter().all(|c| *c == Vec4::ZERO));
+        assert!(film.hits.iter().all(|h| *h == PixelHit::MISS) && film.samples.len() == 105);
+        assert!(film.samples.iter().all(|s| *s == SampleHit::MISS));
+        let zero = PixelHit { tri: 0, object: 0, t: 0.0, normal: Vec3::ZERO, u: 0.0, v: 0.0 };
+        for (w, h, spp) in [(0, 0, 1), (1, 1, 1), (640, 480, 4)] {
+            let f = Film::to_be_traced(w, h, spp);
+            let n = (w * h) as usize;
+            assert_eq!((f.color.len(), f.hits.len(), f.samples.len(), f.occlusion.len()), (n, n, n * spp as usize, n));
+            assert!(f.color.iter().all(|c| c.to_array().iter().all(|v| v.to_bits() == 0)));
+            assert!(f.hits.iter().all(|h| *h == zero && h.t.to_bits() == 0));
+            assert!(f.samples.iter().all(|s| *s == SampleHit { tri: 0, u: 0.0, v: 0.0 }));
+        }
+        assert!(zeroed_vec::<u8>(0).is_empty());
     }
 }

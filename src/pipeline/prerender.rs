@@ -107,7 +107,9 @@ pub fn prerender(
         Shading::Lit | Shading::Deferred => 1,
         Shading::HitsOnly => trace.spp,
     };
-    let mut film = Film::new(trace.width, trace.height, spp);
+    // Every pixel is traced below, so its buffers need no fill first (a cancelled trace is
+    // refused before its film is seen).
+    let mut film = Film::to_be_traced(trace.width, trace.height, spp);
     progress.begin(Stage::PreRender.name(), film.pixel_count() as u64);
     // Deferred: traced as hits only (no lights), shaded later with the rig kept here.
     let unshaded = shading == Shading::Deferred;
@@ -118,5 +120,6 @@ pub fn prerender(
         tracer.render(&mut film, &*rays, None, None, progress)
     });
     progress.finish();
+    progress.check()?;
     Ok(PreRender { film, view: View { framed, rig }, warnings, unshaded })
 }
