@@ -258,6 +258,9 @@ impl Effect for Passage {
         };
         let edges = ctx.edges(w as u32, h as u32, md);
         let dist = &edges.dist;
+        // The first run over these edges (a facet or camera change) keeps no geometry: only
+        // the runs after it (a paint-only change) read it again.
+        let again = edges.passage.get().is_some();
         let pairs = edges.passage.get_or_init(|| Pairs::new(w, h, &edges.near, &same));
         // How far in each side's value is read: a few pixels, at least one.
         let step = (md / 4.0).round().max(1.0) as i64;
@@ -338,9 +341,9 @@ impl Effect for Passage {
                 _ => Geometry::NONE,
             })
         };
-        let sides: Vec<[Side; 4]> = if ctx.kept_across_chains() {
-            // A session keeps the geometry: a colour change upstream (a border width) reads
-            // only the colours.
+        let sides: Vec<[Side; 4]> = if ctx.kept_across_chains() && again {
+            // A session keeps the geometry from the second run over these edges on: a colour
+            // change upstream (a border width) reads only the colours.
             let key = [step as u64, self.plane_light.to_bits() as u64, self.seed];
             let g = pairs.geometry(key, || {
                 let lf = edge_lf();
