@@ -217,11 +217,16 @@ impl Effect for ColourTransfer {
             .enumerate()
             .map(|(i, p)| if coverage.is_painted(i) { luminance(p.truncate()).max(0.0) } else { -1.0 })
             .collect();
-        let index = self.level_indices(&lum);
+        // `level_indices`, each pixel's level written as it is looked up (no index buffer).
+        let keys = StableKeys::from_luminances(&lum);
+        if keys.total == 0 {
+            return Ok(());
+        }
+        let table = rank_table(&keys.histogram, keys.total, self.contrast_limit, self.levels.len());
         let levels = &self.levels;
-        canvas.px.par_iter_mut().zip(&index).for_each(|(p, k)| {
-            if *k != UNPAINTED {
-                *p = levels[*k as usize].extend(p.w);
+        canvas.px.par_iter_mut().zip(&keys.keys).for_each(|(p, &k)| {
+            if k != UNPAINTED {
+                *p = levels[table[k as usize] as usize].extend(p.w);
             }
         });
         Ok(())
@@ -297,11 +302,25 @@ impl StableKeys {
         let top = luminance_quantile(lum, TOP_QUANTILE);
         let scale = if top > 0.0 && top.is_finite() { 1.0 / top } else { 0.0 };
         let last = (KEY_LEVELS - 1) as f32;
-        let keys: Vec<u32> = lum
-            .par_iter()
-            .map(|&l| if l < 0.0 { UNPAINTED } else { ((l * scale).min(1.0).sqrt() * last + 0.5) as u32 })
-            .collect();
-        let (histogram, total) = count(&keys, KEY_LEVELS, |k| (k != UNPAINTED).then_some(k as usize));
+        let key = |l: f32| if l < 0.0 { UNPAINTED } else { ((l * scale).min(1.0).sqrt() * last + 0.5) as u32 };
+        // The keys and their histogram in one pass (`count`'s chunks).
+        let mut keys = vec![0u32; lum.len()];
+        let (histogram, total) = keys
+            .par_chunks_mut(COUNT_CHUNK)
+            .zip(lum.par_chunks(COUNT_CHUNK))
+            .map(|(keys, lum)| {
+                let mut c = vec![0u32; KEY_LEVELS];
+                let mut n = 0u64;
+                for (k, &l) in keys.iter_mut().zip(lum) {
+                    *k = key(l);
+                    if *k != UNPAINTED {
+                        c[*k as usize] += 1;
+                        n += 1;
+                    }
+                }
+                (c, n)
+            })
+            .reduce(|| (vec![0u32; KEY_LEVELS], 0), add_counts);
         StableKeys { keys, histogram, total }
     }
 }
@@ -310,7 +329,7 @@ impl StableKeys {
 /// counted: chunks counted in parallel and summed (integers: the same on any thread count).
 fn count<T: Copy + Sync>(values: &[T], buckets: usize, bucket: impl Fn(T) -> Option<usize> + Sync) -> (Vec<u32>, u64) {
     values
-        .par_chunks(1 << 17)
+        .par_chunks(COUNT_CHUNK)
         .map(|chunk| {
             let mut c = vec![0u32; buckets];
             let mut n = 0u64;
@@ -320,13 +339,16 @@ fn count<T: Copy + Sync>(values: &[T], buckets: usize, bucket: impl Fn(T) -> Opt
             }
             (c, n)
         })
-        .reduce(
-            || (vec![0u32; buckets], 0),
-            |(mut a, na), (b, nb)| {
-                a.iter_mut().zip(&b).for_each(|(x, y)| *x += y);
-                (a, na + nb)
-            },
-        )
+        .reduce(|| (vec![0u32; buckets], 0), add_counts)
+}
+
+/// Values per chunk `count` counts alone.
+const COUNT_CHUNK: usize = 1 << 17;
+
+/// Two chunks' counts summed (`count`).
+fn add_counts((mut a, na): (Vec<u32>, u64), (b, nb): (Vec<u32>, u64)) -> (Vec<u32>, u64) {
+    a.iter_mut().zip(&b).for_each(|(x, y)| *x += y);
+    (a, na + nb)
 }
 
 /// The luminance at quantile `q` of the non-negative values of `lum` (negatives are left

@@ -99,7 +99,13 @@ pub struct Pairs {
     /// Each pixel's index in `edge_pixels` (u32::MAX off the edges), for the lost-and-found
     /// value of b.
     slot: Vec<u32>,
+    /// What the sides of each edge pixel read besides the colour, for one step, ramp and
+    /// seed (kept across chains only: `Passage::apply`).
+    geometry: std::sync::Mutex<Option<GeometryOf>>,
 }
+
+/// `Pairs::geometry`'s key (step, plane light, seed) and the geometry.
+type GeometryOf = ([u64; 3], std::sync::Arc<Vec<[Geometry; 4]>>);
 
 const NO_PAIR: u32 = u32::MAX;
 const FALLBACK: u32 = 1 << 31;
@@ -146,11 +152,27 @@ impl Pairs {
                 fallback.push((i as u32, near[i]));
             }
         }
-        Pairs { edge_pixels, of, fallback, slot }
+        Pairs { edge_pixels, of, fallback, slot, geometry: std::sync::Mutex::new(None) }
     }
 
     pub fn bytes(&self) -> usize {
-        (self.edge_pixels.len() + self.of.len() + self.slot.len() + 2 * self.fallback.len()) * 4
+        let geometry = self.geometry.lock().map_or(0, |g| g.as_ref().map_or(0, |(_, g)| size_of_val(&g[..])));
+        (self.edge_pixels.len() + self.of.len() + self.slot.len() + 2 * self.fallback.len()) * 4 + geometry
+    }
+
+    /// The geometry of every edge pixel's sides for `key`, made by `make` when not held (the
+    /// last one made is held).
+    fn geometry(&self, key: [u64; 3], make: impl FnOnce() -> Vec<[Geometry; 4]>) -> std::sync::Arc<Vec<[Geometry; 4]>> {
+        if let Some((k, g)) = self.geometry.lock().ok().and_then(|g| g.clone())
+            && k == key
+        {
+            return g;
+        }
+        let g = std::sync::Arc::new(make());
+        if let Ok(mut held) = self.geometry.lock() {
+            *held = Some((key, g.clone()));
+        }
+        g
     }
 }
 
@@ -174,6 +196,27 @@ fn direction(w: usize, a: usize, b: usize) -> u32 {
     } else {
         2
     }
+}
+
+/// What a pair (a, b) facing each other across an edge reads besides the colour: both
+/// pixels, their inward pixels (`step` in), the per-plane light's factor at each, their
+/// lost-and-found values (a's, b's) and the tie-break (a's region before b's). The same on
+/// every run over these edges with the same step, plane light and seed: a session keeps it,
+/// so a colour change upstream reads only the colours (`Side`). `a` = `NONE`: no pair.
+#[derive(Clone, Copy)]
+struct Geometry {
+    a: u32,
+    b: u32,
+    a_in: u32,
+    b_in: u32,
+    ramp: [f32; 2],
+    lost_found: [f32; 2],
+    below: bool,
+}
+
+impl Geometry {
+    const NONE: Geometry =
+        Geometry { a: u32::MAX, b: 0, a_in: 0, b_in: 0, ramp: [0.0; 2], lost_found: [0.0; 2], below: false };
 }
 
 /// A pair's values for one run: the colour of b's inward pixel before passage (what a's side
@@ -215,6 +258,9 @@ impl Effect for Passage {
         };
         let edges = ctx.edges(w as u32, h as u32, md);
         let dist = &edges.dist;
+        // The first run over these edges (a facet or camera change) keeps no geometry: only
+        // the runs after it (a paint-only change) read it again.
+        let again = edges.passage.get().is_some();
         let pairs = edges.passage.get_or_init(|| Pairs::new(w, h, &edges.near, &same));
         // How far in each side's value is read: a few pixels, at least one.
         let step = (md / 4.0).round().max(1.0) as i64;
@@ -245,51 +291,80 @@ impl Effect for Passage {
         // The colours before (what the other side blends in; alpha is not read) and their
         // values, read before any pixel changes.
         let lum = |i: usize| luminance(px[i].truncate()).max(0.0);
-        // What a pair (a, b) facing each other across an edge gives: the two sides' values,
-        // each read a little way in (a on the pixel's side; the tie-break's region of the
-        // pixel is a's), and b's inward pixel.
-        let side = |a: usize, b: usize, lf: [f32; 2]| -> Side {
+        // What a pair (a, b) facing each other across an edge reads besides the colour: each
+        // side's value is read a little way in (a on the pixel's side; the tie-break's region
+        // of the pixel is a's), and b's inward pixel.
+        let geometry = |a: usize, b: usize, lost_found: [f32; 2]| -> Geometry {
             let (dx, dy) = ((b % w) as i64 - (a % w) as i64, (b / w) as i64 - (a / w) as i64);
             let (nx, ny) = if dx.abs() >= dy.abs() { (dx.signum(), 0) } else { (0, dy.signum()) };
             let (a_in, b_in) = (inward(a, -nx, -ny), inward(b, nx, ny));
-            let va = 0.5 * (lum(a) + lum(a_in)) * ramp(a);
-            let vb = 0.5 * (lum(b) + lum(b_in)) * ramp(b);
+            Geometry {
+                a: a as u32,
+                b: b as u32,
+                a_in: a_in as u32,
+                b_in: b_in as u32,
+                ramp: [ramp(a), ramp(b)],
+                lost_found,
+                below: key(a) < key(b),
+            }
+        };
+        // What a pair gives on this picture: the two sides' values.
+        let side = |g: &Geometry| -> Side {
+            if g.a == u32::MAX {
+                return Side::default();
+            }
+            let (a, b, a_in, b_in) = (g.a as usize, g.b as usize, g.a_in as usize, g.b_in as usize);
+            let va = 0.5 * (lum(a) + lum(a_in)) * g.ramp[0];
+            let vb = 0.5 * (lum(b) + lum(b_in)) * g.ramp[1];
             Side {
                 across: px[b_in].truncate(),
                 painted: coverage.is_painted(b_in),
-                dark: if va != vb { va < vb } else { key(a) < key(b) },
-                line: lf.map(|lf| Passage::line(va, vb, lf)),
+                dark: if va != vb { va < vb } else { g.below },
+                line: g.lost_found.map(|lf| Passage::line(va, vb, lf)),
             }
         };
-        let edge_lf: Vec<f32> = pairs.edge_pixels.par_iter().map(|&q| lost_found(q as usize)).collect();
-        let sides: Vec<[Side; 4]> = pairs
-            .edge_pixels
-            .par_iter()
-            .zip(&edge_lf)
-            .map(|(&a, &lf_a)| {
-                let a = a as usize;
-                let (x, y) = (a % w, a / w);
-                let nb = [
-                    (x + 1 < w).then(|| a + 1),
-                    (y + 1 < h).then(|| a + w),
-                    (x > 0).then(|| a - 1),
-                    (y > 0).then(|| a - w),
-                ];
-                nb.map(|b| match b {
-                    Some(b) if !same(a, b) => {
-                        let lf_b = edge_lf.get(pairs.slot[b] as usize).copied().unwrap_or_else(|| lost_found(b));
-                        side(a, b, [lf_a, lf_b])
-                    }
-                    _ => Side::default(),
-                })
+        // Each edge pixel's pairs, right, down, left, up (`Pairs::of`).
+        let edge_lf = || -> Vec<f32> { pairs.edge_pixels.par_iter().map(|&q| lost_found(q as usize)).collect() };
+        let edge_geometry = |edge_lf: &[f32], a: usize, lf_a: f32| -> [Geometry; 4] {
+            let (x, y) = (a % w, a / w);
+            let nb = [
+                (x + 1 < w).then(|| a + 1),
+                (y + 1 < h).then(|| a + w),
+                (x > 0).then(|| a - 1),
+                (y > 0).then(|| a - w),
+            ];
+            nb.map(|b| match b {
+                Some(b) if !same(a, b) => {
+                    let lf_b = edge_lf.get(pairs.slot[b] as usize).copied().unwrap_or_else(|| lost_found(b));
+                    geometry(a, b, [lf_a, lf_b])
+                }
+                _ => Geometry::NONE,
             })
-            .collect();
+        };
+        let sides: Vec<[Side; 4]> = if ctx.kept_across_chains() && again {
+            // A session keeps the geometry from the second run over these edges on: a colour
+            // change upstream (a border width) reads only the colours.
+            let key = [step as u64, self.plane_light.to_bits() as u64, self.seed];
+            let g = pairs.geometry(key, || {
+                let lf = edge_lf();
+                pairs.edge_pixels.par_iter().zip(&lf).map(|(&a, &lf_a)| edge_geometry(&lf, a as usize, lf_a)).collect()
+            });
+            g.par_iter().map(|g| g.each_ref().map(&side)).collect()
+        } else {
+            let lf = edge_lf();
+            pairs
+                .edge_pixels
+                .par_iter()
+                .zip(&lf)
+                .map(|(&a, &lf_a)| edge_geometry(&lf, a as usize, lf_a).each_ref().map(&side))
+                .collect()
+        };
         let fallback: Vec<Side> = pairs
             .fallback
             .par_iter()
             .map(|&(a, q)| {
                 let lf = lost_found(q as usize);
-                side(a as usize, q as usize, [lf, lf])
+                side(&geometry(a as usize, q as usize, [lf, lf]))
             })
             .collect();
         let transparent = canvas.transparent;

@@ -222,6 +222,16 @@ fn paint_both(passage: Passage, frame: &Film, facets: Option<&FacetMap>, transpa
     let mut d = frame.clone();
     pool.install(|| with_width(0.5).apply_with(&mut d, facets, None, &kept)).unwrap();
     pool.install(|| new.apply_with(&mut c, facets, None, &kept)).unwrap();
+    // The same width on other colours (a change upstream), twice: the second run over these
+    // edges keeps the sides' geometry, the third reads it.
+    let mut other = frame.clone();
+    for p in &mut other.color {
+        *p = (p.truncate() * 0.6 + Vec3::new(0.1, 0.0, 0.2)).extend(p.w);
+    }
+    let (mut g, mut g2, mut g_ref) = (other.clone(), frame.clone(), other.clone());
+    pool.install(|| new.apply_with(&mut g, facets, None, &kept)).unwrap();
+    pool.install(|| new.apply_with(&mut g2, facets, None, &kept)).unwrap();
+    old.apply(&mut g_ref, facets, None).unwrap();
     let mut e = frame.clone();
     pool.install(|| with_width(1.5).apply_with(&mut e, facets, None, &kept)).unwrap();
     let mut f = frame.clone();
@@ -237,6 +247,8 @@ fn paint_both(passage: Passage, frame: &Film, facets: Option<&FacetMap>, transpa
     assert_eq!(bits(&a), bits(&b), "one-off");
     assert_eq!(bits(&c), bits(&b), "kept inputs");
     assert_eq!(bits(&e), bits(&f), "kept inputs, wider");
+    assert_eq!(bits(&g), bits(&g_ref), "kept inputs, other colours");
+    assert_eq!(bits(&g2), bits(&b), "kept inputs, the geometry read");
 }
 
 proptest! {
