@@ -96,17 +96,10 @@ fn zeroed_vec<T: bytemuck::Zeroable>(n: usize) -> Vec<T> {
 impl Film {
     pub fn new(width: u32, height: u32, spp: u32) -> Film {
         let n = width as usize * height as usize;
-        Film {
-            width,
-            height,
-            spp,
-            color: zeroed_vec(n),
-            // Filled on every thread: a million pixels' buffers are tens of MB (issue 16).
-            hits: rayon::iter::repeat_n(PixelHit::MISS, n).collect(),
-            samples: rayon::iter::repeat_n(SampleHit::MISS, n * spp as usize).collect(),
-            occlusion: vec![0; n],
-            saliency: None,
-        }
+        // Filled on every thread: a million pixels' buffers are tens of MB (issue 16).
+        let hits = rayon::iter::repeat_n(PixelHit::MISS, n).collect();
+        let samples = rayon::iter::repeat_n(SampleHit::MISS, n * spp as usize).collect();
+        Film::with_hits(width, height, spp, hits, samples)
     }
 
     /// A film for a trace that writes every pixel (the pre-render): its buffers hold zero bits,
@@ -115,16 +108,13 @@ impl Film {
     /// leaves pixels that read as hits on triangle 0: such a film must be thrown away.
     pub fn to_be_traced(width: u32, height: u32, spp: u32) -> Film {
         let n = width as usize * height as usize;
-        Film {
-            width,
-            height,
-            spp,
-            color: zeroed_vec(n),
-            hits: zeroed_vec(n),
-            samples: zeroed_vec(n * spp as usize),
-            occlusion: vec![0; n],
-            saliency: None,
-        }
+        Film::with_hits(width, height, spp, zeroed_vec(n), zeroed_vec(n * spp as usize))
+    }
+
+    /// A film with these hit and sample buffers, its colour black and nothing occluded.
+    fn with_hits(width: u32, height: u32, spp: u32, hits: Vec<PixelHit>, samples: Vec<SampleHit>) -> Film {
+        let n = width as usize * height as usize;
+        Film { width, height, spp, color: zeroed_vec(n), hits, samples, occlusion: vec![0; n], saliency: None }
     }
 
     pub fn pixel_count(&self) -> usize {

@@ -176,13 +176,16 @@ impl Pairs {
     }
 }
 
-/// The first 4-neighbour of q (right, down, left, up: fixed order) for which `want` holds.
-fn neighbour(w: usize, h: usize, q: usize, want: impl Fn(usize) -> bool) -> Option<usize> {
+/// The 4-neighbours of q in a w x h grid in passage's fixed order (right, down, left, up;
+/// None outside the grid): the order edge pairs and their tie-breaks are taken in.
+pub(super) fn neighbours_rdlu(w: usize, h: usize, q: usize) -> [Option<usize>; 4] {
     let (x, y) = (q % w, q / w);
     [(x + 1 < w).then(|| q + 1), (y + 1 < h).then(|| q + w), (x > 0).then(|| q - 1), (y > 0).then(|| q - w)]
-        .into_iter()
-        .flatten()
-        .find(|&n| want(n))
+}
+
+/// The first 4-neighbour of q (right, down, left, up: fixed order) for which `want` holds.
+fn neighbour(w: usize, h: usize, q: usize, want: impl Fn(usize) -> bool) -> Option<usize> {
+    neighbours_rdlu(w, h, q).into_iter().flatten().find(|&n| want(n))
 }
 
 /// The direction (0 right, 1 down, 2 left, 3 up) from pixel a to its 4-neighbour b.
@@ -326,14 +329,7 @@ impl Effect for Passage {
         // Each edge pixel's pairs, right, down, left, up (`Pairs::of`).
         let edge_lf = || -> Vec<f32> { pairs.edge_pixels.par_iter().map(|&q| lost_found(q as usize)).collect() };
         let edge_geometry = |edge_lf: &[f32], a: usize, lf_a: f32| -> [Geometry; 4] {
-            let (x, y) = (a % w, a / w);
-            let nb = [
-                (x + 1 < w).then(|| a + 1),
-                (y + 1 < h).then(|| a + w),
-                (x > 0).then(|| a - 1),
-                (y > 0).then(|| a - w),
-            ];
-            nb.map(|b| match b {
+            neighbours_rdlu(w, h, a).map(|b| match b {
                 Some(b) if !same(a, b) => {
                     let lf_b = edge_lf.get(pairs.slot[b] as usize).copied().unwrap_or_else(|| lost_found(b));
                     geometry(a, b, [lf_a, lf_b])

@@ -8,7 +8,7 @@ use rayon::prelude::*;
 
 use super::borders::border_factor;
 use super::noise::Grid2;
-use super::passage::{BLEND, LOST_PERIOD, Passage, SALT};
+use super::passage::{BLEND, LOST_PERIOD, Passage, SALT, neighbours_rdlu};
 use super::plane_light::PlaneLight;
 use super::planes::smoothstep;
 use super::tests::voronoi;
@@ -54,11 +54,7 @@ impl Effect for Reference {
         // A 4-neighbour of q (right, down, left, up: fixed order) that is (`want` = true) or
         // is not in the region of `of`.
         let neighbour = |q: usize, of: usize, want: bool| -> Option<usize> {
-            let (x, y) = (q % w, q / w);
-            [(x + 1 < w).then(|| q + 1), (y + 1 < h).then(|| q + w), (x > 0).then(|| q - 1), (y > 0).then(|| q - w)]
-                .into_iter()
-                .flatten()
-                .find(|&n| same(n, of) == want)
+            neighbours_rdlu(w, h, q).into_iter().flatten().find(|&n| same(n, of) == want)
         };
         // How far in each side's value is read: a few pixels, at least one.
         let step = (md / 4.0).round().max(1.0) as i64;
@@ -116,13 +112,7 @@ impl Effect for Reference {
         let memo: Vec<Memo> = edge_pixels
             .par_iter()
             .map(|&a| {
-                let (x, y) = (a % w, a / w);
-                let nb = [
-                    (x + 1 < w).then(|| a + 1),
-                    (y + 1 < h).then(|| a + w),
-                    (x > 0).then(|| a - 1),
-                    (y > 0).then(|| a - w),
-                ];
+                let nb = neighbours_rdlu(w, h, a);
                 Memo {
                     lost_found: lost_found(a),
                     pairs: nb.map(|b| {
