@@ -529,6 +529,8 @@ impl Pairs {
         let (ix, iy, iz) = (glam::Vec4::splat(inv.x), glam::Vec4::splat(inv.y), glam::Vec4::splat(inv.z));
         let mut current = 0u32;
         loop {
+            // SAFETY: `current` is 0 (the root is inner here, so `new` pushed pair 0) or an
+            // index `new` stored for an inner child after pushing that pair.
             let pair = unsafe { self.pairs.get_unchecked(current as usize) };
             // Lanes: (t at min, t at max) of the left and right child along each axis, then
             // each child's near and far t, as `Aabb::intersect_ray` computes them.

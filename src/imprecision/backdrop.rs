@@ -20,6 +20,7 @@ use super::cues::CueVertices;
 use super::{AimContext, AimParams, FacetAim, FacetProjection};
 use crate::facets::{FacetMap, FacetPixels};
 use crate::film::Film;
+use crate::util::grid::Grid;
 
 /// Each facet's share of pixel coverage (the fraction of samples that hit geometry, averaged
 /// over its pixels) in the pre-render whose per-pixel coverage is `coverage`. Facets in
@@ -61,26 +62,16 @@ pub fn facet_widths(map: &FacetMap) -> Vec<f64> {
     const BAND_ROWS: usize = 64;
     let (w, h) = (map.width as usize, map.height as usize);
     let n = map.facet_count as usize;
+    let grid = Grid::new(map.width, map.height);
     let zero = || (vec![0u64; n], vec![0u64; n]);
     let (area, perimeter) = (0..h.div_ceil(BAND_ROWS))
         .into_par_iter()
         .fold(zero, |(mut area, mut perimeter), b| {
-            for y in b * BAND_ROWS..((b + 1) * BAND_ROWS).min(h) {
-                for x in 0..w {
-                    let i = y * w + x;
-                    let id = map.ids[i] as usize;
-                    area[id] += 1;
-                    let differs = |j: Option<usize>| j.is_none_or(|j| map.ids[j] as usize != id);
-                    perimeter[id] += [
-                        differs((x > 0).then(|| i - 1)),
-                        differs((x + 1 < w).then(|| i + 1)),
-                        differs((y > 0).then(|| i - w)),
-                        differs((y + 1 < h).then(|| i + w)),
-                    ]
-                    .iter()
-                    .filter(|&&d| d)
-                    .count() as u64;
-                }
+            for i in b * BAND_ROWS * w..((b + 1) * BAND_ROWS).min(h) * w {
+                let id = map.ids[i];
+                area[id as usize] += 1;
+                // A side on the image's edge counts as on another facet.
+                perimeter[id as usize] += 4 - grid.neighbours4(i).filter(|&j| map.ids[j] == id).count() as u64;
             }
             (area, perimeter)
         })
@@ -128,18 +119,8 @@ pub const CUE_PIXEL_SHARE: f64 = 0.15;
 /// tip of an ear) shifted out of its plane is lost (issue 13 item 5: the most salient vertices
 /// shown at least as often as in the unfaceted render). The salient pixels are the top
 /// `CUE_PIXEL_SHARE` of `saliency` over the pixels that show geometry.
-pub fn keep_cues(aims: &mut [FacetAim], ctx: &AimContext, map: &FacetMap, saliency: &[f32]) {
-    keep_cues_with(aims, ctx, map, &map.facet_pixels(), saliency)
-}
-
-/// `keep_cues` with the facets' pixels (`FacetMap::facet_pixels`) made already.
-pub fn keep_cues_with(
-    aims: &mut [FacetAim],
-    ctx: &AimContext,
-    map: &FacetMap,
-    by_facet: &FacetPixels,
-    saliency: &[f32],
-) {
+/// `by_facet`: the facets' pixels (`FacetMap::facet_pixels`).
+pub fn keep_cues(aims: &mut [FacetAim], ctx: &AimContext, map: &FacetMap, by_facet: &FacetPixels, saliency: &[f32]) {
     // (The k-th smallest value is the same whatever order the values are gathered in.)
     let mut values: Vec<f32> = saliency.par_iter().copied().filter(|&v| v > 0.0).collect();
     if values.is_empty() || saliency.len() != map.ids.len() {
@@ -202,7 +183,7 @@ pub fn apply(
         // Only when re-aiming reads the saliency map anyway (what the aims depend on stays
         // what `reads_saliency` says: the session's stage cache keys on it).
         if let Some(s) = film.saliency.as_deref().filter(|_| params.reads_saliency()) {
-            keep_cues_with(aims, ctx, map, by_facet, s);
+            keep_cues(aims, ctx, map, by_facet, s);
             if let Some(c) = cues {
                 return super::cues::keep_cue_vertices_traced(aims, ctx, map, by_facet, film, c).1;
             }

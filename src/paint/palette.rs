@@ -218,11 +218,7 @@ impl Effect for ColourTransfer {
             .map(|(i, p)| if coverage.is_painted(i) { luminance(p.truncate()).max(0.0) } else { -1.0 })
             .collect();
         // `level_indices`, each pixel's level written as it is looked up (no index buffer).
-        let keys = StableKeys::from_luminances(&lum);
-        if keys.total == 0 {
-            return Ok(());
-        }
-        let table = rank_table(&keys.histogram, keys.total, self.contrast_limit, self.levels.len());
+        let Some((keys, table)) = self.keys_and_levels(&lum) else { return Ok(()) };
         let levels = &self.levels;
         canvas.px.par_iter_mut().zip(&keys.keys).for_each(|(p, &k)| {
             if k != UNPAINTED {
@@ -237,12 +233,19 @@ impl ColourTransfer {
     /// The level (index into `levels`) each pixel takes, from the pixels' luminances
     /// (negative = not painted: `UNPAINTED`).
     pub fn level_indices(&self, lum: &[f32]) -> Vec<u32> {
+        let Some((keys, table)) = self.keys_and_levels(lum) else { return vec![UNPAINTED; lum.len()] };
+        keys.keys.par_iter().map(|&k| if k == UNPAINTED { UNPAINTED } else { table[k as usize] }).collect()
+    }
+
+    /// The pixels' `StableKeys` and each key's level (`rank_table`); None when no pixel is
+    /// painted.
+    fn keys_and_levels(&self, lum: &[f32]) -> Option<(StableKeys, Vec<u32>)> {
         let keys = StableKeys::from_luminances(lum);
         if keys.total == 0 {
-            return vec![UNPAINTED; lum.len()];
+            return None;
         }
         let table = rank_table(&keys.histogram, keys.total, self.contrast_limit, self.levels.len());
-        keys.keys.par_iter().map(|&k| if k == UNPAINTED { UNPAINTED } else { table[k as usize] }).collect()
+        Some((keys, table))
     }
 }
 

@@ -817,23 +817,21 @@ fn after_saliency_stages(
                     .as_ref()
                     .and_then(|e| e.value.traced.as_ref().map(|t| (&e.value, t)))
                     .filter(|(_, t)| t.may_share_rays(&traced));
-                let mut next_old = 0;
-                if old.is_none() {
-                    again.extend_from_slice(&delta.pixels);
-                }
-                for &i in delta.pixels.iter().filter(|_| old.is_some()) {
-                    let reused = old.and_then(|(d, t)| {
-                        while next_old < d.pixels.len() && d.pixels[next_old] < i {
-                            next_old += 1;
+                match old {
+                    None => again.extend_from_slice(&delta.pixels),
+                    Some((d, t)) => {
+                        let mut k = 0;
+                        for &i in &delta.pixels {
+                            while k < d.pixels.len() && d.pixels[k] < i {
+                                k += 1;
+                            }
+                            let around = crate::trace::coarse_grid_around(w, h, i as usize);
+                            if d.pixels.get(k) == Some(&i) && t.same(&traced, i as usize, around) {
+                                d.put(k, film, i as usize);
+                            } else {
+                                again.push(i);
+                            }
                         }
-                        let k = next_old;
-                        (d.pixels.get(k) == Some(&i)
-                            && t.same(&traced, i as usize, crate::trace::coarse_grid_around(w, h, i as usize)))
-                        .then_some(k)
-                    });
-                    match reused {
-                        Some(k) => old.expect("reused from it").0.put(k, film, i as usize),
-                        None => again.push(i),
                     }
                 }
                 pixels_kept.retrace_kept = delta.pixels.len() - again.len();
