@@ -347,8 +347,9 @@ fn render(session: &mut Session, job: &Job) -> Result<Value> {
     let frame = session.render(&settings, &progress)?;
     progress.begin(Stage::Writing.name(), 1);
     let t = Instant::now();
-    // The image, its passes and the saved layout: all written, or none (README "Security").
-    let mut outputs = Outputs::new();
+    // The image, its passes and the saved layout: all written, or none (README "Security"),
+    // unsynced: the client reads them at once (`Outputs::transient`).
+    let mut outputs = Outputs::transient();
     match format {
         Format::Png => outputs.png(&req.output, &frame.image)?,
         Format::Rgba => outputs.add(&req.output, |f| f.write_all(frame.image.as_raw()).map_err(|e| e.to_string()))?,
