@@ -148,29 +148,44 @@ impl Buffers {
     }
 }
 
-/// Local maxima of `values` at scale `radius`: vertices whose value is > 0 and strictly greater
-/// than that of every other vertex strictly within `radius`.
+/// Values of a normalised level (maximum 1) closer than this count as equal in step 5 (SPEC
+/// "Mesh saliency": local maxima, the global maximum M_i, mbar_i).
+///
+/// Why: on a solid of revolution (the still life's fruit, jug, bowl) vertices of one ring hold
+/// values equal in exact arithmetic, and their computed means differ in the last bits only,
+/// which depend on libm's `exp` and the summation order. A strict comparison would let those
+/// bits decide which vertex is a peak; a few-ulp change of the means moved the apple's
+/// saliency by up to 0.29. Rounding errors of the means reach ~1e-15 of the level's maximum,
+/// real differences between neighbouring peaks are orders above 1e-9.
+pub const TIE: f64 = 1e-9;
+
+/// Local maxima of `values` (a level normalised to maximum 1) at scale `radius`: vertices whose
+/// value is above `TIE` and which no other vertex strictly within `radius` exceeds by more than
+/// `TIE`.
 ///
 /// Why this definition: a level's peaks live at its own scale sigma_i, so "maximum within
 /// sigma_i" counts one peak per feature whatever the mesh's resolution, whereas one-ring maxima
 /// multiply with tessellation density (every ripple of a fine mesh is a peak) and would make
-/// the suppression depend on resolution. Zero-valued vertices (no contrast) are never peaks.
+/// the suppression depend on resolution. Zero-valued vertices (no contrast) are never peaks, nor
+/// are values within `TIE` of 0 (a vertex at the noise floor in exact arithmetic). Vertices tied
+/// within `TIE` (a ring of a symmetric solid) are all peaks: the rounding of their values cannot
+/// decide.
 pub fn local_maxima(points: &[DVec3], values: &[f64], radius: f64, adjacency: Option<&Adjacency>) -> Vec<bool> {
     let n = points.len();
     if n == 0 {
         return Vec::new();
     }
     let r2 = radius * radius;
-    // Cheap necessary condition first: no one-ring neighbour within the radius is as large.
+    // Cheap necessary condition first: no one-ring neighbour within the radius is larger.
     // Most vertices fail it, so the radius scan below runs for a few candidates only.
     let candidate: Vec<bool> = (0..n)
         .into_par_iter()
         .map(|v| {
-            values[v] > 0.0
+            values[v] > TIE
                 && adjacency.is_none_or(|adj| {
                     adj.of(v)
                         .iter()
-                        .all(|&u| values[u as usize] < values[v] || dist2(points[u as usize], points[v]) >= r2)
+                        .all(|&u| values[u as usize] <= values[v] + TIE || dist2(points[u as usize], points[v]) >= r2)
                 })
         })
         .collect();
@@ -189,7 +204,9 @@ pub fn local_maxima(points: &[DVec3], values: &[f64], radius: f64, adjacency: Op
                 .map(|&t| {
                     let (p, v) = (points[t as usize], values[t as usize]);
                     candidate[t as usize]
-                        && cand.iter().all(|&j| j == t || values[j as usize] < v || dist2(points[j as usize], p) >= r2)
+                        && cand
+                            .iter()
+                            .all(|&j| j == t || values[j as usize] <= v + TIE || dist2(points[j as usize], p) >= r2)
                 })
                 .collect()
         })
@@ -210,7 +227,8 @@ pub fn local_maxima(points: &[DVec3], values: &[f64], radius: f64, adjacency: Op
 /// Normalisation divides by the level's maximum (S_i >= 0, so this maps onto [0, 1] and keeps
 /// "no contrast" at 0). M_i is then 1; mbar_i is the mean of the local maxima other than one
 /// vertex holding the global maximum, 0 when there is none (a single peak is maximally
-/// distinctive). If suppression removes every level (each has several equal top peaks, as on
+/// distinctive). Values within `TIE` count as equal, so ties of exact arithmetic never hang on
+/// rounding. If suppression removes every level (each has several equal top peaks, as on
 /// a perfectly symmetric solid) the unsuppressed sum is used, so the result still shows the
 /// geometry. A mesh with no variation gets 0 everywhere.
 pub fn combine(points: &[DVec3], adjacency: &Adjacency, h: &[f64], means: &[f64], eps: f64) -> Vec<f64> {
@@ -234,17 +252,23 @@ pub fn combine(points: &[DVec3], adjacency: &Adjacency, h: &[f64], means: &[f64]
         }
         any_level = true;
         s.par_iter_mut().for_each(|x| *x /= max);
-        let argmax = s.par_iter().position_first(|&x| x == 1.0);
         let peaks = local_maxima(points, &s, LEVEL_SCALES[li] * eps, Some(adjacency));
+        // SPEC step 5's "global maximum" M_i is one value, 1; the vertex holding it is one peak
+        // within TIE of 1 (the first in canonical order). When a symmetric solid has several
+        // such peaks, the others stay "other local maxima" (they are as distinctive as M_i,
+        // and pull mbar towards 1), and which one is left out moves mbar by TIE at most.
+        let top = peaks.par_iter().zip(s.par_iter()).position_first(|(&p, &x)| p && x >= 1.0 - TIE);
         let (mut sum, mut count) = (0.0f64, 0usize);
         for v in 0..n {
-            if peaks[v] && Some(v) != argmax {
+            if peaks[v] && Some(v) != top {
                 sum += s[v];
                 count += 1;
             }
         }
         let mbar = if count > 0 { sum / count as f64 } else { 0.0 };
-        let weight = (1.0 - mbar).powi(2);
+        // mbar within TIE of M_i = 1 (every peak tied at the top) is a weight of 0, not the
+        // square of a rounding error: otherwise ratios of such residues would decide the sum.
+        let weight = if 1.0 - mbar <= TIE { 0.0 } else { (1.0 - mbar).powi(2) };
         any_weight |= weight > 0.0;
         total.par_iter_mut().zip(plain.par_iter_mut()).zip(s.par_iter()).for_each(|((t, p), x)| {
             *t += weight * x;
@@ -299,17 +323,34 @@ mod tests {
     }
 
     #[test]
-    fn local_maxima_are_strict_and_scaled() {
+    fn local_maxima_are_scaled_and_keep_ties() {
         let pts: Vec<DVec3> = (0..7).map(|i| DVec3::new(i as f64, 0.0, 0.0)).collect();
         let v = vec![0.0, 0.5, 0.2, 0.9, 0.9, 0.1, 0.3];
         // With or without the one-ring shortcut (a path 0-1-...-6), the same answer.
         let edges: Vec<(u32, u32, u32)> = (0..6).map(|i| (i, i + 1, 1)).collect();
         let adj = Adjacency::new(7, &edges);
         for a in [None, Some(&adj)] {
-            assert_eq!(local_maxima(&pts, &v, 1.5, a), vec![false, true, false, false, false, false, true]);
-            // A wider radius keeps only the strongest; the tie 0.9/0.9 is no peak at all.
-            assert_eq!(local_maxima(&pts, &v, 3.5, a), vec![false; 7]);
+            // The tie 0.9/0.9 (neighbours): both are peaks.
+            assert_eq!(local_maxima(&pts, &v, 1.5, a), vec![false, true, false, true, true, false, true]);
+            // A wider radius keeps only the strongest: the tie 0.9/0.9, both.
+            assert_eq!(local_maxima(&pts, &v, 3.5, a), vec![false, false, false, true, true, false, false]);
             assert_eq!(local_maxima(&pts, &v, 0.5, a), vec![false, true, true, true, true, true, true]);
         }
+    }
+
+    #[test]
+    fn ties_within_tie_are_peaks_and_real_differences_decide() {
+        let pts: Vec<DVec3> = (0..5).map(|i| DVec3::new(i as f64, 0.0, 0.0)).collect();
+        // 0.9 and 0.9 + 3 ulps: both peaks, whichever way the rounding went.
+        let up = 0.9f64 + 3.0 * f64::EPSILON;
+        for v in [vec![0.1, 0.9, up, 0.1, 0.0], vec![0.1, up, 0.9, 0.1, 0.0]] {
+            assert_eq!(local_maxima(&pts, &v, 1.5, None), vec![false, true, true, false, false]);
+        }
+        // A difference of 1e-6 is real: only the larger is a peak.
+        let v = vec![0.1, 0.9, 0.9 + 1e-6, 0.1, 0.0];
+        assert_eq!(local_maxima(&pts, &v, 1.5, None), vec![false, false, true, false, false]);
+        // Values at rounding level above 0 are no peaks.
+        let v = vec![0.0, 1e-15, 0.0, 0.0, 0.0];
+        assert_eq!(local_maxima(&pts, &v, 1.5, None), vec![false; 5]);
     }
 }

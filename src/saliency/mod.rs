@@ -11,8 +11,9 @@
 //! Choices the SPEC leaves open, each documented where it is made: H = (K . n) / 2 from the
 //! cotangent Laplacian with mixed areas, rim and zero-area vertices filled from their
 //! neighbours (`curvature`); neighbourhoods strictly within 2 sigma, centre vertex included;
-//! levels normalised by their maximum; a local maximum is > 0 and strictly above every other
-//! vertex within the level's sigma; mbar = 0 without other maxima; centre-surround differences
+//! levels normalised by their maximum; a local maximum is a vertex no other vertex within the
+//! level's sigma exceeds, values within `levels::TIE` counting as equal (ties of exact arithmetic
+//! never hang on rounding); mbar = 0 without other maxima; centre-surround differences
 //! below 3% of the mean |H| count as no variation, so spheres get 0 (`levels`). Vertices on no
 //! triangle get 0. The tests' brute-force oracle (tests/saliency.rs) is the reference.
 
@@ -71,7 +72,7 @@ pub struct SaliencyParams {
 }
 
 /// Bumped whenever the definition or its numbers change, so stale cache entries are ignored.
-pub const ALGORITHM_VERSION: u32 = 3;
+pub const ALGORITHM_VERSION: u32 = 4;
 
 /// `Auto` uses the exact sums while they visit at most this many candidate pairs (counted on
 /// the mesh, `Analysed::exact_work`: under a second of CPU, half a second on two cores; meshes

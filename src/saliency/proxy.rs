@@ -27,7 +27,7 @@ use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use super::surface::remap_triangles;
-use super::{SaliencyMethod, analyse, levels};
+use super::{SaliencyMethod, analyse, approx, levels};
 
 /// `Auto` computes saliency through a proxy for meshes with more vertices than this (item 1's
 /// meshes up to 300K vertices, and a margin, keep the direct computation and its stated errors).
@@ -35,6 +35,13 @@ pub const PROXY_ABOVE: usize = 400_000;
 
 /// Cell side of the proxy, in eps.
 pub const CELL_EPS: f64 = 0.7;
+
+/// Cluster cells of the proxy's clustered Gaussian means: sigma / `PROXY_BETA` (the direct
+/// computation's `approx::BETA` is 4). Why coarser: the clustered work per unit of area goes
+/// as beta^4 (clusters within reach of a group x groups, both ~beta^2 on a surface), so 3 does
+/// about a third of it, and the clustered error it adds stays far below the proxy's own
+/// (docs/saliency.md, "Proxy").
+pub const PROXY_BETA: f64 = 3.0;
 
 /// At most this many proxy vertices: cells grow by sqrt(2) until the proxy fits.
 pub const MAX_PROXY: usize = 600_000;
@@ -47,16 +54,18 @@ const FIXED: f64 = 4_294_967_296.0;
 /// usable triangle) computed on a proxy of cells `CELL_EPS` x eps. None when the mesh has no
 /// usable triangle or the proxy would not be under half its size.
 pub fn proxy_saliency(positions: &[Vec3], triangles: &[[u32; 3]]) -> Option<Vec<f32>> {
-    proxy_saliency_with(positions, triangles, CELL_EPS, None).map(|(v, _)| v)
+    proxy_saliency_with(positions, triangles, CELL_EPS, None, PROXY_BETA).map(|(v, _)| v)
 }
 
-/// `proxy_saliency` with cells of `cell_eps` x eps, eps given (None: SPEC's); also returns
-/// the proxy's vertex count.
+/// `proxy_saliency` with cells of `cell_eps` x eps, eps given (None: SPEC's), and clustered
+/// means with cells of sigma / `beta` where the proxy is not summed exactly; also returns the
+/// proxy's vertex count.
 pub fn proxy_saliency_with(
     positions: &[Vec3],
     triangles: &[[u32; 3]],
     cell_eps: f64,
     eps: Option<f64>,
+    beta: f64,
 ) -> Option<(Vec<f32>, usize)> {
     let n = positions.len();
     let usable = |t: &[u32; 3]| t.iter().all(|&i| (i as usize) < n && positions[i as usize].is_finite());
@@ -146,7 +155,15 @@ pub fn proxy_saliency_with(
     // The full mesh's eps: a mesh this dense is never coarse, and the proxy's longer edges
     // must not raise it.
     a.eps = eps;
-    let values = a.saliency(SaliencyMethod::Auto);
+    // As `Analysed::saliency` under `Auto`, with the proxy's cluster cells.
+    let values = if a.uses_exact(SaliencyMethod::Auto) {
+        a.saliency(SaliencyMethod::Auto)
+    } else {
+        let pts = &a.surface.positions;
+        let sigmas = levels::SIGMA_SCALES.map(|s| s * eps);
+        let means = approx::clustered_means_with(pts, &a.h, &sigmas, beta, approx::GROUP).0;
+        levels::combine(pts, &a.adjacency, &a.h, &means, eps)
+    };
     let per_proxy = a.to_mesh_order(&values);
     let values = cluster_of
         .iter()
@@ -202,10 +219,21 @@ mod tests {
         let mut a = analyse(&p, &t);
         a.eps = eps;
         let full = a.to_mesh_order(&a.saliency(SaliencyMethod::Auto));
-        for (cell, bound) in [(0.5, 0.1), (CELL_EPS, 0.1), (1.0, 0.12)] {
-            let (proxy, size) = proxy_saliency_with(&p, &t, cell, Some(eps)).unwrap();
+        for (cell, beta, bound) in [
+            (0.5, PROXY_BETA, 0.1),
+            (CELL_EPS, approx::BETA, 0.1),
+            (CELL_EPS, PROXY_BETA, 0.1),
+            (CELL_EPS, 2.5, 0.1),
+            (1.0, PROXY_BETA, 0.12),
+        ] {
+            let t0 = std::time::Instant::now();
+            let (proxy, size) = proxy_saliency_with(&p, &t, cell, Some(eps), beta).unwrap();
+            let dt = t0.elapsed().as_secs_f64();
             let (max, mean) = errors(&proxy, &full);
-            eprintln!("proxy cells {cell} eps: {size} of {} vertices: max {max:.4}, mean {mean:.4}", p.len());
+            eprintln!(
+                "proxy cells {cell} eps, beta {beta}: {size} of {} vertices: max {max:.4}, mean {mean:.4} ({dt:.2} s)",
+                p.len()
+            );
             assert!(2 * size < p.len(), "{size}");
             assert!(mean < bound, "cells {cell} eps: max {max}, mean {mean}");
         }
@@ -215,7 +243,7 @@ mod tests {
     #[test]
     fn proxy_ignores_order() {
         let (p, t) = bumpy(40);
-        let a = proxy_saliency_with(&p, &t, 1.0, Some(0.3)).unwrap().0;
+        let a = proxy_saliency_with(&p, &t, 1.0, Some(0.3), PROXY_BETA).unwrap().0;
         let n = p.len() as u32;
         let perm = |i: u32| (i * 7919) % n;
         let mut q = vec![Vec3::ZERO; p.len()];
@@ -224,7 +252,7 @@ mod tests {
         }
         let mut u: Vec<[u32; 3]> = t.iter().map(|tri| tri.map(perm)).collect();
         u.reverse();
-        let b = proxy_saliency_with(&q, &u, 1.0, Some(0.3)).unwrap().0;
+        let b = proxy_saliency_with(&q, &u, 1.0, Some(0.3), PROXY_BETA).unwrap().0;
         for i in 0..p.len() {
             assert_eq!(a[i].to_bits(), b[perm(i as u32) as usize].to_bits(), "vertex {i}");
         }
@@ -236,6 +264,6 @@ mod tests {
         assert!(proxy_saliency(&[Vec3::ZERO, Vec3::X], &[[0, 1, 5]]).is_none());
         // A mesh no finer than its cells: computed directly.
         let (p, t) = bumpy(20);
-        assert!(proxy_saliency_with(&p, &t, 1.0, Some(0.01)).is_none());
+        assert!(proxy_saliency_with(&p, &t, 1.0, Some(0.01), PROXY_BETA).is_none());
     }
 }
