@@ -20,7 +20,7 @@ mod common;
 use std::time::{Duration, Instant};
 
 use cubist::output::{write_atomic, write_png};
-use cubist::pipeline::{Frame, Session};
+use cubist::pipeline::{Frame, PixelsKept, Session};
 use cubist::progress::Progress;
 use cubist::scene::Scene;
 use cubist::settings::Settings;
@@ -35,6 +35,8 @@ struct Row {
     /// The median run's steps.
     steps: Vec<(&'static str, Duration)>,
     reused: Vec<&'static str>,
+    /// The median run's pixels kept and traced by the re-trace and the anti-aliasing.
+    pixels: PixelsKept,
 }
 
 /// Runs `runs` requests, the i-th rendering `settings(i)`; the first request of the sequence
@@ -65,7 +67,15 @@ fn measure(
     walls.sort_by(f64::total_cmp);
     let median = walls[walls.len() / 2];
     let (_, f) = frames.iter().min_by(|a, b| (a.0 - median).abs().total_cmp(&(b.0 - median).abs())).unwrap();
-    Some(Row { what, target_ms, walls, cpu, steps: f.timings.0.clone(), reused: f.reused.clone() })
+    Some(Row {
+        what,
+        target_ms,
+        walls,
+        cpu,
+        steps: f.timings.0.clone(),
+        reused: f.reused.clone(),
+        pixels: f.pixels_kept,
+    })
 }
 
 fn main() {
@@ -168,6 +178,7 @@ fn main() {
         cpu,
         steps: f.timings.0.clone(),
         reused: f.reused.clone(),
+        pixels: f.pixels_kept,
     });
 
     // Encoding the unchanged request's image to PNG, which the server then writes.
@@ -246,5 +257,12 @@ fn print_rows(rows: &[Row], runs: usize, load_before: &str) {
             if steps.is_empty() { "nothing".into() } else { steps.join(", ") },
             r.reused.join(", ")
         );
+        let p = r.pixels;
+        if p.retrace_kept + p.retrace_traced + p.antialiasing_kept + p.antialiasing_traced > 0 {
+            println!(
+                "|  | pixels kept/traced: re-trace {}/{}, anti-aliasing {}/{} | | | | |",
+                p.retrace_kept, p.retrace_traced, p.antialiasing_kept, p.antialiasing_traced
+            );
+        }
     }
 }
