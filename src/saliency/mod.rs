@@ -175,6 +175,12 @@ impl Analysed {
 
     /// Saliency per surface vertex (canonical order), in [0, 1].
     pub fn saliency(&self, method: SaliencyMethod) -> Vec<f64> {
+        self.saliency_with_beta(method, approx::BETA)
+    }
+
+    /// `saliency` with the clustered means' cells of sigma / `beta` where `method` does not sum
+    /// exactly (the proxy's coarser cells, `proxy::PROXY_BETA`).
+    pub fn saliency_with_beta(&self, method: SaliencyMethod, beta: f64) -> Vec<f64> {
         let pts = &self.surface.positions;
         if pts.is_empty() || !(self.eps > 0.0) {
             return vec![0.0; pts.len()];
@@ -183,7 +189,7 @@ impl Analysed {
         let means = if self.uses_exact(method) {
             levels::gaussian_means(pts, &self.h, &sigmas)
         } else {
-            approx::clustered_means(pts, &self.h, &sigmas)
+            approx::clustered_means_with(pts, &self.h, &sigmas, beta, approx::GROUP).0
         };
         levels::combine(pts, &self.adjacency, &self.h, &means, self.eps)
     }

@@ -27,7 +27,7 @@ use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use super::surface::remap_triangles;
-use super::{SaliencyMethod, analyse, approx, levels};
+use super::{SaliencyMethod, analyse, levels};
 
 /// `Auto` computes saliency through a proxy for meshes with more vertices than this (item 1's
 /// meshes up to 300K vertices, and a margin, keep the direct computation and its stated errors).
@@ -155,15 +155,7 @@ pub fn proxy_saliency_with(
     // The full mesh's eps: a mesh this dense is never coarse, and the proxy's longer edges
     // must not raise it.
     a.eps = eps;
-    // As `Analysed::saliency` under `Auto`, with the proxy's cluster cells.
-    let values = if a.uses_exact(SaliencyMethod::Auto) {
-        a.saliency(SaliencyMethod::Auto)
-    } else {
-        let pts = &a.surface.positions;
-        let sigmas = levels::SIGMA_SCALES.map(|s| s * eps);
-        let means = approx::clustered_means_with(pts, &a.h, &sigmas, beta, approx::GROUP).0;
-        levels::combine(pts, &a.adjacency, &a.h, &means, eps)
-    };
+    let values = a.saliency_with_beta(SaliencyMethod::Auto, beta);
     let per_proxy = a.to_mesh_order(&values);
     let values = cluster_of
         .iter()
@@ -175,6 +167,7 @@ pub fn proxy_saliency_with(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::saliency::approx;
 
     /// A bumpy sphere of ~4 n^2 triangles (the scale bench's surface).
     fn bumpy(n: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
