@@ -221,7 +221,7 @@ def rendered_view():
     results["rendered"] = {
         "saved_image": [s.image.generation, s.image.scale, s.job.generation],
         "seconds": time.monotonic() - t0, "region": [region.width, region.height], "draw": draw,
-        "scales_drawn": sorted({d["scale"] for d in s.draws}), "history": s.history, "counts": dict(s.counts),
+        "scales_drawn": [d["scale"] for d in s.draws if d["generation"] == draw["generation"]], "history": s.history, "counts": dict(s.counts),
         "expected_centre": expected_centre(s, draw), "server_pid": s.client.pid,
         "through_camera": s.job.view.through_camera, "gap": gaps(t0), "main_thread": dict(s.main_thread),
         "gaps": gap_list(t0, t1), "draws": draws_since(draws_before)}
