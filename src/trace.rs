@@ -39,6 +39,25 @@ pub fn sample_offset(seed: u64, pixel: u64, s: u32, spp: u32) -> DVec2 {
     DVec2::new(((s % nx) as f64 + jx) / nx as f64, ((s / nx) as f64 + jy) / ny as f64)
 }
 
+/// The columns' rows of `centre_rook_offset`'s 3 rooks: the permutations of 0..3 that leave
+/// the middle cell, where the centre sample is, empty.
+const CENTRE_ROOKS: [[u32; 3]; 4] = [[0, 2, 1], [1, 0, 2], [2, 0, 1], [1, 2, 0]];
+
+/// Offset of new sample `s` (0..3) of pixel `pixel` when anti-aliasing at 4 samples takes the
+/// pixel's centre sample, already traced, as its fourth (issue 16): 3 rooks on a 3 x 3 grid
+/// (one per column and row, none in the middle cell, which holds the centre), jittered in
+/// their cells, the permutation picked by a hash of (seed, pixel). With equal weights, the
+/// mean squared error of a pixel's coverage by a random straight edge is below that of 4
+/// jittered 2 x 2 strata (0.017 against 0.020, simulated; the centre instead of one of the 2
+/// x 2 samples: 0.026).
+#[inline]
+pub fn centre_rook_offset(seed: u64, pixel: u64, s: u32) -> DVec2 {
+    let rows = CENTRE_ROOKS[(splitmix64(seed ^ splitmix64(pixel ^ 0xC3A5_C85C_97CB_3127)) % 4) as usize];
+    let h = splitmix64(seed ^ splitmix64(pixel.wrapping_mul(0x1_0000_0001).wrapping_add(s as u64)));
+    let (jx, jy) = (unit_f64(h), unit_f64(splitmix64(h)));
+    DVec2::new((s as f64 + jx) / 3.0, (rows[s as usize] as f64 + jy) / 3.0)
+}
+
 /// The screen point of pixel (x, y) at sub-pixel `offset` (defined beside the cameras, whose
 /// `centre_rays` tabulate the pixel centres' points).
 pub use crate::camera::screen_point;
@@ -442,19 +461,38 @@ impl Tracer<'_> {
     }
 
     /// The colour of pixel `i` from `spp` stratified samples (alpha: the fraction that hit),
-    /// with the shadow rays `occlusion` answers left out.
-    fn supersample(&self, i: usize, width: u32, height: u32, spp: u32, rays: &Rays, known: Known) -> Vec4 {
+    /// with the shadow rays `occlusion` answers left out. `centre`: the colour (and coverage)
+    /// of the pixel's centre sample, already traced, taken as one of 4 samples with 3 new ones
+    /// around it (`centre_rook_offset`; issue 16), when `spp` is 4.
+    #[allow(clippy::too_many_arguments)]
+    fn supersample(
+        &self,
+        i: usize,
+        width: u32,
+        height: u32,
+        spp: u32,
+        rays: &Rays,
+        known: Known,
+        centre: Option<Vec4>,
+    ) -> Vec4 {
         let (x, y) = (i as u32 % width, i as u32 / width);
-        let mut color = Vec3::ZERO;
-        let mut covered = 0u32;
-        for s in 0..spp {
-            let off = sample_offset(self.seed, i as u64, s, spp);
+        let centre = centre.filter(|_| spp == 4);
+        let (mut color, mut covered) = match centre {
+            Some(c) => (c.truncate(), c.w),
+            None => (Vec3::ZERO, 0.0),
+        };
+        let traced = if centre.is_some() { 3 } else { spp };
+        for s in 0..traced {
+            let off = match centre {
+                Some(_) => centre_rook_offset(self.seed, i as u64, s),
+                None => sample_offset(self.seed, i as u64, s, spp),
+            };
             let ray = rays(i, screen_point(x, y, off, width, height));
             let (c, hit, _) = self.sample(&ray, known);
             color += c;
-            covered += hit.is_some() as u32;
+            covered += hit.is_some() as u32 as f32;
         }
-        (color / spp as f32).extend(covered as f32 / spp as f32)
+        (color / spp as f32).extend(covered / spp as f32)
     }
 
     /// Anti-aliasing (after the one-sample pre-render and re-trace): gives `pixels` `spp`
@@ -481,7 +519,8 @@ impl Tracer<'_> {
                     .iter()
                     .map(|&i| {
                         let known = agreed_occlusion(film_ref, facets, i as usize);
-                        self.supersample(i as usize, w, h, spp, rays, known)
+                        let centre = (film_ref.spp == 1).then(|| film_ref.color[i as usize]);
+                        self.supersample(i as usize, w, h, spp, rays, known, centre)
                     })
                     .collect();
                 progress.add(chunk.len() as u64);
@@ -618,7 +657,10 @@ fn agree(film: &Film, js: impl Iterator<Item = usize>) -> Known {
 /// number gets the same colour (a session reuses it, `pipeline::antialias_reusing`).
 pub fn antialias_known(film: &Film, facets: &[u32], i: usize) -> u64 {
     let k = agreed_occlusion(film, facets, i);
-    ((k.object as u64) << 16) | ((k.occlusion.known as u64) << 8) | k.occlusion.blocked as u64
+    // The centre's own lights blocked too: its colour is one of the samples (`supersample`),
+    // and the lights its neighbours disagree on are not in `k`.
+    let own = film.occlusion[i] as u64;
+    (own << 48) | ((k.object as u64) << 16) | ((k.occlusion.known as u64) << 8) | k.occlusion.blocked as u64
 }
 
 /// The lights whose occlusion pixel `i`'s centre sample and those of its facet neighbours
@@ -755,6 +797,31 @@ mod tests {
         assert_eq!(strata(8), (4, 2));
         assert_eq!(strata(7), (7, 1));
         assert_eq!(strata(16), (4, 4));
+    }
+
+    #[test]
+    fn the_centre_rooks_are_latin_leave_the_middle_and_vary() {
+        let mut perms = std::collections::HashSet::new();
+        for pixel in 0..1000u64 {
+            let cells: Vec<(u32, u32)> = (0..3)
+                .map(|s| {
+                    let o = centre_rook_offset(7, pixel, s);
+                    assert!((0.0..1.0).contains(&o.x) && (0.0..1.0).contains(&o.y), "{o}");
+                    ((o.x * 3.0) as u32, (o.y * 3.0) as u32)
+                })
+                .collect();
+            // One per column and per row, none in the middle cell (the centre sample's).
+            let (mut cols, mut rows) = ([0; 3], [0; 3]);
+            for &(cx, cy) in &cells {
+                cols[cx as usize] += 1;
+                rows[cy as usize] += 1;
+                assert_ne!((cx, cy), (1, 1), "pixel {pixel}: {cells:?}");
+            }
+            assert_eq!((cols, rows), ([1; 3], [1; 3]), "pixel {pixel}: {cells:?}");
+            perms.insert(cells);
+        }
+        // All 4 such permutations are used.
+        assert_eq!(perms.len(), 4);
     }
 
     #[test]
