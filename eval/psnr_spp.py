@@ -15,6 +15,11 @@ PSNR the most.
     .venv/bin/python eval/psnr_spp.py                                   # venus_11k, 1000 x 1000
     .venv/bin/python eval/psnr_spp.py --scenes venus_11k still-life Duck bunny_full --size 500
     .venv/bin/python eval/psnr_spp.py --size 500 --toggles              # the per-effect table
+    .venv/bin/python eval/psnr_spp.py --thresholds 0 0.02 0.05 0.1      # adaptive AA's threshold
+
+`--thresholds` renders each scene once per `--aa-threshold` against one reference and adds the
+anti-aliasing stage's CPU and the whole process's CPU: the time-against-error table behind the
+default threshold.
 
 Scenes: a path to a .glb/.gltf, a name looked up in ../shared/models and
 ../shared/gltf-samples (`venus_11k`, `Duck`), or `still-life` (the built-in scene).
@@ -26,6 +31,8 @@ import argparse
 import json
 import math
 import os
+import re
+import resource
 import subprocess
 import sys
 import tempfile
@@ -66,14 +73,59 @@ def scene_path(name):
     sys.exit(f"psnr_spp: no scene named {name!r} (a path, a name in {SHARED}/models or gltf-samples, or still-life)")
 
 
-def render(binary, scene, size, extra, out):
+def render(binary, scene, size, extra, out, stages=None):
+    """Renders and returns the wall time; with `stages` (a dict), also fills it with the whole
+    process's CPU seconds ("process") and each stage's CPU ms as `-v` prints them."""
     cmd = [binary, "render"] + ([scene] if scene else [])
     cmd += ["--width", str(size), "--height", str(size), "--progress", "none", "-o", str(out)] + extra
+    if stages is not None:
+        cmd.append("-v")
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t = time.time()
     r = subprocess.run(cmd, capture_output=True, text=True)
     if r.returncode != 0:
         sys.exit(f"psnr_spp: {' '.join(cmd)} failed:\n{r.stderr}")
-    return time.time() - t
+    wall = time.time() - t
+    if stages is not None:
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        stages["process"] = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
+        for m in re.finditer(r"^\s*([a-z+ -]+):\s+[0-9.]+ ms \(([0-9.]+) ms CPU\)", r.stderr, re.M):
+            stages[m.group(1).strip()] = float(m.group(2))
+    return wall
+
+
+def threshold_table(args, out):
+    """Per scene, one reference and one render per `--aa-threshold`: PSNR, pixels off, CPU."""
+    ref_flags = ["--spp", str(args.ref_spp), "--aa-threshold", "0"]
+    print(f"Adaptive anti-aliasing's threshold against error: PSNR against the {args.ref_spp} spp reference (every pixel), {args.size} x {args.size}; CPU of the anti-aliasing stage and of the whole process, one run each\n")
+    print("| scene | --aa-threshold | PSNR dB | pixels off by > 8/255 | anti-aliasing CPU ms | process CPU s |")
+    print("|---|---:|---:|---:|---:|---:|")
+    rows = []
+    for name in args.scenes:
+        scene = scene_path(name)
+        stem = Path(scene).stem if scene else "still-life"
+        ref = out / f"{stem}.ref.png"
+        render(args.binary, scene, args.size, ref_flags, ref)
+        ib = load_rgb(ref)
+        for t in args.thresholds:
+            a = out / f"{stem}.aa{t}.png"
+            stages = {}
+            render(args.binary, scene, args.size, ["--aa-threshold", str(t)], a, stages)
+            ia = load_rgb(a)
+            row = {
+                "scene": stem,
+                "aa_threshold": t,
+                "psnr_db": psnr(ia, ib),
+                "pixels_off_by_over_8": float(np.mean(np.abs(ia - ib).max(axis=2) > 8)),
+                "aa_cpu_ms": stages.get("anti-aliasing", 0.0),
+                "process_cpu_s": stages["process"],
+            }
+            rows.append(row)
+            print(
+                f"| {stem} | {t:g} | {row['psnr_db']:.2f} | {100 * row['pixels_off_by_over_8']:.2f}% | {row['aa_cpu_ms']:.0f} | {row['process_cpu_s']:.2f} |",
+                flush=True,
+            )
+    return rows
 
 
 def load_rgb(path):
@@ -96,11 +148,17 @@ def main():
     ap.add_argument("--out", help="folder for the renders (default: a temporary one)")
     ap.add_argument("--json", help="write the rows here")
     ap.add_argument("--target", type=float, default=40.0, help="the PSNR asked for (dB)")
+    ap.add_argument("--thresholds", type=float, nargs="+", help="the threshold table instead: these --aa-threshold values")
     args = ap.parse_args()
     if not Path(args.binary).exists():
         sys.exit(f"psnr_spp: {args.binary} not found (cargo build --release --bin cubist)")
     out = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="psnr_spp_"))
     out.mkdir(parents=True, exist_ok=True)
+    if args.thresholds:
+        rows = threshold_table(args, out)
+        if args.json:
+            Path(args.json).write_text(json.dumps(rows, indent=1))
+        return
     toggles = TOGGLES if args.toggles else TOGGLES[:1]
     ref_flags = ["--spp", str(args.ref_spp), "--aa-threshold", "0"]
     rows = []

@@ -36,7 +36,7 @@ pub struct SettingsArgs {
     /// Seed of every random choice [default: 0]
     #[arg(long, help_heading = "Image")]
     pub seed: Option<u64>,
-    /// Adaptive anti-aliasing: only pixels differing from a neighbour by more than this (sRGB 0..1), or showing another object, get --spp samples; 0 = all pixels [default: 0.02]
+    /// Adaptive anti-aliasing: only pixels differing from a neighbour by more than this (sRGB 0..1), or showing another object, get --spp samples; 0 = all pixels [default: 0.05]
     #[arg(long, value_name = "DIFFERENCE", help_heading = "Image", value_parser = finite_f32)]
     pub aa_threshold: Option<f32>,
 
