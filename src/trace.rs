@@ -461,9 +461,9 @@ impl Tracer<'_> {
     }
 
     /// The colour of pixel `i` from `spp` stratified samples (alpha: the fraction that hit),
-    /// with the shadow rays `occlusion` answers left out. `centre`: the colour (and coverage)
-    /// of the pixel's centre sample, already traced, taken as one of 4 samples with 3 new ones
-    /// around it (`centre_rook_offset`; issue 16), when `spp` is 4.
+    /// with the shadow rays `occlusion` answers left out. `centre` (only at 4 spp): the colour
+    /// (and coverage) of the pixel's centre sample, already traced, taken as one of the 4
+    /// samples with 3 new ones around it (`centre_rook_offset`; issue 16).
     #[allow(clippy::too_many_arguments)]
     fn supersample(
         &self,
@@ -476,7 +476,6 @@ impl Tracer<'_> {
         centre: Option<Vec4>,
     ) -> Vec4 {
         let (x, y) = (i as u32 % width, i as u32 / width);
-        let centre = centre.filter(|_| spp == 4);
         let (mut color, mut covered) = match centre {
             Some(c) => (c.truncate(), c.w),
             None => (Vec3::ZERO, 0.0),
@@ -496,8 +495,10 @@ impl Tracer<'_> {
     }
 
     /// Anti-aliasing (after the one-sample pre-render and re-trace): gives `pixels` `spp`
-    /// stratified samples each through `rays`, replacing their colour; hits stay those of the
-    /// pixel centre. A light whose occlusion the pixel's centre and its facet neighbours'
+    /// samples each through `rays`, replacing their colour; hits stay those of the pixel
+    /// centre. At 4 spp on a one-sample film the centre sample, already in the film, is one of
+    /// the 4 and 3 new rays are traced around it (`supersample`); otherwise `spp` new
+    /// stratified samples. A light whose occlusion the pixel's centre and its facet neighbours'
     /// agree on is taken as such for every sample (`Film::occlusion`): a shadow ray is cast
     /// only where the light is partly occluded. Each pixel's samples are seeded by the pixel,
     /// so the image is the same on any thread count.
@@ -519,7 +520,7 @@ impl Tracer<'_> {
                     .iter()
                     .map(|&i| {
                         let known = agreed_occlusion(film_ref, facets, i as usize);
-                        let centre = (film_ref.spp == 1).then(|| film_ref.color[i as usize]);
+                        let centre = (film_ref.spp == 1 && spp == 4).then(|| film_ref.color[i as usize]);
                         self.supersample(i as usize, w, h, spp, rays, known, centre)
                     })
                     .collect();
