@@ -18,10 +18,11 @@ where
         v.par_sort_unstable();
         return;
     }
-    let which: Vec<u32> = v.par_iter().map(|x| bucket(x) as u32).collect();
+    // Buckets computed twice (counting, placing) rather than stored: the only extra memory
+    // is the sorted copy.
     let mut start = vec![0usize; buckets + 1];
-    for &b in &which {
-        start[b as usize + 1] += 1;
+    for x in v.iter() {
+        start[bucket(x) + 1] += 1;
     }
     for i in 0..buckets {
         start[i + 1] += start[i];
@@ -30,15 +31,19 @@ where
     {
         let spare = out.spare_capacity_mut();
         let mut next = start.clone();
-        for (x, &b) in v.iter().zip(&which) {
-            spare[next[b as usize]].write(*x);
-            next[b as usize] += 1;
+        for x in v.iter() {
+            let b = bucket(x);
+            spare[next[b]].write(*x);
+            next[b] += 1;
         }
+        // Every bucket filled exactly (a `bucket` giving other answers the second time panics).
+        assert!((0..buckets).all(|b| next[b] == start[b + 1]), "sort_by_buckets: bucket changed");
     }
-    // SAFETY: the counting sort wrote each of the `v.len()` slots exactly once (bucket b's
-    // count of them from start[b] on, the buckets' ranges tiling 0..v.len()).
+    // SAFETY: each bucket b's slots start[b]..start[b + 1] were written in turn (checked just
+    // above), and those ranges tile 0..v.len().
     unsafe { out.set_len(v.len()) };
-    drop(which);
+    // The input's memory goes back before the buckets are sorted.
+    *v = Vec::new();
     // Each bucket's range, split off in turn, sorted independently.
     let mut ranges: Vec<&mut [T]> = Vec::new();
     let mut rest: &mut [T] = &mut out;
