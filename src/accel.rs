@@ -7,12 +7,15 @@ use std::time::Duration;
 use glam::{Affine3A, Vec3, Vec3A, Vec4Swizzles};
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
-use obvhs::bvh2::builder::{build_bvh2, build_bvh2_from_tris};
+use obvhs::bvh2::builder::build_bvh2;
+use obvhs::ploc::PlocBuilder;
 use obvhs::{BvhBuildParams, ray::Ray, triangle::Triangle};
 use rayon::prelude::*;
 
 use crate::scene::World;
 use crate::scene::world::Geometry;
+use crate::util::hash::update_words;
+use crate::util::sort::sort_by_buckets;
 
 /// A closest hit: `tri` is the global triangle id (`World::triangle`), `object` indexes
 /// `World::objects`; the hit point is `(1 - u - v) p0 + u p1 + v p2`.
@@ -83,6 +86,113 @@ const BUILD: BvhBuildParams = BvhBuildParams {
     post_collapse_reinsertion_batch_ratio_multiplier: 0.0,
     ..BvhBuildParams::medium_build()
 };
+
+/// What `build_bvh2_from_tris(tris, BUILD, ..)` builds, node for node and index for index
+/// (tested): obvhs's PLOC, then `collapse` in place of obvhs's leaf collapse (BUILD has no
+/// reinsertion, so nothing else runs).
+fn build_tris(tris: &[Triangle]) -> Bvh2 {
+    const _: () = assert!(BUILD.reinsertion_batch_ratio == 0.0 && !BUILD.pre_split);
+    let mut bvh = PlocBuilder::with_capacity(tris.len()).build(
+        BUILD.ploc_search_distance,
+        tris,
+        (0..tris.len() as u32).collect(),
+        BUILD.sort_precision,
+        BUILD.search_depth_threshold,
+    );
+    collapse(&mut bvh, BUILD.max_prims_per_leaf.clamp(1, 255), BUILD.collapse_traversal_cost);
+    bvh.uses_spatial_splits = BUILD.pre_split;
+    bvh
+}
+
+/// obvhs's `leaf_collapser::collapse` (SAH leaf collapse: two sibling leaves merge when
+/// half_area(parent) x (count - cost) <= the sum of half_area(child) x count), giving the same
+/// tree, for a tree whose children come after their parents (PLOC's) and with no parents or
+/// primitive-to-node map kept. One serial pass bottom-up (children before parents: in reverse
+/// node order) instead of parallel walks up from every leaf with atomic counters, which cost
+/// ~4x the CPU on 2 cores (about a quarter of a 1M-triangle build).
+fn collapse(bvh: &mut Bvh2, max_prims: u32, traversal_cost: f32) {
+    let n = bvh.nodes.len();
+    if max_prims <= 1 || n as u32 <= max_prims * 2 + 1 {
+        return;
+    }
+    if !bvh.primitive_indices.is_empty() && bvh.primitive_indices.len() as u32 <= max_prims {
+        return;
+    }
+    if bvh.nodes.is_empty() || bvh.nodes[0].is_leaf() {
+        return;
+    }
+    assert!(
+        bvh.children_are_ordered_after_parents && bvh.parents.is_empty() && bvh.primitives_to_nodes.is_empty(),
+        "collapse takes a fresh PLOC tree"
+    );
+    let nodes = &bvh.nodes;
+    // Per node: 1 if it stays, 0 if merged into its parent's leaf; primitives when a leaf
+    // (after collapse), 0 otherwise. Then prefix sums: new node index and first primitive.
+    let mut node_counts = vec![1u32; n];
+    let mut prim_counts = vec![0u32; n];
+    for i in (0..n).rev() {
+        let node = &nodes[i];
+        if node.is_leaf() {
+            prim_counts[i] = node.prim_count;
+            continue;
+        }
+        let first = node.first_index as usize;
+        let (left_count, right_count) = (prim_counts[first], prim_counts[first + 1]);
+        let total = left_count + right_count;
+        if left_count > 0 && right_count > 0 && total <= max_prims {
+            let (left, right) = (&nodes[first], &nodes[first + 1]);
+            let collapse_cost = node.aabb().half_area() * (total as f32 - traversal_cost);
+            let base_cost = left.aabb().half_area() * left_count as f32 + right.aabb().half_area() * right_count as f32;
+            let same_prim = left.first_index == right.first_index && total == 2;
+            if collapse_cost <= base_cost || same_prim {
+                prim_counts[i] = total;
+                prim_counts[first] = 0;
+                prim_counts[first + 1] = 0;
+                node_counts[first] = 0;
+                node_counts[first + 1] = 0;
+            }
+        }
+    }
+    for i in 1..n {
+        node_counts[i] += node_counts[i - 1];
+        prim_counts[i] += prim_counts[i - 1];
+    }
+    let mut new_nodes = vec![nodes[0]; node_counts[n - 1] as usize];
+    let mut new_indices = vec![0u32; prim_counts[n - 1] as usize];
+    new_nodes[0].first_index = node_counts[nodes[0].first_index as usize - 1];
+    let mut stack = Vec::new();
+    for i in 1..n {
+        let id = node_counts[i - 1] as usize;
+        if id == node_counts[i] as usize {
+            continue;
+        }
+        let mut node = nodes[i];
+        let first_prim = prim_counts[i - 1];
+        if first_prim == prim_counts[i] {
+            node.first_index = node_counts[node.first_index as usize - 1];
+        } else {
+            node.prim_count = prim_counts[i] - first_prim;
+            node.first_index = first_prim;
+            // The subtree's primitives, left before right, as obvhs's top-down walk lays them.
+            let mut at = first_prim as usize;
+            stack.push(i);
+            while let Some(j) = stack.pop() {
+                let sub = &nodes[j];
+                if sub.is_leaf() {
+                    let r = sub.first_index as usize..(sub.first_index + sub.prim_count) as usize;
+                    new_indices[at..at + r.len()].copy_from_slice(&bvh.primitive_indices[r.clone()]);
+                    at += r.len();
+                } else {
+                    stack.push(sub.first_index as usize + 1);
+                    stack.push(sub.first_index as usize);
+                }
+            }
+        }
+        new_nodes[id] = node;
+    }
+    bvh.nodes = new_nodes;
+    bvh.primitive_indices = new_indices;
+}
 
 /// A triangle in a BLAS's leaf order: its corners in base space (see `scene::world`) and its
 /// index within its geometry. 40 bytes (corners kept unaligned: the watertight test reads
@@ -234,17 +344,10 @@ struct Blas {
 /// triangles, bit for bit (checked in full on a key match, see `same_content`).
 fn content_key(g: &Geometry) -> u128 {
     let mut h = xxhash_rust::xxh3::Xxh3::new();
-    for p in &g.positions {
-        for c in p.to_array() {
-            h.update(&c.to_bits().to_le_bytes());
-        }
-    }
+    // Each number's little-endian bytes in turn, fed in bulk.
+    update_words(&mut h, &g.positions);
     h.update(&[0xff]);
-    for t in &g.triangles {
-        for i in t {
-            h.update(&i.to_le_bytes());
-        }
-    }
+    update_words(&mut h, &g.triangles);
     h.digest128()
 }
 
@@ -276,7 +379,8 @@ impl Blas {
             key.sort_unstable();
             key
         };
-        let mut keyed: Vec<(u64, u32)> = (0..g.triangles.len() as u32)
+        let n = g.triangles.len();
+        let mut keyed: Vec<(u64, u32)> = (0..n as u32)
             .into_par_iter()
             .filter(|&i| hittable(g.corners(i)))
             .map(|i| {
@@ -287,8 +391,15 @@ impl Blas {
                 (xxhash_rust::xxh3::xxh3_64(&bytes), i)
             })
             .collect();
-        keyed.par_sort_unstable();
-        let mut copy = vec![false; keyed.len()];
+        // Sorted by the hash's leading 16 bits, then within each bucket: the order a sort of
+        // the pairs gives (they are distinct), in about half the time.
+        sort_by_buckets(&mut keyed, 1 << 16, |k| (k.0 >> 48) as usize);
+        // Per id: whether it is built over (hittable and no copy of a lower id), so the kept
+        // ids come out ascending without a second sort.
+        let mut kept = vec![false; n];
+        for k in &keyed {
+            kept[k.1 as usize] = true;
+        }
         let mut start = 0;
         while start < keyed.len() {
             let mut end = start + 1;
@@ -298,13 +409,15 @@ impl Blas {
             // A run of equal hashes (ids ascending): a copy of any earlier member is dropped.
             for j in start + 1..end {
                 let kj = corner_set(keyed[j].1);
-                copy[j] = (start..j).any(|k| !copy[k] && corner_set(keyed[k].1) == kj);
+                if (start..j).any(|k| kept[keyed[k].1 as usize] && corner_set(keyed[k].1) == kj) {
+                    kept[keyed[j].1 as usize] = false;
+                }
             }
             start = end;
         }
-        let mut ids: Vec<u32> = keyed.iter().zip(&copy).filter(|(_, c)| !**c).map(|(k, _)| k.1).collect();
-        drop((keyed, copy));
-        ids.par_sort_unstable();
+        drop(keyed);
+        let ids: Vec<u32> = (0..n as u32).into_par_iter().filter(|&i| kept[i as usize]).collect();
+        drop(kept);
         if ids.is_empty() {
             return None;
         }
@@ -315,7 +428,7 @@ impl Blas {
                 Triangle { v0: a.into(), v1: b.into(), v2: c.into() }
             })
             .collect();
-        let mut bvh = build_bvh2_from_tris(&tris, BUILD, &mut Duration::default());
+        let mut bvh = build_tris(&tris);
         drop(tris);
         let ordered: Vec<Tri> = bvh
             .primitive_indices
@@ -1022,6 +1135,56 @@ impl Accel {
 mod tests {
     use super::*;
     use crate::scene::World;
+    use obvhs::bvh2::builder::build_bvh2_from_tris;
+
+    /// `build_tris` (PLOC, then our `collapse`) gives obvhs's `build_bvh2_from_tris` tree bit
+    /// for bit (boxes, counts, indices, primitive order), on soups of several sizes (the small
+    /// ones below the collapse's thresholds), clustered and coincident triangles included.
+    #[test]
+    fn our_collapse_builds_the_tree_obvhs_builds() {
+        use crate::util::rng::{splitmix64, unit_f64};
+        let mut state = 11u64;
+        let mut next = || {
+            state = splitmix64(state);
+            unit_f64(state) as f32 * 2.0 - 1.0
+        };
+        for (n, spread) in
+            [(1usize, 1.0), (2, 1.0), (8, 1.0), (17, 1.0), (18, 0.0), (400, 1.0), (5000, 1.0), (5000, 0.01)]
+        {
+            let mut tris: Vec<Triangle> = (0..n)
+                .map(|_| {
+                    let c = Vec3A::new(next(), next(), next()) * spread;
+                    let s = 0.01 + 0.2 * next().abs();
+                    let mut corner = || c + Vec3A::new(next(), next(), next()) * s;
+                    Triangle { v0: corner(), v1: corner(), v2: corner() }
+                })
+                .collect();
+            // Some exact copies (the collapse's same-primitive case needs equal boxes).
+            for i in (0..n).step_by(7).skip(1) {
+                tris[i] = tris[i - 1];
+            }
+            let theirs = build_bvh2_from_tris(&tris, BUILD, &mut Duration::default());
+            let ours = build_tris(&tris);
+            let bits = |b: &Bvh2| -> Vec<[u32; 8]> {
+                b.nodes
+                    .iter()
+                    .map(|x| {
+                        let (lo, hi) = (x.aabb().min, x.aabb().max);
+                        let [a, b, c, d, e, f] = [lo.x, lo.y, lo.z, hi.x, hi.y, hi.z].map(f32::to_bits);
+                        [a, b, c, d, e, f, x.prim_count, x.first_index]
+                    })
+                    .collect()
+            };
+            assert_eq!(bits(&ours), bits(&theirs), "{n} triangles");
+            assert_eq!(ours.primitive_indices, theirs.primitive_indices, "{n} triangles");
+            assert!(ours.nodes.iter().any(|x| x.prim_count > 1) || n < 20, "{n}: something collapsed");
+            assert_eq!(ours.parents, theirs.parents);
+            assert_eq!(ours.primitives_to_nodes, theirs.primitives_to_nodes);
+            assert_eq!(ours.children_are_ordered_after_parents, theirs.children_are_ordered_after_parents);
+            assert_eq!(ours.uses_spatial_splits, theirs.uses_spatial_splits);
+            assert_eq!(ours.max_depth, theirs.max_depth);
+        }
+    }
 
     /// perf9: the pair layout's traversal reaches the same leaves in the same order as obvhs's
     /// `ray_traverse_dynamic`, with the same distances handed on, for closest hits (tmax

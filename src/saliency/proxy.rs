@@ -16,8 +16,8 @@
 //! over a cell, and curvature is estimated on a smoothed surface. Errors against the direct
 //! computation: docs/saliency.md ("Proxy").
 //!
-//! Cost: one pass over the vertices and one over the triangles (sorts of the cell keys and of
-//! the mapped triangles, in parallel), then saliency of the proxy, whose size follows the
+//! Cost: one pass over the vertices and one over the triangles (bucket sorts of the cell keys
+//! and of the mapped triangles), then saliency of the proxy, whose size follows the
 //! surface's area in eps^2 (about 250K vertices for a closed blob; `MAX_PROXY` at most: coarser
 //! cells beyond, with a larger error), not the input's vertex count. Deterministic and
 //! independent of the vertex and triangle order: centroids are summed in fixed point (exact
@@ -28,6 +28,7 @@ use rayon::prelude::*;
 
 use super::surface::remap_triangles;
 use super::{SaliencyMethod, analyse, levels};
+use crate::util::sort::{leading_bits_shift, sort_by_buckets};
 
 /// `Auto` computes saliency through a proxy for meshes with more vertices than this (item 1's
 /// meshes up to 300K vertices, and a margin, keep the direct computation and its stated errors).
@@ -106,7 +107,11 @@ pub fn proxy_saliency_with(
             .filter(|&i| used[i as usize])
             .map(|i| (cell_of(positions[i as usize]), i))
             .collect();
-        keyed.par_sort_unstable();
+        // By the keys' leading 16 bits (x and the top of y), then within each bucket: the
+        // order a sort of the (distinct) pairs gives.
+        let max_key = ((dims.x - 1) << 42) | ((dims.y - 1) << 21) | (dims.z - 1);
+        let shift = leading_bits_shift(max_key, 16);
+        sort_by_buckets(&mut keyed, 1 << 16, |k| (k.0 >> shift) as usize);
         let mut clusters = 0usize;
         let mut last = u64::MAX;
         for &(k, _) in &keyed {

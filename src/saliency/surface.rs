@@ -9,6 +9,7 @@ use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use crate::util::csr::Csr;
+use crate::util::sort::{leading_bits_shift, sort_by_buckets};
 
 /// Marks an input vertex that is on no triangle (or has a non-finite position).
 pub const NOT_ON_SURFACE: u32 = u32::MAX;
@@ -62,7 +63,10 @@ pub fn remap_triangles(
             }
         })
         .collect();
-    tris.par_sort_unstable();
+    // By the first corner's leading 16 bits, then within each bucket: a sort's order.
+    let max = tris.par_iter().map(|t| t[0]).max().unwrap_or(0) as u64;
+    let shift = leading_bits_shift(max, 16);
+    sort_by_buckets(&mut tris, 1 << 16, |t| (t[0] as u64 >> shift) as usize);
     tris
 }
 
