@@ -89,7 +89,7 @@ struct Stroke {
     /// `u32::MAX` for a point outside), and that colour's value jitter factor.
     samples: [u32; 3],
     jitter: f32,
-    /// Its place among its layer's strokes in cell (scan) order (`Layer::by_cell`).
+    /// Its place among its layer's strokes in cell (scan) order (`Layer::cells`).
     order: u32,
 }
 
@@ -103,7 +103,16 @@ struct Tint {
     value: f32,
 }
 
-impl Stroke {
+/// What reads the picture at a stroke (its tint, the fine layer's test's probes around its
+/// centre), copied out of the stroke in cell order (`Layer::cells`).
+#[derive(Clone, Copy, Debug)]
+struct Anchor {
+    centre: Vec2,
+    samples: [u32; 3],
+    jitter: f32,
+}
+
+impl Anchor {
     fn tint(&self, source: &[Vec4]) -> Tint {
         let (mut sum, mut n) = (Vec3::ZERO, 0.0f32);
         for &j in self.samples.iter().filter(|&&j| j != u32::MAX) {
@@ -130,10 +139,14 @@ struct Layer {
     start: Vec<u32>,
     items: Vec<u32>,
     strokes: Vec<Stroke>,
-    /// The strokes' indices in cell order: what reads the picture at each stroke (its tint,
-    /// the fine layer's test) walks them so, in scan order, not in key order, which jumps
-    /// across the whole picture from one stroke to the next (a cache miss each).
-    by_cell: Vec<u32>,
+    /// What reads the picture at each stroke (its tint, the fine layer's test), in cell
+    /// order: walked so, in scan order, not in key order, which jumps across the whole
+    /// picture from one stroke to the next (a cache miss each). A copy, not indices into
+    /// `strokes`: fetching each stroke in cell order jumps across `strokes` instead (a
+    /// cache miss per stroke, most of the per-stroke reads' time on a paint-only change).
+    cells: Vec<Anchor>,
+    /// Each stroke's (key order) index in `cells`: `to_key_order` reads it in order.
+    cell_of: Vec<u32>,
 }
 
 impl Layer {
@@ -142,11 +155,9 @@ impl Layer {
         for (k, s) in strokes.iter_mut().enumerate() {
             s.order = k as u32;
         }
+        let cells = strokes.iter().map(|s| Anchor { centre: s.centre, samples: s.samples, jitter: s.jitter }).collect();
         strokes.sort_unstable_by_key(|s| s.key);
-        let mut by_cell = vec![0u32; strokes.len()];
-        for (k, s) in strokes.iter().enumerate() {
-            by_cell[s.order as usize] = k as u32;
-        }
+        let cell_of = strokes.iter().map(|s| s.order).collect();
         let nb = height.div_ceil(BAND).max(1);
         // The bands of the rows a stroke may paint: a painted pixel has |u| < half_len and
         // |v| < half_wid + 0.5, so |dy| < |dir.y| half_len + |dir.x| (half_wid + 0.5);
@@ -181,17 +192,17 @@ impl Layer {
                 }
             }
         }
-        Layer { start, items, strokes, by_cell }
+        Layer { start, items, strokes, cells, cell_of }
     }
 
-    /// `f` of every stroke, computed and listed in cell order (`by_cell`).
-    fn in_cell_order<T: Send>(&self, f: impl Fn(&Stroke) -> T + Sync) -> Vec<T> {
-        self.by_cell.par_iter().map(|&k| f(&self.strokes[k as usize])).collect()
+    /// `f` of every stroke's anchor, computed and listed in cell order (`cells`).
+    fn in_cell_order<T: Send>(&self, f: impl Fn(&Anchor) -> T + Sync) -> Vec<T> {
+        self.cells.par_iter().map(&f).collect()
     }
 
     /// Values listed in cell order (`in_cell_order`), listed in key order.
     fn to_key_order<T: Send + Sync + Copy>(&self, by_cell: &[T]) -> Vec<T> {
-        self.strokes.par_iter().map(|s| by_cell[s.order as usize]).collect()
+        self.cell_of.par_iter().map(|&c| by_cell[c as usize]).collect()
     }
 }
 
@@ -513,7 +524,8 @@ impl Fragments {
     fn bytes(&self) -> usize {
         self.bands.iter().map(Band::bytes).sum::<usize>()
             + self.layer.strokes.len() * size_of::<Stroke>()
-            + (self.layer.items.len() + self.layer.start.len() + self.layer.by_cell.len()) * 4
+            + self.layer.cells.len() * size_of::<Anchor>()
+            + (self.layer.items.len() + self.layer.start.len() + self.layer.cell_of.len()) * 4
     }
 
     /// `composite` from the kept fragments: the same pixels.
@@ -714,11 +726,11 @@ impl Effect for Brushwork {
             match fine {
                 Fine::Kept(frags) => {
                     let l = &frags.layer;
-                    let a = l.to_key_order(&l.in_cell_order(|s| keep(&before[s.order as usize])));
+                    let a = l.to_key_order(&before.par_iter().map(&keep).collect::<Vec<bool>>());
                     frags.composite(&tints, Some(&a), px, w);
                 }
                 Fine::Recorded(l) => {
-                    let a = l.to_key_order(&l.in_cell_order(|s| keep(&before[s.order as usize])));
+                    let a = l.to_key_order(&before.par_iter().map(&keep).collect::<Vec<bool>>());
                     recorded_fine = Some(Fragments::build(l, &surface, opacity, &tints, Some(&a), px));
                 }
                 Fine::Traced(size, source) => {
