@@ -204,6 +204,11 @@ impl Layer {
     fn to_key_order<T: Send + Sync + Copy>(&self, by_cell: &[T]) -> Vec<T> {
         self.cell_of.par_iter().map(|&c| by_cell[c as usize]).collect()
     }
+
+    /// Every stroke's tint from `source`, read in cell order, listed in key order.
+    fn tints(&self, source: &[Vec4]) -> Vec<Tint> {
+        self.to_key_order(&self.in_cell_order(|s| s.tint(source)))
+    }
 }
 
 fn fade(t: f32) -> f32 {
@@ -655,7 +660,7 @@ impl Effect for Brushwork {
             (None, None) => unreachable!("a layer is made when no plan is kept"),
         };
         let source: &[Vec4] = px;
-        let coarse_tints = coarse_layer.to_key_order(&coarse_layer.in_cell_order(|s| s.tint(source)));
+        let coarse_tints = coarse_layer.tints(source);
         // The fine layer (Hertzmann's next brush): half the size, where the coarse layer
         // strays from the picture. Its candidates: a stroke in every cell (a kept plan's or
         // a recorded one's, all of them; traced, those the test keeps).
@@ -677,20 +682,16 @@ impl Effect for Brushwork {
             })
         };
         // The fine layer with its tints (key order) and probes (cell order).
+        let tints_and_probes = |l: &Layer| (l.tints(source), l.in_cell_order(|s| before(s.centre)));
         let fine: Option<(Fine, Vec<Tint>, Vec<Probes>)> = match (old.as_deref(), fine_size) {
             (_, None) | (Some(StrokePlan { fine: None, .. }), _) => None,
             (Some(StrokePlan { fine: Some(frags), .. }), _) => {
-                let l = &frags.layer;
-                Some((
-                    Fine::Kept(frags),
-                    l.to_key_order(&l.in_cell_order(|s| s.tint(source))),
-                    l.in_cell_order(|s| before(s.centre)),
-                ))
+                let (t, b) = tints_and_probes(&frags.layer);
+                Some((Fine::Kept(frags), t, b))
             }
             (None, Some(size)) if record => {
                 let l = Layer::new(self.strokes(1, size, &surface, &angle, None), h);
-                let (t, b) =
-                    (l.to_key_order(&l.in_cell_order(|s| s.tint(source))), l.in_cell_order(|s| before(s.centre)));
+                let (t, b) = tints_and_probes(&l);
                 Some((Fine::Recorded(l), t, b))
             }
             // Traced: only the cells the test keeps get a stroke (most do not), so the test
@@ -723,14 +724,15 @@ impl Effect for Brushwork {
                 }
                 e / n > FINE_THRESHOLD
             };
+            // The test's answer for every stroke of `l`, in key order.
+            let kept_by = |l: &Layer| l.to_key_order(&before.par_iter().map(&keep).collect::<Vec<bool>>());
             match fine {
                 Fine::Kept(frags) => {
-                    let l = &frags.layer;
-                    let a = l.to_key_order(&before.par_iter().map(&keep).collect::<Vec<bool>>());
+                    let a = kept_by(&frags.layer);
                     frags.composite(&tints, Some(&a), px, w);
                 }
                 Fine::Recorded(l) => {
-                    let a = l.to_key_order(&before.par_iter().map(&keep).collect::<Vec<bool>>());
+                    let a = kept_by(&l);
                     recorded_fine = Some(Fragments::build(l, &surface, opacity, &tints, Some(&a), px));
                 }
                 Fine::Traced(size, source) => {
@@ -749,7 +751,7 @@ impl Effect for Brushwork {
                     };
                     let layer = Layer::new(self.strokes(1, size, &surface, &angle, Some(&keep)), h);
                     if !layer.strokes.is_empty() {
-                        let tints = layer.to_key_order(&layer.in_cell_order(|s| s.tint(&source)));
+                        let tints = layer.tints(&source);
                         composite(&layer, &tints, None, px, &surface, opacity);
                     }
                 }
