@@ -48,20 +48,15 @@ pub fn remap_triangles(
     map: &[u32],
     usable: impl Fn(&[u32; 3]) -> bool + Sync,
 ) -> Vec<[u32; 3]> {
-    // Each triangle mapped, those left out marked `DROPPED` and then removed: an indexed
-    // collect writes in place, where a parallel filter collects in pieces and copies them. A
-    // kept triangle starts at its smallest id, so never at u32::MAX.
-    const DROPPED: [u32; 3] = [u32::MAX; 3];
+    // A parallel filter (collected in pieces, then copied): on a proxy most triangles collapse,
+    // and an indexed map of every triangle would allocate for all of them.
     let mut tris: Vec<[u32; 3]> = triangles
         .par_iter()
-        .map(|t| {
-            if !usable(t) {
-                return DROPPED;
-            }
-            let [a, b, c] = t.map(|i| map[i as usize]);
-            if a == b || b == c || a == c {
-                DROPPED
-            } else if a < b && a < c {
+        .filter(|t| usable(t))
+        .map(|t| t.map(|i| map[i as usize]))
+        .filter(|[a, b, c]| a != b && b != c && a != c)
+        .map(|[a, b, c]| {
+            if a < b && a < c {
                 [a, b, c]
             } else if b < c {
                 [b, c, a]
@@ -70,7 +65,6 @@ pub fn remap_triangles(
             }
         })
         .collect();
-    tris.retain(|t| t[0] != u32::MAX);
     // By the first corner's leading 16 bits, then within each bucket: a sort's order.
     let max = tris.par_iter().map(|t| t[0]).max().unwrap_or(0) as u64;
     let shift = leading_bits_shift(max, 16);
@@ -142,11 +136,8 @@ impl Surface {
                 (a.min(b) as u64) << 32 | a.max(b) as u64
             })
             .collect();
-        // By the keys' leading 16 bits, then within each bucket: the order a sort gives (equal
-        // keys are indistinguishable), in about half the time of a comparison sort.
-        let max = e.par_iter().copied().max().unwrap_or(0);
-        let shift = leading_bits_shift(max, 16);
-        sort_by_buckets(&mut e, 1 << 16, |k| (k >> shift) as usize);
+        // In place: `sort_by_buckets` was about as fast here and needs a second copy of the keys.
+        e.par_sort_unstable();
         let mut out: Vec<(u32, u32, u32)> = Vec::with_capacity(e.len() / 2 + 1);
         for (a, b) in e.into_iter().map(|k| ((k >> 32) as u32, k as u32)) {
             match out.last_mut() {
