@@ -380,10 +380,15 @@ impl Blas {
             key
         };
         let n = g.triangles.len();
+        // Every id mapped (unhittable ones to `SKIP`), then those dropped: an indexed collect
+        // writes in place, where a parallel filter collects into a list of pieces and copies.
+        const SKIP: u32 = u32::MAX;
         let mut keyed: Vec<(u64, u32)> = (0..n as u32)
             .into_par_iter()
-            .filter(|&i| hittable(g.corners(i)))
             .map(|i| {
+                if !hittable(g.corners(i)) {
+                    return (0, SKIP);
+                }
                 let mut bytes = [0u8; 36];
                 for (k, c) in corner_set(i).iter().flatten().enumerate() {
                     bytes[4 * k..4 * k + 4].copy_from_slice(&c.to_le_bytes());
@@ -391,6 +396,7 @@ impl Blas {
                 (xxhash_rust::xxh3::xxh3_64(&bytes), i)
             })
             .collect();
+        keyed.retain(|k| k.1 != SKIP);
         // Sorted by the hash's leading 16 bits, then within each bucket: the order a sort of
         // the pairs gives (they are distinct), in about half the time.
         sort_by_buckets(&mut keyed, 1 << 16, |k| (k.0 >> 48) as usize);
@@ -416,7 +422,7 @@ impl Blas {
             start = end;
         }
         drop(keyed);
-        let ids: Vec<u32> = (0..n as u32).into_par_iter().filter(|&i| kept[i as usize]).collect();
+        let ids: Vec<u32> = (0..n as u32).filter(|&i| kept[i as usize]).collect();
         drop(kept);
         if ids.is_empty() {
             return None;

@@ -103,11 +103,13 @@ pub fn proxy_saliency_with(
             let q = ((p.as_dvec3() - lo) / cell).floor().as_u64vec3().min(dims - 1);
             (q.x << 42) | (q.y << 21) | q.z
         };
+        // Every vertex mapped (unused ones to index u32::MAX, never a vertex's), then those
+        // dropped: an indexed collect writes in place, a parallel filter collects in pieces.
         let mut keyed: Vec<(u64, u32)> = (0..n as u32)
             .into_par_iter()
-            .filter(|&i| used[i as usize])
-            .map(|i| (cell_of(positions[i as usize]), i))
+            .map(|i| if used[i as usize] { (cell_of(positions[i as usize]), i) } else { (0, u32::MAX) })
             .collect();
+        keyed.retain(|k| k.1 != u32::MAX);
         // By the keys' leading 16 bits (x and the top of y), then within each bucket: the
         // order a sort of the (distinct) pairs gives.
         let max_key = ((dims.x - 1) << 42) | ((dims.y - 1) << 21) | (dims.z - 1);

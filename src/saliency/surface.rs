@@ -48,6 +48,8 @@ pub fn remap_triangles(
     map: &[u32],
     usable: impl Fn(&[u32; 3]) -> bool + Sync,
 ) -> Vec<[u32; 3]> {
+    // A parallel filter (collected in pieces, then copied): on a proxy most triangles collapse,
+    // and an indexed map of every triangle would allocate for all of them.
     let mut tris: Vec<[u32; 3]> = triangles
         .par_iter()
         .filter(|t| usable(t))
@@ -125,16 +127,16 @@ impl Surface {
     /// Each undirected edge once, as (smaller id, larger id, number of triangles using it), sorted.
     pub fn edges(&self) -> Vec<(u32, u32, u32)> {
         // (a, b) packed as a << 32 | b: a plain integer sort.
-        let mut e: Vec<u64> = self
-            .triangles
-            .par_iter()
-            .flat_map_iter(|t| {
-                (0..3).map(move |k| {
-                    let (a, b) = (t[k], t[(k + 1) % 3]);
-                    (a.min(b) as u64) << 32 | a.max(b) as u64
-                })
+        // Indexed (triangle, corner) in order: collected in place.
+        let mut e: Vec<u64> = (0..self.triangles.len() * 3)
+            .into_par_iter()
+            .map(|x| {
+                let (t, k) = (&self.triangles[x / 3], x % 3);
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                (a.min(b) as u64) << 32 | a.max(b) as u64
             })
             .collect();
+        // In place: `sort_by_buckets` was about as fast here and needs a second copy of the keys.
         e.par_sort_unstable();
         let mut out: Vec<(u32, u32, u32)> = Vec::with_capacity(e.len() / 2 + 1);
         for (a, b) in e.into_iter().map(|k| ((k >> 32) as u32, k as u32)) {
