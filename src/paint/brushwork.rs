@@ -667,20 +667,21 @@ impl Effect for Brushwork {
         let value = |c: Vec4| luminance(c.truncate()).max(0.0).sqrt();
         let r = fine_size.map_or(0, |size| size.1.ceil() as isize);
         let probes = [(0, 0), (-r, 0), (r, 0), (0, -r), (0, r)];
-        // The test's probes around anchor p within the image, and the picture's value there
-        // before the layers.
-        let before = |p: Vec2| -> Probes {
+        // The test's probes around anchor p within the image, and `picture`'s value there.
+        let probes_in = |picture: &[Vec4], p: Vec2| -> Probes {
             let (x, y) = (p.x as isize, p.y as isize);
             probes.map(|(dx, dy)| {
                 let (sx, sy) = (x + dx, y + dy);
                 if sx >= 0 && sy >= 0 && (sx as usize) < w && (sy as usize) < h {
                     let j = sy as usize * w + sx as usize;
-                    (j as u32, value(source[j]))
+                    (j as u32, value(picture[j]))
                 } else {
                     (u32::MAX, 0.0)
                 }
             })
         };
+        // ... in the picture before the layers.
+        let before = |p: Vec2| probes_in(source, p);
         // The fine layer with its tints (key order) and probes (cell order).
         let tints_and_probes = |l: &Layer| (l.tints(source), l.in_cell_order(|s| before(s.centre)));
         let fine: Option<(Fine, Vec<Tint>, Vec<Probes>)> = match (old.as_deref(), fine_size) {
@@ -736,20 +737,9 @@ impl Effect for Brushwork {
                     recorded_fine = Some(Fragments::build(l, &surface, opacity, &tints, Some(&a), px));
                 }
                 Fine::Traced(size, source) => {
-                    let keep = |p: Vec2| {
-                        let (x, y) = (p.x as isize, p.y as isize);
-                        let (mut e, mut n) = (0.0, 0.0);
-                        for (dx, dy) in probes {
-                            let (sx, sy) = (x + dx, y + dy);
-                            if sx >= 0 && sy >= 0 && (sx as usize) < w && (sy as usize) < h {
-                                let j = sy as usize * w + sx as usize;
-                                e += (value(painted[j]) - value(source[j])).abs();
-                                n += 1.0;
-                            }
-                        }
-                        e / n > FINE_THRESHOLD
-                    };
-                    let layer = Layer::new(self.strokes(1, size, &surface, &angle, Some(&keep)), h);
+                    // The test at an anchor, its probes read from the copy of the picture.
+                    let keep_at = |p: Vec2| keep(&probes_in(&source, p));
+                    let layer = Layer::new(self.strokes(1, size, &surface, &angle, Some(&keep_at)), h);
                     if !layer.strokes.is_empty() {
                         let tints = layer.tints(&source);
                         composite(&layer, &tints, None, px, &surface, opacity);
