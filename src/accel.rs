@@ -1143,6 +1143,19 @@ mod tests {
     use crate::scene::World;
     use obvhs::bvh2::builder::build_bvh2_from_tris;
 
+    /// `n` random triangles from `next` (uniform in -1..1): centres `spread` x a point of the
+    /// cube, corners within `min_size` + up to 0.2 of them.
+    fn soup(next: &mut impl FnMut() -> f32, n: usize, spread: f32, min_size: f32) -> Vec<Triangle> {
+        (0..n)
+            .map(|_| {
+                let c = Vec3A::new(next(), next(), next()) * spread;
+                let s = min_size + 0.2 * next().abs();
+                let mut corner = || c + Vec3A::new(next(), next(), next()) * s;
+                Triangle { v0: corner(), v1: corner(), v2: corner() }
+            })
+            .collect()
+    }
+
     /// `build_tris` (PLOC, then our `collapse`) gives obvhs's `build_bvh2_from_tris` tree bit
     /// for bit (boxes, counts, indices, primitive order), on soups of several sizes (the small
     /// ones below the collapse's thresholds), clustered and coincident triangles included.
@@ -1157,14 +1170,7 @@ mod tests {
         for (n, spread) in
             [(1usize, 1.0), (2, 1.0), (8, 1.0), (17, 1.0), (18, 0.0), (400, 1.0), (5000, 1.0), (5000, 0.01)]
         {
-            let mut tris: Vec<Triangle> = (0..n)
-                .map(|_| {
-                    let c = Vec3A::new(next(), next(), next()) * spread;
-                    let s = 0.01 + 0.2 * next().abs();
-                    let mut corner = || c + Vec3A::new(next(), next(), next()) * s;
-                    Triangle { v0: corner(), v1: corner(), v2: corner() }
-                })
-                .collect();
+            let mut tris = soup(&mut next, n, spread, 0.01);
             // Some exact copies (the collapse's same-primitive case needs equal boxes).
             for i in (0..n).step_by(7).skip(1) {
                 tris[i] = tris[i - 1];
@@ -1205,14 +1211,7 @@ mod tests {
             unit_f64(state) as f32 * 2.0 - 1.0
         };
         for n in [1usize, 2, 3, 17, 400, 3000] {
-            let tris: Vec<Triangle> = (0..n)
-                .map(|_| {
-                    let c = Vec3A::new(next(), next(), next());
-                    let s = 0.05 + 0.2 * next().abs();
-                    let mut corner = || c + Vec3A::new(next(), next(), next()) * s;
-                    Triangle { v0: corner(), v1: corner(), v2: corner() }
-                })
-                .collect();
+            let tris = soup(&mut next, n, 1.0, 0.05);
             let bvh = build_bvh2_from_tris(&tris, BUILD, &mut Duration::default());
             let pairs = Pairs::new(&bvh);
             let sheared: Vec<Tri> = bvh
