@@ -1,8 +1,8 @@
-//! The trace loop: stratified, seeded samples per pixel, rayon over rows (or over chunks of a
-//! pixel subset for the re-trace of moved facets), writing colour and every hit buffer; and
-//! the adaptive anti-aliasing that gives more samples only to pixels whose neighbours
-//! disagree. Each sample's randomness is a hash of (seed, pixel, sample), so images are
-//! identical for any thread count.
+//! The trace loop: stratified, seeded samples per pixel, rayon over bands of square tiles (or
+//! over chunks of a pixel subset for the re-trace of moved facets), writing colour and every
+//! hit buffer; and the adaptive anti-aliasing that gives more samples only to pixels whose
+//! neighbours disagree. Each sample's randomness is a hash of (seed, pixel, sample), so images
+//! are identical for any thread count.
 
 use glam::{DVec2, Vec3, Vec4};
 use rayon::prelude::*;
@@ -108,6 +108,13 @@ pub type KnownHits<'r> = dyn Fn(usize) -> Option<Option<Hit>> + Sync + 'r;
 
 /// Pixels per parallel work item of the subset traces.
 const CHUNK: usize = 256;
+
+/// Side in pixels of the square tiles `Tracer::render_rows` traces one after another (bands of
+/// `TILE` rows in parallel). Why: neighbouring rays walk mostly the same BVH nodes and
+/// triangles, and a tile's rays find them still in cache where a row's 1000 rays had pushed the
+/// previous row's out; each pixel is traced as before, only in another order (same bits).
+/// Measured on the 1M-triangle scene at 1000 x 1000 (issue 16): the pre-render 0.93x CPU.
+const TILE: usize = 16;
 
 /// Rows per parallel work item of `Tracer::render_subset_in_place` (4000 pixels at 1000 wide:
 /// small enough that bands full of moved pixels and empty ones balance across threads).
@@ -275,8 +282,8 @@ impl Tracer<'_> {
         self.render_rows(film, rays, progress, |_| true, |_| Known::NONE, None);
     }
 
-    /// The pixels `pick` chooses, rows in parallel, in place, with what `known(i)` says of
-    /// the lights of pixel `i`.
+    /// The pixels `pick` chooses, bands of `TILE` rows in parallel, in place, with what
+    /// `known(i)` says of the lights of pixel `i`.
     fn render_rows(
         &self,
         film: &mut Film,
@@ -288,30 +295,35 @@ impl Tracer<'_> {
     ) {
         let (w, h, spp) = (film.width, film.height, film.spp as usize);
         let wu = w as usize;
+        let band = wu * TILE;
         film.color
-            .par_chunks_mut(wu)
-            .zip(film.hits.par_chunks_mut(wu))
-            .zip(film.occlusion.par_chunks_mut(wu))
-            .zip(film.samples.par_chunks_mut(wu * spp))
+            .par_chunks_mut(band)
+            .zip(film.hits.par_chunks_mut(band))
+            .zip(film.occlusion.par_chunks_mut(band))
+            .zip(film.samples.par_chunks_mut(band * spp))
             .enumerate()
-            .for_each(|(y, (((c, hrow), orow), srow))| {
-                // Cancelled (cubist serve): the remaining rows are skipped; the caller checks
+            .for_each(|(b, (((c, hband), oband), sband))| {
+                // Cancelled (cubist serve): the remaining bands are skipped; the caller checks
                 // `progress.check()` and throws the film away.
                 if progress.cancelled() {
                     return;
                 }
+                let rows = c.len() / wu;
                 let mut traced = 0u64;
-                for x in 0..wu {
-                    let i = y * wu + x;
-                    if !pick(i) {
-                        continue;
+                // Tile by tile across the band, row by row within a tile.
+                for x0 in (0..wu).step_by(TILE) {
+                    for j in (0..rows).flat_map(|r| r * wu + x0..r * wu + (x0 + TILE).min(wu)) {
+                        let i = b * band + j;
+                        if !pick(i) {
+                            continue;
+                        }
+                        let (col, hit, blocked) =
+                            self.trace_pixel(i, w, h, &mut sband[j * spp..(j + 1) * spp], rays, known(i), centre);
+                        c[j] = col;
+                        hband[j] = hit;
+                        oband[j] = blocked;
+                        traced += 1;
                     }
-                    let (col, hit, blocked) =
-                        self.trace_pixel(i, w, h, &mut srow[x * spp..(x + 1) * spp], rays, known(i), centre);
-                    c[x] = col;
-                    hrow[x] = hit;
-                    orow[x] = blocked;
-                    traced += 1;
                 }
                 progress.add(traced);
             });
