@@ -44,7 +44,13 @@ impl Grid {
     /// Buckets `points` into cells of side `cell` (> 0), coarsened if the bounds would need
     /// more than 2^20 cells per axis.
     pub fn new(points: &[DVec3], cell: f64) -> Grid {
-        let (lo, hi) = points.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(l, h), p| (l.min(*p), h.max(*p)));
+        // In parallel: saliency builds one grid per level over the same points, and these
+        // passes ran on one core while the other idled (minima and maxima are exact, so the
+        // same bounds on any thread count).
+        let (lo, hi) = points
+            .par_iter()
+            .fold(|| (DVec3::INFINITY, DVec3::NEG_INFINITY), |(l, h), p| (l.min(*p), h.max(*p)))
+            .reduce(|| (DVec3::INFINITY, DVec3::NEG_INFINITY), |(a, b), (c, d)| (a.min(c), b.max(d)));
         let extent = if points.is_empty() { 0.0 } else { (hi - lo).max_element() };
         let cell = cell.max(extent / (1u64 << (BITS - 1)) as f64).max(f64::MIN_POSITIVE);
         let origin = if points.is_empty() { DVec3::ZERO } else { lo };
@@ -65,7 +71,7 @@ impl Grid {
                         ((c[0] * dims[1] + c[1]) * dims[2] + c[2]) as u32
                     })
                     .collect();
-                bucket_order(&lin, cells.len()).into_iter().map(|i| (grid.key(points[i as usize]), i)).collect()
+                bucket_order(&lin, cells.len()).into_par_iter().map(|i| (grid.key(points[i as usize]), i)).collect()
             }
             Index::Hash(_) => {
                 let mut keyed: Vec<(u64, u32)> =
@@ -74,20 +80,28 @@ impl Grid {
                 keyed
             }
         };
-        grid.ids = keyed.iter().map(|k| k.1).collect();
-        let mut start = 0usize;
-        for i in 1..=keyed.len() {
-            if i == keyed.len() || keyed[i].0 != keyed[start].0 {
-                let id = grid.cells.len() as u32;
-                let c = grid.unpack(keyed[start].0);
-                match &mut grid.index {
-                    Index::Dense { dims, cells } => cells[((c[0] * dims[1] + c[1]) * dims[2] + c[2]) as usize] = id,
-                    Index::Hash(map) => {
-                        map.insert(keyed[start].0, id);
-                    }
+        grid.ids = keyed.par_iter().map(|k| k.1).collect();
+        // Each cell's first point, found in parallel; then one entry per cell.
+        let starts: Vec<u32> = (0..keyed.len())
+            .into_par_iter()
+            .filter(|&i| i == 0 || keyed[i].0 != keyed[i - 1].0)
+            .map(|i| i as u32)
+            .collect();
+        grid.cells = starts
+            .par_iter()
+            .enumerate()
+            .map(|(c, &s)| {
+                let end = starts.get(c + 1).map_or(keyed.len() as u32, |&e| e);
+                (keyed[s as usize].0, s, end)
+            })
+            .collect();
+        for (id, &(key, _, _)) in grid.cells.iter().enumerate() {
+            let c = grid.unpack(key);
+            match &mut grid.index {
+                Index::Dense { dims, cells } => cells[((c[0] * dims[1] + c[1]) * dims[2] + c[2]) as usize] = id as u32,
+                Index::Hash(map) => {
+                    map.insert(key, id as u32);
                 }
-                grid.cells.push((keyed[start].0, start as u32, i as u32));
-                start = i;
             }
         }
         grid
