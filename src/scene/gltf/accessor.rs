@@ -9,7 +9,7 @@ use rayon::prelude::*;
 
 use crate::util::limits::MAX_ACCESSOR_ELEMENTS as MAX_COUNT;
 
-pub(super) type Buffers = [Vec<u8>];
+pub(super) type Buffers<'a> = [std::borrow::Cow<'a, [u8]>];
 
 fn component_size(t: DataType) -> usize {
     match t {
@@ -57,7 +57,7 @@ fn integer(bytes: &[u8], t: DataType) -> Option<u32> {
 }
 
 /// The bytes of a buffer view, checked against its buffer.
-fn view_bytes<'b>(view: &gltf::buffer::View, buffers: &'b Buffers) -> Result<&'b [u8], String> {
+fn view_bytes<'b>(view: &gltf::buffer::View, buffers: &'b Buffers<'_>) -> Result<&'b [u8], String> {
     let b = view.buffer().index();
     let data = buffers.get(b).ok_or_else(|| format!("bufferView {} refers to missing buffer {b}", view.index()))?;
     let end = view.offset().checked_add(view.length()).ok_or("bufferView range overflows")?;
@@ -77,7 +77,7 @@ const DECODE_CHUNK: usize = 1 << 14;
 
 /// A checked view's bytes and the stride of its `elem`-byte elements (after `check_elements`
 /// passed for it).
-fn elements<'b>(view: &gltf::buffer::View, buffers: &'b Buffers, elem: usize) -> (&'b [u8], usize) {
+fn elements<'b>(view: &gltf::buffer::View, buffers: &'b Buffers<'_>, elem: usize) -> (&'b [u8], usize) {
     let b = view.buffer().index();
     (&buffers[b][view.offset()..view.offset() + view.length()], view.stride().unwrap_or(elem))
 }
@@ -90,7 +90,7 @@ fn check_elements(
     offset: usize,
     count: usize,
     elem: usize,
-    buffers: &Buffers,
+    buffers: &Buffers<'_>,
 ) -> Result<(), String> {
     for_each_element(what, view, offset, count, elem, buffers, None)
 }
@@ -106,7 +106,7 @@ fn for_each_element(
     offset: usize,
     count: usize,
     elem: usize,
-    buffers: &Buffers,
+    buffers: &Buffers<'_>,
     f: Option<ElementFn<'_>>,
 ) -> Result<(), String> {
     let bytes = view_bytes(view, buffers)?;
@@ -142,7 +142,7 @@ fn for_each_element(
 /// not, sparse or not). `what` names it in errors, e.g. "accessor 3 (POSITION)".
 pub(super) fn read_floats<const N: usize>(
     acc: &gltf::Accessor,
-    buffers: &Buffers,
+    buffers: &Buffers<'_>,
     what: &str,
 ) -> Result<Vec<[f32; N]>, String> {
     if multiplicity(acc.dimensions()) != N {
@@ -232,7 +232,7 @@ pub(super) fn read_floats<const N: usize>(
 /// Reads an index accessor (unsigned scalar) and checks every index against `vertex_count`.
 pub(super) fn read_indices(
     acc: &gltf::Accessor,
-    buffers: &Buffers,
+    buffers: &Buffers<'_>,
     vertex_count: usize,
     what: &str,
 ) -> Result<Vec<u32>, String> {
@@ -276,7 +276,7 @@ pub(super) fn read_indices(
 }
 
 /// A sparse index accessor (u8, u16: exact as floats; u32 refused).
-fn read_sparse_indices(acc: &gltf::Accessor, buffers: &Buffers, what: &str) -> Result<Vec<u32>, String> {
+fn read_sparse_indices(acc: &gltf::Accessor, buffers: &Buffers<'_>, what: &str) -> Result<Vec<u32>, String> {
     let values = read_floats::<1>(acc, buffers, what).map(|v| v.into_iter().map(|[x]| x as u32).collect::<Vec<_>>())?;
     // f32 holds every u8/u16 exactly; re-read u32 exactly (f32 would round above 2^24).
     let values = if acc.data_type() == DataType::U32 {

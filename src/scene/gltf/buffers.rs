@@ -1,5 +1,6 @@
 //! The file's binary data: the GLB chunk, external files and `data:` URIs.
 
+use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 
 use base64::Engine;
@@ -9,8 +10,8 @@ use crate::error::{Result, shorten};
 use crate::util::files::read_bounded;
 use crate::util::limits::{MAX_SCENE_BUFFERS, MAX_SCENE_FILE};
 
-impl Loader<'_> {
-    pub(super) fn load_buffers(&mut self, mut blob: Option<Vec<u8>>) -> Result<()> {
+impl<'a> Loader<'a> {
+    pub(super) fn load_buffers(&mut self, mut blob: Option<Cow<'a, [u8]>>) -> Result<()> {
         let buffers: Vec<_> = self.doc.buffers().collect();
         for buffer in buffers {
             let i = buffer.index();
@@ -18,7 +19,7 @@ impl Loader<'_> {
                 gltf::buffer::Source::Bin => blob.take().ok_or_else(|| {
                     self.err(format!("buffer {i} refers to the GLB's binary chunk, but the file has none"))
                 })?,
-                gltf::buffer::Source::Uri(uri) => self.read_uri(uri, &format!("buffer {i}"))?,
+                gltf::buffer::Source::Uri(uri) => Cow::Owned(self.read_uri(uri, &format!("buffer {i}"))?),
             };
             self.buffer_bytes += data.len() as u64;
             if self.buffer_bytes > MAX_SCENE_BUFFERS {

@@ -88,7 +88,8 @@ struct Loader<'a> {
     doc: &'a gltf::Document,
     /// extensionsRequired as in the file (the validated copy drops those we vetted).
     required: Vec<String>,
-    buffers: Vec<Vec<u8>>,
+    /// The binary buffers; the GLB's chunk borrowed from the file's bytes (not copied).
+    buffers: Vec<std::borrow::Cow<'a, [u8]>>,
     scene: Scene,
     /// (mesh index, primitive index) -> our mesh index, so instancing shares a mesh.
     mesh_cache: HashMap<(usize, usize), Option<usize>>,
@@ -172,9 +173,17 @@ impl<'a> Loader<'a> {
         }
         // The gltf crate wraps indices above u32::MAX (node.mesh 4294967296 became mesh 0).
         check_indices(path, bytes, is_glb)?;
+        // A GLB's chunks are split here, so its binary chunk stays a borrow of `bytes` (the
+        // gltf crate copies it: tens of MB of fresh pages on one core for a dense scene).
+        let (json, blob) = if is_glb {
+            let glb = gltf::Glb::from_slice(bytes).map_err(|e| Error::scene(path, describe_gltf_error(e)))?;
+            (glb.json, glb.bin)
+        } else {
+            (std::borrow::Cow::Borrowed(bytes), None)
+        };
         let gltf =
-            gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| Error::scene(path, describe_gltf_error(e)))?;
-        let gltf::Gltf { document, blob } = gltf;
+            gltf::Gltf::from_slice_without_validation(&json).map_err(|e| Error::scene(path, describe_gltf_error(e)))?;
+        let document = gltf.document;
         let mut root = document.into_json();
         let required = root.extensions_required.clone();
         check_required_extensions(path, &required)?;
