@@ -111,9 +111,10 @@ const CHUNK: usize = 256;
 
 /// Side in pixels of the square tiles `Tracer::render_rows` traces one after another (bands of
 /// `TILE` rows in parallel). Why: neighbouring rays walk mostly the same BVH nodes and
-/// triangles, and a tile's rays find them still in cache where a row's 1000 rays had pushed the
-/// previous row's out; each pixel is traced as before, only in another order (same bits).
-/// Measured on the 1M-triangle scene at 1000 x 1000 (issue 16): the pre-render 0.93x CPU.
+/// triangles, so a tile's rays likely find them still in cache (the likely reason, not
+/// measured; the other stages' sparser pixel lists were slower in tiles). Each pixel is traced
+/// as before, only in another order (same bits). Measured on the 1M-triangle scene at
+/// 1000 x 1000 (issue 16): the pre-render 0.93x CPU.
 const TILE: usize = 16;
 
 /// Rows per parallel work item of `Tracer::render_subset_in_place` (4000 pixels at 1000 wide:
@@ -295,38 +296,31 @@ impl Tracer<'_> {
     ) {
         let (w, h, spp) = (film.width, film.height, film.spp as usize);
         let wu = w as usize;
-        let band = wu * TILE;
-        film.color
-            .par_chunks_mut(band)
-            .zip(film.hits.par_chunks_mut(band))
-            .zip(film.occlusion.par_chunks_mut(band))
-            .zip(film.samples.par_chunks_mut(band * spp))
-            .enumerate()
-            .for_each(|(b, (((c, hband), oband), sband))| {
-                // Cancelled (cubist serve): the remaining bands are skipped; the caller checks
-                // `progress.check()` and throws the film away.
-                if progress.cancelled() {
-                    return;
-                }
-                let rows = c.len() / wu;
-                let mut traced = 0u64;
-                // Tile by tile across the band, row by row within a tile.
-                for x0 in (0..wu).step_by(TILE) {
-                    for j in (0..rows).flat_map(|r| r * wu + x0..r * wu + (x0 + TILE).min(wu)) {
-                        let i = b * band + j;
-                        if !pick(i) {
-                            continue;
-                        }
-                        let (col, hit, blocked) =
-                            self.trace_pixel(i, w, h, &mut sband[j * spp..(j + 1) * spp], rays, known(i), centre);
-                        c[j] = col;
-                        hband[j] = hit;
-                        oband[j] = blocked;
-                        traced += 1;
+        for_each_band(film, TILE, |base, (c, hband, oband, sband)| {
+            // Cancelled (cubist serve): the remaining bands are skipped; the caller checks
+            // `progress.check()` and throws the film away.
+            if progress.cancelled() {
+                return;
+            }
+            let rows = c.len() / wu;
+            let mut traced = 0u64;
+            // Tile by tile across the band, row by row within a tile.
+            for x0 in (0..wu).step_by(TILE) {
+                for j in (0..rows).flat_map(|r| r * wu + x0..r * wu + (x0 + TILE).min(wu)) {
+                    let i = base + j;
+                    if !pick(i) {
+                        continue;
                     }
+                    let (col, hit, blocked) =
+                        self.trace_pixel(i, w, h, &mut sband[j * spp..(j + 1) * spp], rays, known(i), centre);
+                    c[j] = col;
+                    hband[j] = hit;
+                    oband[j] = blocked;
+                    traced += 1;
                 }
-                progress.add(traced);
-            });
+            }
+            progress.add(traced);
+        });
     }
 
     /// The pixels of `list`, in parallel chunks, with what `known[k]` says of the lights of
@@ -590,12 +584,11 @@ fn write_subset(film: &mut Film, list: &[u32], chunks: Vec<SubsetChunk>) {
 /// A band of `rows` rows of a film's per-pixel buffers: colour, hits, occlusion and samples.
 type FilmBand<'a> = (&'a mut [Vec4], &'a mut [PixelHit], &'a mut [u8], &'a mut [SampleHit]);
 
-/// Calls `f(base, first, last, band)` for each band of `rows` rows of `film`, in parallel:
-/// `base` is the band's first pixel and `list[first..last]` the pixels of the ascending `list`
-/// inside it (what the in-place re-trace and `write_subset` store, band by band).
-fn for_each_band_of<F>(film: &mut Film, rows: usize, list: &[u32], f: F)
+/// Calls `f(base, band)` for each band of `rows` rows of `film`, in parallel; `base` is the
+/// band's first pixel.
+fn for_each_band<F>(film: &mut Film, rows: usize, f: F)
 where
-    F: Fn(usize, usize, usize, FilmBand<'_>) + Sync,
+    F: Fn(usize, FilmBand<'_>) + Sync,
 {
     let band = film.width as usize * rows;
     let spp = film.spp as usize;
@@ -605,12 +598,21 @@ where
         .zip(film.occlusion.par_chunks_mut(band))
         .zip(film.samples.par_chunks_mut(band * spp))
         .enumerate()
-        .for_each(|(b, (((color, hits), occlusion), samples))| {
-            let base = b * band;
-            let first = list.partition_point(|&i| (i as usize) < base);
-            let last = list.partition_point(|&i| (i as usize) < base + color.len());
-            f(base, first, last, (color, hits, occlusion, samples));
-        });
+        .for_each(|(b, (((color, hits), occlusion), samples))| f(b * band, (color, hits, occlusion, samples)));
+}
+
+/// `for_each_band`, calling `f(base, first, last, band)`: `list[first..last]` are the pixels of
+/// the ascending `list` inside the band (what the in-place re-trace and `write_subset` store,
+/// band by band).
+fn for_each_band_of<F>(film: &mut Film, rows: usize, list: &[u32], f: F)
+where
+    F: Fn(usize, usize, usize, FilmBand<'_>) + Sync,
+{
+    for_each_band(film, rows, |base, band| {
+        let first = list.partition_point(|&i| (i as usize) < base);
+        let last = list.partition_point(|&i| (i as usize) < base + band.0.len());
+        f(base, first, last, band);
+    });
 }
 
 /// The 8-neighbours of pixel `i` in the same facet, and `i` itself: what `agreed_occlusion`
