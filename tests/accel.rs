@@ -102,9 +102,15 @@ fn without_instancing_hits_are_those_of_the_flat_bvh_bit_for_bit() {
     let world = World::new(&scene);
     assert!(world.objects.iter().all(|o| o.placement.is_none()));
     let (two, flat) = (Accel::new(&world), Accel::new(&flattened(&world)));
+    assert_eq!(two.grouped_objects(), 3, "small baked objects are traced as one BLAS");
+    assert_same_as_flat(&world, &two, &flat);
+}
+
+/// `two` answers bit for bit as `flat` (the same triangles in one BVH), with each hit's object.
+fn assert_same_as_flat(world: &World, two: &Accel, flat: &Accel) {
     let mut hits = 0;
     for r in rays(20_000, 11) {
-        let (a, b) = (closest(&two, r), closest(&flat, r));
+        let (a, b) = (closest(two, r), closest(flat, r));
         assert_eq!(a.map(|h| (h.tri, h.t, h.u, h.v)), b.map(|h| (h.tri, h.t, h.u, h.v)), "{r:?}");
         if let Some(h) = a {
             hits += 1;
@@ -253,4 +259,45 @@ fn coincident_instances_are_built_once() {
     assert_eq!(accel.instance_count(), 2, "one instance per distinct placement");
     let hit = closest(&accel, (Vec3::new(0.0, 0.0, 5.0), Vec3::NEG_Z)).expect("a hit");
     assert!(hit.object <= 1, "the first copy wins the tie: {hit:?}");
+}
+
+/// The group of small baked objects (one BLAS over them all): an object above its cap keeps
+/// its own BLAS, one that moves leaves the group; the hits stay those of the flat BVH, with
+/// their objects.
+#[test]
+fn the_group_of_baked_objects_answers_as_the_flat_bvh() {
+    let big = 190; // 190 x 380 quads: about 144K triangles, over the group's cap.
+    let scene = Scene {
+        meshes: vec![blob(16, 6), blob(big, 7), blob(12, 8), blob(10, 9)],
+        objects: vec![
+            place(0, DMat4::from_translation(DVec3::new(-1.2, 0.0, 0.0))),
+            place(1, DMat4::from_scale(DVec3::splat(0.6))),
+            place(2, DMat4::from_translation(DVec3::new(1.0, 0.6, 0.3))),
+            place(3, DMat4::from_translation(DVec3::new(0.3, -1.0, 0.8))),
+        ],
+        ..Scene::default()
+    };
+    let mut world = World::new(&scene);
+    let mut accel = Accel::new(&world);
+    assert_eq!(accel.grouped_objects(), 3, "all but the big mesh");
+    assert_eq!(accel.instance_count(), 4);
+    assert_same_as_flat(&world, &accel, &Accel::new(&flattened(&world)));
+    // Object 2 moves: it is placed (no longer baked) and leaves the group.
+    let moves = [(2, DMat4::from_translation(DVec3::new(0.8, 0.9, -0.2)))];
+    assert!(world.set_transforms(&scene, &moves).unwrap().is_empty());
+    assert!(world.objects[2].placement.is_some());
+    accel.update_instances(&world);
+    assert_eq!(accel.grouped_objects(), 2);
+    assert_eq!(accel.instance_count(), 4);
+    let fresh = Accel::new(&world);
+    let mut on_moved = 0;
+    for r in rays(5_000, 17) {
+        let (a, b) = (closest(&accel, r), closest(&fresh, r));
+        assert_eq!(a, b, "{r:?}");
+        if let Some(h) = a {
+            assert_eq!(h.object, world.object_of(h.tri));
+            on_moved += (h.object == 2) as u32;
+        }
+    }
+    assert!(on_moved > 100, "{on_moved} hits on the moved object");
 }
