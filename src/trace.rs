@@ -117,6 +117,49 @@ const CHUNK: usize = 256;
 /// 1000 x 1000 (issue 16): the pre-render 0.93x CPU.
 const TILE: usize = 16;
 
+/// The picked pixels of one row of a tile (band offsets, ascending), and the 2 x 2 packets
+/// two such rows make (`Tracer::render_rows`).
+#[derive(Clone, Copy)]
+struct TileRow {
+    j: [usize; TILE],
+    len: usize,
+}
+
+impl TileRow {
+    /// Rays per packet (`Accel::closest4`).
+    const PACKET: usize = 4;
+    const EMPTY: TileRow = TileRow { j: [0; TILE], len: 0 };
+
+    /// The offsets of `row` that `pick` keeps.
+    fn picked(row: std::ops::Range<usize>, pick: impl Fn(usize) -> bool) -> TileRow {
+        let mut out = TileRow::EMPTY;
+        for j in row.filter(|&j| pick(j)) {
+            out.j[out.len] = j;
+            out.len += 1;
+        }
+        out
+    }
+
+    /// Packets of up to four: two pixels of `self` and the two below them in `below`, in
+    /// turn; where one row runs out, up to four of the other's.
+    fn blocks_with(self, below: &TileRow) -> impl Iterator<Item = TileRow> + '_ {
+        let (mut a, mut b) = (0, 0);
+        std::iter::from_fn(move || {
+            let mut p = TileRow::EMPTY;
+            let take_a = if b < below.len { 2 } else { TileRow::PACKET };
+            while p.len < take_a && a < self.len {
+                p.j[p.len] = self.j[a];
+                (p.len, a) = (p.len + 1, a + 1);
+            }
+            while p.len < TileRow::PACKET && b < below.len {
+                p.j[p.len] = below.j[b];
+                (p.len, b) = (p.len + 1, b + 1);
+            }
+            (p.len > 0).then_some(p)
+        })
+    }
+}
+
 /// Rows per parallel work item of `Tracer::render_subset_in_place` (4000 pixels at 1000 wide:
 /// small enough that bands full of moved pixels and empty ones balance across threads).
 const BAND_ROWS: usize = 4;
@@ -164,10 +207,16 @@ impl Tracer<'_> {
         rays: &Rays,
         known: Known,
         centre: Option<&KnownHits>,
+        traced: Option<(&CameraRay, Option<Hit>)>,
     ) -> (Vec4, PixelHit, u8) {
         let spp = samples.len() as u32;
-        // One sample is the centre ray: its closest hit may be known already.
-        let centre = if spp == 1 { centre.and_then(|c| c(i)) } else { None };
+        // One sample is the centre ray: it and its closest hit may be known already (`traced`,
+        // at one sample per pixel), or its hit alone (`centre`).
+        let centre = match traced {
+            Some((_, hit)) => Some(hit),
+            None if spp == 1 => centre.and_then(|c| c(i)),
+            None => None,
+        };
         if let Some(None) = centre {
             // A known miss needs no ray: the background, as the loop below gives it.
             samples[0] = SampleHit::MISS;
@@ -180,7 +229,10 @@ impl Tracer<'_> {
         let mut best = (f64::INFINITY, PixelHit::MISS, 0u8);
         for s in 0..spp {
             let off = sample_offset(self.seed, i as u64, s, spp);
-            let ray = rays(i, screen_point(x, y, off, width, height));
+            let ray = match traced {
+                Some((ray, _)) => *ray,
+                None => rays(i, screen_point(x, y, off, width, height)),
+            };
             let centre_dist = (off - DVec2::splat(0.5)).length_squared();
             let nearest = centre_dist < best.0;
             let (c, hit, blocked) = match centre {
@@ -296,6 +348,9 @@ impl Tracer<'_> {
     ) {
         let (w, h, spp) = (film.width, film.height, film.spp as usize);
         let wu = w as usize;
+        // One sample per pixel and no hits known: the centre rays go as packets of four
+        // (`Accel::closest4`), the same hits as one by one.
+        let packets = spp == 1 && centre.is_none();
         for_each_band(film, TILE, |base, (c, hband, oband, sband)| {
             // Cancelled (cubist serve): the remaining bands are skipped; the caller checks
             // `progress.check()` and throws the film away.
@@ -306,13 +361,64 @@ impl Tracer<'_> {
             let mut traced = 0u64;
             // Tile by tile across the band, row by row within a tile.
             for x0 in (0..wu).step_by(TILE) {
-                for j in (0..rows).flat_map(|r| r * wu + x0..r * wu + (x0 + TILE).min(wu)) {
+                let x1 = (x0 + TILE).min(wu);
+                if packets {
+                    // Pairs of rows with picked pixels (rows 0 and 1 of the tile, or 0 and 2 on
+                    // the coarse grid), two pixels from each: 2 x 2 blocks of neighbours.
+                    let mut pending: Option<TileRow> = None;
+                    for r in 0..rows {
+                        let row = TileRow::picked(r * wu + x0..r * wu + x1, |j| pick(base + j));
+                        if row.len == 0 {
+                            continue;
+                        }
+                        let Some(above) = pending.take() else {
+                            pending = Some(row);
+                            continue;
+                        };
+                        for packet in above.blocks_with(&row) {
+                            for (j, ray, hit) in self.trace_packet(base, &packet.j[..packet.len], w, h, rays) {
+                                let px = &mut sband[j..j + 1];
+                                (c[j], hband[j], oband[j]) = self.trace_pixel(
+                                    base + j,
+                                    w,
+                                    h,
+                                    px,
+                                    rays,
+                                    known(base + j),
+                                    None,
+                                    Some((&ray, hit)),
+                                );
+                                traced += 1;
+                            }
+                        }
+                    }
+                    if let Some(last) = pending {
+                        for packet in last.blocks_with(&TileRow::EMPTY) {
+                            for (j, ray, hit) in self.trace_packet(base, &packet.j[..packet.len], w, h, rays) {
+                                let px = &mut sband[j..j + 1];
+                                (c[j], hband[j], oband[j]) = self.trace_pixel(
+                                    base + j,
+                                    w,
+                                    h,
+                                    px,
+                                    rays,
+                                    known(base + j),
+                                    None,
+                                    Some((&ray, hit)),
+                                );
+                                traced += 1;
+                            }
+                        }
+                    }
+                    continue;
+                }
+                for j in (0..rows).flat_map(|r| r * wu + x0..r * wu + x1) {
                     let i = base + j;
                     if !pick(i) {
                         continue;
                     }
                     let (col, hit, blocked) =
-                        self.trace_pixel(i, w, h, &mut sband[j * spp..(j + 1) * spp], rays, known(i), centre);
+                        self.trace_pixel(i, w, h, &mut sband[j * spp..(j + 1) * spp], rays, known(i), centre, None);
                     c[j] = col;
                     hband[j] = hit;
                     oband[j] = blocked;
@@ -321,6 +427,29 @@ impl Tracer<'_> {
             }
             progress.add(traced);
         });
+    }
+
+    /// The centre rays of the band pixels `packet` (1 to 4 band offsets; the band starts at
+    /// pixel `base`) and their closest hits, traced as one packet.
+    fn trace_packet(
+        &self,
+        base: usize,
+        packet: &[usize],
+        width: u32,
+        height: u32,
+        rays: &Rays,
+    ) -> impl Iterator<Item = (usize, CameraRay, Option<Hit>)> {
+        let n = packet.len();
+        let packet: [usize; TileRow::PACKET] = std::array::from_fn(|l| packet[l.min(n - 1)]);
+        let ray_of = |j: usize| {
+            let i = base + j;
+            let (x, y) = (i as u32 % width, i as u32 / width);
+            rays(i, screen_point(x, y, sample_offset(self.seed, i as u64, 0, 1), width, height))
+        };
+        let cam: [CameraRay; TileRow::PACKET] = packet.map(ray_of);
+        let lanes: [(Vec3, Vec3); TileRow::PACKET] = cam.map(|r| (r.origin, r.dir));
+        let hits = self.accel.closest4(&lanes[..n], 0.0, f32::INFINITY);
+        (0..n).map(move |l| (packet[l], cam[l], hits[l]))
     }
 
     /// The pixels of `list`, in parallel chunks, with what `known[k]` says of the lights of
@@ -366,11 +495,27 @@ impl Tracer<'_> {
             if first == last || progress.cancelled() {
                 return;
             }
-            for (k, &i) in list.iter().enumerate().take(last).skip(first) {
-                let j = i as usize - base;
-                let known = known.map_or(Known::NONE, |v| v[k]);
-                let px = &mut samples[j * spp..(j + 1) * spp];
-                (color[j], hits[j], occlusion[j]) = self.trace_pixel(i as usize, w, h, px, rays, known, centre);
+            if spp == 1 && centre.is_none() {
+                // Four pixels of the list at a time (mostly neighbours in a row, through the
+                // same facet's rays) as one packet (`Accel::closest4`), the same hits.
+                for (c, chunk) in list[first..last].chunks(TileRow::PACKET).enumerate() {
+                    let js: [usize; TileRow::PACKET] =
+                        std::array::from_fn(|l| chunk[l.min(chunk.len() - 1)] as usize - base);
+                    for (l, (j, ray, hit)) in self.trace_packet(base, &js[..chunk.len()], w, h, rays).enumerate() {
+                        let known = known.map_or(Known::NONE, |v| v[first + c * TileRow::PACKET + l]);
+                        let px = &mut samples[j..j + 1];
+                        (color[j], hits[j], occlusion[j]) =
+                            self.trace_pixel(base + j, w, h, px, rays, known, None, Some((&ray, hit)));
+                    }
+                }
+            } else {
+                for (k, &i) in list.iter().enumerate().take(last).skip(first) {
+                    let j = i as usize - base;
+                    let known = known.map_or(Known::NONE, |v| v[k]);
+                    let px = &mut samples[j * spp..(j + 1) * spp];
+                    (color[j], hits[j], occlusion[j]) =
+                        self.trace_pixel(i as usize, w, h, px, rays, known, centre, None);
+                }
             }
             progress.add((last - first) as u64);
         });
@@ -400,7 +545,16 @@ impl Tracer<'_> {
                     .enumerate()
                     .map(|(k, &i)| {
                         let known = known.map_or(Known::NONE, |v| v[c * CHUNK + k]);
-                        self.trace_pixel(i as usize, w, h, &mut samples[k * spp..(k + 1) * spp], rays, known, centre)
+                        self.trace_pixel(
+                            i as usize,
+                            w,
+                            h,
+                            &mut samples[k * spp..(k + 1) * spp],
+                            rays,
+                            known,
+                            centre,
+                            None,
+                        )
                     })
                     .collect();
                 progress.add(chunk.len() as u64);
@@ -487,15 +641,26 @@ impl Tracer<'_> {
             None => (Vec3::ZERO, 0.0),
         };
         let traced = if centre.is_some() { 3 } else { spp };
-        for s in 0..traced {
-            let off = match centre {
-                Some(_) => centre_rook_offset(self.seed, i as u64, s),
-                None => sample_offset(self.seed, i as u64, s, spp),
-            };
-            let ray = rays(i, screen_point(x, y, off, width, height));
-            let (c, hit, _) = self.sample(&ray, known);
-            color += c;
-            covered += hit.is_some() as u32 as f32;
+        // The pixel's rays, nearly parallel, go as packets of four (`Accel::closest4`); each
+        // is shaded in turn, in the order of the samples (so the same sum).
+        const PACKET: u32 = TileRow::PACKET as u32;
+        for s0 in (0..traced).step_by(PACKET as usize) {
+            let n = (traced - s0).min(PACKET) as usize;
+            let ray: [CameraRay; TileRow::PACKET] = std::array::from_fn(|l| {
+                let s = s0 + (l.min(n - 1)) as u32;
+                let off = match centre {
+                    Some(_) => centre_rook_offset(self.seed, i as u64, s),
+                    None => sample_offset(self.seed, i as u64, s, spp),
+                };
+                rays(i, screen_point(x, y, off, width, height))
+            });
+            let lanes: [(Vec3, Vec3); TileRow::PACKET] = ray.map(|r| (r.origin, r.dir));
+            let hits = self.accel.closest4(&lanes[..n], 0.0, f32::INFINITY);
+            for l in 0..n {
+                let (c, hit, _) = self.sample_hit(&ray[l], known, hits[l]);
+                color += c;
+                covered += hit.is_some() as u32 as f32;
+            }
         }
         (color / spp as f32).extend(covered / spp as f32)
     }
@@ -1005,6 +1170,75 @@ mod tests {
                 b.color.iter().map(|c| c.to_array().map(f32::to_bits)).collect::<Vec<_>>()
             );
             assert!(a.hits == b.hits && a.occlusion == b.occlusion && a.samples == b.samples);
+        }
+    }
+
+    /// perf16: the whole film traced by `render_rows` (centre rays in 2 x 2 packets) and the
+    /// anti-aliasing (each pixel's rays as one packet) give the pixels tracing one ray at a
+    /// time gives (the chunked subset trace; `supersample`'s rays one by one), bit for bit, on
+    /// odd and even sizes, lit (the coarse shadow grid first) and hits only.
+    #[test]
+    fn packets_trace_what_single_rays_trace() {
+        for (w, h) in [(163u32, 97u32), (64, 48), (7, 5)] {
+            let (prep, params, pre) = still_life_prerender(w, h);
+            let camera = pre.view.framed.camera.as_ref();
+            let rays = |_: usize, p: DVec2| camera.ray(p);
+            let n = (w * h) as usize;
+            for lit in [true, false] {
+                let mut tracer = pre.view.tracer(&prep, &params.trace);
+                if !lit {
+                    tracer.rig = None;
+                }
+                let mut packets = Film::to_be_traced(w, h, 1);
+                tracer.render(&mut packets, &rays, None, None, &Progress::silent());
+                // Every pixel, not ascending: traced one by one in chunks.
+                let mut list: Vec<u32> = (0..n as u32).collect();
+                list.chunks_mut(3).for_each(|c| c.reverse());
+                let mut single = Film::to_be_traced(w, h, 1);
+                if lit {
+                    // As `render_known` does for a whole film: the grid, then the rest.
+                    let on_grid = |i: u32| (i % w).is_multiple_of(2) && (i / w).is_multiple_of(2);
+                    let grid: Vec<u32> = list.iter().copied().filter(|&i| on_grid(i)).collect();
+                    let rest: Vec<u32> = list.iter().copied().filter(|&i| !on_grid(i)).collect();
+                    tracer.render_subset(&mut single, &rays, &grid, None, None, &Progress::silent());
+                    let known: Vec<Known> = rest.iter().map(|&i| coarse_occlusion(&single, &[], i as usize)).collect();
+                    tracer.render_subset(&mut single, &rays, &rest, Some(&known), None, &Progress::silent());
+                } else {
+                    tracer.render_subset(&mut single, &rays, &list, None, None, &Progress::silent());
+                }
+                let bits = |f: &Film| f.color.iter().map(|c| c.to_array().map(f32::to_bits)).collect::<Vec<_>>();
+                assert_eq!(bits(&packets), bits(&single), "{w} x {h}, lit {lit}");
+                assert!(packets.hits == single.hits && packets.occlusion == single.occlusion, "{w} x {h}, lit {lit}");
+                assert!(packets.hits.iter().filter(|h| h.tri != NO_HIT).count() > n / 4, "the rays must mostly hit");
+                if lit {
+                    // Anti-aliasing of every pixel: its rays as packets, against one by one.
+                    let facets = vec![0u32; n];
+                    let all: Vec<u32> = (0..n as u32).collect();
+                    for spp in [4u32, 6] {
+                        let mut aa = packets.clone();
+                        tracer.antialias(&mut aa, &rays, &all, &facets, spp, &Progress::silent());
+                        for i in 0..n {
+                            let known = agreed_occlusion(&packets, &facets, i);
+                            let centre = (spp == 4).then(|| packets.color[i]);
+                            let (x, y) = (i as u32 % w, i as u32 / w);
+                            let traced = if centre.is_some() { 3 } else { spp };
+                            let (mut color, mut covered) = centre.map_or((Vec3::ZERO, 0.0), |c| (c.truncate(), c.w));
+                            for s in 0..traced {
+                                let off = match centre {
+                                    Some(_) => centre_rook_offset(tracer.seed, i as u64, s),
+                                    None => sample_offset(tracer.seed, i as u64, s, spp),
+                                };
+                                let (c, hit, _) = tracer.sample(&rays(i, screen_point(x, y, off, w, h)), known);
+                                color += c;
+                                covered += hit.is_some() as u32 as f32;
+                            }
+                            let want = (color / spp as f32).extend(covered / spp as f32);
+                            assert_eq!(aa.color[i].to_array().map(f32::to_bits), want.to_array().map(f32::to_bits));
+                        }
+                        assert!(aa.color != packets.color, "anti-aliasing changed some pixels");
+                    }
+                }
+            }
         }
     }
 

@@ -301,3 +301,59 @@ fn the_group_of_baked_objects_answers_as_the_flat_bvh() {
     }
     assert!(on_moved > 100, "{on_moved} hits on the moved object");
 }
+
+/// `closest4` (up to four rays as one packet) answers as `closest` for each ray, bit for bit:
+/// on instanced, baked and grouped objects; for neighbouring rays (a packet), rays in all
+/// directions (lanes of different dominant axes), 1 to 4 lanes, and lanes with invalid rays.
+#[test]
+fn packets_answer_as_single_rays() {
+    let bits = |h: Option<Hit>| h.map(|h| (h.tri, h.object, h.t.to_bits(), h.u.to_bits(), h.v.to_bits()));
+    let grouped = Scene {
+        meshes: vec![blob(16, 6), blob(12, 8), blob(10, 9)],
+        objects: vec![
+            place(0, DMat4::from_translation(DVec3::new(-1.2, 0.0, 0.0))),
+            place(1, DMat4::from_translation(DVec3::new(1.0, 0.6, 0.3))),
+            place(2, DMat4::from_translation(DVec3::new(0.3, -1.0, 0.8))),
+        ],
+        ..Scene::default()
+    };
+    let f = |k: u64| unit_f64(splitmix64(k)) as f32;
+    for (name, scene) in [("instanced", instanced_scene()), ("grouped", grouped)] {
+        let world = World::new(&scene);
+        let accel = Accel::new(&world);
+        let (mut hits, mut packets) = (0, 0);
+        for (p, r) in rays(4_000, 21).into_iter().enumerate() {
+            let k = p as u64 * 16;
+            let lanes = 1 + p % 4;
+            let packet: Vec<(Vec3, Vec3)> = (0..lanes as u64)
+                .map(|l| match p % 5 {
+                    // Unrelated rays: other dominant axes.
+                    0 => rays(1, k + l)[0],
+                    // An invalid lane.
+                    1 if l == 1 => (r.0, Vec3::ZERO),
+                    // Neighbours: the same origin, directions a pixel or so apart.
+                    _ => (r.0, (r.1 + 0.004 * Vec3::new(f(k + l) - 0.5, f(k + l + 7) - 0.5, 0.0)).normalize()),
+                })
+                .collect();
+            let got = accel.closest4(&packet, 0.0, f32::INFINITY);
+            for (l, &ray) in packet.iter().enumerate() {
+                let want = closest(&accel, ray);
+                assert_eq!(bits(got[l]), bits(want), "{name}: packet {p}, lane {l}: {ray:?}");
+                hits += want.is_some() as u32;
+            }
+            assert!(got[lanes..].iter().all(Option::is_none));
+            packets += 1;
+        }
+        assert!(hits > 3_000 && packets == 4_000, "{name}: {hits} hits");
+        // A bounded segment (tmax) and a tmin past the first surface.
+        for r in rays(500, 22) {
+            let packet = [r, (r.0, (r.1 + Vec3::splat(0.002)).normalize())];
+            for (tmin, tmax) in [(0.0, 2.5), (2.6, f32::INFINITY)] {
+                let got = accel.closest4(&packet, tmin, tmax);
+                for (l, &(o, d)) in packet.iter().enumerate() {
+                    assert_eq!(bits(got[l]), bits(accel.closest(o, d, tmin, tmax)), "{name}: {tmin} {tmax}");
+                }
+            }
+        }
+    }
+}
