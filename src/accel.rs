@@ -731,17 +731,9 @@ impl Pairs {
             };
             let Some(go_left) = go(l, lt, &mut ray) else { return };
             let Some(go_right) = go(r, rt, &mut ray) else { return };
-            match (go_left, go_right) {
-                (true, true) => {
-                    current = pair.index[l];
-                    stack.push(pair.index[r]);
-                }
-                (true, false) => current = pair.index[l],
-                (false, true) => current = pair.index[r],
-                (false, false) => match stack.pop() {
-                    Some(next) => current = next,
-                    None => return,
-                },
+            match next_pair(stack, go_left.then_some(pair.index[l]), go_right.then_some(pair.index[r])) {
+                Some(next) => current = next,
+                None => return,
             }
         }
     }
@@ -817,19 +809,11 @@ impl Pairs {
                 }
                 lanes
             };
-            let go_left = go(l, t[0], tmax);
-            let go_right = go(r, t[1], tmax);
-            match (go_left != 0, go_right != 0) {
-                (true, true) => {
-                    current = pair.index[l];
-                    stack.push(pair.index[r]);
-                }
-                (true, false) => current = pair.index[l],
-                (false, true) => current = pair.index[r],
-                (false, false) => match stack.pop() {
-                    Some(next) => current = next,
-                    None => return,
-                },
+            let go_left = go(l, t[0], tmax) != 0;
+            let go_right = go(r, t[1], tmax) != 0;
+            match next_pair(&mut stack, go_left.then_some(pair.index[l]), go_right.then_some(pair.index[r])) {
+                Some(next) => current = next,
+                None => return,
             }
         }
     }
@@ -838,6 +822,20 @@ impl Pairs {
 impl Pair {
     const EMPTY: Pair =
         Pair { x: glam::Vec4::ZERO, y: glam::Vec4::ZERO, z: glam::Vec4::ZERO, index: [0; 2], count: [0; 2] };
+}
+
+/// The pair a walk visits next, given the children of the current pair it goes down (`near`
+/// first, `far` kept on `stack` for later; None: not entered): None when the walk is done.
+#[inline(always)]
+fn next_pair<S: NodeStack>(stack: &mut S, near: Option<u32>, far: Option<u32>) -> Option<u32> {
+    match (near, far) {
+        (Some(near), Some(far)) => {
+            stack.push(far);
+            Some(near)
+        }
+        (Some(next), None) | (None, Some(next)) => Some(next),
+        (None, None) => stack.pop(),
+    }
 }
 
 /// The lanes of bit mask `lanes` (bit l: lane l) as a vector mask.

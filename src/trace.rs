@@ -365,50 +365,29 @@ impl Tracer<'_> {
                 if packets {
                     // Pairs of rows with picked pixels (rows 0 and 1 of the tile, or 0 and 2 on
                     // the coarse grid), two pixels from each: 2 x 2 blocks of neighbours.
+                    let mut trace_rows = |above: TileRow, below: &TileRow| {
+                        for packet in above.blocks_with(below) {
+                            for (j, ray, hit) in self.trace_packet(base, &packet.j[..packet.len], w, h, rays) {
+                                let (i, px) = (base + j, &mut sband[j..j + 1]);
+                                let centre = Some((&ray, hit));
+                                (c[j], hband[j], oband[j]) =
+                                    self.trace_pixel(i, w, h, px, rays, known(i), None, centre);
+                                traced += 1;
+                            }
+                        }
+                    };
                     let mut pending: Option<TileRow> = None;
                     for r in 0..rows {
                         let row = TileRow::picked(r * wu + x0..r * wu + x1, |j| pick(base + j));
-                        if row.len == 0 {
-                            continue;
-                        }
-                        let Some(above) = pending.take() else {
-                            pending = Some(row);
-                            continue;
-                        };
-                        for packet in above.blocks_with(&row) {
-                            for (j, ray, hit) in self.trace_packet(base, &packet.j[..packet.len], w, h, rays) {
-                                let px = &mut sband[j..j + 1];
-                                (c[j], hband[j], oband[j]) = self.trace_pixel(
-                                    base + j,
-                                    w,
-                                    h,
-                                    px,
-                                    rays,
-                                    known(base + j),
-                                    None,
-                                    Some((&ray, hit)),
-                                );
-                                traced += 1;
+                        if row.len > 0 {
+                            match pending.take() {
+                                Some(above) => trace_rows(above, &row),
+                                None => pending = Some(row),
                             }
                         }
                     }
                     if let Some(last) = pending {
-                        for packet in last.blocks_with(&TileRow::EMPTY) {
-                            for (j, ray, hit) in self.trace_packet(base, &packet.j[..packet.len], w, h, rays) {
-                                let px = &mut sband[j..j + 1];
-                                (c[j], hband[j], oband[j]) = self.trace_pixel(
-                                    base + j,
-                                    w,
-                                    h,
-                                    px,
-                                    rays,
-                                    known(base + j),
-                                    None,
-                                    Some((&ray, hit)),
-                                );
-                                traced += 1;
-                            }
-                        }
+                        trace_rows(last, &TileRow::EMPTY);
                     }
                     continue;
                 }
