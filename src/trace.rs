@@ -160,6 +160,18 @@ impl TileRow {
     }
 }
 
+/// A packet of the rays `ray(l)` for l < n (1 to 4), the last one repeated in the lanes left
+/// (each ray made once: a camera ray costs about as much as a few box tests).
+#[inline]
+fn packet_of(n: usize, mut ray: impl FnMut(usize) -> CameraRay) -> [CameraRay; TileRow::PACKET] {
+    debug_assert!((1..=TileRow::PACKET).contains(&n));
+    let mut out = [ray(0); TileRow::PACKET];
+    for l in 1..TileRow::PACKET {
+        out[l] = if l < n { ray(l) } else { out[l - 1] };
+    }
+    out
+}
+
 /// Rows per parallel work item of `Tracer::render_subset_in_place` (4000 pixels at 1000 wide:
 /// small enough that bands full of moved pixels and empty ones balance across threads).
 const BAND_ROWS: usize = 4;
@@ -419,16 +431,21 @@ impl Tracer<'_> {
         rays: &Rays,
     ) -> impl Iterator<Item = (usize, CameraRay, Option<Hit>)> {
         let n = packet.len();
-        let packet: [usize; TileRow::PACKET] = std::array::from_fn(|l| packet[l.min(n - 1)]);
-        let ray_of = |j: usize| {
-            let i = base + j;
+        let cam = packet_of(n, |l| {
+            let i = base + packet[l];
             let (x, y) = (i as u32 % width, i as u32 / width);
             rays(i, screen_point(x, y, sample_offset(self.seed, i as u64, 0, 1), width, height))
-        };
-        let cam: [CameraRay; TileRow::PACKET] = packet.map(ray_of);
-        let lanes: [(Vec3, Vec3); TileRow::PACKET] = cam.map(|r| (r.origin, r.dir));
-        let hits = self.accel.closest4(&lanes[..n], 0.0, f32::INFINITY);
+        });
+        let hits = self.closest_of(&cam, n);
+        let packet: [usize; TileRow::PACKET] = std::array::from_fn(|l| packet[l.min(n - 1)]);
         (0..n).map(move |l| (packet[l], cam[l], hits[l]))
+    }
+
+    /// The closest hits of the first `n` rays of `packet`, as one packet (`Accel::closest4`).
+    #[inline]
+    fn closest_of(&self, packet: &[CameraRay; TileRow::PACKET], n: usize) -> [Option<Hit>; TileRow::PACKET] {
+        let lanes: [(Vec3, Vec3); TileRow::PACKET] = packet.map(|r| (r.origin, r.dir));
+        self.accel.closest4(&lanes[..n], 0.0, f32::INFINITY)
     }
 
     /// The pixels of `list`, in parallel chunks, with what `known[k]` says of the lights of
@@ -625,16 +642,15 @@ impl Tracer<'_> {
         const PACKET: u32 = TileRow::PACKET as u32;
         for s0 in (0..traced).step_by(PACKET as usize) {
             let n = (traced - s0).min(PACKET) as usize;
-            let ray: [CameraRay; TileRow::PACKET] = std::array::from_fn(|l| {
-                let s = s0 + (l.min(n - 1)) as u32;
+            let ray = packet_of(n, |l| {
+                let s = s0 + l as u32;
                 let off = match centre {
                     Some(_) => centre_rook_offset(self.seed, i as u64, s),
                     None => sample_offset(self.seed, i as u64, s, spp),
                 };
                 rays(i, screen_point(x, y, off, width, height))
             });
-            let lanes: [(Vec3, Vec3); TileRow::PACKET] = ray.map(|r| (r.origin, r.dir));
-            let hits = self.accel.closest4(&lanes[..n], 0.0, f32::INFINITY);
+            let hits = self.closest_of(&ray, n);
             for l in 0..n {
                 let (c, hit, _) = self.sample_hit(&ray[l], known, hits[l]);
                 color += c;
