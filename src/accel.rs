@@ -499,19 +499,7 @@ impl Blas {
         traverse_closest(&self.pairs, Ray::new(ray.o, ray.d, tmin, tmax), |r, slot| {
             let tri = &self.tris[slot];
             match tri.intersect_axes::<KX, KY, KZ>(&ray.sheared, tmin, r.tmax) {
-                Some((t, u, v)) => {
-                    let id = first_triangle + tri.id;
-                    let better = match best {
-                        None => true,
-                        Some(b) => t < b.t || (t == b.t && id < b.tri),
-                    };
-                    if better {
-                        *best = Some(Hit { tri: id, object, t, u, v });
-                    }
-                    // Slightly beyond t, so nodes whose entry is exactly t are still visited
-                    // and an equal-distance triangle there can win the id tie-break.
-                    t * (1.0 + 4.0 * f32::EPSILON) + f32::MIN_POSITIVE
-                }
+                Some((t, u, v)) => offer(best, Hit { tri: first_triangle + tri.id, object, t, u, v }),
                 None => f32::INFINITY,
             }
         });
@@ -551,15 +539,7 @@ impl Blas {
                         }
                         // As `closest_axes` for lane l alone.
                         if let Some((t, u, v)) = tri.intersect_axes::<KX, KY, KZ>(&rays[l].sheared, tmin, limit[l]) {
-                            let id = first_triangle + tri.id;
-                            let better = match best[l] {
-                                None => true,
-                                Some(b) => t < b.t || (t == b.t && id < b.tri),
-                            };
-                            if better {
-                                best[l] = Some(Hit { tri: id, object, t, u, v });
-                            }
-                            let slack = t * (1.0 + 4.0 * f32::EPSILON) + f32::MIN_POSITIVE;
+                            let slack = offer(&mut best[l], Hit { tri: first_triangle + tri.id, object, t, u, v });
                             if slack < limit[l] {
                                 limit[l] = slack;
                             }
@@ -822,6 +802,28 @@ impl Pairs {
 impl Pair {
     const EMPTY: Pair =
         Pair { x: glam::Vec4::ZERO, y: glam::Vec4::ZERO, z: glam::Vec4::ZERO, index: [0; 2], count: [0; 2] };
+}
+
+/// Slightly beyond distance `t`: a closest-hit walk's new limit after a hit at `t`, so nodes
+/// whose entry is exactly `t` are still visited and an equal-distance triangle there can win
+/// the id tie-break.
+#[inline(always)]
+fn just_beyond(t: f32) -> f32 {
+    t * (1.0 + 4.0 * f32::EPSILON) + f32::MIN_POSITIVE
+}
+
+/// Keeps `hit` in `best` when it is nearer, or as near with a lower triangle id (so the
+/// result never depends on the order triangles are met); the walk's new limit either way.
+#[inline(always)]
+fn offer(best: &mut Option<Hit>, hit: Hit) -> f32 {
+    let better = match best {
+        None => true,
+        Some(b) => hit.t < b.t || (hit.t == b.t && hit.tri < b.tri),
+    };
+    if better {
+        *best = Some(hit);
+    }
+    just_beyond(hit.t)
 }
 
 /// The pair a walk visits next, given the children of the current pair it goes down (`near`
@@ -1332,14 +1334,22 @@ impl Accel {
             let before = best.map(|b| (b.t, b.tri));
             self.blas_of(inst).closest(&inst.ray(&world), tmin, r.tmax, inst.first_triangle, inst.object, &mut best);
             match best {
-                Some(b) if before != Some((b.t, b.tri)) => b.t * (1.0 + 4.0 * f32::EPSILON) + f32::MIN_POSITIVE,
+                Some(b) if before != Some((b.t, b.tri)) => just_beyond(b.t),
                 _ => f32::INFINITY,
             }
         });
-        if let Some(hit) = best.as_mut().filter(|h| h.object == GROUP) {
-            hit.object = self.group.as_ref().map_or(GROUP, |g| g.object_of(hit.tri));
+        if let Some(hit) = best.as_mut() {
+            self.resolve_group(hit);
         }
         best
+    }
+
+    /// A hit in the group (`GROUP` as its object) given the object its triangle lies in.
+    #[inline]
+    fn resolve_group(&self, hit: &mut Hit) {
+        if hit.object == GROUP {
+            hit.object = self.group.as_ref().map_or(GROUP, |g| g.object_of(hit.tri));
+        }
     }
 
     /// The BLAS instance `inst` traces: its own, or the group's.
@@ -1398,7 +1408,7 @@ impl Accel {
                 // As `closest`'s top level: a lane's limit drops to just beyond a new best.
                 for l in 0..4 {
                     if let Some(b) = best[l].filter(|b| before[l] != Some((b.t, b.tri))) {
-                        let slack = b.t * (1.0 + 4.0 * f32::EPSILON) + f32::MIN_POSITIVE;
+                        let slack = just_beyond(b.t);
                         if slack < limit[l] {
                             limit[l] = slack;
                         }
@@ -1406,9 +1416,7 @@ impl Accel {
                 }
             }
         });
-        for hit in best.iter_mut().flatten().filter(|h| h.object == GROUP) {
-            hit.object = self.group.as_ref().map_or(GROUP, |g| g.object_of(hit.tri));
-        }
+        best.iter_mut().flatten().for_each(|hit| self.resolve_group(hit));
         best
     }
 
