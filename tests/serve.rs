@@ -471,10 +471,16 @@ fn docs_serve_md_names_every_request_and_reply_field() {
     for r in &requests {
         replies.push(server.ask(r.clone()));
     }
-    // A cancelled render's reply.
-    let slow = json!({"width": 600, "height": 600, "spp": 8});
-    server.send(&render(5, None, slow, &dir.path().join("c.png")));
-    std::thread::sleep(Duration::from_millis(300));
+    // A cancelled render's reply: long enough to be running when the cancel arrives (seconds
+    // uncancelled), the cancel sent once its progress shows it running (a fixed sleep lost the
+    // race on a fast host: the render was done before the cancel came).
+    while server.stderr.try_recv().is_ok() {}
+    let slow = json!({"width": 1200, "height": 1200, "spp": 4});
+    let mut slow = render(5, None, slow, &dir.path().join("c.png"));
+    slow["progress"] = json!(true);
+    server.send(&slow);
+    let line = server.stderr.recv_timeout(Duration::from_secs(120)).expect("progress");
+    assert!(line.starts_with("PROGRESS "), "{line}");
     server.send(&json!({"id": 6, "cmd": "cancel"}));
     replies.push(server.reply());
     replies.push(server.reply());
