@@ -8,7 +8,11 @@
 //! it, far to near, so drawing the layers in order leaves no sliver between touching objects).
 //! Each mask's boundary is traced into closed rings on the pixel-corner lattice (outer rings
 //! and holes of opposite orientation) and simplified by Douglas-Peucker at `tolerance` pixels,
-//! so no edge keeps the pixel staircase.
+//! so no edge keeps the pixel staircase. With object layers, the rings are simplified between
+//! the label image's junctions (`Junctions`), so an outline two layers share is one line in
+//! both: simplified ring by ring, the two copies of it parted by up to the tolerance and the
+//! planes cut between them read as slivers and kinks (the still life's straight runs 97.2% ->
+//! 97.7%, a scatter of thirty cubes 94.1% -> 96.5%, means over five seeds at 640 x 480).
 
 use std::collections::VecDeque;
 
@@ -329,12 +333,21 @@ pub fn simplify_ring(ring: &[DVec2], tolerance: f64) -> Vec<DVec2> {
 /// neighbours goes (the one whose removal moves the outline least). A curve traced pixel by
 /// pixel simplifies to many short edges where it bends; each would be drawn as a facet border
 /// too short to read as a straight stroke (ART.md: runs of at least 1% of the diagonal).
-pub fn merge_short_edges(mut ring: Vec<DVec2>, min_edge: f64) -> Vec<DVec2> {
+pub fn merge_short_edges(ring: Vec<DVec2>, min_edge: f64) -> Vec<DVec2> {
+    merge_short(ring, true, min_edge)
+}
+
+/// `merge_short_edges` of a closed ring (`closed`) or of an open chain whose two ends stay
+/// (a stretch between two junctions, `simplify_between`): an edge at an end loses its other
+/// corner.
+fn merge_short(mut points: Vec<DVec2>, closed: bool, min_edge: f64) -> Vec<DVec2> {
     let min2 = min_edge * min_edge;
-    while ring.len() > 3 {
-        let n = ring.len();
-        let (k, len2) = (0..n)
-            .map(|k| (k, (ring[(k + 1) % n] - ring[k]).length_squared()))
+    let least = if closed { 3 } else { 2 };
+    while points.len() > least {
+        let n = points.len();
+        let edges = if closed { n } else { n - 1 };
+        let (k, len2) = (0..edges)
+            .map(|k| (k, (points[(k + 1) % n] - points[k]).length_squared()))
             .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
             .unwrap_or((0, f64::INFINITY));
         if len2 >= min2 {
@@ -342,16 +355,219 @@ pub fn merge_short_edges(mut ring: Vec<DVec2>, min_edge: f64) -> Vec<DVec2> {
         }
         // Distance of corner i from the line through its neighbours.
         let off = |i: usize| {
-            let (p, q, r) = (ring[(i + n - 1) % n], ring[i], ring[(i + 1) % n]);
+            let (p, q, r) = (points[(i + n - 1) % n], points[i], points[(i + 1) % n]);
             let d = r - p;
             let len = d.length();
             if len > 0.0 { (d.perp_dot(q - p)).abs() / len } else { (q - p).length() }
         };
         let (a, b) = (k, (k + 1) % n);
-        let drop = if off(b) < off(a) { b } else { a };
-        ring.remove(drop);
+        // An open chain's ends stay: with more than two points, every edge has a corner
+        // between the ends.
+        let drop = if !closed && a == 0 {
+            b
+        } else if !closed && b == n - 1 {
+            a
+        } else if off(b) < off(a) {
+            b
+        } else {
+            a
+        };
+        points.remove(drop);
     }
-    ring
+    points
+}
+
+/// The junctions of a label image (objects' ids, `BACKGROUND`): the lattice vertices where
+/// three or more labels meet, the image's outside counting as one, and the saddles (two labels
+/// touching only at the corner). Two layers' rings that run together (an object's outline and
+/// the outline of all geometry, along the object's edge against the background) part only at
+/// a junction, where a third label begins, so a ring simplified between its junctions
+/// (`simplify_between`) gives every stretch two layers share the same edges in both.
+///
+/// Junctions joined by a boundary shorter than `reach` lattice steps are one point (a tight
+/// cluster where several objects meet): kept apart, each would pin an edge too short to read
+/// as a straight stroke (ART.md: runs of at least 1% of the diagonal), which no layer could
+/// merge away. Joined shortest boundary first, while the group's box stays within `reach`.
+pub struct Junctions {
+    /// The lattice's width (image width + 1).
+    stride: usize,
+    /// Junction vertices (y * stride + x), ascending.
+    at: Vec<usize>,
+    /// Each junction's group.
+    group: Vec<u32>,
+    /// Each group's point: the mean of its junctions.
+    point: Vec<DVec2>,
+}
+
+/// The labels around lattice vertex (x, y) (pixels up-left, up-right, down-left,
+/// down-right), None outside the image.
+fn around(labels: &[u32], w: usize, h: usize, x: i64, y: i64) -> [Option<u32>; 4] {
+    let at = |px: i64, py: i64| {
+        (px >= 0 && py >= 0 && (px as usize) < w && (py as usize) < h).then(|| labels[py as usize * w + px as usize])
+    };
+    [at(x - 1, y - 1), at(x, y - 1), at(x - 1, y), at(x, y)]
+}
+
+impl Junctions {
+    pub fn new(labels: &[u32], w: usize, h: usize, reach: f64) -> Junctions {
+        let stride = w + 1;
+        let is_junction = |x: i64, y: i64| {
+            // Inside the image most vertices have one label around them: settled by four reads.
+            if x > 0 && y > 0 && (x as usize) < w && (y as usize) < h {
+                let (i, j) = ((y as usize - 1) * w + x as usize, y as usize * w + x as usize);
+                let l = labels[i];
+                if labels[i - 1] == l && labels[j - 1] == l && labels[j] == l {
+                    return false;
+                }
+            }
+            let a = around(labels, w, h, x, y);
+            let distinct = (0..4).filter(|&i| !a[..i].contains(&a[i])).count();
+            distinct >= 3 || (distinct == 2 && a[0] == a[3] && a[1] == a[2])
+        };
+        let at: Vec<usize> = (0..=h)
+            .into_par_iter()
+            .flat_map_iter(|y| (0..=w).filter(move |&x| is_junction(x as i64, y as i64)).map(move |x| y * stride + x))
+            .collect();
+        let index = |x: i64, y: i64| at.binary_search(&(y as usize * stride + x as usize)).ok();
+        // Boundaries (between two labels) from each junction, walked up to `reach` steps: the
+        // short ones joining two junctions, (steps, from, to) in a deterministic order.
+        let steps = reach.floor().max(0.0) as usize;
+        let boundary = |x: i64, y: i64, d: usize| {
+            let a = around(labels, w, h, x, y);
+            // Right: between up-right and down-right; down: down-left and down-right; left:
+            // up-left and down-left; up: up-left and up-right.
+            match d {
+                0 => a[1] != a[3],
+                1 => a[2] != a[3],
+                2 => a[0] != a[2],
+                _ => a[0] != a[1],
+            }
+        };
+        let mut joins: Vec<(usize, u32, u32)> = at
+            .par_iter()
+            .enumerate()
+            .flat_map_iter(|(k, &v)| {
+                let (x0, y0) = ((v % stride) as i64, (v / stride) as i64);
+                (0..4).filter_map(move |d0| {
+                    if !boundary(x0, y0, d0) {
+                        return None;
+                    }
+                    let (mut x, mut y, mut d) = (x0, y0, d0);
+                    for n in 1..=steps {
+                        x += DIRS[d].0;
+                        y += DIRS[d].1;
+                        if let Some(j) = index(x, y) {
+                            return (j != k).then_some((n, k as u32, j as u32));
+                        }
+                        // Not a junction: exactly one other boundary edge leaves this vertex.
+                        let back = (d + 2) % 4;
+                        d = (0..4).find(|&e| e != back && boundary(x, y, e))?;
+                    }
+                    None
+                })
+            })
+            .collect();
+        joins.sort_unstable();
+        let mut parent: Vec<u32> = (0..at.len() as u32).collect();
+        let corner = |k: usize| DVec2::new((at[k] % stride) as f64, (at[k] / stride) as f64);
+        let mut boxes: Vec<(DVec2, DVec2)> = (0..at.len()).map(|k| (corner(k), corner(k))).collect();
+        for &(_, a, b) in &joins {
+            let (ra, rb) = (super::root(&mut parent, a), super::root(&mut parent, b));
+            if ra == rb {
+                continue;
+            }
+            let (lo, hi) =
+                (boxes[ra as usize].0.min(boxes[rb as usize].0), boxes[ra as usize].1.max(boxes[rb as usize].1));
+            if (hi - lo).max_element() > reach {
+                continue;
+            }
+            let (keep, gone) = (ra.min(rb), ra.max(rb));
+            parent[gone as usize] = keep;
+            boxes[keep as usize] = (lo, hi);
+        }
+        // Groups numbered by their first junction; each point the mean of its junctions.
+        let mut group = vec![u32::MAX; at.len()];
+        let (mut sum, mut count): (Vec<DVec2>, Vec<f64>) = (Vec::new(), Vec::new());
+        for k in 0..at.len() {
+            let r = super::root(&mut parent, k as u32) as usize;
+            if group[r] == u32::MAX {
+                group[r] = sum.len() as u32;
+                sum.push(DVec2::ZERO);
+                count.push(0.0);
+            }
+            let g = group[r];
+            group[k] = g;
+            sum[g as usize] += corner(k);
+            count[g as usize] += 1.0;
+        }
+        let point = sum.iter().zip(&count).map(|(s, c)| *s / *c).collect();
+        Junctions { stride, at, group, point }
+    }
+
+    /// The group of the junction at lattice vertex (x, y), if it is one.
+    fn group_at(&self, x: i64, y: i64) -> Option<u32> {
+        self.at.binary_search(&(y as usize * self.stride + x as usize)).ok().map(|k| self.group[k])
+    }
+}
+
+/// `simplify_ring` then `merge_short_edges` of a traced ring (corners on the pixel-corner
+/// lattice), split at every junction it passes (`Junctions`): each stretch between two
+/// junctions is simplified on its own with its ends kept, at its junctions' group points. A
+/// stretch of boundary two layers share is the same lattice path between the same two
+/// junctions in both, so it comes out the same in both, and the planes the layers cut meet on
+/// one line instead of leaving slivers and kinks between two simplifications of it (each
+/// within `tolerance`, on different sides). A stretch within one group no longer than `reach`
+/// steps is dropped (its ends are one point). A ring through no junction is simplified whole,
+/// as before (its start is its first vertex in scan order, the same in every layer).
+fn simplify_between(ring: &[DVec2], junctions: &Junctions, reach: f64, tolerance: f64, min_edge: f64) -> Vec<DVec2> {
+    let n = ring.len();
+    // The corners, and every junction along the edges between them: (point, group, lattice
+    // steps from the ring's start).
+    let mut points: Vec<(DVec2, Option<u32>, usize)> = Vec::with_capacity(n);
+    let mut walked = 0;
+    for k in 0..n {
+        let (p, q) = (ring[k], ring[(k + 1) % n]);
+        let (x0, y0) = (p.x as i64, p.y as i64);
+        let (dx, dy) = ((q.x as i64 - x0).signum(), (q.y as i64 - y0).signum());
+        let steps = (q.x as i64 - x0).abs().max((q.y as i64 - y0).abs());
+        for s in 0..steps {
+            let (x, y) = (x0 + dx * s, y0 + dy * s);
+            match junctions.group_at(x, y) {
+                Some(g) => points.push((junctions.point[g as usize], Some(g), walked)),
+                None if s == 0 => points.push((p, None, walked)),
+                None => {}
+            }
+            walked += 1;
+        }
+    }
+    let Some(first) = points.iter().position(|p| p.1.is_some()) else {
+        return merge_short_edges(simplify_ring(ring, tolerance), min_edge);
+    };
+    points.rotate_left(first);
+    let m = points.len();
+    let mut out = Vec::with_capacity(m);
+    let mut a = 0;
+    while a < m {
+        let b = (a + 1..m).find(|&i| points[i].1.is_some()).unwrap_or(m);
+        let end = points[b % m];
+        let length = (end.2 + if b == m { walked } else { 0 }) - points[a].2;
+        if end.1 == points[a].1 && length as f64 <= reach {
+            a = b;
+            continue;
+        }
+        let chain: Vec<DVec2> = (a..=b).map(|i| points[i % m].0).collect();
+        let all: Vec<usize> = (0..chain.len()).collect();
+        let mut keep = vec![false; chain.len()];
+        keep[0] = true;
+        keep[chain.len() - 1] = true;
+        dp(&chain, &all, tolerance, &mut keep);
+        let kept: Vec<DVec2> = (0..chain.len()).filter(|&i| keep[i]).map(|i| chain[i]).collect();
+        let merged = merge_short(kept, false, min_edge);
+        // The chain's end is the next one's start.
+        out.extend_from_slice(&merged[..merged.len() - 1]);
+        a = b;
+    }
+    out
 }
 
 /// Douglas-Peucker over `ring[chain[..]]`, marking kept points (iterative, no recursion depth).
@@ -393,23 +609,13 @@ pub fn layers(
     tolerance: f64,
     min_edge: f64,
 ) -> Vec<Layer> {
-    let mut result = Vec::new();
-    let simplify = |rings: Vec<Vec<DVec2>>| -> Layer {
-        Layer {
-            rings: rings
-                .iter()
-                .map(|r| merge_short_edges(simplify_ring(r, tolerance), min_edge))
-                .filter(|r| r.len() >= 3)
-                .collect(),
-        }
-    };
     if !labels.par_iter().any(|&l| l != BACKGROUND) {
-        return result;
+        return Vec::new();
     }
-    // Layer 0 beside the objects' layers (facet9, issue 14).
+    // Layer 0 beside the objects' layers (facet9, issue 14), each traced, then all simplified.
     let (first, objects) = rayon::join(
-        || simplify(trace_within_box(w, h, &|i| labels[i] != BACKGROUND, None)),
-        || -> Vec<Layer> {
+        || trace_within_box(w, h, &|i| labels[i] != BACKGROUND, None),
+        || -> Vec<Vec<Vec<DVec2>>> {
             // Objects by area (counted by rows in parallel), then, when two or more are large
             // enough to matter, with their mean depth (summed in pixel order, as ever).
             let areas = labels
@@ -465,14 +671,28 @@ pub fn layers(
                     let object = stats[k].0;
                     let nearer: Vec<u32> = stats[k + 1..].iter().map(|s| s.0).collect();
                     let inside = |i: usize| labels[i] == object || nearer.contains(&labels[i]);
-                    simplify(trace_within_box(w, h, &inside, Some(&|i: usize| labels[i] == object)))
+                    trace_within_box(w, h, &inside, Some(&|i: usize| labels[i] == object))
                 })
                 .collect()
         },
     );
-    result.push(first);
-    result.extend(objects);
-    result
+    // With object layers, their rings and layer 0's are simplified between the junctions of
+    // the labels (`simplify_between`), so the outline they share is one line; alone, layer 0
+    // is simplified ring by ring.
+    let junctions = (!objects.is_empty()).then(|| Junctions::new(labels, w, h, min_edge));
+    let simplify = |ring: &Vec<DVec2>| {
+        if let Some(j) = &junctions {
+            simplify_between(ring, j, min_edge, tolerance, min_edge)
+        } else {
+            merge_short_edges(simplify_ring(ring, tolerance), min_edge)
+        }
+    };
+    std::iter::once(first)
+        .chain(objects)
+        .collect::<Vec<_>>()
+        .par_iter()
+        .map(|rings| Layer { rings: rings.iter().map(simplify).filter(|r| r.len() >= 3).collect() })
+        .collect()
 }
 
 #[cfg(test)]
@@ -706,5 +926,128 @@ mod tests {
         // The far object (7) with the near one in front of it: 14 x 6 pixels; the near one 6 x 6.
         assert!((area(&l[1].rings).abs() - 84.0).abs() < 1e-9, "{}", area(&l[1].rings));
         assert!((area(&l[2].rings).abs() - 36.0).abs() < 1e-9);
+    }
+
+    /// Three objects: C (farthest) a box at the left, A a slanted blob touching C, B (nearest)
+    /// a disc over A's right side; the background around them. Depth by label.
+    fn three_objects(w: usize, h: usize) -> (Vec<u32>, Vec<f32>) {
+        let mut labels = vec![BACKGROUND; w * h];
+        let mut depth = vec![f32::INFINITY; w * h];
+        for y in 0..h {
+            for x in 0..w {
+                let (xf, yf) = (x as f64, y as f64);
+                let i = y * w + x;
+                let (l, t) = if (xf - 78.0).powi(2) + (yf - 40.0).powi(2) < 18.0f64.powi(2) {
+                    (2, 1.0)
+                } else if yf > 12.0 + 0.3 * xf && yf < 70.0 - 0.2 * xf && xf > 20.0 && xf < 90.0 {
+                    (1, 2.0)
+                } else if (6..24).contains(&x) && (18..62).contains(&y) {
+                    (0, 3.0)
+                } else {
+                    continue;
+                };
+                labels[i] = l;
+                depth[i] = t;
+            }
+        }
+        (labels, depth)
+    }
+
+    fn segments(layer: &Layer) -> Vec<(DVec2, DVec2)> {
+        layer.rings.iter().flat_map(|r| (0..r.len()).map(move |k| (r[k], r[(k + 1) % r.len()]))).collect()
+    }
+
+    /// Where two layers' outlines run together (A with B in front of it, and all geometry,
+    /// along their edge against the background), they are simplified alike: every edge of the
+    /// A-and-B layer away from C is an edge of layer 0, so the planes they cut meet on one
+    /// line. Simplified ring by ring (as before), the same stretch came out differently.
+    #[test]
+    fn layers_share_the_outline_they_run_along() {
+        let (w, h) = (110, 80);
+        let (labels, depth) = three_objects(w, h);
+        let (tolerance, min_edge) = (1.5, 5.0);
+        let l = layers(&labels, &depth, w, h, 50, tolerance, min_edge);
+        // Layer 0, then far to near: C (with everything in front: all of it), A (with B), B.
+        assert_eq!(l.len(), 4);
+        let (all, a_and_b) = (segments(&l[0]), segments(&l[2]));
+        let away_from_c = |p: DVec2| p.x > 24.0 + min_edge;
+        let along: Vec<_> = a_and_b.iter().filter(|(p, q)| away_from_c(*p) && away_from_c(*q)).collect();
+        assert!(along.len() >= 6, "{along:?}");
+        for s in &along {
+            assert!(all.contains(s), "{s:?} is not an edge of layer 0: {all:?}");
+        }
+        // The same rings simplified whole do not share their edges there.
+        let whole = |inside: &dyn Fn(usize) -> bool| -> Vec<(DVec2, DVec2)> {
+            let mask: Vec<bool> = (0..w * h).map(inside).collect();
+            let rings =
+                trace(&mask, w, h).iter().map(|r| merge_short_edges(simplify_ring(r, tolerance), min_edge)).collect();
+            segments(&Layer { rings })
+        };
+        let (all, a_and_b) = (whole(&|i| labels[i] != BACKGROUND), whole(&|i| labels[i] == 1 || labels[i] == 2));
+        let shared =
+            a_and_b.iter().filter(|(p, q)| away_from_c(*p) && away_from_c(*q) && all.contains(&(*p, *q))).count();
+        let along = a_and_b.iter().filter(|(p, q)| away_from_c(*p) && away_from_c(*q)).count();
+        assert!(shared < along, "simplified whole, {shared} of {along} edges shared");
+        // Every ring still encloses its mask's area within the tolerance.
+        for (k, inside) in [
+            (0usize, &(|l: u32| l != BACKGROUND) as &dyn Fn(u32) -> bool),
+            (2, &|l: u32| l == 1 || l == 2),
+            (3, &|l: u32| l == 2),
+        ] {
+            let pixels = labels.iter().filter(|&&l| inside(l)).count() as f64;
+            let ring_area = area(&l[k].rings).abs();
+            assert!((ring_area - pixels).abs() < 0.06 * pixels, "layer {k}: {ring_area} against {pixels}");
+        }
+    }
+
+    /// Junctions a short boundary apart are one point (their boundary is no edge); farther
+    /// apart, or with a shorter reach, each keeps its own.
+    #[test]
+    fn junctions_a_short_boundary_apart_are_one() {
+        // Background, object 1 on the left, object 2 a band in rows 3..5 from it to column 10:
+        // the band's two corners on the left are junctions (1, 2, background) 2 apart, those on
+        // the right plain corners; the image's edge meets object 1's boundary at two more.
+        let (w, h) = (12, 8);
+        let mut labels = vec![BACKGROUND; w * h];
+        for y in 0..h {
+            for x in 0..w {
+                if x < 5 {
+                    labels[y * w + x] = 1;
+                } else if (3..5).contains(&y) && x < 10 {
+                    labels[y * w + x] = 2;
+                }
+            }
+        }
+        let group = |j: &Junctions, x: i64, y: i64| j.group_at(x, y).unwrap_or_else(|| panic!("({x}, {y})"));
+        let near = Junctions::new(&labels, w, h, 3.0);
+        assert_eq!(group(&near, 5, 3), group(&near, 5, 5));
+        assert_eq!(near.point[group(&near, 5, 3) as usize], DVec2::new(5.0, 4.0));
+        assert_ne!(group(&near, 5, 3), group(&near, 5, 0), "3 steps, but a group within 3 x 3");
+        assert_ne!(group(&near, 5, 0), group(&near, 5, 8), "8 steps along object 1: apart");
+        assert!(near.group_at(8, 3).is_none() && near.group_at(10, 3).is_none() && near.group_at(2, 2).is_none());
+        let short = Junctions::new(&labels, w, h, 1.0);
+        assert_ne!(group(&short, 5, 3), group(&short, 5, 5));
+        // The band's ring: its edges from the left junctions' one point to its right corners,
+        // but no edge between the two junctions.
+        let band: Vec<bool> = labels.iter().map(|&l| l == 2).collect();
+        let rings = trace(&band, w, h);
+        assert_eq!(rings.len(), 1);
+        let ring = simplify_between(&rings[0], &near, 3.0, 0.5, 1.0);
+        assert!(ring.contains(&DVec2::new(5.0, 4.0)), "{ring:?}");
+        assert!(!ring.contains(&DVec2::new(5.0, 3.0)) && !ring.contains(&DVec2::new(5.0, 5.0)), "{ring:?}");
+        assert!(ring.contains(&DVec2::new(10.0, 3.0)) && ring.contains(&DVec2::new(10.0, 5.0)), "{ring:?}");
+        assert_eq!(ring.len(), 3, "{ring:?}");
+    }
+
+    /// An open chain's short edges merge like a ring's, but its two ends stay.
+    #[test]
+    fn a_chain_keeps_its_ends_when_short_edges_merge() {
+        let chain: Vec<DVec2> =
+            [(0.0, 0.0), (1.0, 0.5), (10.0, 1.0), (20.0, 0.0), (21.0, 0.4)].map(|(x, y)| DVec2::new(x, y)).to_vec();
+        let merged = merge_short(chain.clone(), false, 5.0);
+        assert_eq!((merged[0], *merged.last().unwrap()), (chain[0], chain[4]), "{merged:?}");
+        assert!(merged.windows(2).all(|e| (e[1] - e[0]).length() >= 5.0), "{merged:?}");
+        // Two points stay two points, however short.
+        assert_eq!(merge_short(chain[..2].to_vec(), false, 5.0).len(), 2);
     }
 }
