@@ -77,9 +77,16 @@ pub const RUN_SHARE: f64 = 0.04;
 /// Specks of one object (or holes in it) smaller than this share of the canvas are merged into
 /// their surroundings before tracing.
 pub const SPECK_SHARE: f64 = 0.0004;
+/// Parts of the subject thinner than this share of the image diagonal on average, bordering
+/// other parts more than the background, are painted with the part they border most
+/// (`outlines::clean_labels`).
+pub const THIN_WIDTH: f64 = 0.007;
 /// An object gets its own outline layer (besides the outline of all geometry) from this share
-/// of the canvas, when at least two objects are that large.
-pub const OBJECT_SHARE: f64 = 0.01;
+/// of the canvas, when at least two objects are that large. Each layer's outline crosses the
+/// planes it passes, and every crossing pins a junction: at 1% a scatter of thirty small
+/// objects was cut into slivers (straight runs 96.5%, five seeds); at 2%, 97.1%, with the
+/// still life's jug, bottle, guitar, bowl and table each still cut along its own outline.
+pub const OBJECT_SHARE: f64 = 0.02;
 /// A plane smaller than (this share of the image diagonal)^2, or thinner on average than
 /// `MIN_WIDTH` of the diagonal, joins a neighbour: its edges would be too short to read as
 /// straight runs (ART.md: runs of at least 1% of the diagonal) or it would read as a crack.
@@ -134,7 +141,7 @@ pub fn prepare(input: &PlanesInput, outlines: bool) -> Prepared {
             }
             let mut labels: Vec<u32> =
                 hits.par_iter().map(|h| if h.is_hit() { h.object } else { outlines::BACKGROUND }).collect();
-            outlines::clean_labels(&mut labels, w, h, ((SPECK_SHARE * n as f64) as usize).max(4));
+            outlines::clean_labels(&mut labels, w, h, ((SPECK_SHARE * n as f64) as usize).max(4), THIN_WIDTH * diag);
             let depth: Vec<f32> = hits.par_iter().map(|h| h.t).collect();
             outlines::layers(
                 &labels,

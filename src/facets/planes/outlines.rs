@@ -136,22 +136,48 @@ fn components_by_flood(labels: &[u32], w: usize, h: usize) -> (Vec<u32>, Vec<(u3
 }
 
 /// Merges every component smaller than `min_area` pixels into the neighbouring value it
-/// touches most (ties: the lower value), so specks and pinholes make no plane of their own.
-pub fn clean_labels(labels: &mut [u32], w: usize, h: usize, min_area: usize) {
-    if min_area <= 1 {
+/// touches most (ties: the lower value), so specks and pinholes make no plane of their own;
+/// and every component thinner than `min_width` pixels on average (twice its area over its
+/// border with other components) whose most touched neighbour is an object, not the
+/// background: a window's frame, a rim, a seam between two parts is painted with the part it
+/// borders most, instead of as a strip between two outlines a few pixels apart (a sliver of a
+/// plane, and junctions every few pixels along it). A thin part against the background (a
+/// pole, a stem) keeps its outline.
+pub fn clean_labels(labels: &mut [u32], w: usize, h: usize, min_area: usize, min_width: f64) {
+    if min_area <= 1 && min_width <= 0.0 {
         return;
     }
     let grid = Grid { width: w, height: h };
     let (comp, info) = components(labels, w, h);
+    // Each component's border with other components, in pixel edges.
+    let mut border = vec![0usize; info.len()];
+    if min_width > 0.0 {
+        for y in 0..h {
+            for x in 0..w {
+                let c = comp[y * w + x] as usize;
+                for j in
+                    [(x + 1 < w).then(|| y * w + x + 1), (y + 1 < h).then(|| (y + 1) * w + x)].into_iter().flatten()
+                {
+                    let d = comp[j] as usize;
+                    if d != c {
+                        border[c] += 1;
+                        border[d] += 1;
+                    }
+                }
+            }
+        }
+    }
     let small: Vec<bool> = info.iter().map(|&(_, a)| a < min_area).collect();
-    if !small.contains(&true) {
+    let thin: Vec<bool> =
+        info.iter().zip(&border).map(|(&(_, a), &b)| b > 0 && 2.0 * a as f64 / (b as f64) < min_width).collect();
+    if !small.contains(&true) && !thin.contains(&true) {
         return;
     }
-    // For each small component, count the neighbouring pixels of other values.
+    // For each small or thin component, count the neighbouring pixels of other values.
     let mut touches: Vec<Vec<(u32, u32)>> = vec![Vec::new(); info.len()];
     for i in 0..labels.len() {
         let c = comp[i] as usize;
-        if !small[c] {
+        if !small[c] && !thin[c] {
             continue;
         }
         let mut count = |j: usize| {
@@ -166,13 +192,16 @@ pub fn clean_labels(labels: &mut [u32], w: usize, h: usize, min_area: usize) {
         };
         grid.neighbours4(i).for_each(&mut count);
     }
-    let target: Vec<Option<u32>> =
-        touches.iter().map(|t| t.iter().max_by(|a, b| a.1.cmp(&b.1).then(b.0.cmp(&a.0))).map(|e| e.0)).collect();
+    let target: Vec<Option<u32>> = touches
+        .iter()
+        .enumerate()
+        .map(|(c, t)| {
+            let most = t.iter().max_by(|a, b| a.1.cmp(&b.1).then(b.0.cmp(&a.0))).map(|e| e.0)?;
+            (small[c] || most != BACKGROUND).then_some(most)
+        })
+        .collect();
     for i in 0..labels.len() {
-        let c = comp[i] as usize;
-        if small[c]
-            && let Some(v) = target[c]
-        {
+        if let Some(v) = target[comp[i] as usize] {
             labels[i] = v;
         }
     }
@@ -901,7 +930,7 @@ mod tests {
         }
         labels[5 * w + 8] = 2; // a one-pixel speck of object 2 on the background
         labels[2 * w + 2] = BACKGROUND; // a pinhole in object 1
-        clean_labels(&mut labels, w, h, 3);
+        clean_labels(&mut labels, w, h, 3, 0.0);
         assert_eq!(labels[5 * w + 8], BACKGROUND);
         assert_eq!(labels[2 * w + 2], 1);
     }
@@ -1049,5 +1078,41 @@ mod tests {
         assert!(merged.windows(2).all(|e| (e[1] - e[0]).length() >= 5.0), "{merged:?}");
         // Two points stay two points, however short.
         assert_eq!(merge_short(chain[..2].to_vec(), false, 5.0).len(), 2);
+    }
+
+    /// A thin frame between a window and a body goes to the part it borders most; a thin pole
+    /// against the background keeps its outline; a thick part is left alone.
+    #[test]
+    fn thin_parts_between_objects_join_a_neighbour() {
+        let (w, h) = (40, 30);
+        let mut labels = vec![BACKGROUND; w * h];
+        for y in 0..h {
+            for x in 0..w {
+                let i = y * w + x;
+                if (2..28).contains(&x) && (2..28).contains(&y) {
+                    // The body (1), a window (2) in it, framed 2 px wide (3).
+                    labels[i] = if (8..22).contains(&x) && (8..22).contains(&y) {
+                        2
+                    } else if (6..24).contains(&x) && (6..24).contains(&y) {
+                        3
+                    } else {
+                        1
+                    };
+                } else if (33..35).contains(&x) && (3..27).contains(&y) {
+                    labels[i] = 4; // a pole, 2 px wide
+                }
+            }
+        }
+        let mut cleaned = labels.clone();
+        clean_labels(&mut cleaned, w, h, 3, 5.0);
+        // The frame (outer ring 18 x 18, inner 14 x 14: 128 pixels, bordering the body on 72
+        // edges and the window on 56) joins the body.
+        assert!(!cleaned.contains(&3));
+        assert!((0..w * h).all(|i| labels[i] != 3 || cleaned[i] == 1));
+        assert!((0..w * h).all(|i| labels[i] == 3 || cleaned[i] == labels[i]), "only the frame changes");
+        // Thinner than a width of 1: nothing is thin.
+        let mut kept = labels.clone();
+        clean_labels(&mut kept, w, h, 3, 1.0);
+        assert_eq!(kept, labels);
     }
 }
