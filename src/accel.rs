@@ -13,6 +13,7 @@ use obvhs::{BvhBuildParams, ray::Ray, triangle::Triangle};
 use rayon::prelude::*;
 
 use crate::scene::World;
+use crate::scene::backdrop::Backdrop;
 use crate::scene::world::Geometry;
 use crate::util::hash::update_words;
 use crate::util::sort::sort_by_buckets;
@@ -963,9 +964,18 @@ struct Instance {
     first_triangle: u32,
     /// Render space -> base space; None: the identity (the geometry is baked for this object).
     to_base: Option<Affine3A>,
+    /// A backdrop's plane (`scene::backdrop`): rays starting behind it pass through it.
+    backdrop: Option<Backdrop>,
 }
 
 impl Instance {
+    /// Whether a ray starting at `origin` (render space) passes through this instance: a
+    /// backdrop has the subject's side only.
+    #[inline(always)]
+    fn skipped_from(&self, origin: Vec3A) -> bool {
+        self.backdrop.is_some_and(|b| b.behind(Vec3::from(origin)))
+    }
+
     /// The render-space ray `world` in this instance's base space.
     #[inline(always)]
     fn ray(&self, world: &LocalRay) -> LocalRay {
@@ -1199,13 +1209,17 @@ impl Accel {
                 object: i as u32,
                 first_triangle: o.first_triangle,
                 to_base: o.placement.map(|p| p.to_base),
+                backdrop: world.backdrops.iter().find(|b| b.object == i).copied(),
             });
             boxes.push(aabb);
         }
         // The baked objects, in ascending triangle ids, while they fit under the cap.
         let mut grouped = Vec::new();
         let mut total = 0;
-        let mut by_id: Vec<usize> = (0..instances.len()).filter(|&k| instances[k].to_base.is_none()).collect();
+        // (A backdrop keeps its own instance: rays behind it skip it.)
+        let mut by_id: Vec<usize> = (0..instances.len())
+            .filter(|&k| instances[k].to_base.is_none() && instances[k].backdrop.is_none())
+            .collect();
         by_id.sort_by_key(|&k| instances[k].first_triangle);
         for k in by_id {
             let n = self.blas[instances[k].blas as usize].tris.len();
@@ -1223,7 +1237,13 @@ impl Accel {
                 grouped.iter().for_each(|&k| out[k] = true);
                 (instances, boxes) =
                     instances.into_iter().zip(boxes).zip(out).filter(|(_, out)| !out).map(|(pair, _)| pair).unzip();
-                instances.push(Instance { blas: GROUP, object: GROUP, first_triangle: 0, to_base: None });
+                instances.push(Instance {
+                    blas: GROUP,
+                    object: GROUP,
+                    first_triangle: 0,
+                    to_base: None,
+                    backdrop: None,
+                });
                 boxes.push(group.blas.bounds);
             }
         }
@@ -1331,6 +1351,9 @@ impl Accel {
         let mut best: Option<Hit> = None;
         traverse_closest(tlas, Ray::new(world.o, world.d, tmin, tmax), |r, slot| {
             let inst = &self.instances[slot];
+            if inst.skipped_from(world.o) {
+                return f32::INFINITY;
+            }
             let before = best.map(|b| (b.t, b.tri));
             self.blas_of(inst).closest(&inst.ray(&world), tmin, r.tmax, inst.first_triangle, inst.object, &mut best);
             match best {
@@ -1394,6 +1417,15 @@ impl Accel {
         tlas.traverse4(o, inv, &obvh, &mut limit, |first, count, lanes, limit| {
             for slot in first..first + count {
                 let inst = &self.instances[slot as usize];
+                let lanes = match inst.backdrop {
+                    Some(_) => (0..4)
+                        .filter(|&l| lanes & (1 << l) != 0 && !inst.skipped_from(world[l].o))
+                        .fold(0, |m, l| m | 1 << l),
+                    None => lanes,
+                };
+                if lanes == 0 {
+                    continue;
+                }
                 let before = best.map(|b| b.map(|b| (b.t, b.tri)));
                 let blas = self.blas_of(inst);
                 if inst.to_base.is_none() {
@@ -1432,6 +1464,9 @@ impl Accel {
         let world = LocalRay::new(Vec3A::from(origin), Vec3A::from(dir));
         !traverse_miss(tlas, Ray::new(world.o, world.d, tmin, tmax), |_, slot| {
             let inst = &self.instances[slot];
+            if inst.skipped_from(world.o) {
+                return f32::INFINITY;
+            }
             self.blas_of(inst).any_hit(&inst.ray(&world), tmin, tmax).unwrap_or(f32::INFINITY)
         })
     }
@@ -1725,5 +1760,51 @@ mod tests {
             assert!(h.tri < 12, "a copy won: {h:?}");
             assert!(a.occluded(o, dir, 0.0, 10.0));
         }
+    }
+
+    /// A backdrop (`scene::backdrop`) has its subject's side only: a ray from below the floor
+    /// passes through it to the box above, or to nothing; from above it lands on the floor; the
+    /// same hits one by one and in packets, and for shadow rays.
+    #[test]
+    fn rays_from_behind_a_backdrop_pass_through_it() {
+        use crate::scene::default::cuboid;
+        use crate::scene::{Material, Object, Scene};
+        use glam::{DMat4, DVec3};
+        let mut s = Scene::default();
+        s.materials.push(Material::default());
+        s.meshes.push(cuboid("floor", Vec3::new(20.0, 0.01, 20.0), 0));
+        s.meshes.push(cuboid("box", Vec3::ONE, 0));
+        for (mesh, y) in [(0, -0.005), (1, 1.0)] {
+            s.objects.push(Object {
+                name: "o".into(),
+                mesh,
+                transform: DMat4::from_translation(DVec3::new(0.0, y, 0.0)),
+            });
+        }
+        let world = World::new(&s);
+        assert_eq!(world.backdrops.len(), 1);
+        let accel = Accel::new(&world);
+        let at = |x: f64, y: f64, z: f64| world.to_render.point(DVec3::new(x, y, z));
+        let up = (at(0.0, 1.0, 0.0) - at(0.0, 0.0, 0.0)).normalize();
+        // From below, under the box: the box's bottom face, not the floor's.
+        let hit = accel.closest(at(0.0, -3.0, 0.0), up, 0.0, f32::INFINITY).expect("the box");
+        assert_eq!(world.object_of(hit.tri), 1);
+        // From below, beside the box: nothing.
+        assert!(accel.closest(at(4.0, -3.0, 0.0), up, 0.0, f32::INFINITY).is_none());
+        assert!(!accel.occluded(at(4.0, -3.0, 0.0), up, 0.0, f32::INFINITY));
+        // From above, beside the box: the floor.
+        let hit = accel.closest(at(4.0, 3.0, 0.0), -up, 0.0, f32::INFINITY).expect("the floor");
+        assert_eq!(world.object_of(hit.tri), 0);
+        assert!(accel.occluded(at(4.0, 3.0, 0.0), -up, 0.0, f32::INFINITY));
+        // Packets mixing both sides: the same hits as one by one.
+        let rays =
+            [(at(0.0, -3.0, 0.0), up), (at(4.0, 3.0, 0.0), -up), (at(0.1, -3.0, 0.1), up), (at(4.1, -3.0, 0.1), up)];
+        let alone: Vec<_> = rays.iter().map(|&(o, d)| accel.closest(o, d, 0.0, f32::INFINITY)).collect();
+        assert_eq!(accel.closest4(&rays, 0.0, f32::INFINITY).to_vec(), alone);
+        let below =
+            [(at(0.0, -3.0, 0.0), up), (at(0.1, -3.0, 0.0), up), (at(0.0, -3.0, 0.1), up), (at(4.0, -3.0, 0.0), up)];
+        let alone: Vec<_> = below.iter().map(|&(o, d)| accel.closest(o, d, 0.0, f32::INFINITY)).collect();
+        assert_eq!(accel.closest4(&below, 0.0, f32::INFINITY).to_vec(), alone);
+        assert!(alone[..3].iter().all(|h| h.is_some_and(|h| world.object_of(h.tri) == 1)) && alone[3].is_none());
     }
 }

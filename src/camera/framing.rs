@@ -18,6 +18,7 @@
 
 use glam::DVec3;
 
+use super::subject::Subject;
 use super::{Camera, CameraFrame, CameraKind, Cylindrical, Orthographic, Perspective, Planar, Spherical, compose};
 use crate::accel::Accel;
 use crate::error::{Error, Result};
@@ -112,13 +113,6 @@ impl Framed {
         }
         s
     }
-}
-
-/// Scene vertices (a bounded sample) in render space; non-finite ones (never hit) skipped.
-fn sample_points(world: &World, samples: usize) -> Vec<DVec3> {
-    let n = world.triangle_count() * 3;
-    let step = n.div_ceil(samples).max(1);
-    (0..n).step_by(step).map(|k| world.corner(k)).filter(|p| p.is_finite()).map(|p| p.as_dvec3()).collect()
 }
 
 /// Angles (horizontal, vertical) from the view axis at which a camera with focal centre `c`
@@ -369,9 +363,10 @@ enum Search {
 /// guarded against a part magnified near C (`NearGuard`); again the fullest is kept when it fills
 /// clearly more. Scenes the first round fills keep their camera.
 pub fn frame_camera(params: &FramingParams, world: &World, accel: &Accel) -> Result<Framed> {
-    let (framed, fill) = first_round(params, world, accel)?;
+    let subject = Subject::new(world, FIT_SAMPLES, COARSE_SAMPLES);
+    let (framed, fill) = first_round(params, world, accel, &subject)?;
     match fill {
-        Some(fill) if fill < FILL_FLOOR => second_round(params, world, accel, (framed, fill)),
+        Some(fill) if fill < FILL_FLOOR => second_round(params, world, accel, &subject, (framed, fill)),
         _ => Ok(framed),
     }
 }
@@ -379,8 +374,13 @@ pub fn frame_camera(params: &FramingParams, world: &World, accel: &Accel) -> Res
 /// The front composition and, when it fills under `FILL_FLOOR` and the view is the renderer's
 /// own, the raised view and the broad side (`frame_camera`), with the fill of the composition
 /// chosen (None: not the renderer's own composed view, so no other view is tried).
-fn first_round(params: &FramingParams, world: &World, accel: &Accel) -> Result<(Framed, Option<f64>)> {
-    let (front, composition) = frame_view(params, world, accel, View::FRONT, Search::Full)?;
+fn first_round(
+    params: &FramingParams,
+    world: &World,
+    accel: &Accel,
+    subject: &Subject,
+) -> Result<(Framed, Option<f64>)> {
+    let (front, composition) = frame_view(params, world, accel, subject, View::FRONT, Search::Full)?;
     let own_view = params.position.is_none() && params.target.is_none() && world.camera.is_none();
     let fill = match composition {
         Some(k) if own_view && k.fill < FILL_FLOOR => k.fill,
@@ -389,8 +389,7 @@ fn first_round(params: &FramingParams, world: &World, accel: &Accel) -> Result<(
     };
     let mut views = vec![View { tilt: RAISED_VIEW_DEG.to_radians(), ..View::FRONT }];
     let up = params.up.map(DVec3::from).and_then(|u| u.try_normalize()).unwrap_or(DVec3::Y);
-    let coarse = sample_points(world, COARSE_SAMPLES);
-    let broad = broad_side_yaw(&coarse, up);
+    let broad = broad_side_yaw(subject.points(true), up);
     if let Some(yaw) = broad {
         // Both faces of the broad side: a converging camera magnifies the parts nearest its
         // focal centre, behind the subject, so an arm reaching out fills less from behind.
@@ -404,16 +403,21 @@ fn first_round(params: &FramingParams, world: &World, accel: &Accel) -> Result<(
             }
         }
     }
-    let (framed, fill) = best_view(params, world, accel, &views, (front, fill))?;
+    let (framed, fill) = best_view(params, world, accel, subject, &views, (front, fill))?;
     Ok((framed, Some(fill)))
 }
 
 /// `frame_camera`'s second round, for a composition `current` (camera, fill) the first round
 /// left under `FILL_FLOOR`.
-fn second_round(params: &FramingParams, world: &World, accel: &Accel, current: (Framed, f64)) -> Result<Framed> {
+fn second_round(
+    params: &FramingParams,
+    world: &World,
+    accel: &Accel,
+    subject: &Subject,
+    current: (Framed, f64),
+) -> Result<Framed> {
     let up = params.up.map(DVec3::from).and_then(|u| u.try_normalize()).unwrap_or(DVec3::Y);
-    let coarse = sample_points(world, COARSE_SAMPLES);
-    let broad = broad_side_yaw(&coarse, up);
+    let broad = broad_side_yaw(subject.points(true), up);
     // Second round, only for what the first left under the floor (so every scene it already
     // composes to 40% keeps its camera): the oblique views, and C placed from the subject's
     // bulk instead of its bounding sphere's centre.
@@ -435,10 +439,10 @@ fn second_round(params: &FramingParams, world: &World, accel: &Accel, current: (
         yaws.extend([yaw, opposite(yaw)]);
     }
     // (Turned or not, the centroid's axis is the centre's when the centroid is at the centre.)
-    if centroid_axis(&coarse, DVec3::ZERO).is_some() {
+    if centroid_axis(subject.points(true), DVec3::ZERO, subject.centre).is_some() {
         views.extend(yaws.into_iter().map(|yaw| View { yaw, centroid: true, guarded: true, ..View::FRONT }));
     }
-    Ok(best_view(params, world, accel, &views, current)?.0)
+    Ok(best_view(params, world, accel, subject, &views, current)?.0)
 }
 
 /// The turn opposite `yaw` (the other face of the same side), within -180..180 deg.
@@ -454,13 +458,14 @@ fn best_view(
     params: &FramingParams,
     world: &World,
     accel: &Accel,
+    subject: &Subject,
     views: &[View],
     current: (Framed, f64),
 ) -> Result<(Framed, f64)> {
     let fill = current.1;
     let mut best: Option<(View, CameraKind, compose::Composition)> = None;
     for &view in views {
-        let (framed, k) = frame_view(params, world, accel, view, Search::Coarse)?;
+        let (framed, k) = frame_view(params, world, accel, subject, view, Search::Coarse)?;
         if let Some(k) = k
             && best.is_none_or(|(_, _, b)| k.fill > b.fill)
         {
@@ -472,24 +477,24 @@ fn best_view(
         return Ok(current);
     }
     let view = View { kind: Some(kind), ..view };
-    let (other, k) = frame_view(params, world, accel, view, Search::Only(coarse.candidate))?;
+    let (other, k) = frame_view(params, world, accel, subject, view, Search::Only(coarse.candidate))?;
     Ok(match k {
         Some(k) if k.fill * compose::NEAR_BEST > fill => (other, k.fill),
         _ => current,
     })
 }
 
-/// The point level with the scene's centre (render space: the origin) on the line along
-/// `forward` (a unit vector, or zero: the centroid itself) through the centroid of `points`; None when it is within `CENTROID_OFFSET`
-/// (render units, the scene's radius being about 1) of the centre, where it would change
-/// nothing.
-fn centroid_axis(points: &[DVec3], forward: DVec3) -> Option<DVec3> {
+/// The point level with the subject's `centre` (render space: the origin, without backdrops)
+/// on the line along `forward` (a unit vector, or zero: the centroid itself) through the
+/// centroid of `points`; None when it is within `CENTROID_OFFSET` (render units, the scene's
+/// radius being about 1) of the centre, where it would change nothing.
+fn centroid_axis(points: &[DVec3], forward: DVec3, centre: DVec3) -> Option<DVec3> {
     if points.is_empty() {
         return None;
     }
     let c = points.iter().copied().sum::<DVec3>() / points.len() as f64;
-    let a = c - forward * c.dot(forward);
-    (a.is_finite() && a.length() > CENTROID_OFFSET).then_some(a)
+    let a = c - forward * (c - centre).dot(forward);
+    (a.is_finite() && (a - centre).length() > CENTROID_OFFSET).then_some(a)
 }
 
 /// Below this distance (render units) from the scene's centre, the centroid's axis is the
@@ -525,6 +530,7 @@ fn frame_view(
     params: &FramingParams,
     world: &World,
     accel: &Accel,
+    subject: &Subject,
     view: View,
     search: Search,
 ) -> Result<(Framed, Option<compose::Composition>)> {
@@ -532,8 +538,10 @@ fn frame_view(
     let mut warnings = Vec::new();
     let aspect = params.width as f64 / params.height as f64;
     let sim = world.to_render;
-    let radius = (world.radius as f64).max(1e-9);
-    let clip = radius * 1.001;
+    // The scene's sphere bounds every ray; the subject's (the scene without its backdrops,
+    // `Subject`) is what the cameras are framed around.
+    let clip = (world.radius as f64).max(1e-9) * 1.001;
+    let (centre, radius) = (subject.centre, subject.radius);
     let scene_cam = world.camera.as_ref();
 
     // 1. The view frame: explicit parameters, else the scene's camera, else looking down -Z.
@@ -570,11 +578,11 @@ fn frame_view(
         (None, None) => scene_cam.map(|c| c.position),
     };
     // The point of the view axis level with the scene's centre: C is placed from here.
-    let points = sample_points(world, if search == Search::Coarse { COARSE_SAMPLES } else { FIT_SAMPLES });
+    let points = subject.points(search == Search::Coarse);
     let axis = match given_position {
-        Some(p) => p + fwd * (DVec3::ZERO - p).dot(fwd),
-        None if centroid => centroid_axis(&points, fwd).unwrap_or(DVec3::ZERO),
-        None => DVec3::ZERO,
+        Some(p) => p + fwd * (centre - p).dot(fwd),
+        None if centroid => centroid_axis(points, fwd, centre).unwrap_or(centre),
+        None => centre,
     };
     let extent = |v: DVec3| {
         let (lo, hi) =
@@ -625,7 +633,7 @@ fn frame_view(
                 (Some(f), _) => f,
                 (None, Some(p)) => (c - p).length().max(1e-9),
                 // Rays start on a sphere enclosing the scene.
-                (None, None) => c.length() + 1.5 * radius,
+                (None, None) => (c - centre).length() + 1.5 * radius,
             };
             // `compose` fits C and the spans together when the angle is the renderer's to
             // choose; a given ambiguity, or a user's focus from a user's camera, is framed as
@@ -666,11 +674,11 @@ fn frame_view(
             let margin = params.fill.unwrap_or(compose::COMPOSE_FILL);
             let run = |kind: CameraKind| match search {
                 Search::Only(i) => {
-                    compose::compose_candidate(&points, kind, &frame, axis, aspect, radius, margin, i, &|k| {
+                    compose::compose_candidate(points, kind, &frame, axis, aspect, radius, margin, i, &|k| {
                         fill_of(kind, k)
                     })
                 }
-                _ => compose::compose(&points, kind, &frame, axis, aspect, radius, margin, &|k| fill_of(kind, k)),
+                _ => compose::compose(points, kind, &frame, axis, aspect, radius, margin, &|k| fill_of(kind, k)),
             };
             let composed = composing.then(|| {
                 let first = run(kind);
@@ -692,7 +700,7 @@ fn frame_view(
             let framed_c = || match (params.framing, composed) {
                 (_, Some(k)) => k.centre,
                 (Framing::Centre, _) => axis,
-                _ => axis + fwd * fit_depth(&points, kind, &frame, axis, half, radius, fit_fill),
+                _ => axis + fwd * fit_depth(points, kind, &frame, axis, half, radius, fit_fill),
             };
             let (alpha, alpha_y, band) = match composed {
                 Some(k) => (k.angle_x, k.angle_y, Some(k.height)),
@@ -742,7 +750,7 @@ fn frame_view(
                 let fp = match params.framing {
                     Framing::Centre => axis,
                     Framing::Fit | Framing::Compose => {
-                        axis + fwd * fit_depth(&points, kind, &frame, axis, half, radius, fit_fill)
+                        axis + fwd * fit_depth(points, kind, &frame, axis, half, radius, fit_fill)
                     }
                 };
                 match size_setting {
@@ -769,10 +777,10 @@ fn frame_view(
             let p = given_position.unwrap_or_else(|| {
                 // The bounding sphere's outline fills `fill` of the smaller image side.
                 let rho = (pinhole_fill * half_min).atan();
-                -fwd * (radius / rho.sin())
+                centre - fwd * (radius / rho.sin())
             });
             frame.position = p;
-            let f = focus.unwrap_or_else(|| (DVec3::ZERO - p).dot(fwd).max(1e-6));
+            let f = focus.unwrap_or_else(|| (centre - p).dot(fwd).max(1e-6));
             camera = Box::new(Perspective { frame, tan_half_fov: tan_half, aspect, focus: f, clip_radius: clip });
             focal_centre = None;
             view_height = None;
@@ -783,9 +791,9 @@ fn frame_view(
                 _ => None,
             });
             let height = size_setting.or(gltf_height).unwrap_or_else(|| 2.0 * radius / pinhole_fill / aspect.min(1.0));
-            let p = given_position.unwrap_or(-fwd * 3.0 * radius);
+            let p = given_position.unwrap_or(centre - fwd * 3.0 * radius);
             frame.position = p;
-            let f = focus.unwrap_or_else(|| (DVec3::ZERO - p).dot(fwd).max(1e-6));
+            let f = focus.unwrap_or_else(|| (centre - p).dot(fwd).max(1e-6));
             camera = Box::new(Orthographic { frame, height, aspect, focus: f, clip_radius: clip });
             focal_centre = None;
             view_height = Some(height);
@@ -1047,7 +1055,8 @@ mod round_tests {
         let (mut kept, mut lifted) = (0, Vec::new());
         for (name, scene) in odd_scenes() {
             let prep = Prepared::new(scene);
-            let (first, fill) = first_round(&p, &prep.world, &prep.accel).unwrap();
+            let subject = Subject::new(&prep.world, FIT_SAMPLES, COARSE_SAMPLES);
+            let (first, fill) = first_round(&p, &prep.world, &prep.accel, &subject).unwrap();
             let fill = fill.expect("the renderer's own composed view");
             let last = frame_camera(&p, &prep.world, &prep.accel).unwrap();
             if fill >= FILL_FLOOR {
@@ -1105,5 +1114,48 @@ mod round_tests {
         assert_eq!(probe_fill(&cam, &prep.accel, 4.0 / 3.0, PROBE_COLUMNS, Some(&guard(NEAR_C_RADII * r))), 0.0);
         // Nothing within a tiny distance of C: the same fill.
         assert_eq!(probe_fill(&cam, &prep.accel, 4.0 / 3.0, PROBE_COLUMNS, Some(&guard(1e-3))), plain);
+    }
+
+    /// Objects standing on a floor many times their size (`scene::backdrop`) are framed, not
+    /// the floor: the ball fills a good part of the canvas, as it does without the floor,
+    /// instead of a few pixels of a kite of floor; the floor is still in the picture.
+    #[test]
+    fn objects_on_a_floor_are_framed_without_it() {
+        use crate::scene::default::{cuboid, ellipsoid};
+        use crate::scene::{Material, Object, Scene};
+        let share = |with_floor: bool| {
+            let mut s = Scene::default();
+            s.materials.push(Material::default());
+            s.meshes.push(ellipsoid("ball", glam::Vec3::splat(1.0), 12, 24, 0));
+            s.objects.push(Object { name: "ball".into(), mesh: 0, transform: glam::DMat4::from_translation(DVec3::Y) });
+            if with_floor {
+                s.meshes.push(cuboid("floor", glam::Vec3::new(40.0, 0.02, 40.0), 0));
+                s.objects.push(Object {
+                    name: "floor".into(),
+                    mesh: 1,
+                    transform: glam::DMat4::from_translation(DVec3::new(0.0, -0.01, 0.0)),
+                });
+            }
+            let prep = Prepared::new(s);
+            let framed = frame_camera(&params(), &prep.world, &prep.accel).unwrap();
+            let (w, h) = (64u32, 48u32);
+            let (mut ball, mut floor) = (0, 0);
+            for y in 0..h {
+                for x in 0..w {
+                    let r = framed.camera.ray(crate::camera::screen_point(x, y, glam::DVec2::splat(0.5), w, h));
+                    match prep.accel.closest(r.origin, r.dir, 0.0, f32::INFINITY).map(|h| prep.world.object_of(h.tri)) {
+                        Some(0) => ball += 1,
+                        Some(_) => floor += 1,
+                        None => {}
+                    }
+                }
+            }
+            (ball as f64 / (w * h) as f64, floor as f64 / (w * h) as f64)
+        };
+        let (alone, _) = share(false);
+        let (ball, floor) = share(true);
+        assert!(alone > 0.4, "{alone}");
+        assert!(ball > 0.5 * alone, "the ball on the floor {ball:.3}, alone {alone:.3}");
+        assert!(floor > 0.05, "the floor is in the picture: {floor:.3}");
     }
 }

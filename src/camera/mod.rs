@@ -14,6 +14,7 @@ mod orthographic;
 mod perspective;
 mod planar;
 mod spherical;
+pub mod subject;
 
 use glam::{DVec2, DVec3, Vec3};
 

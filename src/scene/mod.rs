@@ -6,6 +6,7 @@
 //! time of its glTF animations.
 
 pub mod animation;
+pub mod backdrop;
 pub mod default;
 mod gltf;
 pub mod srgb;

@@ -216,6 +216,9 @@ pub struct World {
     pub bounds: (Vec3, Vec3),
     /// Largest corner distance from the render-space origin (1 unless the scene is a point).
     pub radius: f32,
+    /// The objects that are backdrops (`backdrop::backdrops`: a floor or a wall much larger
+    /// than the rest), found again whenever the bounds change.
+    pub backdrops: Vec<super::backdrop::Backdrop>,
 }
 
 impl World {
@@ -280,6 +283,7 @@ impl World {
             camera: None,
             bounds: (Vec3::ZERO, Vec3::ZERO),
             radius: 0.0,
+            backdrops: Vec::new(),
         };
         if w.materials.is_empty() {
             w.materials.push(Material::default());
@@ -450,6 +454,7 @@ impl World {
         }
         self.bounds = if lo.is_finite() { (lo, hi) } else { (Vec3::ZERO, Vec3::ZERO) };
         self.radius = radius;
+        self.backdrops = super::backdrop::backdrops(self);
     }
 
     /// Placed triangles, instances counted each time (the range of triangle ids).

@@ -1,0 +1,196 @@
+//! Backdrops: a floor, a wall or a shadow-catcher plane much larger than everything else in
+//! the scene, as most scenes made in Blender stand their objects on one (ART.md "The subject
+//! fills the canvas"). A backdrop is rendered, shaded and faceted like anything else, but:
+//! - the cameras are framed around the scene without it (`camera::subject`): with it, objects
+//!   on a 20 m floor were a few pixels tall on a kite of floor;
+//! - it has one side, the subject's: a ray that starts behind its plane passes through it
+//!   (`Accel`). A converging camera wraps around its subject, so the rays of the lower rows
+//!   start below the floor, and the floor's unlit underside covered the lower half of the
+//!   canvas; through it they see the subject from below, another of its sides.
+
+use glam::{DVec3, Vec3};
+
+use super::World;
+
+/// A backdrop is flat: every corner within this share of its extent of one plane (a plane, or
+/// a box a few centimetres thick).
+pub const FLAT_SHARE: f64 = 0.01;
+/// A backdrop is large: its extent at least this many times the extent of everything that is
+/// not a backdrop (a sheet of paper on a table, a picture on a wall stay part of the subject).
+pub const BACKDROP_RATIO: f64 = 2.0;
+/// The largest objects (by extent) tested for flatness: backdrops are among the largest.
+const CANDIDATES: usize = 8;
+/// Triangles of an object read to decide whether it is flat (evenly spread over it).
+const FLAT_SAMPLE: usize = 4096;
+
+/// A backdrop object and its plane (render space): `normal . p = offset` through its corner
+/// nearest the subject, `normal` (unit) towards the subject.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Backdrop {
+    pub object: usize,
+    pub normal: Vec3,
+    pub offset: f32,
+}
+
+impl Backdrop {
+    /// Whether `p` lies behind the plane, on the side away from the subject.
+    #[inline]
+    pub fn behind(&self, p: Vec3) -> bool {
+        self.normal.dot(p) < self.offset
+    }
+}
+
+/// The backdrops of `world` (its objects' `bounds` made): the flat ones among the
+/// `CANDIDATES` largest objects that are `BACKDROP_RATIO` times larger than the box of every
+/// object that is not flat, in object order. None when every object is flat (a board alone
+/// is its own subject).
+pub fn backdrops(world: &World) -> Vec<Backdrop> {
+    let objects = &world.objects;
+    let bounds = |o: usize| objects[o].bounds.map(|(lo, hi, _)| (lo.as_dvec3(), hi.as_dvec3()));
+    let extent = |o: usize| bounds(o).map_or(0.0, |(lo, hi)| (hi - lo).length());
+    let mut by_size: Vec<usize> = (0..objects.len()).filter(|&o| bounds(o).is_some()).collect();
+    by_size.sort_by(|&a, &b| extent(b).total_cmp(&extent(a)).then(a.cmp(&b)));
+    let flat: Vec<(usize, DVec3, DVec3)> = by_size
+        .iter()
+        .take(CANDIDATES)
+        .filter_map(|&o| plane_of(world, o, extent(o)).map(|(n, p)| (o, n, p)))
+        .collect();
+    let box_without = |skip: &dyn Fn(usize) -> bool| {
+        (0..objects.len())
+            .filter(|&o| !skip(o))
+            .filter_map(bounds)
+            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), (a, b)| (lo.min(a), hi.max(b)))
+    };
+    let (lo, hi) = box_without(&|o| flat.iter().any(|f| f.0 == o));
+    if !lo.is_finite() {
+        return Vec::new();
+    }
+    let solid = (hi - lo).length();
+    let mut chosen: Vec<(usize, DVec3, DVec3)> =
+        flat.into_iter().filter(|f| extent(f.0) >= BACKDROP_RATIO * solid).collect();
+    chosen.sort_unstable_by_key(|f| f.0);
+    // The subject's centre: the box of everything else.
+    let (lo, hi) = box_without(&|o| chosen.iter().any(|f| f.0 == o));
+    let centre = (lo + hi) * 0.5;
+    chosen
+        .into_iter()
+        .filter_map(|(o, normal, point)| {
+            let normal = if (centre - point).dot(normal) >= 0.0 { normal } else { -normal };
+            // The plane through the corner nearest the subject (a slab's top face).
+            let offset = corners(world, o).map(|p| p.dot(normal)).fold(f64::NEG_INFINITY, f64::max);
+            (normal.is_finite() && offset.is_finite()).then(|| Backdrop {
+                object: o,
+                normal: normal.as_vec3(),
+                offset: offset as f32,
+            })
+        })
+        .collect()
+}
+
+/// Up to `FLAT_SAMPLE` of object `o`'s triangles (render space), evenly spread.
+fn triangles(world: &World, o: usize) -> impl Iterator<Item = [DVec3; 3]> + '_ {
+    let obj = &world.objects[o];
+    let count = obj.triangle_count as usize;
+    let step = count.div_ceil(FLAT_SAMPLE).max(1);
+    (0..count)
+        .step_by(step)
+        .map(move |t| world.triangle(obj.first_triangle + t as u32).map(|p| p.as_dvec3()))
+        .filter(|t| t.iter().all(|p| p.is_finite()))
+}
+
+fn corners(world: &World, o: usize) -> impl Iterator<Item = DVec3> + '_ {
+    triangles(world, o).flatten()
+}
+
+/// The plane (unit normal, a point) of object `o` when every corner of its sampled triangles
+/// lies within `FLAT_SHARE` of `extent` of the plane of its largest triangle.
+fn plane_of(world: &World, o: usize, extent: f64) -> Option<(DVec3, DVec3)> {
+    if extent <= 0.0 {
+        return None;
+    }
+    let area2 = |t: &[DVec3; 3]| (t[1] - t[0]).cross(t[2] - t[0]).length_squared();
+    let largest = triangles(world, o).max_by(|a, b| area2(a).total_cmp(&area2(b)))?;
+    let normal = (largest[1] - largest[0]).cross(largest[2] - largest[0]).try_normalize()?;
+    let tolerance = FLAT_SHARE * extent;
+    corners(world, o).all(|p| (p - largest[0]).dot(normal).abs() <= tolerance).then_some((normal, largest[0]))
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::{DMat4, DVec3, Vec3, Vec4};
+
+    use super::*;
+    use crate::scene::default::{cuboid, ellipsoid};
+    use crate::scene::{Material, Mesh, Object, Scene};
+
+    /// A two-triangle square `size` wide at y = 0, facing +Y.
+    fn plane(size: f32) -> Mesh {
+        let h = size * 0.5;
+        let positions =
+            vec![Vec3::new(-h, 0.0, -h), Vec3::new(h, 0.0, -h), Vec3::new(h, 0.0, h), Vec3::new(-h, 0.0, h)];
+        Mesh {
+            name: "plane".into(),
+            normals: vec![Vec3::Y; 4],
+            positions,
+            uvs: None,
+            colors: None,
+            triangles: vec![[0, 2, 1], [0, 3, 2]],
+            material: None,
+        }
+    }
+
+    fn scene(parts: Vec<(Mesh, DVec3)>) -> World {
+        let mut s = Scene::default();
+        s.materials.push(Material { base_color: Vec4::ONE, ..Material::default() });
+        for (mesh, at) in parts {
+            s.meshes.push(mesh);
+            s.objects.push(Object {
+                name: format!("o{}", s.objects.len()),
+                mesh: s.meshes.len() - 1,
+                transform: DMat4::from_translation(at),
+            });
+        }
+        World::new(&s)
+    }
+
+    fn ball() -> (Mesh, DVec3) {
+        (ellipsoid("ball", Vec3::splat(1.0), 12, 24, 0), DVec3::new(0.0, 1.0, 0.0))
+    }
+
+    #[test]
+    fn a_floor_much_larger_than_the_objects_is_a_backdrop_facing_them() {
+        let w = scene(vec![(plane(20.0), DVec3::ZERO), ball()]);
+        assert_eq!(w.backdrops.len(), 1);
+        let b = w.backdrops[0];
+        assert_eq!(b.object, 0);
+        // Facing up (the ball), through the floor.
+        let up = w.to_render.point(DVec3::new(0.0, 1.0, 0.0)) - w.to_render.point(DVec3::ZERO);
+        assert!(b.normal.dot(up.normalize()) > 0.999, "{b:?}");
+        assert!(!b.behind(w.to_render.point(DVec3::new(3.0, 0.5, 2.0))));
+        assert!(b.behind(w.to_render.point(DVec3::new(3.0, -0.5, 2.0))));
+        // A slab 10 cm thick: its plane is its top face.
+        let w = scene(vec![(cuboid("slab", Vec3::new(30.0, 0.1, 30.0), 0), DVec3::new(0.0, -0.05, 0.0)), ball()]);
+        assert_eq!(w.backdrops.len(), 1);
+        assert!(!w.backdrops[0].behind(w.to_render.point(DVec3::new(0.0, 0.001, 0.0))));
+        assert!(w.backdrops[0].behind(w.to_render.point(DVec3::new(0.0, -0.02, 0.0))));
+        // A floor and a wall behind: both.
+        let mut wall = plane(20.0);
+        wall.positions.iter_mut().for_each(|p| *p = Vec3::new(p.x, -p.z + 10.0, -10.0));
+        let w = scene(vec![(plane(20.0), DVec3::ZERO), (wall, DVec3::ZERO), ball()]);
+        assert_eq!(w.backdrops.iter().map(|b| b.object).collect::<Vec<_>>(), vec![0, 1]);
+    }
+
+    #[test]
+    fn flat_things_the_size_of_the_subject_and_flat_scenes_have_no_backdrop() {
+        // A sheet of paper beside the ball; a floor only as large as the ball; a board alone;
+        // two boards.
+        assert!(scene(vec![(plane(1.5), DVec3::new(2.0, 0.0, 0.0)), ball()]).backdrops.is_empty());
+        assert!(scene(vec![(plane(3.0), DVec3::ZERO), ball()]).backdrops.is_empty());
+        assert!(scene(vec![(plane(20.0), DVec3::ZERO)]).backdrops.is_empty());
+        assert!(scene(vec![(plane(20.0), DVec3::ZERO), (plane(1.0), DVec3::Y)]).backdrops.is_empty());
+        // A floor bent 5% of its extent: not flat.
+        let mut bent = plane(20.0);
+        bent.positions[2].y = 1.5;
+        assert!(scene(vec![(bent, DVec3::ZERO), ball()]).backdrops.is_empty());
+    }
+}
