@@ -1,6 +1,7 @@
 //! Odd scenes the shared models do not cover (DEVELOPERS.md: our scenes are not the users'):
 //! very tall, very flat, z-up, several objects spread out, a figure walking across the view,
-//! a pole, a board seen edge-on, a long bench, far from the origin, huge and tiny. Built in code so the look report and the tests check the composition and the planes
+//! a pole, a board seen edge-on, a long bench, far from the origin, huge and tiny, objects on a
+//! floor many times their size. Built in code so the look report and the tests check the composition and the planes
 //! on them without any file (`cubist look --odd`).
 
 use glam::{DMat4, DQuat, DVec3, Vec2, Vec3, Vec4};
@@ -160,5 +161,22 @@ pub fn odd_scenes() -> Vec<(String, Scene)> {
         );
         out.push((name.to_string(), s));
     }
+    // A jug and a ball standing on a floor thirty times their size (`scene::backdrop`), as
+    // most scenes made in Blender stand on one.
+    let mut s = scene("floor");
+    let v = |r: f32, y: f32| Vec2::new(r, y);
+    let jug = [v(0.0, 0.0), v(0.3, 0.0), v(0.4, 0.3), v(0.35, 0.6), v(0.15, 0.8), v(0.18, 1.0), v(0.0, 1.0)];
+    add(&mut s, vec![(lathe("jug", &jug, 32, 0), DMat4::IDENTITY)], DMat4::IDENTITY);
+    add(
+        &mut s,
+        vec![(ellipsoid("ball", Vec3::splat(0.3), 16, 24, 0), DMat4::from_translation(DVec3::new(0.7, 0.3, 0.3)))],
+        DMat4::IDENTITY,
+    );
+    add(
+        &mut s,
+        vec![(cuboid("floor", Vec3::new(30.0, 0.02, 30.0), 0), DMat4::from_translation(DVec3::new(0.0, -0.01, 0.0)))],
+        DMat4::IDENTITY,
+    );
+    out.push(("odd-floor".to_string(), s));
     out
 }
