@@ -18,7 +18,7 @@
 
 use glam::DVec3;
 
-use super::subject::Subject;
+use super::subject::{Subject, View as SceneView};
 use super::{Camera, CameraFrame, CameraKind, Cylindrical, Orthographic, Perspective, Planar, Spherical, compose};
 use crate::accel::Accel;
 use crate::error::{Error, Result};
@@ -363,7 +363,15 @@ enum Search {
 /// guarded against a part magnified near C (`NearGuard`); again the fullest is kept when it fills
 /// clearly more. Scenes the first round fills keep their camera.
 pub fn frame_camera(params: &FramingParams, world: &World, accel: &Accel) -> Result<Framed> {
-    let subject = Subject::new(world, FIT_SAMPLES, COARSE_SAMPLES);
+    // The scene camera's view keeps the part of the subject it sees, when the view is the
+    // scene camera's (not one the settings give).
+    let own = params.position.is_none() && params.target.is_none();
+    let view = world
+        .camera
+        .as_ref()
+        .filter(|_| own)
+        .and_then(|c| SceneView::of(c, params.width as f64 / params.height.max(1) as f64, world, accel));
+    let subject = Subject::new(world, FIT_SAMPLES, COARSE_SAMPLES, view.as_ref());
     let (framed, fill) = first_round(params, world, accel, &subject)?;
     match fill {
         Some(fill) if fill < FILL_FLOOR => second_round(params, world, accel, &subject, (framed, fill)),
@@ -1055,7 +1063,7 @@ mod round_tests {
         let (mut kept, mut lifted) = (0, Vec::new());
         for (name, scene) in odd_scenes() {
             let prep = Prepared::new(scene);
-            let subject = Subject::new(&prep.world, FIT_SAMPLES, COARSE_SAMPLES);
+            let subject = Subject::new(&prep.world, FIT_SAMPLES, COARSE_SAMPLES, None);
             let (first, fill) = first_round(&p, &prep.world, &prep.accel, &subject).unwrap();
             let fill = fill.expect("the renderer's own composed view");
             let last = frame_camera(&p, &prep.world, &prep.accel).unwrap();
