@@ -33,7 +33,7 @@ pub struct View {
 }
 
 /// Columns of the trace that finds what the scene camera shows (rows follow the aspect).
-const VIEW_PROBE_COLUMNS: u32 = 64;
+const VIEW_PROBE_COLUMNS: u32 = 48;
 
 impl View {
     /// The view of `camera` on a canvas of `aspect` (width / height); None when it shows
