@@ -21,10 +21,7 @@ pub const VIEW_MARGIN: f64 = 0.05;
 /// The scene camera's view, to keep the part of the subject it sees (render space): its
 /// frustum, and the objects a coarse trace of its own (pinhole) picture shows.
 pub struct View {
-    position: DVec3,
-    forward: DVec3,
-    up: DVec3,
-    right: DVec3,
+    frame: CameraFrame,
     /// Perspective: the half-extents' tangents (x, y); orthographic: the half-extents.
     half: (f64, f64),
     perspective: bool,
@@ -66,26 +63,19 @@ impl View {
         shown.sort_unstable();
         shown.dedup();
         let grow = 1.0 + VIEW_MARGIN;
-        (!shown.is_empty()).then_some(View {
-            position: frame.position,
-            forward: frame.forward,
-            up: frame.up,
-            right: frame.right,
-            half: (half.0 * grow, half.1 * grow),
-            perspective,
-            shown,
-        })
+        (!shown.is_empty()).then_some(View { frame, half: (half.0 * grow, half.1 * grow), perspective, shown })
     }
 
     /// Whether `p`, a point of object `object`, is in view: in front of the camera, within
     /// the margin, on an object the camera's picture shows.
     pub fn sees(&self, p: DVec3, object: u32) -> bool {
-        let d = p - self.position;
-        let z = d.dot(self.forward);
+        let f = &self.frame;
+        let d = p - f.position;
+        let z = d.dot(f.forward);
         let scale = if self.perspective { z } else { 1.0 };
         z > 0.0
-            && d.dot(self.right).abs() <= self.half.0 * scale
-            && d.dot(self.up).abs() <= self.half.1 * scale
+            && d.dot(f.right).abs() <= self.half.0 * scale
+            && d.dot(f.up).abs() <= self.half.1 * scale
             && self.shown.binary_search(&object).is_ok()
     }
 }
@@ -112,9 +102,9 @@ impl Subject {
         let (mut full, mut coarse) = (sample(world, &keep, full), sample(world, &keep, coarse));
         let mut whole = world.backdrops.is_empty();
         if let Some(view) = view {
-            let seen = full.iter().filter(|(p, o)| view.sees(*p, *o)).count();
-            if seen > 0 && seen < full.len() {
-                full.retain(|(p, o)| view.sees(*p, *o));
+            let seen: Vec<(DVec3, u32)> = full.iter().copied().filter(|(p, o)| view.sees(*p, *o)).collect();
+            if !seen.is_empty() && seen.len() < full.len() {
+                full = seen;
                 coarse.retain(|(p, o)| view.sees(*p, *o));
                 if coarse.is_empty() {
                     coarse = full.iter().step_by(full.len().div_ceil(COARSE_FLOOR).max(1)).copied().collect();

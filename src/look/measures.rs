@@ -3,7 +3,7 @@
 
 use glam::DVec2;
 
-use crate::facets::planes::outlines::simplify_ring;
+use crate::facets::planes::outlines::{simplify_chain, simplify_ring};
 use crate::facets::{FacetLayout, FacetMap, fill_polygon};
 
 /// Straight planes: the facet boundaries as chains between junctions (points where three or
@@ -82,7 +82,7 @@ pub fn straight_share(map: &FacetMap, tolerance: f64, min_run: f64) -> (f64, f64
     };
     let (mut total, mut straight) = (0.0, 0.0);
     let mut account = |chain: &[DVec2], closed: bool| {
-        let simplified = if closed { simplify_ring(chain, tolerance) } else { simplify_open(chain, tolerance) };
+        let simplified = if closed { simplify_ring(chain, tolerance) } else { simplify_chain(chain, tolerance) };
         let n = simplified.len();
         let segs = if closed { n } else { n.saturating_sub(1) };
         for k in 0..segs {
@@ -144,40 +144,6 @@ pub fn straight_share(map: &FacetMap, tolerance: f64, min_run: f64) -> (f64, f64
         }
     }
     if total <= 0.0 { (1.0, 0.0) } else { (straight / total, total) }
-}
-
-/// Douglas-Peucker on an open chain, endpoints kept.
-fn simplify_open(chain: &[DVec2], tolerance: f64) -> Vec<DVec2> {
-    let n = chain.len();
-    if n < 3 {
-        return chain.to_vec();
-    }
-    let mut keep = vec![false; n];
-    keep[0] = true;
-    keep[n - 1] = true;
-    let mut stack = vec![(0usize, n - 1)];
-    while let Some((a, b)) = stack.pop() {
-        if b <= a + 1 {
-            continue;
-        }
-        let (p, q) = (chain[a], chain[b]);
-        let d = q - p;
-        let len = d.length();
-        let mut best = (0.0, a);
-        for (k, r) in chain.iter().enumerate().take(b).skip(a + 1) {
-            let r = *r - p;
-            let dist = if len > 0.0 { d.perp_dot(r).abs() / len } else { r.length() };
-            if dist > best.0 {
-                best = (dist, k);
-            }
-        }
-        if best.0 > tolerance {
-            keep[best.1] = true;
-            stack.push((a, best.1));
-            stack.push((best.1, b));
-        }
-    }
-    (0..n).filter(|&i| keep[i]).map(|i| chain[i]).collect()
 }
 
 /// Whole-canvas planes: the share of the canvas covered by polygonal facets (polygons or

@@ -357,6 +357,20 @@ pub fn simplify_ring(ring: &[DVec2], tolerance: f64) -> Vec<DVec2> {
     (0..n).filter(|&i| keep[i]).map(|i| ring[i]).collect()
 }
 
+/// Douglas-Peucker simplification of an open chain at `tolerance`, its two ends kept.
+pub fn simplify_chain(chain: &[DVec2], tolerance: f64) -> Vec<DVec2> {
+    let n = chain.len();
+    if n < 3 {
+        return chain.to_vec();
+    }
+    let mut keep = vec![false; n];
+    keep[0] = true;
+    keep[n - 1] = true;
+    let all: Vec<usize> = (0..n).collect();
+    dp(chain, &all, tolerance, &mut keep);
+    (0..n).filter(|&i| keep[i]).map(|i| chain[i]).collect()
+}
+
 /// Removes corners of a closed ring until every edge is at least `min_edge` long (or the ring
 /// is a triangle): of the shortest edge's two ends, the corner nearer the line through its
 /// neighbours goes (the one whose removal moves the outline least). A curve traced pixel by
@@ -420,6 +434,8 @@ fn merge_short(mut points: Vec<DVec2>, closed: bool, min_edge: f64) -> Vec<DVec2
 pub struct Junctions {
     /// The lattice's width (image width + 1).
     stride: usize,
+    /// Junctions a boundary of at most this many lattice steps apart are one group.
+    reach: f64,
     /// Junction vertices (y * stride + x), ascending.
     at: Vec<usize>,
     /// Each junction's group.
@@ -530,7 +546,7 @@ impl Junctions {
             count[g as usize] += 1.0;
         }
         let point = sum.iter().zip(&count).map(|(s, c)| *s / *c).collect();
-        Junctions { stride, at, group, point }
+        Junctions { stride, reach, at, group, point }
     }
 
     /// The group of the junction at lattice vertex (x, y), if it is one.
@@ -545,10 +561,10 @@ impl Junctions {
 /// stretch of boundary two layers share is the same lattice path between the same two
 /// junctions in both, so it comes out the same in both, and the planes the layers cut meet on
 /// one line instead of leaving slivers and kinks between two simplifications of it (each
-/// within `tolerance`, on different sides). A stretch within one group no longer than `reach`
-/// steps is dropped (its ends are one point). A ring through no junction is simplified whole,
+/// within `tolerance`, on different sides). A stretch within one group no longer than the
+/// junctions' `reach` is dropped (its ends are one point). A ring through no junction is simplified whole,
 /// as before (its start is its first vertex in scan order, the same in every layer).
-fn simplify_between(ring: &[DVec2], junctions: &Junctions, reach: f64, tolerance: f64, min_edge: f64) -> Vec<DVec2> {
+fn simplify_between(ring: &[DVec2], junctions: &Junctions, tolerance: f64, min_edge: f64) -> Vec<DVec2> {
     let n = ring.len();
     // The corners, and every junction along the edges between them: (point, group, lattice
     // steps from the ring's start).
@@ -580,18 +596,12 @@ fn simplify_between(ring: &[DVec2], junctions: &Junctions, reach: f64, tolerance
         let b = (a + 1..m).find(|&i| points[i].1.is_some()).unwrap_or(m);
         let end = points[b % m];
         let length = (end.2 + if b == m { walked } else { 0 }) - points[a].2;
-        if end.1 == points[a].1 && length as f64 <= reach {
+        if end.1 == points[a].1 && length as f64 <= junctions.reach {
             a = b;
             continue;
         }
         let chain: Vec<DVec2> = (a..=b).map(|i| points[i % m].0).collect();
-        let all: Vec<usize> = (0..chain.len()).collect();
-        let mut keep = vec![false; chain.len()];
-        keep[0] = true;
-        keep[chain.len() - 1] = true;
-        dp(&chain, &all, tolerance, &mut keep);
-        let kept: Vec<DVec2> = (0..chain.len()).filter(|&i| keep[i]).map(|i| chain[i]).collect();
-        let merged = merge_short(kept, false, min_edge);
+        let merged = merge_short(simplify_chain(&chain, tolerance), false, min_edge);
         // The chain's end is the next one's start.
         out.extend_from_slice(&merged[..merged.len() - 1]);
         a = b;
@@ -711,7 +721,7 @@ pub fn layers(
     let junctions = (!objects.is_empty()).then(|| Junctions::new(labels, w, h, min_edge));
     let simplify = |ring: &Vec<DVec2>| {
         if let Some(j) = &junctions {
-            simplify_between(ring, j, min_edge, tolerance, min_edge)
+            simplify_between(ring, j, tolerance, min_edge)
         } else {
             merge_short_edges(simplify_ring(ring, tolerance), min_edge)
         }
@@ -1061,7 +1071,7 @@ mod tests {
         let band: Vec<bool> = labels.iter().map(|&l| l == 2).collect();
         let rings = trace(&band, w, h);
         assert_eq!(rings.len(), 1);
-        let ring = simplify_between(&rings[0], &near, 3.0, 0.5, 1.0);
+        let ring = simplify_between(&rings[0], &near, 0.5, 1.0);
         assert!(ring.contains(&DVec2::new(5.0, 4.0)), "{ring:?}");
         assert!(!ring.contains(&DVec2::new(5.0, 3.0)) && !ring.contains(&DVec2::new(5.0, 5.0)), "{ring:?}");
         assert!(ring.contains(&DVec2::new(10.0, 3.0)) && ring.contains(&DVec2::new(10.0, 5.0)), "{ring:?}");
