@@ -66,8 +66,20 @@ pub struct CameraParams {
     pub view_height: Option<f64>,
     /// Where the rays converge (spherical, planar; the focal line's centre for cylindrical).
     pub focal_centre: Option<[f64; 3]>,
+    /// The canvas warp in front of the camera (`camera::warp`), when the composition has one:
+    /// per axis, where the camera's own evenly spaced screen coordinates -0.5 + i / n land on
+    /// the canvas (x left to right, y bottom to top).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub warp: Option<WarpParams>,
     pub width: u32,
     pub height: u32,
+}
+
+/// `CameraParams::warp`: the column and row maps.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct WarpParams {
+    pub x: crate::camera::warp::Warp,
+    pub y: crate::camera::warp::Warp,
 }
 
 impl CameraParams {
@@ -85,6 +97,7 @@ impl CameraParams {
             right: f.right.to_array(),
             view_height: framed.view_height.map(|h| h / sim.scale),
             focal_centre: framed.focal_centre.map(point),
+            warp: framed.warp.clone().map(|(x, y)| WarpParams { x, y }),
             width,
             height,
         }

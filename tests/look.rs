@@ -40,13 +40,13 @@ fn the_default_look_on_odd_scenes() {
         // objects spread on a shelf (not a single object; docs/look/README.md), though the
         // second round's oblique view overlaps them into one group (39% -> 51%).
         // The pole (a tall thin subject) by the cylindrical camera, the board seen edge-on by
-        // `framing`'s broad-side view. Not met either: the stick-thin walker (limbs apart, an
-        // arm reaching out; its silhouette fills under half its bounding box from every side):
-        // C placed behind its bulk lifts it from 32% to 39%, docs/look/README.md).
+        // `framing`'s broad-side view. The stick-thin walker (limbs apart, an arm reaching out;
+        // its silhouette fills under half its bounding box from every side): C placed behind
+        // its bulk lifts it from 32% to 39%, then the canvas warp (`camera::warp`, the columns
+        // and rows showing it widened, at most 1.5x) over 40%.
         let least = match name.as_str() {
             "odd-flat" | "odd-z-up" | "odd-board" => 0.6,
             "odd-several" => 0.45,
-            "odd-walker" => 0.35,
             _ => 0.4,
         };
         assert!(r.fill >= least, "{name}: subject fill {:.3}", r.fill);
@@ -82,7 +82,11 @@ fn composed_subjects_stay_whole() {
 #[test]
 fn same_look_on_any_thread_count() {
     let s = small(Preset::Analytic, 96, 72);
-    let mut scenes: Vec<Prepared> = odd_scenes().into_iter().take(2).map(|(_, s)| Prepared::new(s)).collect();
+    // Two odd scenes, the walker (seen through the canvas warp) and the still life.
+    let picked = ["odd-tall", "odd-flat", "odd-walker"];
+    let mut scenes: Vec<Prepared> =
+        odd_scenes().into_iter().filter(|(n, _)| picked.contains(&n.as_str())).map(|(_, s)| Prepared::new(s)).collect();
+    assert_eq!(scenes.len(), picked.len());
     scenes.push(Prepared::load(None).unwrap());
     for prep in &scenes {
         let render = |threads: usize| {

@@ -14,12 +14,16 @@
 //! (`compose` step 7). When the renderer chooses the view and the front fills under
 //! `FILL_FLOOR`, `frame_camera` also tries the raised view and the subject's broad side
 //! (`compose` step 8), then, still under it, the oblique views and C placed behind the
-//! subject's bulk (step 9).
+//! subject's bulk (step 9). Any composition still under it (the renderer's view or a scene
+//! camera's) is seen through a canvas warp that widens the rows and columns showing the subject
+//! (step 10, `warp_canvas`).
 
 use glam::DVec3;
 
 use super::subject::{Subject, View as SceneView};
-use super::{Camera, CameraFrame, CameraKind, Cylindrical, Orthographic, Perspective, Planar, Spherical, compose};
+use super::{
+    Camera, CameraFrame, CameraKind, Cylindrical, Orthographic, Perspective, Planar, Spherical, Warped, compose, warp,
+};
 use crate::accel::Accel;
 use crate::error::{Error, Result};
 use crate::scene::{Projection, World};
@@ -101,6 +105,9 @@ pub struct Framed {
     /// Focal centre (point, or the centre of the focal line), render space, when there is one.
     pub focal_centre: Option<DVec3>,
     pub frame: CameraFrame,
+    /// The canvas warp (`warp::Warped`: its column and row maps) when the camera is seen
+    /// through one.
+    pub warp: Option<(warp::Warp, warp::Warp)>,
     pub warnings: Vec<String>,
 }
 
@@ -110,6 +117,9 @@ impl Framed {
         if let Some(c) = self.focal_centre {
             let w = world.to_render.inverse_point(c.as_vec3());
             s += &format!(", focal centre ({:.4}, {:.4}, {:.4})", w.x, w.y, w.z);
+        }
+        if let Some((x, y)) = &self.warp {
+            s += &format!(", canvas warped up to {:.2}x", x.max_scale().max(y.max_scale()));
         }
         s
     }
@@ -362,6 +372,9 @@ enum Search {
 /// (`View::centroid`) from the front, the oblique views and the broad side, each candidate
 /// guarded against a part magnified near C (`NearGuard`); again the fullest is kept when it fills
 /// clearly more. Scenes the first round fills keep their camera.
+///
+/// Last (`warp_canvas`), any composed camera still under `FILL_FLOOR`, the scene camera's view
+/// included (the warp keeps the view), is seen through a canvas warp.
 pub fn frame_camera(params: &FramingParams, world: &World, accel: &Accel) -> Result<Framed> {
     // The scene camera's view keeps the part of the subject it sees, when the view is the
     // scene camera's (not one the settings give).
@@ -373,15 +386,59 @@ pub fn frame_camera(params: &FramingParams, world: &World, accel: &Accel) -> Res
         .and_then(|c| SceneView::of(c, params.width as f64 / params.height.max(1) as f64, world, accel));
     let subject = Subject::new(world, FIT_SAMPLES, COARSE_SAMPLES, view.as_ref());
     let (framed, fill) = first_round(params, world, accel, &subject)?;
-    match fill {
-        Some(fill) if fill < FILL_FLOOR => second_round(params, world, accel, &subject, (framed, fill)),
-        _ => Ok(framed),
+    let own_view = own && world.camera.is_none();
+    let (framed, fill) = match fill {
+        Some(fill) if own_view && fill < FILL_FLOOR => {
+            let (framed, fill) = second_round(params, world, accel, &subject, (framed, fill))?;
+            (framed, Some(fill))
+        }
+        _ => (framed, fill),
+    };
+    Ok(match fill {
+        Some(fill) if fill < FILL_FLOOR => warp_canvas(framed, fill, accel, params.width as f64 / params.height as f64),
+        _ => framed,
+    })
+}
+
+/// The canvas warp's strengths (`warp::fit`), least first: the largest local scale of the
+/// canvas against the camera's even spacing.
+pub const WARP_STEPS: [f64; 5] = [1.1, 1.2, 1.3, 1.4, 1.5];
+/// Columns of the coverage image the warp is fitted to (rows follow the aspect).
+const WARP_PROBE_COLUMNS: u32 = 64;
+
+/// Step 10 of `compose` (module doc there): a composition still under `FILL_FLOOR` (`fill`, its
+/// probe's estimate) is seen through a canvas warp (`warp::Warped`) that gives the columns and
+/// rows showing the subject more of the canvas: the least of `WARP_STEPS` whose probe fills
+/// `FILL_FLOOR` / `compose::NEAR_BEST` (clearly over the floor, the probe's estimate being
+/// coarse), else the strongest; kept only when it fills more than the camera alone.
+fn warp_canvas(framed: Framed, fill: f64, accel: &Accel, aspect: f64) -> Framed {
+    let (w, h) = probe_size(aspect, WARP_PROBE_COLUMNS);
+    let coverage = probe_coverage(framed.camera.as_ref(), accel, w, h);
+    let inner = framed.camera.model();
+    let mut best: Option<(Warped, f64)> = None;
+    for strength in WARP_STEPS {
+        let (x, y) = warp::fit(&coverage, w as usize, h as usize, strength);
+        let warped = Warped { inner: inner.clone(), x, y };
+        let f = probe_fill(&warped, accel, aspect, PROBE_COLUMNS, None);
+        let goal = f >= FILL_FLOOR / compose::NEAR_BEST;
+        if best.as_ref().is_none_or(|b| f > b.1) {
+            best = Some((warped, f));
+        }
+        if goal {
+            break;
+        }
+    }
+    match best {
+        Some((warped, f)) if f > fill => {
+            Framed { warp: Some((warped.x.clone(), warped.y.clone())), camera: Box::new(warped), ..framed }
+        }
+        _ => framed,
     }
 }
 
 /// The front composition and, when it fills under `FILL_FLOOR` and the view is the renderer's
 /// own, the raised view and the broad side (`frame_camera`), with the fill of the composition
-/// chosen (None: not the renderer's own composed view, so no other view is tried).
+/// chosen (None: the camera was not composed).
 fn first_round(
     params: &FramingParams,
     world: &World,
@@ -392,8 +449,8 @@ fn first_round(
     let own_view = params.position.is_none() && params.target.is_none() && world.camera.is_none();
     let fill = match composition {
         Some(k) if own_view && k.fill < FILL_FLOOR => k.fill,
-        Some(k) if own_view => return Ok((front, Some(k.fill))),
-        _ => return Ok((front, None)),
+        Some(k) => return Ok((front, Some(k.fill))),
+        None => return Ok((front, None)),
     };
     let mut views = vec![View { tilt: RAISED_VIEW_DEG.to_radians(), ..View::FRONT }];
     let up = params.up.map(DVec3::from).and_then(|u| u.try_normalize()).unwrap_or(DVec3::Y);
@@ -423,7 +480,7 @@ fn second_round(
     accel: &Accel,
     subject: &Subject,
     current: (Framed, f64),
-) -> Result<Framed> {
+) -> Result<(Framed, f64)> {
     let up = params.up.map(DVec3::from).and_then(|u| u.try_normalize()).unwrap_or(DVec3::Y);
     let broad = broad_side_yaw(subject.points(true), up);
     // Second round, only for what the first left under the floor (so every scene it already
@@ -450,7 +507,7 @@ fn second_round(
     if centroid_axis(subject.points(true), DVec3::ZERO, subject.centre).is_some() {
         views.extend(yaws.into_iter().map(|yaw| View { yaw, centroid: true, guarded: true, ..View::FRONT }));
     }
-    Ok(best_view(params, world, accel, subject, &views, current)?.0)
+    best_view(params, world, accel, subject, &views, current)
 }
 
 /// The turn opposite `yaw` (the other face of the same side), within -180..180 deg.
@@ -807,7 +864,7 @@ fn frame_view(
             view_height = Some(height);
         }
     }
-    Ok((Framed { camera, kind, angle_deg, view_height, focal_centre, frame, warnings }, composition))
+    Ok((Framed { camera, kind, angle_deg, view_height, focal_centre, frame, warp: None, warnings }, composition))
 }
 
 /// Columns of `probe_fill`'s tiny image (rows follow the aspect).
@@ -834,36 +891,57 @@ const NEAR_C_RADII: f64 = 0.25;
 /// `NearGuard`'s share of the subject's pixels the magnified part may take.
 const NEAR_C_SHARE: f64 = 0.5;
 
+/// The size of a probe image `columns` wide with this aspect (width / height).
+fn probe_size(aspect: f64, columns: u32) -> (u32, u32) {
+    (columns, ((columns as f64 / aspect).round() as u32).clamp(8, 4 * columns))
+}
+
+/// `per_pixel` of every pixel of a tiny `w x h` image (one ray per pixel centre, row 0 on
+/// top) and what its ray hits first, in pixel order; deterministic on any thread count.
+fn probe<T: Send>(
+    camera: &dyn Camera,
+    accel: &Accel,
+    (w, h): (u32, u32),
+    per_pixel: impl Fn(&super::CameraRay, Option<crate::accel::Hit>) -> T + Sync,
+) -> Vec<T> {
+    use rayon::prelude::*;
+    // The pixel centres' rays, tabulated where the camera can (`ray` bit for bit).
+    let rays = camera.centre_rays(w, h);
+    (0..w * h)
+        .into_par_iter()
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            let p = glam::DVec2::new((x as f64 + 0.5) / w as f64 - 0.5, 0.5 - (y as f64 + 0.5) / h as f64);
+            let r = rays(i as usize, p);
+            per_pixel(&r, accel.closest(r.origin, r.dir, 0.0, f32::INFINITY))
+        })
+        .collect()
+}
+
+/// Which pixels of a tiny `w x h` image show geometry (1) or not (0): what the canvas warp
+/// is fitted to.
+fn probe_coverage(camera: &dyn Camera, accel: &Accel, w: u32, h: u32) -> Vec<f64> {
+    probe(camera, accel, (w, h), |_, hit| if hit.is_some() { 1.0 } else { 0.0 })
+}
+
 /// The share of a tiny image (`columns` wide, one ray per pixel centre) whose rays hit
 /// geometry: `compose`'s estimate of a candidate's subject fill. Deterministic (a hit count).
 /// With `guard`, 0 when the guard refuses the candidate.
 fn probe_fill(camera: &dyn Camera, accel: &Accel, aspect: f64, columns: u32, guard: Option<&NearGuard>) -> f64 {
-    use rayon::prelude::*;
-    let w = columns;
-    let h = ((w as f64 / aspect).round() as u32).clamp(8, 4 * columns);
-    // The pixel centres' rays, tabulated where the camera can (`ray` bit for bit).
-    let rays = camera.centre_rays(w, h);
-    let (hits, near): (u32, u32) = (0..h)
-        .into_par_iter()
-        .map(|y| {
-            let (mut hits, mut near) = (0, 0);
-            for x in 0..w {
-                let p = glam::DVec2::new((x as f64 + 0.5) / w as f64 - 0.5, 0.5 - (y as f64 + 0.5) / h as f64);
-                let r = rays((y * w + x) as usize, p);
-                let Some(hit) = accel.closest(r.origin, r.dir, 0.0, f32::INFINITY) else { continue };
-                hits += 1;
-                if let Some(g) = guard {
-                    let d = (r.origin + r.dir * hit.t).as_dvec3() - g.centre;
-                    let d = match g.line {
-                        Some(u) => d - u * d.dot(u),
-                        None => d,
-                    };
-                    near += (d.length() < g.within) as u32;
-                }
-            }
-            (hits, near)
-        })
-        .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+    let (w, h) = probe_size(aspect, columns);
+    let pixels = probe(camera, accel, (w, h), |r, hit| {
+        let Some(hit) = hit else { return (0u32, 0u32) };
+        let near = guard.is_some_and(|g| {
+            let d = (r.origin + r.dir * hit.t).as_dvec3() - g.centre;
+            let d = match g.line {
+                Some(u) => d - u * d.dot(u),
+                None => d,
+            };
+            d.length() < g.within
+        });
+        (1, near as u32)
+    });
+    let (hits, near) = pixels.iter().fold((0u32, 0u32), |a, b| (a.0 + b.0, a.1 + b.1));
     if hits > 0 && near as f64 > NEAR_C_SHARE * hits as f64 {
         return 0.0;
     }
@@ -1091,6 +1169,42 @@ mod round_tests {
             lifted.contains(&"odd-walker".to_string()) && lifted.contains(&"odd-several".to_string()),
             "{lifted:?}"
         );
+    }
+
+    /// Step 10: only a composition the two rounds leave under `FILL_FLOOR` is seen through a
+    /// canvas warp, which lifts it over the floor within the strongest step (the walker, its
+    /// limbs apart); every other scene keeps its camera as composed.
+    #[test]
+    fn the_canvas_warp_lifts_only_what_stays_under_the_floor() {
+        let p = params();
+        let aspect = p.width as f64 / p.height as f64;
+        let mut warped = Vec::new();
+        for (name, scene) in odd_scenes() {
+            let prep = Prepared::new(scene);
+            let subject = Subject::new(&prep.world, FIT_SAMPLES, COARSE_SAMPLES, None);
+            let (framed, fill) = first_round(&p, &prep.world, &prep.accel, &subject).unwrap();
+            let fill = fill.expect("composed");
+            let (framed, fill) = if fill < FILL_FLOOR {
+                second_round(&p, &prep.world, &prep.accel, &subject, (framed, fill)).unwrap()
+            } else {
+                (framed, fill)
+            };
+            let last = frame_camera(&p, &prep.world, &prep.accel).unwrap();
+            if fill >= FILL_FLOOR {
+                assert!(last.warp.is_none(), "{name}");
+                assert_eq!(key(&last, &prep.world), key(&framed, &prep.world), "{name}");
+                continue;
+            }
+            let (x, y) = last.warp.as_ref().unwrap_or_else(|| panic!("{name}: {fill:.3} and no warp"));
+            let scale = x.max_scale().max(y.max_scale());
+            assert!(scale > 1.0 && scale <= WARP_STEPS[WARP_STEPS.len() - 1] + 1e-9, "{name}: {scale}");
+            let lifted = probe_fill(last.camera.as_ref(), &prep.accel, aspect, PROBE_COLUMNS, None);
+            assert!(lifted >= FILL_FLOOR, "{name}: {fill:.3} -> {lifted:.3}");
+            // The same view: the focal centre and spans are the composition's.
+            assert_eq!(last.focal_centre, framed.focal_centre, "{name}");
+            warped.push(name);
+        }
+        assert_eq!(warped, ["odd-walker"]);
     }
 
     /// The guard refuses a candidate whose fill is mostly one small part just in front of C: a

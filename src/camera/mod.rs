@@ -2,7 +2,8 @@
 //! screen point whose ray passes through it (`Camera::project`, the exact inverse of `ray`);
 //! they never see the sampler, the film or the scene. One file per model of SPEC "Cameras";
 //! `framing.rs` chooses their parameters from the settings and the scene; `moved.rs` moves a
-//! camera rigidly (animation frames: orbits, animated glTF cameras).
+//! camera rigidly (animation frames: orbits, animated glTF cameras); `warp.rs` remaps the canvas
+//! in front of a camera so a thin subject fills it.
 //!
 //! Screen points are (x, y) in [-0.5, 0.5]^2 with (0.5, 0.5) the top-right corner.
 
@@ -15,6 +16,7 @@ mod perspective;
 mod planar;
 mod spherical;
 pub mod subject;
+pub mod warp;
 
 use glam::{DVec2, DVec3, Vec3};
 
@@ -25,6 +27,7 @@ pub use orthographic::Orthographic;
 pub use perspective::Perspective;
 pub use planar::Planar;
 pub use spherical::Spherical;
+pub use warp::Warped;
 
 /// The camera model (SPEC "Cameras").
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
@@ -165,6 +168,7 @@ pub enum CameraModel {
     Perspective(Perspective),
     Orthographic(Orthographic),
     Moved(Box<moved::MovedModel>),
+    Warped(Box<Warped>),
 }
 
 impl CameraModel {
@@ -176,6 +180,7 @@ impl CameraModel {
             CameraModel::Perspective(c) => c,
             CameraModel::Orthographic(c) => c,
             CameraModel::Moved(c) => c.as_ref(),
+            CameraModel::Warped(c) => c.as_ref(),
         }
     }
 }

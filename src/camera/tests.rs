@@ -4,6 +4,7 @@
 use glam::{DVec2, DVec3, Vec3};
 use proptest::prelude::*;
 
+use super::warp::Warp;
 use super::*;
 
 fn frame() -> CameraFrame {
@@ -185,7 +186,7 @@ fn far_origins_start_at_the_scene_sphere_without_changing_the_line() {
 
 fn any_camera(kind: u8, alpha_frac: f64, aspect: f64) -> Box<dyn Camera> {
     let f = frame();
-    match kind % 5 {
+    match kind % 6 {
         0 => {
             let a = alpha_frac * 360f64.to_radians();
             Box::new(Spherical {
@@ -213,14 +214,15 @@ fn any_camera(kind: u8, alpha_frac: f64, aspect: f64) -> Box<dyn Camera> {
             focus: 5.0,
             clip_radius: 1.0,
         }),
-        _ => Box::new(Orthographic { frame: f, height: 2.0, aspect, focus: 5.0, clip_radius: 1.0 }),
+        4 => Box::new(Orthographic { frame: f, height: 2.0, aspect, focus: 5.0, clip_radius: 1.0 }),
+        _ => Box::new(warped(injective_camera(0, alpha_frac, aspect).model())),
     }
 }
 
 proptest! {
     #[test]
     fn no_camera_yields_a_nan_or_zero_direction(
-        kind in 0u8..5,
+        kind in 0u8..6,
         alpha_frac in prop_oneof![Just(0.0), Just(1.0), 0.0f64..=1.0],
         aspect in prop_oneof![Just(1.0 / 4000.0), Just(4000.0), 0.01f64..100.0],
         x in -0.5f64..=0.5,
@@ -240,7 +242,7 @@ proptest! {
 /// 360 for the cylindrical one (whose edges then meet), finite fields of view.
 fn injective_camera(kind: u8, alpha_frac: f64, aspect: f64) -> Box<dyn Camera> {
     let f = frame();
-    match kind % 5 {
+    match kind % 6 {
         0 => {
             let a = (0.02 + 0.98 * alpha_frac) * 170f64.to_radians();
             let ay = (a / aspect).min(170f64.to_radians());
@@ -269,8 +271,15 @@ fn injective_camera(kind: u8, alpha_frac: f64, aspect: f64) -> Box<dyn Camera> {
             focus: 5.0,
             clip_radius: 1.0,
         }),
-        _ => Box::new(Orthographic { frame: f, height: 2.0, aspect, focus: 5.0, clip_radius: 1.0 }),
+        4 => Box::new(Orthographic { frame: f, height: 2.0, aspect, focus: 5.0, clip_radius: 1.0 }),
+        _ => Box::new(warped(injective_camera(0, alpha_frac, aspect).model())),
     }
+}
+
+/// `inner` through a canvas warp that widens the middle and narrows the sides, unevenly.
+fn warped(inner: CameraModel) -> Warped {
+    let knots = |v: Vec<f64>| Warp::try_from(v).unwrap();
+    Warped { inner, x: knots(vec![-0.5, -0.42, -0.1, 0.25, 0.4, 0.5]), y: knots(vec![-0.5, -0.2, 0.3, 0.5]) }
 }
 
 /// A point `fraction` of the way along the ray of `p` from the camera surface to its focal
@@ -287,7 +296,7 @@ proptest! {
     /// its focal point, projects back to that screen point at its distance along the ray.
     #[test]
     fn project_inverts_ray(
-        kind in 0u8..5,
+        kind in 0u8..6,
         alpha_frac in 0.0f64..=1.0,
         aspect in 0.25f64..4.0,
         x in -0.5f64..=0.5,
@@ -387,6 +396,7 @@ fn centre_rays_are_the_rays_bit_for_bit() {
         Box::new(spherical(200.0, 37.0 / 23.0)),
         Box::new(CameraModel::Spherical(spherical(90.0, 1.0))),
         Box::new(CameraModel::Planar(Planar::new(frame(), 2.0, 1.5, 90f64.to_radians(), 100.0))),
+        Box::new(warped(CameraModel::Spherical(spherical(140.0, 37.0 / 23.0)))),
     ];
     for cam in &cameras {
         let rays = cam.centre_rays(w, h);
@@ -401,4 +411,24 @@ fn centre_rays_are_the_rays_bit_for_bit() {
         let p = crate::trace::screen_point(3, 4, DVec2::splat(0.5), w, h);
         assert_eq!(bits(&rays(0, p)), bits(&cam.ray(p)));
     }
+}
+
+/// A warped camera is the inner camera's ray at the warped screen point, and survives being
+/// saved beside a facet layout (serde) and read back.
+#[test]
+fn a_warped_camera_remaps_the_screen_and_round_trips_as_data() {
+    let inner = CameraModel::Spherical(spherical(140.0, 1.5));
+    let cam = warped(inner.clone());
+    for (x, y) in [(0.0, 0.0), (0.3, -0.2), (-0.45, 0.4), (0.5, -0.5)] {
+        let p = DVec2::new(x, y);
+        let q = DVec2::new(cam.x.to_inner(x), cam.y.to_inner(y));
+        assert_eq!(cam.ray(p), inner.ray(q));
+    }
+    // The ends stay put: the whole inner view is still on the canvas.
+    assert_eq!(cam.ray(DVec2::new(-0.5, 0.5)), inner.ray(DVec2::new(-0.5, 0.5)));
+    let json = serde_json::to_string(&cam.model()).unwrap();
+    let back: CameraModel = serde_json::from_str(&json).unwrap();
+    assert_eq!(back, cam.model());
+    let broken = json.replace("-0.42", "0.45");
+    assert!(serde_json::from_str::<CameraModel>(&broken).is_err(), "knots out of order are refused");
 }
