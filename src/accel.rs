@@ -306,6 +306,20 @@ impl Tri {
     }
 }
 
+impl Tri {
+    /// Whether a hit on this triangle is refused for a ray along `d` (`Instance::cull`): the
+    /// sign of d . n (n the normal its winding gives) is `cull`'s opposite. Tested only on a
+    /// hit, so instances without culling (`cull` 0) pay a compare per hit.
+    #[inline(always)]
+    fn culled(&self, d: Vec3A, cull: f32) -> bool {
+        if cull == 0.0 {
+            return false;
+        }
+        let [a, b, c] = self.p.map(Vec3A::from);
+        cull * d.dot((b - a).cross(c - a)) < 0.0
+    }
+}
+
 /// Component `K` of `v` (K a constant: a fixed lane).
 #[inline(always)]
 fn lane<const K: usize>(v: Vec3A) -> f32 {
@@ -480,13 +494,26 @@ impl Blas {
     /// The closest hit in this BLAS better than `best` (nearer, or as near with a lower
     /// triangle id), for the ray `o + t d` (base space) with `tmin <= t <= tmax`.
     #[inline(always)]
-    fn closest(&self, ray: &LocalRay, tmin: f32, tmax: f32, first_triangle: u32, object: u32, best: &mut Option<Hit>) {
+    /// `cull` (`Instance::cull`): 0, or the sign of d . n (n the winding's normal) of the faces
+    /// a hit is refused on.
+    #[allow(clippy::too_many_arguments)]
+    fn closest(
+        &self,
+        ray: &LocalRay,
+        tmin: f32,
+        tmax: f32,
+        first_triangle: u32,
+        object: u32,
+        cull: f32,
+        best: &mut Option<Hit>,
+    ) {
         with_axes!(ray.sheared.k, |KX, KY, KZ| {
-            self.closest_axes::<KX, KY, KZ>(ray, tmin, tmax, first_triangle, object, best)
+            self.closest_axes::<KX, KY, KZ>(ray, tmin, tmax, first_triangle, object, cull, best)
         })
     }
 
     /// `closest` with the ray's axes as constants (`Tri::intersect_axes`).
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn closest_axes<const KX: usize, const KY: usize, const KZ: usize>(
         &self,
@@ -495,13 +522,16 @@ impl Blas {
         tmax: f32,
         first_triangle: u32,
         object: u32,
+        cull: f32,
         best: &mut Option<Hit>,
     ) {
         traverse_closest(&self.pairs, Ray::new(ray.o, ray.d, tmin, tmax), |r, slot| {
             let tri = &self.tris[slot];
             match tri.intersect_axes::<KX, KY, KZ>(&ray.sheared, tmin, r.tmax) {
-                Some((t, u, v)) => offer(best, Hit { tri: first_triangle + tri.id, object, t, u, v }),
-                None => f32::INFINITY,
+                Some((t, u, v)) if !tri.culled(ray.d, cull) => {
+                    offer(best, Hit { tri: first_triangle + tri.id, object, t, u, v })
+                }
+                _ => f32::INFINITY,
             }
         });
     }
@@ -509,6 +539,7 @@ impl Blas {
     /// `closest` for a packet of four rays sharing their axes (`ShearedRay::k`), lane `l`
     /// within [tmin, tmax[l]] (-inf: no part) into `best[l]`; the same hits as `closest` for
     /// each lane alone (`Pairs::traverse4`).
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn closest4(
         &self,
@@ -517,12 +548,13 @@ impl Blas {
         tmax: Vec4,
         first_triangle: u32,
         object: u32,
+        cull: f32,
         best: &mut [Option<Hit>; 4],
     ) {
         if self.pairs.depth > INLINE_STACK {
             for (l, ray) in rays.iter().enumerate() {
                 if tmax[l] >= tmin {
-                    self.closest(ray, tmin, tmax[l], first_triangle, object, &mut best[l]);
+                    self.closest(ray, tmin, tmax[l], first_triangle, object, cull, &mut best[l]);
                 }
             }
             return;
@@ -539,7 +571,9 @@ impl Blas {
                             continue;
                         }
                         // As `closest_axes` for lane l alone.
-                        if let Some((t, u, v)) = tri.intersect_axes::<KX, KY, KZ>(&rays[l].sheared, tmin, limit[l]) {
+                        if let Some((t, u, v)) = tri.intersect_axes::<KX, KY, KZ>(&rays[l].sheared, tmin, limit[l])
+                            && !tri.culled(rays[l].d, cull)
+                        {
                             let slack = offer(&mut best[l], Hit { tri: first_triangle + tri.id, object, t, u, v });
                             if slack < limit[l] {
                                 limit[l] = slack;
@@ -966,6 +1000,11 @@ struct Instance {
     to_base: Option<Affine3A>,
     /// A backdrop's plane (`scene::backdrop`): rays starting behind it pass through it.
     backdrop: Option<Backdrop>,
+    /// An enclosure (`scene::enclosure`) has its inner side only: 1 or -1, the sign of d . n
+    /// (d the ray in base space, n the normal its triangles' winding gives there) of the faces
+    /// a ray leaves it through, which it hits; a ray entering through a face passes it. 0 for
+    /// every other object. Enclosures cast no shadow (`occluded` passes them).
+    cull: f32,
 }
 
 impl Instance {
@@ -1210,15 +1249,21 @@ impl Accel {
                 first_triangle: o.first_triangle,
                 to_base: o.placement.map(|p| p.to_base),
                 backdrop: world.backdrops.iter().find(|b| b.object == i).copied(),
+                cull: world.enclosures.iter().find(|e| e.object == i).map_or(0.0, |e| {
+                    // A mirroring placement turns the winding over in base space.
+                    let mirrored = o.placement.is_some_and(|p| p.to_base.matrix3.determinant() < 0.0);
+                    if e.outward != mirrored { 1.0 } else { -1.0 }
+                }),
             });
             boxes.push(aabb);
         }
         // The baked objects, in ascending triangle ids, while they fit under the cap.
         let mut grouped = Vec::new();
         let mut total = 0;
-        // (A backdrop keeps its own instance: rays behind it skip it.)
+        // (A backdrop or an enclosure keeps its own instance: rays behind it skip it, rays
+        // entering it pass its faces.)
         let mut by_id: Vec<usize> = (0..instances.len())
-            .filter(|&k| instances[k].to_base.is_none() && instances[k].backdrop.is_none())
+            .filter(|&k| instances[k].to_base.is_none() && instances[k].backdrop.is_none() && instances[k].cull == 0.0)
             .collect();
         by_id.sort_by_key(|&k| instances[k].first_triangle);
         for k in by_id {
@@ -1243,6 +1288,7 @@ impl Accel {
                     first_triangle: 0,
                     to_base: None,
                     backdrop: None,
+                    cull: 0.0,
                 });
                 boxes.push(group.blas.bounds);
             }
@@ -1355,7 +1401,8 @@ impl Accel {
                 return f32::INFINITY;
             }
             let before = best.map(|b| (b.t, b.tri));
-            self.blas_of(inst).closest(&inst.ray(&world), tmin, r.tmax, inst.first_triangle, inst.object, &mut best);
+            let ray = inst.ray(&world);
+            self.blas_of(inst).closest(&ray, tmin, r.tmax, inst.first_triangle, inst.object, inst.cull, &mut best);
             match best {
                 Some(b) if before != Some((b.t, b.tri)) => just_beyond(b.t),
                 _ => f32::INFINITY,
@@ -1430,11 +1477,11 @@ impl Accel {
                 let blas = self.blas_of(inst);
                 if inst.to_base.is_none() {
                     let own = Vec4::select(mask_lanes(lanes), *limit, Vec4::NEG_INFINITY);
-                    blas.closest4(&world, tmin, own, inst.first_triangle, inst.object, &mut best);
+                    blas.closest4(&world, tmin, own, inst.first_triangle, inst.object, inst.cull, &mut best);
                 } else {
                     for l in (0..4).filter(|l| lanes & (1 << l) != 0) {
                         let ray = inst.ray(&world[l]);
-                        blas.closest(&ray, tmin, limit[l], inst.first_triangle, inst.object, &mut best[l]);
+                        blas.closest(&ray, tmin, limit[l], inst.first_triangle, inst.object, inst.cull, &mut best[l]);
                     }
                 }
                 // As `closest`'s top level: a lane's limit drops to just beyond a new best.
@@ -1464,7 +1511,7 @@ impl Accel {
         let world = LocalRay::new(Vec3A::from(origin), Vec3A::from(dir));
         !traverse_miss(tlas, Ray::new(world.o, world.d, tmin, tmax), |_, slot| {
             let inst = &self.instances[slot];
-            if inst.skipped_from(world.o) {
+            if inst.skipped_from(world.o) || inst.cull != 0.0 {
                 return f32::INFINITY;
             }
             self.blas_of(inst).any_hit(&inst.ray(&world), tmin, tmax).unwrap_or(f32::INFINITY)
@@ -1806,5 +1853,66 @@ mod tests {
         let alone: Vec<_> = below.iter().map(|&(o, d)| accel.closest(o, d, 0.0, f32::INFINITY)).collect();
         assert_eq!(accel.closest4(&below, 0.0, f32::INFINITY).to_vec(), alone);
         assert!(alone[..3].iter().all(|h| h.is_some_and(|h| world.object_of(h.tri) == 1)) && alone[3].is_none());
+    }
+
+    /// An enclosure (`scene::enclosure`) has its inner side only: a ray from outside passes
+    /// the wall it enters through and meets the ball inside, or the far wall from inside; a
+    /// ray from inside meets the walls; placed by a mirroring transform too; shadow rays pass
+    /// it; the same hits one by one and in packets.
+    #[test]
+    fn rays_entering_an_enclosure_pass_its_near_walls() {
+        use crate::scene::default::{cuboid, ellipsoid};
+        use crate::scene::{Material, Object, Projection, Scene, SceneCamera};
+        use glam::{DMat4, DVec3};
+        for mirror in [1.0, -1.0] {
+            let mut s = Scene::default();
+            s.materials.push(Material::default());
+            s.meshes.push(cuboid("room", Vec3::new(10.0, 5.0, 10.0), 0));
+            s.meshes.push(ellipsoid("ball", Vec3::splat(0.5), 12, 24, 0));
+            let room =
+                DMat4::from_translation(DVec3::new(0.0, 2.5, 0.0)) * DMat4::from_scale(DVec3::new(mirror, 1.0, 1.0));
+            // A first room far off bakes the mesh, so the room around the camera is a placed
+            // copy, mirrored in base space when `mirror` is -1.
+            let far_off = DMat4::from_translation(DVec3::new(40.0, 2.5, 0.0));
+            s.objects.push(Object { name: "far room".into(), mesh: 0, transform: far_off });
+            s.objects.push(Object { name: "room".into(), mesh: 0, transform: room });
+            s.objects.push(Object {
+                name: "ball".into(),
+                mesh: 1,
+                transform: DMat4::from_translation(DVec3::new(0.0, 0.5, -2.0)),
+            });
+            s.camera = Some(SceneCamera {
+                position: DVec3::new(0.0, 1.6, 4.0),
+                forward: DVec3::NEG_Z,
+                up: DVec3::Y,
+                projection: Projection::Perspective { yfov: 1.0 },
+                focus_distance: None,
+            });
+            let world = World::new(&s);
+            assert_eq!(world.enclosures.iter().map(|e| e.object).collect::<Vec<_>>(), vec![1], "mirror {mirror}");
+            assert!(world.objects[1].placement.is_some(), "a placed copy");
+            let accel = Accel::new(&world);
+            let at = |x: f64, y: f64, z: f64| world.to_render.point(DVec3::new(x, y, z));
+            let toward = |a: Vec3, b: Vec3| (b - a).normalize();
+            // From outside, in front of the room, at the ball: the ball, through the wall.
+            let (o, d) = (at(0.0, 0.5, 20.0), toward(at(0.0, 0.5, 20.0), at(0.0, 0.5, -2.0)));
+            assert_eq!(world.object_of(accel.closest(o, d, 0.0, f32::INFINITY).expect("the ball").tri), 2);
+            // From outside beside the ball: the far wall, from inside (beyond the room's middle).
+            let o2 = at(3.0, 2.0, 20.0);
+            let d2 = toward(o2, at(3.0, 2.0, 0.0));
+            let far = accel.closest(o2, d2, 0.0, f32::INFINITY).expect("the far wall");
+            assert_eq!(world.object_of(far.tri), 1);
+            assert!((o2 + d2 * far.t - at(3.0, 2.0, -5.0)).length() < 1e-3, "mirror {mirror}");
+            // From inside (the camera): the wall ahead.
+            let o3 = at(3.0, 2.0, 4.0);
+            let near = accel.closest(o3, d2, 0.0, f32::INFINITY).expect("the wall ahead");
+            assert!((o3 + d2 * near.t - at(3.0, 2.0, -5.0)).length() < 1e-3);
+            // Shadow rays pass the walls, not the ball.
+            assert!(!accel.occluded(o3, d2, 0.0, f32::INFINITY));
+            assert!(accel.occluded(o, d, 0.0, f32::INFINITY));
+            let rays = [(o, d), (o2, d2), (at(3.1, 2.0, 20.0), d2), (o3, d2)];
+            let alone: Vec<_> = rays.iter().map(|&(o, d)| accel.closest(o, d, 0.0, f32::INFINITY)).collect();
+            assert_eq!(accel.closest4(&rays, 0.0, f32::INFINITY).to_vec(), alone);
+        }
     }
 }

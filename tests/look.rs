@@ -54,10 +54,10 @@ fn the_default_look_on_odd_scenes() {
 }
 
 /// Pixels on the picture's outermost rows and columns that show the subject (geometry, not a
-/// backdrop, which reaches past the edges): a subject cut off.
+/// backdrop or an enclosure, which reach past the edges): a subject cut off.
 fn edge_hits(film: &cubist::film::Film, world: &cubist::scene::World) -> usize {
     let (w, h) = (film.width as usize, film.height as usize);
-    let backdrop = |o: u32| world.backdrops.iter().any(|b| b.object == o as usize);
+    let backdrop = |o: u32| world.is_setting(o as usize);
     (0..w * h)
         .filter(|&i| {
             let (x, y) = (i % w, i / w);

@@ -3,7 +3,8 @@
 //!   rest). Framed with its floor, a scene of objects on a 20 m plane showed them a few pixels
 //!   tall on a kite of floor. The backdrop is still rendered, shaded and faceted like anything
 //!   else; it only does not set the extent, the centre and the radius the cameras are composed
-//!   around;
+//!   around; nor its enclosures (`scene::enclosure`: a closed room around the camera and the
+//!   furniture), which the framing would otherwise fit around the walls;
 //! - of that, what the scene's own camera sees (`View`), when it does not see everything: a
 //!   user who framed one head in a room of statues meant the head, and the cubist camera
 //!   composed around the whole room drew it a few pixels tall among the others.
@@ -93,14 +94,14 @@ pub struct Subject {
 
 impl Subject {
     /// The subject of `world`, with about `full` and `coarse` sample points (every n-th corner
-    /// of the subject's triangles; with no backdrop, exactly the corners a sample of the whole
-    /// scene takes), kept to what `view` sees when it sees some of them but not all. With no
-    /// backdrop and everything in view, the scene's centre (the origin) and radius.
+    /// of the subject's triangles; with no backdrop or enclosure, exactly the corners a sample of
+    /// the whole scene takes), kept to what `view` sees when it sees some of them but not all.
+    /// With no backdrop or enclosure and everything in view, the scene's centre (the origin) and
+    /// radius.
     pub fn new(world: &World, full: usize, coarse: usize, view: Option<&View>) -> Subject {
-        let keep: Vec<usize> =
-            (0..world.objects.len()).filter(|&o| !world.backdrops.iter().any(|b| b.object == o)).collect();
+        let keep: Vec<usize> = (0..world.objects.len()).filter(|&o| !world.is_setting(o)).collect();
         let (mut full, mut coarse) = (sample(world, &keep, full), sample(world, &keep, coarse));
-        let mut whole = world.backdrops.is_empty();
+        let mut whole = keep.len() == world.objects.len();
         if let Some(view) = view {
             let seen: Vec<(DVec3, u32)> = full.iter().copied().filter(|(p, o)| view.sees(*p, *o)).collect();
             if !seen.is_empty() && seen.len() < full.len() {

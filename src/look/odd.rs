@@ -1,13 +1,13 @@
 //! Odd scenes the shared models do not cover (DEVELOPERS.md: our scenes are not the users'):
 //! very tall, very flat, z-up, several objects spread out, a figure walking across the view,
 //! a pole, a board seen edge-on, a long bench, far from the origin, huge and tiny, objects on a
-//! floor many times their size. Built in code so the look report and the tests check the composition and the planes
+//! floor many times their size, a room modelled as one closed box around the camera. Built in code so the look report and the tests check the composition and the planes
 //! on them without any file (`cubist look --odd`).
 
 use glam::{DMat4, DQuat, DVec3, Vec2, Vec3, Vec4};
 
 use crate::scene::default::{cuboid, ellipsoid, lathe};
-use crate::scene::{Material, Mesh, Object, Scene};
+use crate::scene::{Material, Mesh, Object, Projection, Scene, SceneCamera};
 
 fn material(name: &str, r: f32, g: f32, b: f32) -> Material {
     Material { name: name.into(), base_color: Vec4::new(r, g, b, 1.0), roughness: 0.5, ..Material::default() }
@@ -178,5 +178,33 @@ pub fn odd_scenes() -> Vec<(String, Scene)> {
         DMat4::IDENTITY,
     );
     out.push(("odd-floor".to_string(), s));
+    // A room modelled as one closed box with the camera inside it (`scene::enclosure`), as
+    // Blender users build interiors: a jug, a ball and a crate on its floor.
+    let mut s = scene("room");
+    add(
+        &mut s,
+        vec![(cuboid("room", Vec3::new(8.0, 4.0, 8.0), 0), DMat4::from_translation(DVec3::new(0.0, 2.0, 0.0)))],
+        DMat4::IDENTITY,
+    );
+    let inside = DMat4::from_translation(DVec3::new(0.0, 0.0, -1.5));
+    add(&mut s, vec![(lathe("jug", &jug, 32, 0), DMat4::IDENTITY)], inside);
+    add(
+        &mut s,
+        vec![(ellipsoid("ball", Vec3::splat(0.3), 16, 24, 0), DMat4::from_translation(DVec3::new(0.8, 0.3, 0.4)))],
+        inside,
+    );
+    add(
+        &mut s,
+        vec![(cuboid("crate", Vec3::new(0.7, 0.6, 0.6), 0), DMat4::from_translation(DVec3::new(-0.9, 0.3, -0.3)))],
+        inside,
+    );
+    s.camera = Some(SceneCamera {
+        position: DVec3::new(0.3, 1.5, 2.5),
+        forward: DVec3::new(-0.1, -0.35, -1.0).normalize(),
+        up: DVec3::Y,
+        projection: Projection::Perspective { yfov: 0.8 },
+        focus_distance: None,
+    });
+    out.push(("odd-room".to_string(), s));
     out
 }

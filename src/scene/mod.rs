@@ -8,6 +8,7 @@
 pub mod animation;
 pub mod backdrop;
 pub mod default;
+pub mod enclosure;
 mod gltf;
 pub mod srgb;
 pub mod texture;

@@ -219,6 +219,9 @@ pub struct World {
     /// The objects that are backdrops (`backdrop::backdrops`: a floor or a wall much larger
     /// than the rest), found again whenever the bounds change.
     pub backdrops: Vec<super::backdrop::Backdrop>,
+    /// The objects that are enclosures (`enclosure::enclosures`: a closed room around the
+    /// scene's camera and its contents), found again with the backdrops.
+    pub enclosures: Vec<super::enclosure::Enclosure>,
 }
 
 impl World {
@@ -284,6 +287,7 @@ impl World {
             bounds: (Vec3::ZERO, Vec3::ZERO),
             radius: 0.0,
             backdrops: Vec::new(),
+            enclosures: Vec::new(),
         };
         if w.materials.is_empty() {
             w.materials.push(Material::default());
@@ -318,6 +322,17 @@ impl World {
             });
             first = first.saturating_add(count);
         }
+        // (The camera first: enclosures are found around it.)
+        w.camera = scene.camera.as_ref().map(|c| SceneCamera {
+            position: to_render.point_f64(c.position),
+            forward: c.forward,
+            up: c.up,
+            projection: match c.projection {
+                Projection::Orthographic { ymag } => Projection::Orthographic { ymag: ymag * scale },
+                p => p,
+            },
+            focus_distance: c.focus_distance.map(|f| f * scale),
+        });
         w.refresh_bounds(None);
         w.lights = scene
             .lights
@@ -333,16 +348,6 @@ impl World {
                 direction: l.direction.as_vec3(),
             })
             .collect();
-        w.camera = scene.camera.as_ref().map(|c| SceneCamera {
-            position: to_render.point_f64(c.position),
-            forward: c.forward,
-            up: c.up,
-            projection: match c.projection {
-                Projection::Orthographic { ymag } => Projection::Orthographic { ymag: ymag * scale },
-                p => p,
-            },
-            focus_distance: c.focus_distance.map(|f| f * scale),
-        });
         w
     }
 
@@ -455,6 +460,13 @@ impl World {
         self.bounds = if lo.is_finite() { (lo, hi) } else { (Vec3::ZERO, Vec3::ZERO) };
         self.radius = radius;
         self.backdrops = super::backdrop::backdrops(self);
+        self.enclosures = super::enclosure::enclosures(self, self.camera.as_ref().map(|c| c.position));
+    }
+
+    /// Whether object `o` is the scene's setting rather than its subject: a backdrop or an
+    /// enclosure, which the cameras are not framed around.
+    pub fn is_setting(&self, o: usize) -> bool {
+        self.backdrops.iter().any(|b| b.object == o) || self.enclosures.iter().any(|e| e.object == o)
     }
 
     /// Placed triangles, instances counted each time (the range of triangle ids).
