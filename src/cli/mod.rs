@@ -61,7 +61,8 @@ pub struct LookArgs {
     #[arg(long)]
     pub still_life: bool,
     /// Include the built-in odd scenes: very tall, very flat, z-up, several objects, a walking
-    /// figure, a pole, a board edge-on, a bench, far from the origin, huge, tiny.
+    /// figure, a pole, a board edge-on, a bench, far from the origin, huge, tiny, objects on a
+    /// floor, a room modelled as one closed box around the camera.
     #[arg(long)]
     pub odd: bool,
     /// Also render every scene with this preset: measured and shown beside, as "before".
