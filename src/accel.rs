@@ -306,6 +306,22 @@ impl Tri {
     }
 }
 
+/// Whose triangles a BLAS query reports hits as (`Instance::owner`): the first global
+/// triangle id and the object of the instance traced, and its culling (`Instance::cull`).
+#[derive(Clone, Copy)]
+struct Owner {
+    first_triangle: u32,
+    object: u32,
+    cull: f32,
+}
+
+impl Owner {
+    #[inline(always)]
+    fn hit(&self, tri: &Tri, t: f32, u: f32, v: f32) -> Hit {
+        Hit { tri: self.first_triangle + tri.id, object: self.object, t, u, v }
+    }
+}
+
 impl Tri {
     /// Whether a hit on this triangle is refused for a ray along `d` (`Instance::cull`): the
     /// sign of d . n (n the normal its winding gives) is `cull`'s opposite. Tested only on a
@@ -492,45 +508,27 @@ impl Blas {
     }
 
     /// The closest hit in this BLAS better than `best` (nearer, or as near with a lower
-    /// triangle id), for the ray `o + t d` (base space) with `tmin <= t <= tmax`.
+    /// triangle id), for the ray `o + t d` (base space) with `tmin <= t <= tmax`, reported as
+    /// `owner`'s.
     #[inline(always)]
-    /// `cull` (`Instance::cull`): 0, or the sign of d . n (n the winding's normal) of the faces
-    /// a hit is refused on.
-    #[allow(clippy::too_many_arguments)]
-    fn closest(
-        &self,
-        ray: &LocalRay,
-        tmin: f32,
-        tmax: f32,
-        first_triangle: u32,
-        object: u32,
-        cull: f32,
-        best: &mut Option<Hit>,
-    ) {
-        with_axes!(ray.sheared.k, |KX, KY, KZ| {
-            self.closest_axes::<KX, KY, KZ>(ray, tmin, tmax, first_triangle, object, cull, best)
-        })
+    fn closest(&self, ray: &LocalRay, tmin: f32, tmax: f32, owner: Owner, best: &mut Option<Hit>) {
+        with_axes!(ray.sheared.k, |KX, KY, KZ| self.closest_axes::<KX, KY, KZ>(ray, tmin, tmax, owner, best))
     }
 
     /// `closest` with the ray's axes as constants (`Tri::intersect_axes`).
-    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn closest_axes<const KX: usize, const KY: usize, const KZ: usize>(
         &self,
         ray: &LocalRay,
         tmin: f32,
         tmax: f32,
-        first_triangle: u32,
-        object: u32,
-        cull: f32,
+        owner: Owner,
         best: &mut Option<Hit>,
     ) {
         traverse_closest(&self.pairs, Ray::new(ray.o, ray.d, tmin, tmax), |r, slot| {
             let tri = &self.tris[slot];
             match tri.intersect_axes::<KX, KY, KZ>(&ray.sheared, tmin, r.tmax) {
-                Some((t, u, v)) if !tri.culled(ray.d, cull) => {
-                    offer(best, Hit { tri: first_triangle + tri.id, object, t, u, v })
-                }
+                Some((t, u, v)) if !tri.culled(ray.d, owner.cull) => offer(best, owner.hit(tri, t, u, v)),
                 _ => f32::INFINITY,
             }
         });
@@ -539,22 +537,12 @@ impl Blas {
     /// `closest` for a packet of four rays sharing their axes (`ShearedRay::k`), lane `l`
     /// within [tmin, tmax[l]] (-inf: no part) into `best[l]`; the same hits as `closest` for
     /// each lane alone (`Pairs::traverse4`).
-    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    fn closest4(
-        &self,
-        rays: &[LocalRay; 4],
-        tmin: f32,
-        tmax: Vec4,
-        first_triangle: u32,
-        object: u32,
-        cull: f32,
-        best: &mut [Option<Hit>; 4],
-    ) {
+    fn closest4(&self, rays: &[LocalRay; 4], tmin: f32, tmax: Vec4, owner: Owner, best: &mut [Option<Hit>; 4]) {
         if self.pairs.depth > INLINE_STACK {
             for (l, ray) in rays.iter().enumerate() {
                 if tmax[l] >= tmin {
-                    self.closest(ray, tmin, tmax[l], first_triangle, object, cull, &mut best[l]);
+                    self.closest(ray, tmin, tmax[l], owner, &mut best[l]);
                 }
             }
             return;
@@ -572,9 +560,9 @@ impl Blas {
                         }
                         // As `closest_axes` for lane l alone.
                         if let Some((t, u, v)) = tri.intersect_axes::<KX, KY, KZ>(&rays[l].sheared, tmin, limit[l])
-                            && !tri.culled(rays[l].d, cull)
+                            && !tri.culled(rays[l].d, owner.cull)
                         {
-                            let slack = offer(&mut best[l], Hit { tri: first_triangle + tri.id, object, t, u, v });
+                            let slack = offer(&mut best[l], owner.hit(tri, t, u, v));
                             if slack < limit[l] {
                                 limit[l] = slack;
                             }
@@ -1015,6 +1003,12 @@ impl Instance {
         self.backdrop.is_some_and(|b| b.behind(Vec3::from(origin)))
     }
 
+    /// What its BLAS's hits are reported as.
+    #[inline(always)]
+    fn owner(&self) -> Owner {
+        Owner { first_triangle: self.first_triangle, object: self.object, cull: self.cull }
+    }
+
     /// The render-space ray `world` in this instance's base space.
     #[inline(always)]
     fn ray(&self, world: &LocalRay) -> LocalRay {
@@ -1401,8 +1395,7 @@ impl Accel {
                 return f32::INFINITY;
             }
             let before = best.map(|b| (b.t, b.tri));
-            let ray = inst.ray(&world);
-            self.blas_of(inst).closest(&ray, tmin, r.tmax, inst.first_triangle, inst.object, inst.cull, &mut best);
+            self.blas_of(inst).closest(&inst.ray(&world), tmin, r.tmax, inst.owner(), &mut best);
             match best {
                 Some(b) if before != Some((b.t, b.tri)) => just_beyond(b.t),
                 _ => f32::INFINITY,
@@ -1477,11 +1470,11 @@ impl Accel {
                 let blas = self.blas_of(inst);
                 if inst.to_base.is_none() {
                     let own = Vec4::select(mask_lanes(lanes), *limit, Vec4::NEG_INFINITY);
-                    blas.closest4(&world, tmin, own, inst.first_triangle, inst.object, inst.cull, &mut best);
+                    blas.closest4(&world, tmin, own, inst.owner(), &mut best);
                 } else {
                     for l in (0..4).filter(|l| lanes & (1 << l) != 0) {
                         let ray = inst.ray(&world[l]);
-                        blas.closest(&ray, tmin, limit[l], inst.first_triangle, inst.object, inst.cull, &mut best[l]);
+                        blas.closest(&ray, tmin, limit[l], inst.owner(), &mut best[l]);
                     }
                 }
                 // As `closest`'s top level: a lane's limit drops to just beyond a new best.

@@ -120,11 +120,11 @@ fn plane_of(world: &World, o: usize, extent: f64) -> Option<(DVec3, DVec3)> {
 
 #[cfg(test)]
 mod tests {
-    use glam::{DMat4, DVec3, Vec3, Vec4};
+    use glam::{DVec3, Vec3};
 
     use super::*;
+    use crate::scene::Mesh;
     use crate::scene::default::{cuboid, ellipsoid};
-    use crate::scene::{Material, Mesh, Object, Scene};
 
     /// A two-triangle square `size` wide at y = 0, facing +Y.
     fn plane(size: f32) -> Mesh {
@@ -143,17 +143,7 @@ mod tests {
     }
 
     fn scene(parts: Vec<(Mesh, DVec3)>) -> World {
-        let mut s = Scene::default();
-        s.materials.push(Material { base_color: Vec4::ONE, ..Material::default() });
-        for (mesh, at) in parts {
-            s.meshes.push(mesh);
-            s.objects.push(Object {
-                name: format!("o{}", s.objects.len()),
-                mesh: s.meshes.len() - 1,
-                transform: DMat4::from_translation(at),
-            });
-        }
-        World::new(&s)
+        crate::scene::test_world(parts, None)
     }
 
     fn ball() -> (Mesh, DVec3) {

@@ -116,31 +116,14 @@ fn meets(t: &[DVec3; 3], p: DVec3, d: DVec3) -> bool {
 
 #[cfg(test)]
 mod tests {
-    use glam::{DMat4, Vec3, Vec4};
+    use glam::Vec3;
 
     use super::*;
+    use crate::scene::Mesh;
     use crate::scene::default::{cuboid, ellipsoid};
-    use crate::scene::{Material, Mesh, Object, Projection, Scene, SceneCamera};
 
     fn scene(parts: Vec<(Mesh, DVec3)>, camera: Option<DVec3>) -> World {
-        let mut s = Scene::default();
-        s.materials.push(Material { base_color: Vec4::ONE, ..Material::default() });
-        for (mesh, at) in parts {
-            s.meshes.push(mesh);
-            s.objects.push(Object {
-                name: format!("o{}", s.objects.len()),
-                mesh: s.meshes.len() - 1,
-                transform: DMat4::from_translation(at),
-            });
-        }
-        s.camera = camera.map(|position| SceneCamera {
-            position,
-            forward: DVec3::NEG_Z,
-            up: DVec3::Y,
-            projection: Projection::Perspective { yfov: 1.0 },
-            focus_distance: None,
-        });
-        World::new(&s)
+        crate::scene::test_world(parts, camera)
     }
 
     fn room() -> (Mesh, DVec3) {

@@ -192,3 +192,27 @@ pub fn compute_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> 
     }
     n.into_iter().map(|v| v.try_normalize().unwrap_or(Vec3::Y)).collect()
 }
+
+/// A world of `parts` (each mesh placed at its offset, one white material) and a camera at
+/// `camera` looking down -Z: the scene the backdrop and enclosure tests build.
+#[cfg(test)]
+pub(crate) fn test_world(parts: Vec<(Mesh, glam::DVec3)>, camera: Option<glam::DVec3>) -> World {
+    let mut s = Scene::default();
+    s.materials.push(Material { base_color: glam::Vec4::ONE, ..Material::default() });
+    for (mesh, at) in parts {
+        s.meshes.push(mesh);
+        s.objects.push(Object {
+            name: format!("o{}", s.objects.len()),
+            mesh: s.meshes.len() - 1,
+            transform: glam::DMat4::from_translation(at),
+        });
+    }
+    s.camera = camera.map(|position| SceneCamera {
+        position,
+        forward: glam::DVec3::NEG_Z,
+        up: glam::DVec3::Y,
+        projection: Projection::Perspective { yfov: 1.0 },
+        focus_distance: None,
+    });
+    World::new(&s)
+}
