@@ -26,8 +26,9 @@ import numpy as np
 
 import bpy
 
-from . import export, mapping, pngio, runner, turns, viewport
-from .properties import panel_values
+from . import export, mapping, pngio, preferences, runner, turns, viewport
+from .preferences import addon_preferences
+from .preferences import panel as _panel
 from .serve_client import ServerError, ServerGone
 
 ENGINE_ID = "CUBIST"
@@ -47,23 +48,6 @@ cancel_hook = None
 # copied (frame_NNNN.glb + settings_NNNN.json, layout_NNNN.glb + layout_NNNN.json), to render
 # them with the CLI and compare. None: nothing is kept.
 keep_exports = None
-# Blender's preferences (a pointer to its global preferences, valid for the whole session),
-# taken on the main thread when the add-on registers: the render thread must not read
-# `bpy.context`.
-_preferences = None
-
-
-def addon_preferences(context=None):
-    prefs = context.preferences if context is not None else _preferences
-    if prefs is None:
-        return None
-    for name in (__package__, __package__.rsplit(".", 1)[-1]):
-        addon = prefs.addons.get(name)
-        if addon is not None:
-            return addon.preferences
-    return None
-
-
 def layout_folder(props) -> Path:
     """The layout and saliency cache folder: the panel's, else `cubist/` beside the .blend,
     else (unsaved file) a folder in the system's temporary directory."""
@@ -87,14 +71,6 @@ def remove_unsaved_folder() -> None:
     """Removes this session's unsaved-file folder: its layouts belong to a file that is being
     closed (a new or another file is loading, or Blender quits) and that nobody can reopen."""
     shutil.rmtree(unsaved_folder(), ignore_errors=True)
-
-
-def _panel(props) -> dict:
-    panel = panel_values(props)
-    for key in ("facet_map", "palette_image", "layout_file", "saliency_cache"):
-        if panel[key]:
-            panel[key] = bpy.path.abspath(panel[key])
-    return panel
 
 
 def current_layout_path(scene) -> Path:
@@ -473,8 +449,7 @@ def _file_closing(*_args):
 
 
 def register():
-    global _preferences
-    _preferences = bpy.context.preferences
+    preferences.remember(bpy.context.preferences)
     bpy.utils.register_class(CubistRenderEngine)
     bpy.app.handlers.render_init.append(_render_job_starts)
     bpy.app.handlers.load_pre.append(_file_closing)

@@ -1,11 +1,15 @@
 """Add-on preferences: a `cubist` binary of the user's own (used first when set), and what the
-add-on will run, or why it has nothing to run (e.g. a zip without a renderer for this platform)."""
+add-on will run, or why it has nothing to run (e.g. a zip without a renderer for this platform).
+Also what the F12 engine (`engine.py`) and the viewport (`viewport.py`) both read without
+`bpy.context` (the render thread has no window): the preferences and the Cubist panel's values,
+so neither imports the other for them."""
 
 import textwrap
 
 import bpy
 
 from . import runner
+from .properties import panel_values
 
 
 def _package():
@@ -53,6 +57,38 @@ class CubistPreferences(bpy.types.AddonPreferences):
         missing = runner.missing_platform_binary()
         if missing and not pref:
             draw_wrapped(layout, f"Note: {missing}.", "INFO", context)
+
+
+# Blender's preferences (a pointer to its global preferences, valid for the whole session),
+# taken on the main thread when the add-on registers: the render thread must not read
+# `bpy.context`.
+_preferences = None
+
+
+def remember(preferences) -> None:
+    """Keeps Blender's preferences, taken on the main thread when the add-on registers."""
+    global _preferences
+    _preferences = preferences
+
+
+def addon_preferences(context=None):
+    prefs = context.preferences if context is not None else _preferences
+    if prefs is None:
+        return None
+    for name in (__package__, __package__.rsplit(".", 1)[-1]):
+        addon = prefs.addons.get(name)
+        if addon is not None:
+            return addon.preferences
+    return None
+
+
+def panel(props) -> dict:
+    """The Cubist panel's values, with its file paths made absolute."""
+    values = panel_values(props)
+    for key in ("facet_map", "palette_image", "layout_file", "saliency_cache"):
+        if values[key]:
+            values[key] = bpy.path.abspath(values[key])
+    return values
 
 
 classes = (CubistPreferences,)

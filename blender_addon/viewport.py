@@ -43,7 +43,7 @@ import numpy as np
 
 import bpy
 
-from . import export, mapping, runner
+from . import export, mapping, preferences, runner
 from .serve_client import ServeClient, read_rgba
 
 # The progressive passes, as fractions of the view's size; passes whose image would be
@@ -401,12 +401,10 @@ def view_of(context, depsgraph) -> Optional[View]:
 
 def settings_for(scene, view: View) -> dict:
     """The settings of a view of `scene` (its panel, its world), at the view's size."""
-    from .engine import _panel
-
     facts = mapping.SceneFacts(width=view.width, height=view.height, frame=scene.frame_current, camera=view.camera,
                                background=export.world_background(scene.world),
                                transparent=scene.render.film_transparent)
-    settings = mapping.settings_from_panel(_panel(scene.cubist), facts)
+    settings = mapping.settings_from_panel(preferences.panel(scene.cubist), facts)
     settings["passes"] = []  # the view shows the picture only
     settings.pop("save_facets", None)
     return settings
@@ -465,9 +463,7 @@ def geometry_changed(depsgraph) -> bool:
 
 
 def _binary() -> Path:
-    from .engine import addon_preferences
-
-    prefs = addon_preferences()
+    prefs = preferences.addon_preferences()
     pref_path = bpy.path.abspath(prefs.binary_path) if prefs is not None and prefs.binary_path else ""
     return runner.find_binary(pref_path)
 

@@ -112,7 +112,7 @@ use rayon::prelude::*;
 
 use super::CameraFrame;
 use super::CameraKind;
-use super::framing::fit_depth;
+use super::fit::fit_depth;
 
 /// Largest half-angle a vertex may reach from the view axis: spans stay within the thesis's
 /// best ambiguity range (120-150 deg, section 5).

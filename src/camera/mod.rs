@@ -9,6 +9,7 @@
 
 pub mod compose;
 mod cylindrical;
+mod fit;
 pub mod framing;
 mod moved;
 mod orthographic;
