@@ -124,7 +124,18 @@ pub trait Camera: Send + Sync {
     fn centre_rays(&self, _width: u32, _height: u32) -> CentreRays<'_> {
         Box::new(move |_, p| self.ray(p))
     }
+
+    /// The rays of the grid of screen points (`xs[column]`, `ys[row]`), as (column, row) ->
+    /// `ray`, bit for bit, when the camera's rays factor into a column part and a row part it
+    /// can tabulate once (`Spherical`); None: compute each ray. A camera in front of another
+    /// (`Warped`) tabulates its pixel centres through it.
+    fn grid_rays(&self, _xs: &[f64], _ys: &[f64]) -> Option<GridRays<'_>> {
+        None
+    }
 }
+
+/// `Camera::grid_rays`: (column, row) -> ray.
+pub type GridRays<'a> = Box<dyn Fn(usize, usize) -> CameraRay + Sync + 'a>;
 
 /// The screen point of pixel (x, y) at sub-pixel `offset` (row 0 is the top): what the traces
 /// ask `Camera::ray` for (`trace::screen_point`).
@@ -198,6 +209,9 @@ impl Camera for CameraModel {
     }
     fn centre_rays(&self, width: u32, height: u32) -> CentreRays<'_> {
         self.camera().centre_rays(width, height)
+    }
+    fn grid_rays(&self, xs: &[f64], ys: &[f64]) -> Option<GridRays<'_>> {
+        self.camera().grid_rays(xs, ys)
     }
 }
 

@@ -4,7 +4,8 @@
 use glam::{DVec2, DVec3};
 
 use super::{
-    Camera, CameraFrame, CameraModel, CameraRay, CentreRays, Nearest, Projected, centre_table, finish_ray, lookup,
+    Camera, CameraFrame, CameraModel, CameraRay, CentreRays, GridRays, Nearest, Projected, centre_table, finish_ray,
+    lookup,
 };
 
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -98,5 +99,12 @@ impl Camera for Spherical {
 
     fn model(&self) -> CameraModel {
         CameraModel::Spherical(self.clone())
+    }
+
+    /// The sines and cosines of every column's and every row's angle, once.
+    fn grid_rays(&self, xs: &[f64], ys: &[f64]) -> Option<GridRays<'_>> {
+        let cols: Vec<(f64, f64)> = xs.iter().map(|x| (x * self.angle_x).sin_cos()).collect();
+        let rows: Vec<(f64, f64)> = ys.iter().map(|y| (y * self.angle_y).sin_cos()).collect();
+        Some(Box::new(move |c, r| self.ray_of(cols[c], rows[r])))
     }
 }
