@@ -97,7 +97,7 @@ impl CameraParams {
             right: f.right.to_array(),
             view_height: framed.view_height.map(|h| h / sim.scale),
             focal_centre: framed.focal_centre.map(point),
-            warp: framed.warp.clone().map(|(x, y)| WarpParams { x, y }),
+            warp: framed.warped().map(|w| WarpParams { x: w.x, y: w.y }),
             width,
             height,
         }

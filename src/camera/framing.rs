@@ -23,7 +23,8 @@ use glam::DVec3;
 use super::fit::fit_depth;
 use super::subject::{Subject, View as SceneView};
 use super::{
-    Camera, CameraFrame, CameraKind, Cylindrical, Orthographic, Perspective, Planar, Spherical, Warped, compose, warp,
+    Camera, CameraFrame, CameraKind, CameraModel, Cylindrical, Orthographic, Perspective, Planar, Spherical, Warped,
+    compose, warp,
 };
 use crate::accel::Accel;
 use crate::error::{Error, Result};
@@ -106,9 +107,6 @@ pub struct Framed {
     /// Focal centre (point, or the centre of the focal line), render space, when there is one.
     pub focal_centre: Option<DVec3>,
     pub frame: CameraFrame,
-    /// The canvas warp (`warp::Warped`: its column and row maps) when the camera is seen
-    /// through one.
-    pub warp: Option<(warp::Warp, warp::Warp)>,
     pub warnings: Vec<String>,
 }
 
@@ -119,10 +117,18 @@ impl Framed {
             let w = world.to_render.inverse_point(c.as_vec3());
             s += &format!(", focal centre ({:.4}, {:.4}, {:.4})", w.x, w.y, w.z);
         }
-        if let Some((x, y)) = &self.warp {
-            s += &format!(", canvas warped up to {:.2}x", x.max_scale().max(y.max_scale()));
+        if let Some(w) = self.warped() {
+            s += &format!(", canvas warped up to {:.2}x", w.x.max_scale().max(w.y.max_scale()));
         }
         s
+    }
+
+    /// The canvas warp the camera is seen through (`warp_canvas`), when it is.
+    pub fn warped(&self) -> Option<Warped> {
+        match self.camera.model() {
+            CameraModel::Warped(w) => Some(*w),
+            _ => None,
+        }
     }
 }
 
@@ -212,8 +218,8 @@ pub fn frame_camera(params: &FramingParams, world: &World, accel: &Accel) -> Res
         .filter(|_| own)
         .and_then(|c| SceneView::of(c, params.width as f64 / params.height.max(1) as f64, world, accel));
     let subject = Subject::new(world, FIT_SAMPLES, COARSE_SAMPLES, view.as_ref());
-    let (framed, fill) = first_round(params, world, accel, &subject)?;
     let own_view = own && world.camera.is_none();
+    let (framed, fill) = first_round(params, world, accel, &subject, own_view)?;
     let (framed, fill) = match fill {
         Some(fill) if own_view && fill < FILL_FLOOR => {
             let (framed, fill) = second_round(params, world, accel, &subject, (framed, fill))?;
@@ -256,24 +262,23 @@ fn warp_canvas(framed: Framed, fill: f64, accel: &Accel, aspect: f64) -> Framed 
         }
     }
     match best {
-        Some((warped, f)) if f > fill => {
-            Framed { warp: Some((warped.x.clone(), warped.y.clone())), camera: Box::new(warped), ..framed }
-        }
+        Some((warped, f)) if f > fill => Framed { camera: Box::new(warped), ..framed },
         _ => framed,
     }
 }
 
 /// The front composition and, when it fills under `FILL_FLOOR` and the view is the renderer's
-/// own, the raised view and the broad side (`frame_camera`), with the fill of the composition
-/// chosen (None: the camera was not composed).
+/// own (`own_view`: no camera in the scene or the settings), the raised view and the broad side
+/// (`frame_camera`), with the fill of the composition chosen (None: the camera was not
+/// composed).
 fn first_round(
     params: &FramingParams,
     world: &World,
     accel: &Accel,
     subject: &Subject,
+    own_view: bool,
 ) -> Result<(Framed, Option<f64>)> {
     let (front, composition) = frame_view(params, world, accel, subject, View::FRONT, Search::Full)?;
-    let own_view = params.position.is_none() && params.target.is_none() && world.camera.is_none();
     let fill = match composition {
         Some(k) if own_view && k.fill < FILL_FLOOR => k.fill,
         Some(k) => return Ok((front, Some(k.fill))),
@@ -691,7 +696,7 @@ fn frame_view(
             view_height = Some(height);
         }
     }
-    Ok((Framed { camera, kind, angle_deg, view_height, focal_centre, frame, warp: None, warnings }, composition))
+    Ok((Framed { camera, kind, angle_deg, view_height, focal_centre, frame, warnings }, composition))
 }
 
 /// Columns of `probe_fill`'s tiny image (rows follow the aspect).
@@ -738,8 +743,7 @@ fn probe<T: Send>(
         .into_par_iter()
         .map(|i| {
             let (x, y) = (i % w, i / w);
-            let p = glam::DVec2::new((x as f64 + 0.5) / w as f64 - 0.5, 0.5 - (y as f64 + 0.5) / h as f64);
-            let r = rays(i as usize, p);
+            let r = rays(i as usize, super::screen_point(x, y, glam::DVec2::splat(0.5), w, h));
             per_pixel(&r, accel.closest(r.origin, r.dir, 0.0, f32::INFINITY))
         })
         .collect()
@@ -846,7 +850,8 @@ mod round_tests {
         for (name, scene) in odd_scenes() {
             let prep = Prepared::new(scene);
             let subject = Subject::new(&prep.world, FIT_SAMPLES, COARSE_SAMPLES, None);
-            let (first, fill) = first_round(&p, &prep.world, &prep.accel, &subject).unwrap();
+            let (first, fill) =
+                first_round(&p, &prep.world, &prep.accel, &subject, prep.world.camera.is_none()).unwrap();
             let fill = fill.expect("the renderer's own composed view");
             let last = frame_camera(&p, &prep.world, &prep.accel).unwrap();
             if fill >= FILL_FLOOR {
@@ -886,7 +891,8 @@ mod round_tests {
         for (name, scene) in odd_scenes() {
             let prep = Prepared::new(scene);
             let subject = Subject::new(&prep.world, FIT_SAMPLES, COARSE_SAMPLES, None);
-            let (framed, fill) = first_round(&p, &prep.world, &prep.accel, &subject).unwrap();
+            let (framed, fill) =
+                first_round(&p, &prep.world, &prep.accel, &subject, prep.world.camera.is_none()).unwrap();
             let fill = fill.expect("composed");
             let (framed, fill) = if fill < FILL_FLOOR {
                 second_round(&p, &prep.world, &prep.accel, &subject, (framed, fill)).unwrap()
@@ -895,12 +901,12 @@ mod round_tests {
             };
             let last = frame_camera(&p, &prep.world, &prep.accel).unwrap();
             if fill >= FILL_FLOOR {
-                assert!(last.warp.is_none(), "{name}");
+                assert!(last.warped().is_none(), "{name}");
                 assert_eq!(key(&last, &prep.world), key(&framed, &prep.world), "{name}");
                 continue;
             }
-            let (x, y) = last.warp.as_ref().unwrap_or_else(|| panic!("{name}: {fill:.3} and no warp"));
-            let scale = x.max_scale().max(y.max_scale());
+            let w = last.warped().unwrap_or_else(|| panic!("{name}: {fill:.3} and no warp"));
+            let scale = w.x.max_scale().max(w.y.max_scale());
             assert!(scale > 1.0 && scale <= WARP_STEPS[WARP_STEPS.len() - 1] + 1e-9, "{name}: {scale}");
             let lifted = probe_fill(last.camera.as_ref(), &prep.accel, aspect, PROBE_COLUMNS, None);
             assert!(lifted >= FILL_FLOOR, "{name}: {fill:.3} -> {lifted:.3}");

@@ -120,9 +120,9 @@ pub trait Camera: Send + Sync {
     /// The rays of a `width x height` image's pixel centres (`screen_point` at offset
     /// 0.5), for the traces of every pixel: (pixel index, screen point) -> `ray(p)`, bit for
     /// bit, for any point. Cameras whose rays factor into a column part and a row part
-    /// tabulate those once (`Spherical`); the others compute `ray`.
-    fn centre_rays(&self, _width: u32, _height: u32) -> CentreRays<'_> {
-        Box::new(move |_, p| self.ray(p))
+    /// tabulate those once (`grid_rays`); the others compute `ray`.
+    fn centre_rays(&self, width: u32, height: u32) -> CentreRays<'_> {
+        grid_centre_rays(width, height, |x| x, |y| y, |xs, ys| self.grid_rays(xs, ys), move |p| self.ray(p))
     }
 
     /// The rays of the grid of screen points (`xs[column]`, `ys[row]`), as (column, row) ->
@@ -162,12 +162,30 @@ pub(crate) fn centre_table<T>(
     (cols, rows)
 }
 
-/// The tabulated values of pixel `i` when `p` is its centre exactly (bit for bit), else None.
-#[inline]
-pub(crate) fn lookup<T: Copy>(cols: &[(u64, T)], rows: &[(u64, T)], width: u32, i: usize, p: DVec2) -> Option<(T, T)> {
+/// `Camera::centre_rays` from a grid: every column's and row's centre coordinate mapped once by
+/// `map_x` / `map_y` (a canvas warp; the identity for a camera's own pixels), `grid` (some
+/// camera's `grid_rays`) tabulating the rays of those coordinates; a point that is not exactly
+/// its pixel's centre, or every point when `grid` gives None, is `ray`'s.
+pub(crate) fn grid_centre_rays<'a>(
+    width: u32,
+    height: u32,
+    map_x: impl Fn(f64) -> f64,
+    map_y: impl Fn(f64) -> f64,
+    grid: impl FnOnce(&[f64], &[f64]) -> Option<GridRays<'a>>,
+    ray: impl Fn(DVec2) -> CameraRay + Sync + 'a,
+) -> CentreRays<'a> {
+    let (cols, rows) = centre_table(width, height, |p| map_x(p.x), |p| map_y(p.y));
+    let xs: Vec<f64> = cols.iter().map(|c| c.1).collect();
+    let ys: Vec<f64> = rows.iter().map(|r| r.1).collect();
+    let Some(grid) = grid(&xs, &ys) else { return Box::new(move |_, p| ray(p)) };
     let w = (width as usize).max(1);
-    let (cx, cy) = (cols.get(i % w)?, rows.get(i / w)?);
-    (cx.0 == p.x.to_bits() && cy.0 == p.y.to_bits()).then_some((cx.1, cy.1))
+    Box::new(move |i, p| {
+        let (c, r) = (i % w, i / w);
+        match (cols.get(c), rows.get(r)) {
+            (Some(cx), Some(cy)) if cx.0 == p.x.to_bits() && cy.0 == p.y.to_bits() => grid(c, r),
+            _ => ray(p),
+        }
+    })
 }
 
 /// Every camera as a serialisable value; it is itself a `Camera`.

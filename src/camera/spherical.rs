@@ -3,10 +3,7 @@
 
 use glam::{DVec2, DVec3};
 
-use super::{
-    Camera, CameraFrame, CameraModel, CameraRay, CentreRays, GridRays, Nearest, Projected, centre_table, finish_ray,
-    lookup,
-};
+use super::{Camera, CameraFrame, CameraModel, CameraRay, GridRays, Nearest, Projected, finish_ray};
 
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Spherical {
@@ -66,17 +63,6 @@ impl Camera for Spherical {
         self.ray_of((p.x * self.angle_x).sin_cos(), (p.y * self.angle_y).sin_cos())
     }
 
-    /// The sines and cosines of every column's and every row's centre, once (a pixel's two
-    /// `sin_cos` were a quarter of its ray's cost); any other point is computed as `ray`.
-    fn centre_rays(&self, width: u32, height: u32) -> CentreRays<'_> {
-        let (cols, rows) =
-            centre_table(width, height, |p| (p.x * self.angle_x).sin_cos(), |p| (p.y * self.angle_y).sin_cos());
-        Box::new(move |i, p| match lookup(&cols, &rows, width, i, p) {
-            Some((x, y)) => self.ray_of(x, y),
-            None => self.ray(p),
-        })
-    }
-
     /// A ray from C + v d along -v passes through q = C + v (d - s): before the focal centre
     /// v = (q - C) / |q - C| at depth d - |q - C| (q inside the sphere of origins), beyond it
     /// v = -(q - C) / |q - C| at depth d + |q - C|.
@@ -101,7 +87,9 @@ impl Camera for Spherical {
         CameraModel::Spherical(self.clone())
     }
 
-    /// The sines and cosines of every column's and every row's angle, once.
+    /// The sines and cosines of every column's and every row's angle, once (a pixel's two
+    /// `sin_cos` were a quarter of its ray's cost): the pixel centres' rays (`centre_rays`) and,
+    /// through a canvas warp, the warped centres' (`Warped`).
     fn grid_rays(&self, xs: &[f64], ys: &[f64]) -> Option<GridRays<'_>> {
         let cols: Vec<(f64, f64)> = xs.iter().map(|x| (x * self.angle_x).sin_cos()).collect();
         let rows: Vec<(f64, f64)> = ys.iter().map(|y| (y * self.angle_y).sin_cos()).collect();

@@ -14,7 +14,7 @@
 
 use glam::{DVec2, DVec3};
 
-use super::{Camera, CameraModel, CameraRay, CentreRays, Projected, centre_table};
+use super::{Camera, CameraModel, CameraRay, CentreRays, Projected, grid_centre_rays};
 
 /// Share of the axis the densities are smoothed over: the warp's scale changes gently, so
 /// straight edges bend only slightly and no single row or column is singled out.
@@ -186,18 +186,9 @@ impl Camera for Warped {
     /// camera's rays of that grid tabulated where it can (`Camera::grid_rays`); any other
     /// point is computed as `ray`.
     fn centre_rays(&self, width: u32, height: u32) -> CentreRays<'_> {
-        let (cols, rows) = centre_table(width, height, |p| self.x.to_inner(p.x), |p| self.y.to_inner(p.y));
-        let xs: Vec<f64> = cols.iter().map(|c| c.1).collect();
-        let ys: Vec<f64> = rows.iter().map(|r| r.1).collect();
-        let Some(grid) = self.inner.grid_rays(&xs, &ys) else { return Box::new(move |_, p| self.ray(p)) };
-        let w = (width as usize).max(1);
-        Box::new(move |i, p| {
-            let (c, r) = (i % w, i / w);
-            match (cols.get(c), rows.get(r)) {
-                (Some(cx), Some(cy)) if cx.0 == p.x.to_bits() && cy.0 == p.y.to_bits() => grid(c, r),
-                _ => self.ray(p),
-            }
-        })
+        let (x, y) = (&self.x, &self.y);
+        let grid = |xs: &[f64], ys: &[f64]| self.inner.grid_rays(xs, ys);
+        grid_centre_rays(width, height, |s| x.to_inner(s), |s| y.to_inner(s), grid, move |p| self.ray(p))
     }
 }
 
