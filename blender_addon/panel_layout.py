@@ -80,7 +80,7 @@ SHOWN: dict = {
 
 # When a shown value is greyed out (it then has no effect).
 ACTIVE: dict = {
-    "fill": lambda c, scene: c.framing == "FIT",
+    "fill": lambda c, scene: c.framing != "CENTRE",  # automatic framing (compose, fit) fills the view
     "static_facets": lambda c, scene: c.facet_motion != "FOLLOW",  # facets that follow always share a layout
     "layout_frame": lambda c, scene: c.static_facets or c.facet_motion == "FOLLOW",
     "layout_folder": lambda c, scene: c.static_facets or c.facet_motion == "FOLLOW",

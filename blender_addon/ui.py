@@ -105,7 +105,7 @@ class CUBIST_PT_render(CubistPanel, bpy.types.Panel):
 
     def draw_header_preset(self, context):
         row = self.layout.row(align=True)
-        row.menu(CUBIST_MT_presets.__name__, text=CUBIST_MT_presets.bl_label)
+        row.menu(CUBIST_MT_presets.__name__, text="", icon="PRESET")
         row.operator(CUBIST_OT_preset_add.bl_idname, text="", icon="ADD")
         row.operator(CUBIST_OT_preset_add.bl_idname, text="", icon="REMOVE").remove_active = True
 
@@ -148,15 +148,16 @@ def draw_item(layout, item, c, scene) -> None:
     if item.key not in panel_layout.AUTO_KEYS:
         row.prop(c, item.key)
         return
-    # "Auto" and, after a render that reported it, what the renderer chose; else the value.
-    prop = c.bl_rna.properties[item.key]
-    row = layout.row(heading=prop.name)
+    # "Auto" (with what the last render chose, when the renderer reported it), else the value
+    # after an unticked box.
+    row = layout.row(heading=c.bl_rna.properties[item.key].name, align=True)
     row.active = panel_layout.active(item.key, c, scene)
-    row.prop(c, panel_layout.auto_toggle(item.key), text="Auto")
+    toggle = panel_layout.auto_toggle(item.key)
     if getattr(c, item.key) == 0.0:
         chosen = properties.chosen_values().get(item.key)
-        row.label(text=f"chose {panel_layout.format_chosen(item.key, chosen)}" if chosen else "")
+        row.prop(c, toggle, text=f"Auto, {panel_layout.format_chosen(item.key, chosen)}" if chosen else "Auto")
     else:
+        row.prop(c, toggle, text="")
         row.prop(c, item.key, text="")
 
 

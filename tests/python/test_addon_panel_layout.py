@@ -78,8 +78,10 @@ def test_rules_on_a_panel_state():
     assert panel_layout.shown("ambiguity", c, scene) and not panel_layout.shown("camera_size", c, scene)
     c.layout_file = "mine.facets.json"
     assert panel_layout.shown("facet_motion", c, scene) and not panel_layout.shown("layout_frame", c, scene)
-    c.framing = "COMPOSE"
+    c.framing = "CENTRE"
     assert not panel_layout.active("fill", c, scene)
+    c.framing = "COMPOSE"
+    assert panel_layout.active("fill", c, scene)
     assert panel_layout.active("background", c, scene)  # no world: the colour is used
 
 
