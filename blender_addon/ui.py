@@ -143,9 +143,9 @@ def draw_item(layout, item, c, scene) -> None:
     if item.source is not None:
         layout.prop(getattr(scene, item.source), item.key, text=item.label)
         return
-    row = layout.row()
-    row.active = panel_layout.active(item.key, c, scene)
     if item.key not in panel_layout.AUTO_KEYS:
+        row = layout.row()
+        row.active = panel_layout.active(item.key, c, scene)
         row.prop(c, item.key)
         return
     # "Auto" (with what the last render chose, when the renderer reported it), else the value

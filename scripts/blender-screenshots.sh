@@ -39,8 +39,8 @@ for name in ("panel", "viewport", "f12"):
     shot = shots[name]
     with Image.open(out / shot["file"]) as im:
         part = im.convert("RGB").crop(tuple(shot["box"]))
-    if part.width > 720:  # the wide views at a size a page shows whole
-        part = part.resize((720, round(part.height * 720 / part.width)), Image.LANCZOS)
-    part.quantize(colors=128, dither=Image.Dither.NONE).save(docs / f"{name}.png", optimize=True)
+    if part.width > 560:  # the wide views at a size a page shows whole
+        part = part.resize((560, round(part.height * 560 / part.width)), Image.LANCZOS)
+    part.quantize(colors=64, dither=Image.Dither.NONE).save(docs / f"{name}.png", optimize=True)
     print(docs / f"{name}.png", part.size)
 PY
