@@ -128,3 +128,30 @@ def test_what_the_renderer_chose_is_read_from_its_report(cubist_binary, tmp_path
     assert set(found) == {"ambiguity"} and 0 < found["ambiguity"] <= 360, r.stderr
     assert f"{found['ambiguity']:.1f} deg" in r.stderr
     assert chosen.from_report("scene: x.glb\nwarning: nothing\n") == {}
+
+
+def test_every_preset_has_its_thumbnail_from_its_picture():
+    """The preset grid's pictures (blender_addon/previews/) are docs/presets/'s, reduced by
+    scripts/preset_thumbnails.py: one per preset, small, not stale."""
+    import io
+    import sys
+
+    import numpy as np
+    from PIL import Image
+
+    sys.path.insert(0, str(ROOT / "scripts"))
+    try:
+        import preset_thumbnails
+    finally:
+        sys.path.pop(0)
+    previews = ROOT / "blender_addon" / "previews"
+    assert sorted(p.stem for p in previews.glob("*.png")) == sorted(schema.PRESETS)
+    for name in schema.PRESETS:
+        shipped = previews / f"{name}.png"
+        assert shipped.stat().st_size < 64_000, shipped
+        with Image.open(shipped) as im:
+            have = np.asarray(im.convert("RGB"), dtype=np.int32)
+        with Image.open(io.BytesIO(preset_thumbnails.thumbnail(ROOT / "docs" / "presets" / f"{name}.png"))) as im:
+            want = np.asarray(im.convert("RGB"), dtype=np.int32)
+        assert have.shape == want.shape == (120, 160, 3)
+        assert np.abs(have - want).max() <= 2, f"{name}: stale (run scripts/preset_thumbnails.py)"
