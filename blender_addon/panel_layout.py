@@ -119,6 +119,8 @@ def _range(field: dict) -> str:
     unit = f" {field['unit']}" if field.get("unit") else ""
     if lo is None and hi is None:
         return f"in {unit.strip()}" if unit else ""
+    if lo is None:
+        return f"{'below' if field['max_exclusive'] else 'up to'} {_number(hi)}{unit}"
     if hi is None or hi >= 1e9:
         return f"{'above' if field['min_exclusive'] else 'at least'} {_number(lo)}{unit}"
     if field["min_exclusive"] or field["max_exclusive"]:
