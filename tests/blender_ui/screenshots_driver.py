@@ -57,7 +57,7 @@ def redraw(seconds=1.0):
 
 
 def setup_scene():
-    """The factory scene with a monkey beside the cube, Cubist at 480 x 360."""
+    """The factory scene with a monkey above the cube, Cubist at 800 x 600."""
     import addon_utils
 
     sys.path.insert(0, str(ROOT))
@@ -78,7 +78,8 @@ def setup_scene():
     monkey.scale = (1.2, 1.2, 1.2)
     scene.render.engine = "CUBIST"  # as the Render Engine menu does
     r = scene.render
-    r.resolution_x, r.resolution_y, r.resolution_percentage = 480, 360, 100
+    # Larger than the camera frame on screen: the viewport scales the picture down to the frame.
+    r.resolution_x, r.resolution_y, r.resolution_percentage = 800, 600, 100
     scene.cubist.layout_folder = str(OUT / "layouts")
     props = area_of("PROPERTIES")
     props.spaces[0].context = "RENDER"
@@ -94,7 +95,7 @@ def main():
     view = area_of("VIEW_3D")
     space = view.spaces[0]
     space.shading.type = "RENDERED"
-    space.overlay.show_overlays = False
+    space.overlay.show_extras = False  # no light and camera outlines over the painting
     space.region_3d.view_perspective = "CAMERA"  # through the scene's camera, as F12 sees it
     t0 = time.monotonic()
     while time.monotonic() - t0 < 40:  # the full-size image (1/4, 1/2, then full)
@@ -102,7 +103,6 @@ def main():
     yield from redraw()
     snap("viewport", view)
     space.shading.type = "SOLID"
-    space.overlay.show_overlays = True
     yield from redraw(2.0)
 
     started = yield from user_input.press_render()
