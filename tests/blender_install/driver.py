@@ -24,7 +24,7 @@ import bpy
 ZIP, OUT = Path(sys.argv[1]), Path(sys.argv[2])
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "tests" / "python"))
-from exr_support import exr_channels  # noqa: E402 (plain numpy)
+from exr_support import exr_channels, use_multilayer_exr  # noqa: E402 (plain numpy)
 
 PKG = "bl_ext.user_default.cubist"
 SIZE = (64, 48)
@@ -214,11 +214,7 @@ def passes_reach_the_compositor():
     _tree, node = compositor_tree(scene)
     sockets = {s.name: bool(s.enabled) for s in node.outputs}
     settings = scene.render.image_settings
-    if hasattr(settings, "media_type"):  # Blender 5; 4.x has the file format only
-        settings.media_type = "MULTI_LAYER_IMAGE"
-    settings.file_format = "OPEN_EXR_MULTILAYER"
-    settings.exr_codec = "NONE"
-    settings.color_depth = "32"
+    use_multilayer_exr(scene)
     scene.render.filepath = str(OUT / "passes.exr")
     try:
         error = on_thread(lambda: bpy.ops.render.render(write_still=True))

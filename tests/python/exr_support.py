@@ -1,6 +1,7 @@
 """An OpenEXR reader for the pass tests (plain Python + numpy: the headless Blender venvs of
 tests/python/test_blender_versions.py run it too): every channel of an uncompressed scanline
-file, single- or multi-part, as Blender writes a multilayer render."""
+file, single- or multi-part, as Blender writes a multilayer render, and the output settings
+that make Blender write one."""
 
 import struct
 from pathlib import Path
@@ -57,3 +58,13 @@ def exr_channels(path: Path) -> dict:
             out[name][y] = np.frombuffer(data, dtype, w, p).astype(np.float32)
             p += n * w
     return out
+
+
+def use_multilayer_exr(scene):
+    """The scene's output as an uncompressed 32-bit multilayer EXR (what exr_channels reads)."""
+    settings = scene.render.image_settings
+    if hasattr(settings, "media_type"):  # Blender 5; 4.x has the file format only
+        settings.media_type = "MULTI_LAYER_IMAGE"
+    settings.file_format = "OPEN_EXR_MULTILAYER"
+    settings.exr_codec = "NONE"
+    settings.color_depth = "32"

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from addon_support import BINARY, ROOT, addon, bpy_module, cubist_binary, new_scene, read_png  # noqa: F401
-from exr_support import exr_channels
+from exr_support import exr_channels, use_multilayer_exr
 
 
 @pytest.fixture
@@ -592,15 +592,6 @@ def test_recompute_layout_removes_the_saved_layout(bpy, engine, tmp_path):
 
 # ---------------------------------------------------------------------------------------------
 # Render passes
-
-
-def use_multilayer_exr(scene):
-    settings = scene.render.image_settings
-    if hasattr(settings, "media_type"):  # Blender 5; 4.x has the file format only
-        settings.media_type = "MULTI_LAYER_IMAGE"
-    settings.file_format = "OPEN_EXR_MULTILAYER"
-    settings.exr_codec = "NONE"
-    settings.color_depth = "32"
 
 
 def png16_grey(path: Path) -> np.ndarray:
