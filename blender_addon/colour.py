@@ -177,20 +177,23 @@ class CUBIST_OT_restore_view_transform(bpy.types.Operator):
         return {"FINISHED"}
 
 
-def draw_notice(layout, scene) -> None:
-    """The colour notice or warning at the top of the Cubist panel."""
+def draw_notice(layout, scene, context=None) -> None:
+    """The colour notice or warning at the top of the Cubist panel, wrapped to the panel's
+    width (one label would be cut off with an ellipsis in the default Properties editor)."""
+    from .preferences import draw_wrapped
+
     state = getattr(scene, "cubist_colour", None)
     altered = alterations(scene)
     if altered:
         box = layout.box()
         what = ", ".join(altered)
         verb = "changes" if len(altered) == 1 else "change"
-        box.label(text=f"{what[0].upper()}{what[1:]} {verb} the painting's colours", icon="ERROR")
+        draw_wrapped(box, f"{what[0].upper()}{what[1:]} {verb} the painting's colours", "ERROR", context)
         box.operator(CUBIST_OT_painting_colours.bl_idname, icon="COLOR")
     elif state is not None and state.switched_from:
         box = layout.box()
-        box.label(text=f"View transform set to Standard (was {state.switched_from}): renders show the "
-                       "painting's colours", icon="INFO")
+        draw_wrapped(box, f"View transform set to Standard (was {state.switched_from}): renders show the "
+                          "painting's colours", "INFO", context)
         box.operator(CUBIST_OT_restore_view_transform.bl_idname, text=f"Use {state.switched_from}")
 
 

@@ -76,16 +76,17 @@ ADDON_DEFAULTS = {
 PASS_TOGGLES = {"pass_" + name.replace("-", "_"): name for name, _help in schema.choices("passes")}
 
 # Panel properties with no settings key of their own, placed after the settings key whose
-# panel they belong to (the order of the panel's values, and of saved preset files).
+# panel they belong to (the order of the panel's values, of the panels (panel_layout.py), and
+# of saved preset files).
 ADDON_AFTER = {
     "animate_seed": "seed",
     "use_camera_lens": "ambiguity",
     "use_camera_focus": "framing",
-    "use_world_background": "exposure",
-    "static_facets": "weight_saliency",
-    "layout_folder": "weight_saliency",
-    "layout_frame": "weight_saliency",
-    "layout_file": "weight_saliency",
+    "use_world_background": "shadows",
+    "layout_file": "plane_outlines",
+    "static_facets": "facet_motion",
+    "layout_frame": "facet_motion",
+    "layout_folder": "facet_motion",
     "use_saliency_cache": "saliency_method",
     "saliency_cache": "saliency_method",
 }

@@ -3,13 +3,17 @@ when the add-on registers from what the renderer says of its settings (schema.py
 `cubist settings --schema`): type, default, range, choices and tooltip. This module adds only
 what is Blender's business: the properties that map Blender's scene onto settings (camera
 lens and focus, world colour, layouts across frames, the saliency cache folder), labels,
-slider ranges and display units. mapping.settings_from_panel turns the properties into the
-settings JSON."""
+slider ranges and display units, tooltips that give the schema's range and unit, an Auto
+checkbox per setting the renderer may choose, and the presets' pictures as their icons.
+mapping.settings_from_panel turns the properties into the settings JSON."""
+
+import sys
+from pathlib import Path
 
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, FloatVectorProperty, IntProperty, StringProperty
 
-from . import presets, schema
+from . import panel_layout, presets, schema
 from .presets import DEFAULTS
 
 D = DEFAULTS
@@ -65,22 +69,6 @@ def _label(key: str) -> str:
     return LABELS.get(key) or schema.label(key.removeprefix("pass_"))
 
 
-# What a setting means in Blender, after the renderer's own help.
-BLENDER_HELP = {
-    "facet_motion": ". Every frame (F12, Render Animation, a farm chunk) carries its facets from the Layout "
-    "Frame's, saved in the Layout Folder with the layout; the scene must keep the Layout Frame's meshes "
-    "(the same triangle count) in every frame",
-}
-
-
-def _tooltip(field: dict) -> str:
-    text = field["help"] + BLENDER_HELP.get(field["key"], "")
-    auto = field.get("automatic") or {}
-    if field["nullable"] and field["type"] == "number" and field.get("null_means") and "other" not in auto:
-        text += f". 0 = automatic ({field['null_means']})"
-    return text
-
-
 def _bounds(field: dict, kind: str) -> dict:
     """min/max (and soft limits) of a numeric property from the schema's range."""
     out: dict = {}
@@ -109,9 +97,11 @@ def _bounds(field: dict, kind: str) -> dict:
 def _setting_property(key: str):
     """The property of settings key `key`, from its schema entry and the panel's default."""
     f = schema.SETTINGS[key]
-    kind, common = f["type"], {"name": _label(key), "description": _tooltip(f), "default": D[key]}
+    kind, common = f["type"], {"name": _label(key), "description": panel_layout.tooltip(f), "default": D[key]}
     if key == "preset":
-        items = [(presets.enum_id(name), label, desc) for name, (label, desc) in presets.PRESET_LABELS.items()]
+        # With each preset's picture as its icon (the panel's grid of previews).
+        items = [(presets.enum_id(name), label, desc, _preset_icon(name), i)
+                 for i, (name, (label, desc)) in enumerate(presets.PRESET_LABELS.items())]
         return EnumProperty(items=items, update=_update_preset, **common)
     if kind == "enum":
         items = [(presets.enum_id(v), schema.label(v), h) for v, h in schema.choices(key)]
@@ -193,8 +183,61 @@ def _pass_properties() -> dict:
     return out
 
 
+def _auto_properties() -> dict:
+    """An "Auto" checkbox per setting the renderer may choose (panel_layout.AUTO_KEYS), computed
+    from the value itself (0 = Auto, sent as null): ticking it sets 0, unticking it sets what the
+    last render chose (else panel_layout.MANUAL_START), so presets and files keep one value."""
+    out = {}
+    for key in panel_layout.AUTO_KEYS:
+        get, set_ = _auto_accessors(key)
+        out[panel_layout.auto_toggle(key)] = BoolProperty(
+            name="Auto", get=get, set=set_,
+            description=f"Let the renderer choose {_label(key)}: "
+                        f"{schema.SETTINGS[key].get('null_means') or 'per scene'}")
+    return out
+
+
+def _auto_accessors(key: str):
+    def get(self):
+        return getattr(self, key) == 0.0
+
+    def set_(self, value):
+        if value:
+            setattr(self, key, 0.0)
+        elif getattr(self, key) == 0.0:
+            chosen = chosen_values().get(key)
+            setattr(self, key, chosen if chosen else panel_layout.MANUAL_START.get(key, 1.0))
+
+    return get, set_
+
+
+def chosen_values() -> dict:
+    """What the last render's renderer chose for the Auto settings ({key: value}), when the
+    engine passed it on (engine.last_run['chosen']); empty otherwise."""
+    engine = sys.modules.get(__package__ + ".engine")
+    last = getattr(engine, "last_run", None) or {}
+    chosen = last.get("chosen")
+    return dict(chosen) if isinstance(chosen, dict) else {}
+
+
+# Preset pictures (previews/<preset>.png) as icons: loaded once when the add-on registers.
+PREVIEWS_DIR = Path(__file__).resolve().parent / "previews"
+_previews = None
+
+
+def _preset_icon(name: str) -> int:
+    """The icon id of preset `name`'s picture (0, no icon, when it is missing)."""
+    if _previews is None:
+        return 0
+    path = PREVIEWS_DIR / f"{name}.png"
+    if name not in _previews and path.is_file():
+        _previews.load(name, str(path), "IMAGE")
+    return _previews[name].icon_id if name in _previews else 0
+
+
 def settings_class():
-    """The PropertyGroup of every panel value, in the panel's order (presets.DEFAULTS)."""
+    """The PropertyGroup of every panel value, in the panel's order (presets.DEFAULTS), and
+    the Auto checkboxes."""
     addon, passes = _addon_properties(), _pass_properties()
     annotations = {}
     for key in DEFAULTS:
@@ -204,6 +247,7 @@ def settings_class():
             annotations[key] = passes[key]
         else:
             annotations[key] = _setting_property(key)
+    annotations.update(_auto_properties())
     namespace = {"__annotations__": annotations, "__module__": __name__, "__doc__": "The Cubist settings of a scene"}
     return type("CubistSettings", (bpy.types.PropertyGroup,), namespace)
 
@@ -226,7 +270,10 @@ classes: tuple = ()
 
 
 def register():
-    global classes
+    global classes, _previews
+    import bpy.utils.previews
+
+    _previews = bpy.utils.previews.new()
     classes = (settings_class(),)
     for c in classes:
         bpy.utils.register_class(c)
@@ -234,6 +281,10 @@ def register():
 
 
 def unregister():
+    global _previews
     del bpy.types.Scene.cubist
     for c in reversed(classes):
         bpy.utils.unregister_class(c)
+    if _previews is not None:
+        bpy.utils.previews.remove(_previews)
+        _previews = None

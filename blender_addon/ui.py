@@ -1,12 +1,13 @@
-"""Render-properties panels for the Cubist engine, grouped as the thesis groups its parameters
-(Camera, Facets, Spatial imprecision with Mesh saliency, Painterly, Sampling, Passes, Output),
-the preset menu, and the operators behind its buttons (apply/save presets, recompute the facet
-layout)."""
+"""Render-properties panels for the Cubist engine: the Cubist panel (the presets as a grid of
+their pictures, the colour notice, errors) and one sub-panel per entry of panel_layout.PANELS
+(Camera, Facets, Spatial Imprecision with Mesh Saliency, Painterly, Sampling, Passes, Output),
+each drawn from the settings schema with no line of its own per setting; the preset menu and
+the operators behind the buttons (apply/save presets, recompute the facet layout)."""
 
 import bpy
 from bl_operators.presets import AddPresetBase
 
-from . import colour, engine, preferences, presets, runner
+from . import colour, engine, panel_layout, preferences, presets, properties, runner
 from .properties import apply_look
 
 PRESET_SUBDIR = "cubist"
@@ -104,15 +105,14 @@ class CUBIST_PT_render(CubistPanel, bpy.types.Panel):
 
     def draw_header_preset(self, context):
         row = self.layout.row(align=True)
-        row.menu(CUBIST_MT_presets.__name__, text=CUBIST_MT_presets.bl_label)
+        row.menu(CUBIST_MT_presets.__name__, text="", icon="PRESET")
         row.operator(CUBIST_OT_preset_add.bl_idname, text="", icon="ADD")
         row.operator(CUBIST_OT_preset_add.bl_idname, text="", icon="REMOVE").remove_active = True
 
     def draw(self, context):
         layout = self.layout
-        layout.use_property_split = True
-        layout.prop(context.scene.cubist, "preset")
-        colour.draw_notice(layout, context.scene)
+        c = context.scene.cubist
+        # What stops a render first, then the colour notice, then the presets.
         prefs = engine.addon_preferences(context)
         try:
             pref = bpy.path.abspath(prefs.binary_path) if prefs is not None and prefs.binary_path else ""
@@ -121,199 +121,119 @@ class CUBIST_PT_render(CubistPanel, bpy.types.Panel):
             preferences.draw_wrapped(layout, str(e), "ERROR", context)
         err = engine.last_run.get("error")
         if err:
-            layout.label(text=f"Last render: {err}", icon="ERROR")
+            preferences.draw_wrapped(layout, f"Last render: {err}", "ERROR", context)
+        colour.draw_notice(layout, context.scene, context)
+        # The presets as a grid of their pictures, as Blender shows material previews.
+        for group in panel_layout.ROOT_GROUPS:
+            for item in panel_layout.group_items(group):
+                col = layout.column()
+                col.template_icon_view(c, item.key, show_labels=True, scale=5.0, scale_popup=6.0)
+                col.label(text=_enum_label(c, item.key))
 
 
-class CUBIST_PT_camera(CubistPanel, bpy.types.Panel):
-    bl_label = "Camera"
-    bl_parent_id = "CUBIST_PT_render"
+def _enum_label(data, key: str) -> str:
+    prop = data.bl_rna.properties[key]
+    value = getattr(data, key)
+    return next((i.name for i in prop.enum_items if i.identifier == value), value)
 
-    def draw(self, context):
-        c = context.scene.cubist
-        layout = self.layout
-        layout.use_property_split = True
-        layout.prop(c, "camera")
-        if c.camera in {"PERSPECTIVE", "ORTHOGRAPHIC"}:
-            layout.prop(c, "use_camera_lens")
-        if c.camera != "ORTHOGRAPHIC" and not (c.camera == "PERSPECTIVE" and c.use_camera_lens):
-            layout.prop(c, "ambiguity")
-        layout.prop(c, "use_camera_focus")
-        layout.prop(c, "framing")
+
+def draw_item(layout, item, c, scene) -> None:
+    """One value of a panel: a Cubist property (an Auto checkbox beside a setting the renderer
+    may choose) or the Blender property a setting comes from."""
+    if item.source is not None:
+        layout.prop(getattr(scene, item.source), item.key, text=item.label)
+        return
+    if item.key not in panel_layout.AUTO_KEYS:
         row = layout.row()
-        row.active = c.framing == "FIT"
-        row.prop(c, "fill")
-        if c.camera in {"PLANAR", "CYLINDRICAL", "ORTHOGRAPHIC"}:
-            layout.prop(c, "camera_size")
+        row.active = panel_layout.active(item.key, c, scene)
+        row.prop(c, item.key)
+        return
+    # "Auto" (with what the last render chose, when the renderer reported it), else the value
+    # after an unticked box.
+    row = layout.row(heading=c.bl_rna.properties[item.key].name, align=True)
+    row.active = panel_layout.active(item.key, c, scene)
+    toggle = panel_layout.auto_toggle(item.key)
+    if getattr(c, item.key) == 0.0:
+        chosen = properties.chosen_values().get(item.key)
+        row.prop(c, toggle, text=f"Auto, {panel_layout.format_chosen(item.key, chosen)}" if chosen else "Auto")
+    else:
+        row.prop(c, toggle, text="")
+        row.prop(c, item.key, text="")
 
 
-class CUBIST_PT_facets(CubistPanel, bpy.types.Panel):
-    bl_label = "Facets"
-    bl_parent_id = "CUBIST_PT_render"
+def draw_group(layout, group: str, items: list, c, scene, context) -> None:
+    """A schema group's values (panel_layout: which are shown, greyed, under a heading)."""
+    col = layout.column()
+    col.active = panel_layout.GROUP_ACTIVE.get(group, lambda c, scene: True)(c, scene)
+    block, left = col, 0
+    for item in items:
+        if item.source is None and not panel_layout.shown(item.key, c, scene):
+            left = max(left - 1, 0)
+            continue
+        if item.key in panel_layout.HEADINGS:
+            heading, left = panel_layout.HEADINGS[item.key]
+            block = col.column(heading=heading, align=True)
+        target = block if left > 0 else col
+        left = max(left - 1, 0)
+        draw_item(target, item, c, scene)
+        extra = AFTER_ITEM.get(item.key)
+        if extra is not None:
+            extra(col, c, scene, context)
 
-    def draw(self, context):
-        c = context.scene.cubist
-        layout = self.layout
-        layout.use_property_split = True
-        layout.prop(c, "faceting")
-        f = c.faceting
-        if f == "CONSTANT":
-            layout.prop(c, "facet_map")
-        elif f == "VORONOI":
-            layout.prop(c, "facet_count")
-            layout.prop(c, "grid_cells")
-        elif f == "PATCH":
-            layout.prop(c, "patch_count")
-            layout.prop(c, "occlusion")
-        elif f == "PLANES":
-            layout.prop(c, "planes")
-            layout.prop(c, "plane_detail")
-            layout.prop(c, "plane_outlines")
-        elif f == "SEGMENT":
-            layout.prop(c, "segments")
-            layout.prop(c, "thresholds")
-            layout.prop(c, "superpixels")
-            col = layout.column(heading="Affinity", align=True)
-            for key in ("weight_colour", "weight_normal", "weight_depth", "weight_object", "weight_saliency"):
-                col.prop(c, key)
-        layout.prop(c, "layout_file")
-        if f == "NONE":
-            return
+
+def draw_layout_state(layout, c, scene, context) -> None:
+    """The saved facet layout's state and the button that computes it again."""
+    sub = layout.column()
+    sub.active = panel_layout.active("layout_folder", c, scene)
+    try:
+        path = engine.current_layout_path(scene)
         follow = c.facet_motion == "FOLLOW"
-        col = layout.column(heading="Animation")
-        col.prop(c, "facet_motion")
-        if c.layout_file:
-            return
-        row = col.row()
-        row.active = not follow  # facets that follow always share the layout frame's
-        row.prop(c, "static_facets")
-        sub = layout.column()
-        sub.active = c.static_facets or follow
-        sub.prop(c, "layout_frame")
-        sub.prop(c, "layout_folder")
-        try:
-            path = engine.current_layout_path(context.scene)
-            if not path.is_file() or (follow and not runner.follow_path(path).is_file()):
-                state = f"computed on frame {c.layout_frame} at next render"
-            elif c.faceting in ("SEGMENT", "PLANES") or follow:
-                state = f"saved (again when frame {c.layout_frame}'s view changes)"
-            else:
-                state = "saved"
-            sub.label(text=f"{path.name}: {state}", icon="FILE")
-        except runner.CubistError as e:
-            sub.label(text=str(e), icon="ERROR")
-        sub.operator(CUBIST_OT_recompute_layout.bl_idname, icon="FILE_REFRESH")
+        if not path.is_file() or (follow and not runner.follow_path(path).is_file()):
+            state = f"computed on frame {c.layout_frame} at next render"
+        elif c.faceting in ("SEGMENT", "PLANES") or follow:
+            state = f"saved (again when frame {c.layout_frame}'s view changes)"
+        else:
+            state = "saved"
+        sub.label(text=f"{path.name}: {state}", icon="FILE")
+    except runner.CubistError as e:
+        sub.label(text=str(e), icon="ERROR")
+    sub.operator(CUBIST_OT_recompute_layout.bl_idname, icon="FILE_REFRESH")
 
 
-class CUBIST_PT_imprecision(CubistPanel, bpy.types.Panel):
-    bl_label = "Spatial Imprecision"
-    bl_parent_id = "CUBIST_PT_render"
+# What a panel draws after a value besides the value itself (a state, a button).
+AFTER_ITEM = {"layout_folder": draw_layout_state}
+
+
+def group_panel(spec: panel_layout.Panel) -> type:
+    """The sub-panel of `spec`: its groups' values, drawn from the schema (panel_layout)."""
+    groups = panel_layout.panel_items(spec)
 
     def draw(self, context):
-        c = context.scene.cubist
+        scene = context.scene
+        c = scene.cubist
         layout = self.layout
         layout.use_property_split = True
-        layout.active = c.faceting != "NONE"
-        layout.prop(c, "imprecision")
-        layout.prop(c, "discontinuity")
-        layout.prop(c, "aim_min_coverage")
-        layout.prop(c, "aim_width_share")
-        layout.prop(c, "neighborhood")
-        layout.prop(c, "facet_projection")
-        if c.facet_projection == "LINEAR":
-            layout.prop(c, "facet_fov")
+        for i, (group, items) in enumerate(groups):
+            if i:
+                # A further group of the panel under its own name (Facets > Animation).
+                layout.separator()
+                layout.label(text=group)
+            draw_group(layout, group, items, c, scene, context)
+
+    namespace = {"bl_label": spec.label, "draw": draw, "__doc__": f"Cubist {spec.label} settings"}
+    if spec.parent is not None:
+        namespace["bl_parent_id"] = f"CUBIST_PT_{spec.parent}"
+    if spec.closed:
+        namespace["bl_options"] = {"DEFAULT_CLOSED"}
+    return type(f"CUBIST_PT_{spec.ident}", (CubistPanel, bpy.types.Panel), namespace)
 
 
-class CUBIST_PT_saliency(CubistPanel, bpy.types.Panel):
-    bl_label = "Mesh Saliency"
-    bl_parent_id = "CUBIST_PT_imprecision"
-    bl_options = {"DEFAULT_CLOSED"}
-
-    def draw(self, context):
-        c = context.scene.cubist
-        layout = self.layout
-        layout.use_property_split = True
-        layout.prop(c, "saliency_method")
-        layout.prop(c, "use_saliency_cache")
-        row = layout.row()
-        row.active = c.use_saliency_cache
-        row.prop(c, "saliency_cache")
-
-
-class CUBIST_PT_painterly(CubistPanel, bpy.types.Panel):
-    bl_label = "Painterly"
-    bl_parent_id = "CUBIST_PT_render"
-
-    def draw(self, context):
-        c = context.scene.cubist
-        layout = self.layout
-        layout.use_property_split = True
-        col = layout.column(align=True)
-        col.prop(c, "border_style")
-        col.prop(c, "border_width")
-        col.prop(c, "border_strength")
-        col = layout.column(align=True)
-        col.prop(c, "silhouette_width")
-        col.prop(c, "silhouette_strength")
-        layout.prop(c, "palette")
-        layout.prop(c, "palette_image")
-        layout.prop(c, "colors")
-        layout.prop(c, "gradients")
-        layout.prop(c, "plane_light")
-        layout.prop(c, "chiaroscuro")
-        col = layout.column(align=True)
-        col.prop(c, "brushwork")
-        col.prop(c, "stroke_length")
-        col.prop(c, "stroke_width")
-        layout.prop(c, "canvas_grain")
-
-
-class CUBIST_PT_sampling(CubistPanel, bpy.types.Panel):
-    bl_label = "Sampling"
-    bl_parent_id = "CUBIST_PT_render"
-
-    def draw(self, context):
-        c = context.scene.cubist
-        layout = self.layout
-        layout.use_property_split = True
-        layout.prop(c, "spp")
-        layout.prop(c, "aa_threshold")
-        layout.prop(c, "seed")
-        layout.prop(c, "animate_seed")
-
-
-class CUBIST_PT_passes(CubistPanel, bpy.types.Panel):
-    bl_label = "Passes"
-    bl_parent_id = "CUBIST_PT_render"
-    bl_options = {"DEFAULT_CLOSED"}
-
-    def draw(self, context):
-        c = context.scene.cubist
-        layout = self.layout
-        layout.use_property_split = True
-        col = layout.column(heading="Include")
-        for toggle in ("pass_saliency", "pass_facet_ids", "pass_facets", "pass_segments", "pass_objects",
-                       "pass_normals", "pass_depth"):
-            col.prop(c, toggle)
-
-
-class CUBIST_PT_output(CubistPanel, bpy.types.Panel):
-    bl_label = "Output"
-    bl_parent_id = "CUBIST_PT_render"
-
-    def draw(self, context):
-        c = context.scene.cubist
-        layout = self.layout
-        layout.use_property_split = True
-        layout.prop(context.scene.render, "film_transparent", text="Transparent")
-        layout.prop(c, "use_world_background")
-        row = layout.row()
-        row.active = not c.use_world_background or context.scene.world is None
-        row.prop(c, "background")
-        layout.prop(c, "shadows")
-        layout.prop(c, "exposure")
-        # The render thread reads the scene Blender evaluated for the render; Lock Interface
-        # also keeps the interface from editing the scene while a frame renders.
-        layout.prop(context.scene.render, "use_lock_interface")
+# One sub-panel per entry of panel_layout.PANELS (a child after its parent), the Cubist panel
+# their parent.
+SUBPANELS = tuple(group_panel(spec) for spec in panel_layout.PANELS)
+for _panel in SUBPANELS:
+    _panel.bl_parent_id = getattr(_panel, "bl_parent_id", "CUBIST_PT_render")
+    globals()[_panel.__name__] = _panel  # ui.CUBIST_PT_camera...
 
 
 classes = (
@@ -322,14 +242,7 @@ classes = (
     CUBIST_MT_presets,
     CUBIST_OT_recompute_layout,
     CUBIST_PT_render,
-    CUBIST_PT_camera,
-    CUBIST_PT_facets,
-    CUBIST_PT_imprecision,
-    CUBIST_PT_saliency,
-    CUBIST_PT_painterly,
-    CUBIST_PT_sampling,
-    CUBIST_PT_passes,
-    CUBIST_PT_output,
+    *SUBPANELS,
 )
 
 

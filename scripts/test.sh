@@ -9,6 +9,11 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
+# The Blender LTS venvs (bpy 4.2, 4.5: ~370 MB each) download while cargo builds and tests.
+mkdir -p target
+bash scripts/setup-bpy-matrix.sh >target/setup-bpy-matrix.log 2>&1 &
+bpy_matrix=$!
+
 echo "== cargo test (release: the same build the CLI uses)"
 if [ -d ../shared ]; then
     cargo test --release --locked -- --include-ignored
@@ -23,5 +28,6 @@ if ls tests/python/test_*.py >/dev/null 2>&1; then
     # Debian's Blender, Xvfb and xdotool for the windowed-Blender test (skipped, saying why,
     # where they cannot be installed; .ci/run requires them).
     bash scripts/setup-blender-ui.sh
+    wait "$bpy_matrix" || { cat target/setup-bpy-matrix.log >&2; exit 1; }
     .venv/bin/python -m pytest -q -rs tests/python
 fi

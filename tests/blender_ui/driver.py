@@ -81,6 +81,8 @@ class RecordingLayout:
     def prop(self, *a, **kw):
         pass
 
+    template_icon_view = prop
+
     def label(self, text="", **kw):
         self.drawn.append(text)
 

@@ -116,6 +116,9 @@ class RecordingLayout:
     def operator(self, *a, **kw):
         return type("Props", (), {})()
 
+    def separator(self, **kw):
+        pass
+
     def column(self, **kw):
         return RecordingLayout(self.drawn, self.active)
 
