@@ -829,7 +829,7 @@ fn agree(film: &Film, js: impl Iterator<Item = usize>) -> Known {
 
 /// serve5 (issue 14): what anti-aliasing takes as known of pixel `i`'s lights
 /// (`agreed_occlusion`), as one number: a pixel refined through the same rays with the same
-/// number gets the same colour (a session reuses it, `pipeline::antialias_reusing`).
+/// number gets the same colour (a session reuses it, `pipeline::stages::antialias_stage`).
 pub fn antialias_known(film: &Film, facets: &[u32], i: usize) -> u64 {
     let k = agreed_occlusion(film, facets, i);
     // The centre's own lights blocked too: its colour is one of the samples (`supersample`),

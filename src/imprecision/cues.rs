@@ -364,7 +364,8 @@ mod tests {
     use super::*;
     use crate::imprecision::aim_facets;
     use crate::imprecision::tests::Grid;
-    use crate::pipeline::{Shading, Timings, moved_pixels, retrace_stage};
+    use crate::pipeline::stages::{Retracing, moved_pixels, retrace_stage};
+    use crate::pipeline::{Shading, Timings};
     use crate::progress::Progress;
 
     /// The still life on a grid of 48 facets, each re-aimed at a random point up to 40 pixels
@@ -389,19 +390,10 @@ mod tests {
         let retraced = |aims: &[FacetAim], centre: Option<&CentreHits>| {
             let mut film = pre.film.clone();
             let moved = moved_pixels(map, aims);
-            retrace_stage(
-                prep,
-                &pre.view,
-                &ctx,
-                &params.trace,
-                map,
-                aims,
-                &moved,
-                centre,
-                &mut film,
-                &silent,
-                &mut Timings::default(),
-            );
+            let tracer = pre.view.tracer(prep, &params.trace);
+            let (pixels, retracing) = (Some(moved), Retracing::InPlace);
+            let mut timings = Timings::default();
+            retrace_stage(&tracer, &ctx, map, aims, pixels, centre, &mut film, retracing, &silent, &mut timings);
             film
         };
         let traced = |aims: &[FacetAim]| cues.seen(&retraced(aims, None));

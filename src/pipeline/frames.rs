@@ -17,9 +17,13 @@
 //! | saliency | the saliency map off the pre-pass | mesh saliency once per mesh content: a skinned or morphed mesh keeps its rest pose's, by vertex index; not needed by facets that follow |
 //! | facets | the layout's map (static) or carried to this frame (`facets::motion`) | the layout is never computed again |
 //! | imprecision | aims, as a still render's (`aims_stage`); facets that follow: the layout frame's, carried (`imprecision::carried`) | |
-//! | re-trace | one centre sample per pixel through its facet's rays, lit (`trace_facets`) | sparse shadow rays; no separate lit pre-render |
-//! | anti-aliasing | `spp` samples where facet neighbours disagree (`antialias_with`, the still's stage) | most pixels keep their one sample |
-//! | paint, encode | as a still render's | |
+//! | re-trace | every pixel, one centre sample through its facet's rays, lit (`retrace_stage`) | sparse shadow rays; no separate lit pre-render |
+//! | anti-aliasing | `spp` samples where facet neighbours disagree (`antialias_stage`) | most pixels keep their one sample |
+//! | paint, encode | as a still render's (`paint_stage`, `encode_stage`) | |
+//!
+//! The stages are the still render's (`stages`), each working in place (`Retracing::InPlace`,
+//! `Refining::InPlace`, `Painting::InPlace`): a frame keeps nothing of the frame before but
+//! what `Keep` holds.
 //!
 //! What frames keep from one another (the BVH while nothing moves, the layout, the key frame,
 //! the painter, per-mesh saliency) is held in `Keep` and `Prepared`: one place, so a stage cache
@@ -28,9 +32,11 @@
 use glam::{DMat3, DQuat, DVec2, DVec3, Vec3};
 use image::RgbaImage;
 
-use super::{
-    Plan, Prepared, Stage, StageParams, Timings, aims_stage, antialias_with, encode_stage, layout_stage, trace_facets,
+use super::stages::encode::Encoded;
+use super::stages::{
+    Painting, Refining, Retracing, aims_stage, antialias_stage, encode_stage, layout_stage, paint_stage, retrace_stage,
 };
+use super::{Plan, Prepared, Stage, StageParams, Timings};
 use crate::accel::Accel;
 use crate::camera::{Camera, Framed, Moved, frame_camera};
 use crate::error::{Error, Result};
@@ -530,7 +536,8 @@ fn key_frame(
                 pre.saliency = Some(frame_saliency(prep, world, pre, params)?);
             }
             let ctx = aim_context(&camera, accel, trace);
-            let aims = aims_stage(&ctx, &map, pre, &params.aim, None, &Progress::silent(), &mut Timings::default());
+            let silent = Progress::silent();
+            let (aims, _) = aims_stage(&ctx, &map, pre, &params.aim, None, &silent, &mut Timings::default());
             Some(carried::anchor_aims(&ctx, &aims))
         }
         _ => None,
@@ -583,8 +590,9 @@ fn aim_context<'a>(camera: &'a Moved, accel: &'a Accel, trace: &TraceParams) -> 
 /// and the facets' motion read it), the facets (static, or carried from the key frame), the
 /// aims (decided from this frame's pixels as a still's are, or, for facets that follow, the key
 /// frame's carried with the scene: `imprecision::carried`), then one centre sample per pixel
-/// through its facet's rays (`trace_facets`, with sparse shadow rays) and the adaptive
-/// anti-aliasing (`antialias_with`: `spp` samples only where facet neighbours disagree).
+/// through its facet's rays (`retrace_stage` over every pixel, with sparse shadow rays) and
+/// the adaptive anti-aliasing (`antialias_stage`: `spp` samples only where facet neighbours
+/// disagree).
 #[allow(clippy::too_many_arguments)]
 fn render_frame(
     prep: &Prepared,
@@ -631,7 +639,7 @@ fn render_frame(
             let corners = |t: u32| ((t as usize) < world.triangle_count()).then(|| world.triangle(t));
             carried::carry_aims(&ctx, key_aims, &map, &corners, &params.aim)
         }),
-        None if plan.imprecision => aims_stage(&ctx, &map, &pre, &params.aim, None, &silent, &mut timings),
+        None if plan.imprecision => aims_stage(&ctx, &map, &pre, &params.aim, None, &silent, &mut timings).0,
         None => Vec::new(),
     };
 
@@ -639,19 +647,19 @@ fn render_frame(
     let rig = LightRig::new(world, &view, trace.shadows, trace.exposure);
     let tracer = Tracer { world, accel, rig: Some(&rig), background: Vec3::from(trace.background), seed: trace.seed };
     let mut film = Film::new(trace.width, trace.height, 1);
-    trace_facets(&tracer, &ctx, &map, &aims, None, &mut film, progress, &mut timings);
+    retrace_stage(&tracer, &ctx, &map, &aims, None, None, &mut film, Retracing::InPlace, progress, &mut timings);
     if plan.antialiasing {
-        antialias_with(&tracer, &ctx, trace, &map, &aims, &mut film, &silent, &mut timings);
+        antialias_stage(&tracer, &ctx, trace, &map, &aims, &mut film, Refining::InPlace, &silent, &mut timings);
     }
     film.saliency = pre.saliency.take();
 
     if plan.paint {
         let axes = ViewAxes { right: view.right.as_vec3(), up: view.up.as_vec3(), forward: view.forward.as_vec3() };
         let lighting = Lighting { world, rig: &rig, view: axes };
-        timings
-            .time(Stage::Paint.name(), || painter.apply(&mut film, keep.faceted.then_some(&map), Some(&lighting)))?;
+        let facets = keep.faceted.then_some(&map);
+        paint_stage(painter, &mut film, facets, Some(&lighting), Painting::InPlace, &mut timings)?;
     }
-    let (image, passes, passes16) = encode_stage(&film, &map, &aims, params, &mut timings);
+    let Encoded { image, passes, passes16 } = encode_stage(&film, &map, &aims, params, &mut timings);
     let surface = measure.then(|| Surface::new(key_of(&pre, world, camera, trace), &pre));
     Ok(FrameOutput { frame, image, passes, passes16, facets: map, timings, revealed, surface })
 }

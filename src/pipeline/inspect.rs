@@ -4,7 +4,8 @@
 
 use image::RgbaImage;
 
-use super::{PreRender, Prepared, Shading, Stage, StageParams, Timings, encode_stage, prerender, saliency_stage};
+use super::stages::{encode_stage, layout, saliency_stage};
+use super::{PreRender, Prepared, Shading, Stage, StageParams, Timings, prerender};
 use crate::error::Result;
 use crate::facets::FacetLayout;
 use crate::facets::segment::{self, SegmentLevels, inspection};
@@ -44,7 +45,7 @@ pub fn faceting_input(
 pub fn inspect_facets(prep: &Prepared, settings: &Settings, progress: &Progress) -> Result<Inspection> {
     settings.validate()?;
     let params = StageParams::new(settings);
-    super::check_work(&params)?;
+    layout::check_work(&params.facets)?;
     let mut timings = Timings::default();
     let PreRender { film, mut warnings, .. } = faceting_input(prep, &params, progress, &mut timings)?;
 
@@ -57,7 +58,8 @@ pub fn inspect_facets(prep: &Prepared, settings: &Settings, progress: &Progress)
     if show_levels && !shown.passes.contains(&Pass::Saliency) {
         shown.passes.push(Pass::Saliency);
     }
-    let (view, passes, _) = encode_stage(&film, &single, &[], &shown, &mut timings);
+    let encoded = encode_stage(&film, &single, &[], &shown, &mut timings);
+    let (view, passes) = (encoded.image, encoded.passes);
 
     progress.begin(Stage::Faceting.name(), 1);
     let (layout, levels) = timings.time(Stage::Faceting.name(), || segment::layout(&film, &params.facets.segment))?;

@@ -3,7 +3,8 @@
 
 use image::RgbaImage;
 
-use super::{Prepared, Shading, StageParams, Timings, prerender, saliency_stage};
+use super::stages::saliency_stage;
+use super::{Prepared, Shading, StageParams, Timings, prerender};
 use crate::error::Result;
 use crate::film::Film;
 use crate::progress::Progress;

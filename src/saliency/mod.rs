@@ -277,7 +277,7 @@ pub fn cached_mesh_saliency(
 
 /// Computes into `memo` the saliency of every mesh `world` places, before the pre-render says
 /// which are seen: a mesh's saliency depends on the mesh alone, so the pipeline runs this beside
-/// framing and the pre-render (`pipeline::session::run`), on the core their serial parts leave
+/// framing and the pre-render (`pipeline::run`), on the core their serial parts leave
 /// idle, and `for_film` then finds the values made. The same function fills the memo either way,
 /// so the picture is the same bits. Errors (a disk cache that cannot be written) are left for
 /// `for_film`, which meets them again and reports them.

@@ -4,13 +4,22 @@
 
 use glam::Vec3;
 
-use super::{Prepared, Stage, Timings};
 use crate::camera::{Framed, FramingParams, frame_camera};
 use crate::error::Result;
 use crate::film::Film;
+use crate::pipeline::cache::Gen;
+use crate::pipeline::{Prepared, Stage, Timings};
 use crate::progress::Progress;
 use crate::shading::LightRig;
 use crate::trace::{TraceParams, Tracer};
+
+/// What the pre-render reads: the scene (its generation), the framing and the trace.
+#[derive(PartialEq)]
+pub struct Key {
+    pub scene: Gen,
+    pub framing: FramingParams,
+    pub trace: TraceParams,
+}
 
 /// Whether the pre-render shades its samples or only records their hits.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
