@@ -116,7 +116,7 @@ print(*(s.getsockname()[1] for s in socks))')
 memory=$(awk '/MemTotal/ { print int($2 / 1024 * 0.9) }' /proc/meminfo)
 cat >"$SLURM_CONF" <<EOF
 ClusterName=cubisttest
-SlurmctldHost=$host
+SlurmctldHost=$host(127.0.0.1)
 SlurmctldPort=$ctld_port
 SlurmdPort=$slurmd_port
 SlurmUser=root
