@@ -1,7 +1,7 @@
 //! Farm nodes that differ agree: the same frames, byte for byte, whatever the node's core count
 //! (`RAYON_NUM_THREADS` 1 and 2) and whether its run-time SIMD paths run or are forced off
 //! (`CUBIST_NO_SIMD=1`, docs/farm.md). Clustered saliency is asked for so that its AVX2 kernels
-//! (`saliency::kernels`) run on every frame's meshes.
+//! (`saliency::kernels`) run on every frame's meshes; `--verbose` says which path they took.
 //!
 //! The test marked `needs ../shared` reads an animated glTF sample of ../shared
 //! (`cargo test --release --test nodes -- --include-ignored`).
@@ -29,13 +29,24 @@ fn render_on(node: Node, dir: &Path, args: &[&str]) -> Vec<(String, Vec<u8>)> {
     let out = dir.join(format!("threads{}-nosimd{}", node.threads, node.no_simd as u8));
     let pattern = out.join("f_####.png");
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_cubist"));
-    cmd.arg("render").args(args).arg("-o").arg(&pattern).args(["--progress", "none"]);
+    cmd.arg("render").args(args).arg("-o").arg(&pattern).args(["--progress", "none", "--verbose"]);
     cmd.env("RAYON_NUM_THREADS", node.threads.to_string()).env_remove("CUBIST_NO_SIMD");
     if node.no_simd {
         cmd.env("CUBIST_NO_SIMD", "1");
     }
     let r = cmd.output().unwrap();
-    assert!(r.status.success(), "{node:?}: cubist render {args:?} failed: {}", String::from_utf8_lossy(&r.stderr));
+    let said = String::from_utf8_lossy(&r.stderr);
+    assert!(r.status.success(), "{node:?}: cubist render {args:?} failed: {said}");
+    // The path the kernels took, as `--verbose` reports it.
+    let kernels = said.lines().find_map(|l| l.strip_prefix("kernels: ")).unwrap_or_default();
+    let expected = if node.no_simd {
+        "baseline (CUBIST_NO_SIMD)"
+    } else if avx2_here() {
+        "avx2"
+    } else {
+        "baseline (no AVX2 on this CPU)"
+    };
+    assert_eq!(kernels, expected, "{node:?}");
     let mut frames: Vec<(String, Vec<u8>)> = std::fs::read_dir(&out)
         .unwrap()
         .map(|e| {
@@ -45,6 +56,14 @@ fn render_on(node: Node, dir: &Path, args: &[&str]) -> Vec<(String, Vec<u8>)> {
         .collect();
     frames.sort();
     frames
+}
+
+fn avx2_here() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    let detected = std::arch::is_x86_feature_detected!("avx2");
+    #[cfg(not(target_arch = "x86_64"))]
+    let detected = false;
+    detected
 }
 
 /// Every node's frames equal the first node's, byte for byte; the frames differ (something moved).
