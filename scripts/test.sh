@@ -31,3 +31,7 @@ if ls tests/python/test_*.py >/dev/null 2>&1; then
     wait "$bpy_matrix" || { cat target/setup-bpy-matrix.log >&2; exit 1; }
     .venv/bin/python -m pytest -q -rs tests/python
 fi
+
+# A one-node Slurm cluster running farm/slurm/'s job scripts (skipped, saying why, without
+# root; .ci/run requires it).
+bash scripts/test-farm.sh

@@ -178,6 +178,7 @@ fn run_render(args: RenderArgs) -> anyhow::Result<()> {
             prep.world.objects.len()
         );
         say!("camera: {}", rendered.camera);
+        say!("kernels: {}", cubist::util::cpu::describe());
         say!("{:>14}: {:>9.1} ms", "load+bvh", prep.build_time.as_secs_f64() * 1e3);
         if let Some(t) = mesh_saliency {
             say!("{:>14}: {:>9.1} ms, beside the BVH build", "mesh saliency", t.as_secs_f64() * 1e3);
@@ -306,6 +307,7 @@ fn run_frames(args: RenderArgs, settings: cubist::Settings) -> anyhow::Result<()
             prep.world.objects.len()
         );
         say!("camera: {}", summary.camera);
+        say!("kernels: {}", cubist::util::cpu::describe());
         say!("{:>18}: {:>9.1} ms", "load+bvh", prep.build_time.as_secs_f64() * 1e3);
         for (step, t) in &summary.setup.0 {
             say!("{step:>18}: {:>9.1} ms (once)", t.as_secs_f64() * 1e3);

@@ -9,7 +9,7 @@
 //! (`levels::gaussian_means`) stays in f64 with `f64::exp`.
 //!
 //! Why the same bits everywhere: each kernel is compiled twice, for the baseline x86-64 and for
-//! AVX2 (picked at run time), and both perform the same IEEE operations in the same order
+//! AVX2 (picked at run time, unless `CUBIST_NO_SIMD=1`), and both perform the same IEEE operations in the same order
 //! (additions and multiplications only, no fused multiply-add, per-lane sums added in a fixed
 //! order), so the result does not depend on the CPU, nor on the thread count.
 
@@ -105,14 +105,15 @@ impl Kernel {
     }
 }
 
-/// Defines `$name` running `$body` compiled for AVX2 when the CPU has it, else for the
-/// baseline (same operations, same bits: see the module doc).
+/// Defines `$name` running `$body` compiled for AVX2 when the CPU has it (and `CUBIST_NO_SIMD`
+/// does not force the baseline: `util::cpu`), else for the baseline (same operations, same
+/// bits: see the module doc).
 macro_rules! dispatch {
     ($(#[$doc:meta])* $name:ident = $body:ident ($($arg:ident : $ty:ty),*) -> $ret:ty) => {
         $(#[$doc])*
         pub fn $name($($arg: $ty),*) -> $ret {
             #[cfg(target_arch = "x86_64")]
-            if std::arch::is_x86_feature_detected!("avx2") {
+            if crate::util::cpu::avx2() {
                 #[target_feature(enable = "avx2")]
                 unsafe fn avx2($($arg: $ty),*) -> $ret {
                     $body($($arg),*)

@@ -1,7 +1,9 @@
 //! Small helpers several stages share, each written once: seeded random numbers (`rng`),
 //! pixel-grid neighbours (`grid`), compressed adjacency rows (`csr`), atomic file writes
-//! (`files`), sorting by buckets (`sort`) and hashing numbers in bulk (`hash`).
+//! (`files`), sorting by buckets (`sort`), hashing numbers in bulk (`hash`) and run-time CPU
+//! feature dispatch (`cpu`).
 
+pub mod cpu;
 pub mod csr;
 pub mod files;
 pub mod grid;
