@@ -20,8 +20,6 @@ use crate::util::sort::sort_by_buckets;
 
 mod blas;
 mod instances;
-#[cfg(test)]
-mod tests;
 mod traverse;
 mod triangle;
 mod update;
@@ -274,3 +272,6 @@ impl Accel {
         })
     }
 }
+
+#[cfg(test)]
+mod tests;

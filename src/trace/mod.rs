@@ -20,12 +20,8 @@ mod antialias;
 mod bands;
 mod sampler;
 mod shadows;
-#[cfg(test)]
-mod tests;
 mod tracer;
 
-#[cfg(test)]
-use antialias::*;
 use bands::*;
 use shadows::*;
 use tracer::*;
@@ -80,3 +76,8 @@ pub type KnownHits<'r> = dyn Fn(usize) -> Option<Option<Hit>> + Sync + 'r;
 
 /// Pixels per parallel work item of the subset traces.
 const CHUNK: usize = 256;
+
+#[cfg(test)]
+mod tests;
+#[cfg(test)]
+use antialias::*;
