@@ -1,8 +1,8 @@
 """A client of `cubist serve` (docs/serve.md): one server process, requests sent from any
 thread, replies matched to them by id.
 
-The viewport (viewport.py) keeps one per 3D view in Rendered shading; F12 and Render Animation
-send their render to it when the scene they exported is the one it holds (engine.py). No bpy
+The add-on keeps one per Blender session (server.py), shared by F12, Render Animation and the
+viewport. No bpy
 here, on purpose: tests/python/test_addon_serve.py runs it in plain Python against the real
 binary.
 
@@ -29,7 +29,7 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from .runner.errors import Cancelled, CubistError
+from .runner.errors import Cancelled, CubistError, temp_folder_error
 from .runner.process import _stop, popen_platform_args
 from .runner.progress import parse_line
 
@@ -40,6 +40,19 @@ class ServerError(CubistError):
 
 class ServerGone(CubistError):
     """The server process ended (or never started): requests cannot be answered."""
+
+
+class ServerHung(ServerGone):
+    """The server stopped answering (not even `stats`, which it answers at once while it
+    renders): it was killed."""
+
+
+# A request waiting this long without a sign of life from the server (a reply, a progress or
+# other stderr line) sends `stats`; a server that does not answer that within ANSWER_WITHIN is
+# hung. `stats` is answered at once even while a render runs (docs/serve.md), so a slow render
+# is never taken for a hung server.
+SILENCE = 4.0
+ANSWER_WITHIN = 4.0
 
 
 class Pending:
@@ -80,7 +93,10 @@ class ServeClient:
         """Starts `binary serve`. `nice` > 0 (POSIX) lowers its CPU priority: the viewport's
         server then yields the cores to Blender's interface when both want them."""
         self.binary = Path(binary)
-        self.workspace = Path(tempfile.mkdtemp(prefix="cubist-serve-"))
+        try:
+            self.workspace = Path(tempfile.mkdtemp(prefix="cubist-serve-"))
+        except OSError as e:
+            raise ServerGone(temp_folder_error(e)) from None
         argv = [str(self.binary), "serve", "--parent", str(os.getpid())]
         if cache_mib is not None:
             argv += ["--cache-memory", str(int(cache_mib))]
@@ -99,6 +115,7 @@ class ServeClient:
         self._stderr_tail: list[str] = []
         self._progress: Optional[Callable[[str, float], None]] = None
         self._closed = False
+        self.heard = time.monotonic()  # the last line read from the server (stdout or stderr)
         self._reader = threading.Thread(target=self._read_replies, name="cubist-serve-replies", daemon=True)
         self._reader.start()
         self._err_reader = threading.Thread(target=self._read_stderr, name="cubist-serve-stderr", daemon=True)
@@ -120,13 +137,19 @@ class ServeClient:
             said = said[len("error: "):]
         if "unrecognized subcommand" in said or "unexpected argument" in said:
             return f"{self.binary} has no `serve` command: it is older than the add-on"
-        what = f"the cubist server ended (exit code {code})" if code is not None else "the cubist server is closed"
+        if code is not None and code < 0:
+            what = f"the cubist renderer ended (killed by signal {-code})"
+        elif code is not None:
+            what = f"the cubist renderer ended (exit code {code})"
+        else:
+            what = "the cubist renderer is closed"
         return f"{what}: {said}" if said else what
 
     def _read_replies(self) -> None:
         assert self.proc.stdout is not None
         try:
             for line in self.proc.stdout:
+                self.heard = time.monotonic()
                 try:
                     reply = json.loads(line)
                 except ValueError:
@@ -154,6 +177,7 @@ class ServeClient:
         assert self.proc.stderr is not None
         try:
             for line in self.proc.stderr:
+                self.heard = time.monotonic()
                 ln = parse_line(line)
                 if ln.kind == "progress":
                     cb = self._progress
@@ -190,6 +214,11 @@ class ServeClient:
                 pending._set({"id": rid, "ok": False, "error": self._gone_message(), "gone": True})
         return pending
 
+    def set_progress(self, callback: Optional[Callable[[str, float], None]]) -> None:
+        """Where the `PROGRESS` lines of requests that ask for them go (one render job at a
+        time asks: F12 or a frame of an animation); None: nowhere."""
+        self._progress = callback
+
     def render_request(self, settings: dict, output: Path, scene: Optional[Path] = None,
                        passes: Optional[list] = None, progress: bool = False) -> Pending:
         fields: dict = {"scene": str(scene) if scene is not None else None, "settings": settings,
@@ -209,15 +238,36 @@ class ServeClient:
         self._progress = on_progress
         try:
             pending = self.render_request(settings, output, scene, passes, progress=on_progress is not None)
-            cancelled = False
-            while pending.wait(poll) is None:
-                if not cancelled and should_cancel():
-                    self.cancel(pending.id)
-                    cancelled = True
-            reply = pending.reply or {}
+            reply = self.await_reply(pending, should_cancel, poll)
         finally:
             self._progress = None
         return self.check(reply)
+
+    def await_reply(self, pending: Pending, should_cancel: Callable[[], bool] = lambda: False,
+                    poll: float = 0.05) -> dict:
+        """Waits for `pending`'s reply, sending `cancel` once `should_cancel()` turns true. A
+        server silent for SILENCE seconds is asked for `stats`; one that does not answer within
+        ANSWER_WITHIN (nor stops within that after a cancel) is killed: raises ServerHung, never
+        waits for ever."""
+        cancelled_at = probe = None
+        probe_at = 0.0
+        while pending.wait(poll) is None:
+            now = time.monotonic()
+            if cancelled_at is None and should_cancel():
+                self.cancel(pending.id)
+                cancelled_at = now
+            if probe is not None and probe.done():
+                probe = None
+            if probe is None and now - self.heard > SILENCE:
+                probe, probe_at = self.request("stats"), now
+            late = probe is not None and now - probe_at > ANSWER_WITHIN
+            stuck = cancelled_at is not None and now - cancelled_at > SILENCE + ANSWER_WITHIN
+            if late or stuck:
+                self.kill()
+                what = "did not stop after a cancel" if stuck and not late else "stopped answering"
+                raise ServerHung(f"the cubist renderer {what} (nothing for {now - self.heard:.0f} s): it was "
+                                 f"stopped; the next render starts it again")
+        return pending.reply or {}
 
     def check(self, reply: dict) -> dict:
         """The reply if it succeeded; raises Cancelled, ServerGone or ServerError otherwise."""
@@ -237,6 +287,14 @@ class ServeClient:
         if reply is None:
             raise ServerError("the cubist server did not answer `stats`")
         return self.check(reply)["stats"]
+
+    def kill(self) -> None:
+        """Ends the server at once (SIGKILL): it is hung. Requests waiting get an error reply;
+        `close()` still removes the workspace."""
+        try:
+            self.proc.kill()
+        except OSError:
+            pass
 
     def close(self, timeout: float = 5.0) -> None:
         """Cancels what runs, ends the server (killing it if it does not end within
@@ -272,4 +330,4 @@ def wait_all(pendings, timeout: float) -> bool:
     return all(p.wait(max(0.0, end - time.monotonic())) is not None for p in pendings)
 
 
-__all__ = ["Pending", "ServeClient", "ServerError", "ServerGone", "read_rgba", "wait_all"]
+__all__ = ["Pending", "ServeClient", "ServerError", "ServerGone", "ServerHung", "read_rgba", "wait_all"]
