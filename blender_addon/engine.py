@@ -354,7 +354,10 @@ class CubistRenderEngine(bpy.types.RenderEngine):
                     source, pre_glb, pre_settings = self._layout_frame_source(depsgraph, scene, panel,
                                                                               props.layout_frame, layout, tmp,
                                                                               warnings)
-            current = runner.layout_is_current(layout, source, follow) if layout is not None else None
+            broken = runner.layout_unreadable(layout) if layout is not None else None
+            if broken is not None:
+                warnings.append(f"the facet layout {layout.name} could not be read ({broken}): computed again")
+            current = runner.layout_is_current(layout, source, follow) and broken is None if layout is not None else None
             plan = runner.plan_layout(settings, layout, frame, props.layout_frame, current)
             if layout is not None and not current:
                 runner.forget_source(layout)

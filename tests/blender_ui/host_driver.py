@@ -118,7 +118,7 @@ def f12(animation=False, timeout=300):
             "cancelled": run.get("cancelled"), "server": run.get("server"), "timeline": run.get("timeline"),
             "preview_seconds": run.get("preview_seconds"), "timings": run.get("timings"),
             "preview_timings": run.get("preview_timings"), "reused": run.get("reused"),
-            "scene_load": run.get("scene_load"), "gap": longest_gap(t0)}
+            "scene_load": run.get("scene_load"), "warnings": run.get("warnings"), "gap": longest_gap(t0)}
 
 
 def responsive(step):
@@ -169,7 +169,7 @@ def setup():
     assert addon_utils.enable("blender_addon", default_set=True, persistent=True) is not None
     prefs().binary_path = BINARY
     user_input.install()
-    bpy.app.timers.register(beat, first_interval=0.02)
+    bpy.app.timers.register(beat, first_interval=0.02, persistent=True)  # File > New keeps it
     scene = bpy.context.scene
     window, area, region = view3d()
     bpy.data.objects.remove(bpy.data.objects["Cube"])
@@ -439,12 +439,15 @@ def step_quit_during_render():
 
 def main():
     yield from setup()
-    for step in (step_speed, step_kill_f12, step_kill_viewport, step_fifty_edits, step_bad_binaries,
-                 step_temp_folder, step_broken_layout, step_new_file_during_render, step_quit_during_render):
+    steps = (step_speed, step_kill_f12, step_kill_viewport, step_fifty_edits, step_bad_binaries, step_temp_folder,
+             step_broken_layout, step_new_file_during_render, step_quit_during_render)
+    only = os.environ.get("CUBIST_HOST_STEPS")  # a few steps alone, when working on them
+    for step in [s for s in steps if not only or s.__name__ in only.split(",")]:
         log(f"step {step.__name__}")
         t0 = time.monotonic()
         yield from step()
         results.setdefault("step_seconds", {})[step.__name__] = round(time.monotonic() - t0, 1)
+        write_results()  # as far as it got, should a later step hang
     results["heartbeat"] = {"ticks": len(heartbeat), "longest_gap": longest_gap(0.0)[0]}
     results["done"] = True
 
@@ -481,4 +484,4 @@ def quit_by_operator():
         bpy.ops.wm.quit_blender()
 
 
-bpy.app.timers.register(tick, first_interval=2.0)
+bpy.app.timers.register(tick, first_interval=2.0, persistent=True)

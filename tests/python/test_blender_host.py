@@ -74,7 +74,8 @@ def test_host_blender_runs_every_step_and_quits(ui):
     assert r["background"] is False
     assert "failure" not in r, r.get("failure")
     assert r["done"], ui["log"][-3000:]
-    assert ui["proc"].returncode == 0, ui["log"][-3000:]
+    # Blender exits with 1 when it quits during a render (its 'break' flag), never from a signal.
+    assert ui["proc"].returncode in (0, 1), ui["log"][-3000:]
     assert "Segmentation fault" not in ui["log"] and "Writing: " not in ui["log"]
     assert "Fatal Python error" not in ui["log"], ui["log"][-3000:]
     print(f"\nhost steps (s): {r['step_seconds']}", file=sys.stderr)
@@ -162,6 +163,9 @@ def test_a_truncated_or_garbage_layout_file_is_computed_again(ui):
     assert ok(s["first"]) and s["layouts"], s
     for what in ("truncated", "garbage", "after"):
         assert ok(s[what]), (what, s[what])
+    for what in ("truncated", "garbage"):
+        assert any("could not be read" in w for w in s[what]["warnings"]), (what, s[what]["warnings"])
+    assert not any("could not be read" in w for w in s["after"]["warnings"] or []), s["after"]
 
 
 def test_file_new_during_f12_stops_it_and_leaves_nothing(ui):
