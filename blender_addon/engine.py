@@ -241,7 +241,8 @@ class CubistRenderEngine(bpy.types.RenderEngine):
         if not follow_key:
             try:
                 outcome = serve_render.render(binary, glb, out.parent, settings, progress, self._cancelled,
-                                              on_preview=self._show_preview if preview else None)
+                                              on_preview=self._show_preview if preview else None,
+                                              on_start=lambda c: last_run.update(server=c.pid))
             except serve_render.NoServe:
                 pass  # an older binary: it runs on its own below
             except runner.RendererError as e:

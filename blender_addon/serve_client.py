@@ -132,7 +132,8 @@ class ServeClient:
 
     def _gone_message(self) -> str:
         code = self.proc.poll()
-        said = next((ln for ln in reversed(self._stderr_tail) if ln.strip()), "")
+        # The last line it said, not a progress line cut short by its death.
+        said = next((ln for ln in reversed(self._stderr_tail) if ln.strip() and not ln.startswith("PROGRESS")), "")
         if said.startswith("error: "):
             said = said[len("error: "):]
         if "unrecognized subcommand" in said or "unexpected argument" in said:

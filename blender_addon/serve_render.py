@@ -55,15 +55,17 @@ def preview_settings(settings: dict) -> dict:
 
 def render(binary: Path, scene: Path, folder: Path, settings: dict,
            on_progress: Callable[[str, float], None], should_cancel: Callable[[], bool],
-           on_preview: Optional[Callable[[np.ndarray], None]] = None) -> Outcome:
+           on_preview: Optional[Callable[[np.ndarray], None]] = None,
+           on_start: Callable[[ServeClient], None] = lambda c: None) -> Outcome:
     """Renders `scene` with `settings` on the session's renderer into `folder` (its passes as
     `render.<pass>.png`). `on_preview(pixels)`, when given, gets the preview ((h, w, 4) uint8,
-    top row first) as soon as it comes. Raises Cancelled, RendererError (the renderer's
+    top row first) as soon as it comes; `on_start(client)` when the requests are sent. Raises Cancelled, RendererError (the renderer's
     message, a renderer that died or hung: the next render starts another) or NoServe."""
     try:
         client = server.client(binary)
     except ServerGone as e:
         raise RendererError(str(e), 1) from None
+    on_start(client)
     image = folder / "render.rgba"
     requests: list = []
 

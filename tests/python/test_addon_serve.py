@@ -204,6 +204,7 @@ def test_f12_on_the_sessions_renderer_shows_a_preview_first(cubist_binary, tmp_p
     """serve_render: the preview (a quarter of the size, one sample) comes before the picture,
     which is `cubist render`'s; a killed server is an error and the next render starts another."""
     from blender_addon import serve_render, server
+    from blender_addon.runner import RendererError
 
     settings = {"width": 160, "height": 120, "spp": 2}
     seen = []
@@ -217,10 +218,12 @@ def test_f12_on_the_sessions_renderer_shows_a_preview_first(cubist_binary, tmp_p
         expected = cli(cubist_binary, settings, tmp_path / "cli.png", tmp_path)
         assert np.array_equal(read_rgba(outcome.image, 160, 120), expected)
         first = server.current()
-        os.kill(first.pid, signal.SIGKILL)
-        first.proc.wait(10)
-        with pytest.raises(Exception, match="killed by signal 9|ended"):
-            serve_render.render(cubist_binary, None, tmp_path, settings, lambda s, f: None, lambda: False)
+        # Killed during a render: an error naming the signal.
+        threading.Timer(0.5, lambda: os.kill(first.pid, signal.SIGKILL)).start()
+        with pytest.raises(RendererError, match="killed by signal 9"):
+            serve_render.render(cubist_binary, None, tmp_path, {"width": 1500, "height": 1500, "spp": 8},
+                                lambda s, f: None, lambda: False)
+        # The next render starts another server.
         again = serve_render.render(cubist_binary, None, tmp_path, settings, lambda s, f: None, lambda: False)
         assert again.pid != first.pid and np.array_equal(read_rgba(again.image, 160, 120), expected)
     finally:
