@@ -159,8 +159,8 @@ class CubistRenderEngine(bpy.types.RenderEngine):
             last_run["error"] = str(e)
             self.report({"ERROR"}, f"Cubist: {e}")
         except OSError as e:  # a full disk, a folder that went: where and why
-            where = f" {e.filename}" if e.filename else ""
-            last_run["error"] = f"cannot write{where}: {e.strerror or e}"
+            where = e.filename or last_run.get("workspace")
+            last_run["error"] = f"cannot write {'in ' if not e.filename else ''}{where}: {e.strerror or e}"
             self.report({"ERROR"}, f"Cubist: {last_run['error']}")
         except Exception as e:  # a bug of ours: still a clear message, never a crash
             traceback.print_exc()

@@ -335,14 +335,14 @@ def f12_with_binary(path, timeout=120):
 def step_bad_binaries():
     scene = bpy.context.scene
     short_render(scene)
-    # Answers `--version` as cubist does, then never answers anything.
-    sleeper = fake_binary("sleeping-cubist", "#!/bin/sh\n[ \"$1\" = --version ] && { echo 'cubist 0.1.0'; exit 0; }\n"
-                                             "exec sleep 600\n")
+    # Answers `--version` and `settings` as cubist does, then never answers a request.
+    sleeper = fake_binary("sleeping-cubist", f"#!/bin/sh\ncase \"$1\" in --version|settings) exec {BINARY} \"$@\";; "
+                                             f"esac\nexec sleep 600\n")
     out = {}
     out["stalled"] = yield from f12_with_binary(sleeper)
     # The sleeping server was killed.
-    out["stalled"]["sleepers"] = subprocess.run(["pgrep", "-f", str(sleeper)], capture_output=True,
-                                                text=True).stdout.split()
+    pid = out["stalled"]["server"]
+    out["stalled"]["server_alive"] = bool(pid) and alive(pid)
     # A Windows program (a PE header): not runnable here.
     other = OUT / "cubist.exe-for-windows"
     other.write_bytes(b"MZ\x90\x00" + bytes(256))
