@@ -167,9 +167,17 @@ class CubistRenderEngine(bpy.types.RenderEngine):
             last_run["error"] = f"{type(e).__name__}: {e}"
             self.report({"ERROR"}, f"Cubist: internal error: {type(e).__name__}: {e}")
         finally:
-            if self._result is not None:  # a preview shown, no picture: nothing is delivered
-                self.end_result(self._result, cancel=True)
-                self._result = None
+            if self._result is not None:
+                # A preview shown, no picture (cancelled, failed): the preview, which Blender
+                # merged into its Render Result when it was shown, is wiped, so no coarse
+                # picture is ever saved or taken for the render.
+                try:
+                    _, _, rw, rh = self._preview_region
+                    _set_rect(_combined(self._result.layers[0]), np.zeros((rw * rh, 4), dtype=np.float32))
+                    self.update_result(self._result)
+                finally:
+                    self.end_result(self._result, cancel=True)
+                    self._result = None
             if _unsaved_closed != unsaved_closed:
                 # The file closed (or Blender quits) while this frame rendered: what the render
                 # wrote into the unsaved file's folder since belongs to nobody.
@@ -194,6 +202,7 @@ class CubistRenderEngine(bpy.types.RenderEngine):
         region_ = region(scene_render, w, h)
         if self._result is None:
             self._result = self.begin_result(0, 0, region_[2], region_[3], layer=self._layer_name)
+            self._preview_region = region_
         self._put_picture(self._result.layers[0], picture.upscale(pixels, w, h), region_)
         self.update_result(self._result)
         self._mark("preview shown")

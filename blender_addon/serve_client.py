@@ -51,8 +51,11 @@ class ServerHung(ServerGone):
 # other stderr line) sends `stats`; a server that does not answer that within ANSWER_WITHIN is
 # hung. `stats` is answered at once even while a render runs (docs/serve.md), so a slow render
 # is never taken for a hung server.
-SILENCE = 4.0
-ANSWER_WITHIN = 4.0
+SILENCE = 5.0
+ANSWER_WITHIN = 10.0
+# A render asked to stop that has not within this long (a stage that checks the cancel flag
+# only between steps, on a loaded machine) is killed: the user asked for it to stop.
+CANCEL_GRACE = 15.0
 
 
 class Pending:
@@ -248,8 +251,8 @@ class ServeClient:
                     poll: float = 0.05) -> dict:
         """Waits for `pending`'s reply, sending `cancel` once `should_cancel()` turns true. A
         server silent for SILENCE seconds is asked for `stats`; one that does not answer within
-        ANSWER_WITHIN (nor stops within that after a cancel) is killed: raises ServerHung, never
-        waits for ever."""
+        ANSWER_WITHIN is killed (raises ServerHung), and one that has not stopped CANCEL_GRACE
+        seconds after the cancel too (raises Cancelled): never waits for ever."""
         cancelled_at = probe = None
         probe_at = 0.0
         while pending.wait(poll) is None:
@@ -261,13 +264,13 @@ class ServeClient:
                 probe = None
             if probe is None and now - self.heard > SILENCE:
                 probe, probe_at = self.request("stats"), now
-            late = probe is not None and now - probe_at > ANSWER_WITHIN
-            stuck = cancelled_at is not None and now - cancelled_at > SILENCE + ANSWER_WITHIN
-            if late or stuck:
+            if cancelled_at is not None and now - cancelled_at > CANCEL_GRACE:
                 self.kill()
-                what = "did not stop after a cancel" if stuck and not late else "stopped answering"
-                raise ServerHung(f"the cubist renderer {what} (nothing for {now - self.heard:.0f} s): it was "
-                                 f"stopped; the next render starts it again")
+                raise Cancelled()
+            if probe is not None and now - probe_at > ANSWER_WITHIN:
+                self.kill()
+                raise ServerHung(f"the cubist renderer stopped answering (nothing for {now - self.heard:.0f} s): it "
+                                 f"was stopped; the next render starts it again")
         return pending.reply or {}
 
     def check(self, reply: dict) -> dict:

@@ -433,7 +433,8 @@ def test_renders_like_blenders_gltf_exporter(bpy, export, tmp_path, name):
 # The render thread
 
 
-RENDER_PATH = ("_render", "_cancelled", "_export", "_export_frame", "_run", "_layout_frame_source", "_deliver")
+RENDER_PATH = ("_render", "_cancelled", "_export", "_export_frame", "_run", "_layout_frame_source", "_deliver",
+               "_mark", "_show_preview", "_put_picture")
 
 
 def test_the_render_path_uses_no_operator_context_or_scene_frame(engine, export):
@@ -441,12 +442,14 @@ def test_the_render_path_uses_no_operator_context_or_scene_frame(engine, export)
     frame_set (only the engine's own self.frame_set), checked on the code's syntax tree."""
     pngio, runner, mapping, turns = (sys.modules[f"blender_addon.{m}"] for m in ("pngio", "runner", "mapping", "turns"))
     # turns.py's handlers run on the render thread too (render_pre, render_post).
-    sources = [inspect.getsource(m) for m in (export, pngio, runner, mapping)]
+    # The session's renderer and the picture's hand-back run there too (F12 on `cubist serve`).
+    served = [sys.modules[f"blender_addon.{m}"] for m in ("serve_render", "server", "serve_client", "picture")]
+    sources = [inspect.getsource(m) for m in (export, pngio, runner, mapping, *served)]
     sources += [inspect.getsource(f) for f in (turns._long_turns, turns._short_turns, turns.yield_turn)]
     cls = engine.CubistRenderEngine
     sources += [inspect.getsource(cls.__dict__[name]) for name in ("render", *RENDER_PATH)]
     sources += [inspect.getsource(f) for f in (engine.addon_preferences, engine.layout_folder, engine._panel,
-                                               engine.region, engine._read_pass)]
+                                               engine.region, engine._read_pass, engine._set_rect, engine._combined)]
     found = []
     for src in sources:
         for node in ast.walk(ast.parse(textwrap.dedent(src))):
