@@ -29,7 +29,8 @@ import numpy as np
 
 import bpy
 
-from . import export, mapping, picture, pngio, preferences, runner, serve_client, serve_render, server, turns, viewport
+from . import (chosen, export, mapping, picture, pngio, preferences, runner, serve_client, serve_render, server, turns,
+               viewport)
 from .preferences import addon_preferences
 from .preferences import panel as _panel
 
@@ -261,6 +262,8 @@ class CubistRenderEngine(bpy.types.RenderEngine):
                 last_run["timings"] = outcome.reply.get("timings")
                 last_run["reused"] = outcome.reply.get("reused")
                 last_run["scene_load"] = outcome.reply.get("scene")
+                # What the renderer chose for the panel's Auto values (the panel shows them).
+                last_run["chosen"] = chosen.from_report(f"camera: {outcome.reply.get('camera', '')}")
                 if outcome.preview_reply is not None:
                     last_run["preview_timings"] = outcome.preview_reply.get("timings")
                 self._mark("reply")

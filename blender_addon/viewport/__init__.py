@@ -96,8 +96,7 @@ def view_draw(engine, context, depsgraph) -> None:
     update(session, depsgraph, view, False)  # the view moved: a new job
     image = session.take_image()
     if image is not None:
-        target = view or image.view
-        drawing.draw_image(session, image, target.x, target.y, target.width, target.height)
+        drawing.draw_image(session, image, *(view or image.view).rect())
     lines = []
     if session.error:
         lines.append(f"Cubist: {session.error}")

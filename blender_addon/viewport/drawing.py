@@ -5,16 +5,19 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import picture
+
 # Tests: every drawn frame's facts (image size and scale, rect, readback) when on.
 record_draws = False
 
 
 def gpu_pixels(pixels: np.ndarray) -> np.ndarray:
-    """8-bit RGBA rows, top row first, as the GPU texture's data: float, rows bottom-up,
-    alpha premultiplied (the ALPHA_PREMULT blend)."""
-    px = pixels[::-1].astype(np.float32) / 255.0
-    px[..., :3] *= px[..., 3:4]
-    return np.ascontiguousarray(px).reshape(-1)
+    """8-bit sRGB RGBA rows, top row first, as the GPU texture's data: scene-linear float,
+    rows bottom-up, alpha premultiplied (the ALPHA_PREMULT blend). Blender shows a viewport
+    engine's drawing through the scene's view transform, as it shows F12's result: sRGB values
+    drawn as they are were encoded twice (a washed-out picture, each colour as light as
+    linear-to-sRGB of itself), so they are decoded here, as F12's hand-back does."""
+    return picture.result_rect(pixels, (0, 0, pixels.shape[1], pixels.shape[0])).reshape(-1)
 
 
 def texture_of(session, image):

@@ -12,7 +12,8 @@ from .. import export, mapping, preferences
 @dataclass(frozen=True)
 class View:
     """What a viewport shows, as plain values (tests make one without a window): the size of
-    the image and where it goes in the region (x, y from the bottom left), and the camera."""
+    the image and where it goes in the region (x, y from the bottom left; drawn over
+    draw_width x draw_height, the camera frame's size on screen, when set), and the camera."""
 
     width: int
     height: int
@@ -20,6 +21,12 @@ class View:
     x: int = 0
     y: int = 0
     through_camera: bool = False
+    draw_width: int = 0
+    draw_height: int = 0
+
+    def rect(self) -> tuple:
+        """Where the image goes in the region: (x, y, width, height)."""
+        return self.x, self.y, self.draw_width or self.width, self.draw_height or self.height
 
 
 def view_camera_facts(view_matrix, is_perspective: bool, lens: float, view_distance: float) -> mapping.CameraFacts:
@@ -56,10 +63,12 @@ def view_of(context, depsgraph) -> Optional[View]:
             return None
         r = scene.render
         rw, rh = mapping.render_size(r.resolution_x, r.resolution_y, r.resolution_percentage)
-        # The render's aspect, at the frame's size on screen (at most the render's size).
+        # The render's aspect, at the frame's size on screen (at most the render's size), drawn
+        # over the whole frame (a frame larger than the render shows it scaled up).
         w = max(1, min(rw, round(rect[2])))
         h = max(1, round(w * rh / rw))
-        return View(w, h, export.camera_facts(cam), round(rect[0]), round(rect[1]), True)
+        return View(w, h, export.camera_facts(cam), round(rect[0]), round(rect[1]), True,
+                    max(1, round(rect[2])), max(1, round(rect[3])))
     facts = view_camera_facts(r3d.view_matrix, r3d.is_perspective, space.lens, r3d.view_distance)
     return View(region.width, region.height, facts)
 

@@ -118,7 +118,7 @@ def f12(animation=False, timeout=300):
             "cancelled": run.get("cancelled"), "server": run.get("server"), "timeline": run.get("timeline"),
             "preview_seconds": run.get("preview_seconds"), "timings": run.get("timings"),
             "preview_timings": run.get("preview_timings"), "reused": run.get("reused"),
-            "scene_load": run.get("scene_load"), "warnings": run.get("warnings"), "gap": longest_gap(t0)}
+            "scene_load": run.get("scene_load"), "warnings": run.get("warnings"), "chosen": run.get("chosen"), "gap": longest_gap(t0)}
 
 
 def responsive(step):

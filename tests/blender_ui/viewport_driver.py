@@ -139,7 +139,8 @@ def expected_centre(s, draw):
     u = (cx + 0.5 - x) / w
     v = 1.0 - (cy + 0.5 - y) / h
     px = img.pixels[min(img.height - 1, int(v * img.height)), min(img.width - 1, int(u * img.width))]
-    return [float(c) / 255.0 for c in px]
+    # Drawn scene-linear (Blender's view transform makes it sRGB on the screen, as for F12).
+    return [float(c) for c in sys.modules["blender_addon.picture"].result_rect(px.reshape(1, 1, 4), (0, 0, 1, 1))[0]]
 
 
 def setup():

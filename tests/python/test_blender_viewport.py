@@ -82,8 +82,8 @@ def test_rendered_shading_draws_cubist_pixels_progressively(ui):
     assert [h[1] for h in r["history"] if h[0] == job] == [0.25, 0.5, 1.0], r["history"]
     drawn = [scale for i, scale in enumerate(r["scales_drawn"]) if i == 0 or scale != r["scales_drawn"][i - 1]]
     assert drawn == sorted(set(drawn)) and drawn[-1] == 1.0 and len(drawn) >= 2, r["scales_drawn"]
-    # On the screen: the framebuffer pixel at the rect's centre is the image's (8-bit, drawn
-    # through Blender's display transform, Standard: a rounding step at most).
+    # On the screen: the framebuffer pixel at the rect's centre is the image's, drawn
+    # scene-linear (Blender's view transform shows it as the image's sRGB; a rounding step).
     assert np.abs(np.array(draw["readback"][:3]) - np.array(r["expected_centre"][:3])).max() <= 2.5 / 255, r
     # The image is what `cubist render` paints from the exported scene and settings.
     generation, scale, job = r["saved_image"]
@@ -123,6 +123,9 @@ def test_the_camera_view_renders_the_scene_camera_at_the_render_size(ui):
     c = ui["results"]["camera_view"]
     assert c["through_camera"] is True and c["size"] == [200, 150], c
     assert c["draw"]["image"] == [200, 150]
+    # Drawn over the whole camera frame, whatever its size on screen (not in a corner of it).
+    x, y, w, h = c["draw"]["rect"]
+    assert w >= 200 and abs(w / h - 200 / 150) < 0.03, c["draw"]
     assert np.abs(np.array(c["draw"]["readback"][:3]) - np.array(c["expected_centre"][:3])).max() <= 2.5 / 255
 
 
