@@ -193,7 +193,9 @@ class CubistRenderEngine(bpy.types.RenderEngine):
     def _mark(self, what: str) -> None:
         """Where the time of a render goes (BENCHMARKS.md, the windowed test): seconds since
         render() began."""
-        last_run["timeline"].append((what, round(time.monotonic() - self._t0, 4)))
+        t0 = getattr(self, "_t0", None)  # set by render(); absent when a part is run on its own
+        if t0 is not None:
+            last_run.setdefault("timeline", []).append((what, round(time.monotonic() - t0, 4)))
 
     def _show_preview(self, pixels) -> None:
         """The coarse preview, blown up to the picture's size, in the Render Result while the
@@ -207,7 +209,7 @@ class CubistRenderEngine(bpy.types.RenderEngine):
         self._put_picture(self._result.layers[0], picture.upscale(pixels, w, h), region_)
         self.update_result(self._result)
         self._mark("preview shown")
-        last_run["preview_seconds"] = time.monotonic() - self._t0
+        last_run["preview_seconds"] = dict(last_run.get("timeline", [])).get("preview shown")
 
     def _put_picture(self, layer, pixels, region_: tuple) -> None:
         """8-bit pixels (top row first, the whole frame) into the layer's Combined pass over

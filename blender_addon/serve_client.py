@@ -16,6 +16,7 @@ a millisecond or two (BENCHMARKS.md, issue 14), far below a render.
 
 from __future__ import annotations
 
+import collections
 import itertools
 import json
 import os
@@ -117,6 +118,9 @@ class ServeClient:
         self._pending: dict[int, Pending] = {}
         self._stderr_tail: list[str] = []
         self._progress: Optional[Callable[[str, float], None]] = None
+        # Progress lines read, for the waiting thread to report (await_reply): callbacks run on
+        # the thread that waits (Blender's render thread), never on the reader thread.
+        self._progress_lines: collections.deque = collections.deque(maxlen=1000)
         self._closed = False
         self.heard = time.monotonic()  # the last line read from the server (stdout or stderr)
         self._reader = threading.Thread(target=self._read_replies, name="cubist-serve-replies", daemon=True)
@@ -184,12 +188,8 @@ class ServeClient:
                 self.heard = time.monotonic()
                 ln = parse_line(line)
                 if ln.kind == "progress":
-                    cb = self._progress
-                    if cb is not None:
-                        try:
-                            cb(ln.text, ln.fraction)
-                        except Exception:
-                            pass
+                    if self._progress is not None:
+                        self._progress_lines.append((ln.text, ln.fraction))
                 else:
                     self._stderr_tail.append(line.rstrip("\n"))
                     del self._stderr_tail[:-20]
@@ -220,8 +220,17 @@ class ServeClient:
 
     def set_progress(self, callback: Optional[Callable[[str, float], None]]) -> None:
         """Where the `PROGRESS` lines of requests that ask for them go (one render job at a
-        time asks: F12 or a frame of an animation); None: nowhere."""
+        time asks: F12 or a frame of an animation), called by `await_reply` on the thread that
+        waits; None: nowhere."""
+        self._progress_lines.clear()
         self._progress = callback
+
+    def _report_progress(self) -> None:
+        cb = self._progress
+        while self._progress_lines:
+            stage, fraction = self._progress_lines.popleft()
+            if cb is not None:
+                cb(stage, fraction)
 
     def render_request(self, settings: dict, output: Path, scene: Optional[Path] = None,
                        passes: Optional[list] = None, progress: bool = False) -> Pending:
@@ -239,7 +248,7 @@ class ServeClient:
         """Renders and waits (F12: on the render thread), reporting the server's progress and
         cancelling when `should_cancel()` turns true (raises Cancelled once the server has
         stopped). Raises ServerError with the server's message, ServerGone."""
-        self._progress = on_progress
+        self.set_progress(on_progress)
         try:
             pending = self.render_request(settings, output, scene, passes, progress=on_progress is not None)
             reply = self.await_reply(pending, should_cancel, poll)
@@ -256,6 +265,7 @@ class ServeClient:
         cancelled_at = probe = None
         probe_at = 0.0
         while pending.wait(poll) is None:
+            self._report_progress()
             now = time.monotonic()
             if cancelled_at is None and should_cancel():
                 self.cancel(pending.id)
@@ -271,6 +281,7 @@ class ServeClient:
                 self.kill()
                 raise ServerHung(f"the cubist renderer stopped answering (nothing for {now - self.heard:.0f} s): it "
                                  f"was stopped; the next render starts it again")
+        self._report_progress()
         return pending.reply or {}
 
     def check(self, reply: dict) -> dict:

@@ -132,15 +132,21 @@ def wait_for_draw(predicate, timeout, what):
 
 
 def expected_centre(s, draw):
-    """The image pixel drawn at the centre of the draw's rect (0-1, top row first)."""
+    """The image pixels drawn at the centre of the draw's rect, scene-linear as drawn (Blender's
+    view transform makes them sRGB on the screen, as for F12): [the nearest pixel's colour,
+    the least and the most of the 3 x 3 around it per channel] (a rect larger than the image
+    draws it magnified, filtered between neighbours)."""
     img = s.image
     x, y, w, h = draw["rect"]
     cx, cy = draw["centre"]
     u = (cx + 0.5 - x) / w
     v = 1.0 - (cy + 0.5 - y) / h
-    px = img.pixels[min(img.height - 1, int(v * img.height)), min(img.width - 1, int(u * img.width))]
-    # Drawn scene-linear (Blender's view transform makes it sRGB on the screen, as for F12).
-    return [float(c) for c in sys.modules["blender_addon.picture"].result_rect(px.reshape(1, 1, 4), (0, 0, 1, 1))[0]]
+    row, col = min(img.height - 1, int(v * img.height)), min(img.width - 1, int(u * img.width))
+    linear = sys.modules["blender_addon.picture"].result_rect
+    near = img.pixels[max(0, row - 1):row + 2, max(0, col - 1):col + 2]
+    around = linear(near, (0, 0, near.shape[1], near.shape[0]))
+    nearest = linear(img.pixels[row:row + 1, col:col + 1], (0, 0, 1, 1))[0]
+    return [[float(c) for c in nearest], [float(c) for c in around.min(axis=0)], [float(c) for c in around.max(axis=0)]]
 
 
 def setup():
