@@ -206,7 +206,7 @@ class CubistRenderEngine(bpy.types.RenderEngine):
         if self._result is None:
             self._result = self.begin_result(0, 0, region_[2], region_[3], layer=self._layer_name)
             self._preview_region = region_
-        self._put_picture(self._result.layers[0], picture.upscale(pixels, w, h), region_)
+        _set_rect(_combined(self._result.layers[0]), picture.preview_rect(pixels, w, h, region_))
         self.update_result(self._result)
         self._mark("preview shown")
         last_run["preview_seconds"] = dict(last_run.get("timeline", [])).get("preview shown")

@@ -89,7 +89,8 @@ def render(binary: Path, scene: Path, folder: Path, settings: dict,
         if pre is not None:
             reply = client.await_reply(pre, cancelled)
             outcome.preview_reply = reply
-            if reply.get("ok"):
+            if reply.get("ok") and not full.done():
+                # (A picture that is already there, all its stages kept, needs no preview.)
                 on_preview(read_rgba(folder / "preview.rgba", reply["width"], reply["height"]))
             elif reply.get("cancelled"):
                 client.cancel(full.id)

@@ -244,3 +244,6 @@ def test_picture_conversion_is_blenders_png_decoding():
     assert picture.result_rect(px, (2, 0, 1, 1)).tolist() == rect[0, 2:3].reshape(1, 4).tolist()
     big = picture.upscale(px, 6, 4)
     assert big.shape == (4, 6, 4) and (big[:2, :2] == px[0, 0]).all() and (big[2:, 4:] == px[1, 2]).all()
+    # The preview: converted small, then blown up, the same as converting the blown-up picture.
+    for region in ((0, 0, 6, 4), (1, 1, 4, 2)):
+        assert np.array_equal(picture.preview_rect(px, 6, 4, region), picture.result_rect(big, region))
