@@ -182,10 +182,7 @@ def setup():
     scene.render.engine = "CUBIST"
     results["size"] = [scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage]
     results["unsaved_folder"] = str(engine().unsaved_folder())
-    t0 = time.monotonic()
     yield 3.0  # the user looks at the panel
-    # Blender's main loop before any render: the pace every step's is compared with.
-    results["idle_gap"] = longest_gap(t0)
 
 
 def step_speed():
