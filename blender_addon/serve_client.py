@@ -262,25 +262,41 @@ class ServeClient:
         server silent for SILENCE seconds is asked for `stats`; one that does not answer within
         ANSWER_WITHIN is killed (raises ServerHung), and one that has not stopped CANCEL_GRACE
         seconds after the cancel too (raises Cancelled): never waits for ever."""
-        cancelled_at = probe = None
-        probe_at = 0.0
+        # Time is counted only while this thread runs: a host that keeps Python waiting (Blender
+        # drawing for seconds on a loaded machine, holding the interpreter) starves the reader
+        # threads too, and their silence then says nothing about the server.
+        last = time.monotonic()
+        heard = self.heard
+        silent = cancelled_for = probe_for = 0.0
+        cancelled = False
+        probe = None
         while pending.wait(poll) is None:
             self._report_progress()
             now = time.monotonic()
-            if cancelled_at is None and should_cancel():
+            step = now - last if now - last < 1.0 else poll
+            last = now
+            if self.heard != heard:
+                heard, silent = self.heard, 0.0
+            else:
+                silent += step
+            if not cancelled and should_cancel():
                 self.cancel(pending.id)
-                cancelled_at = now
-            if probe is not None and probe.done():
-                probe = None
-            if probe is None and now - self.heard > SILENCE:
-                probe, probe_at = self.request("stats"), now
-            if cancelled_at is not None and now - cancelled_at > CANCEL_GRACE:
+                cancelled = True
+            elif cancelled:
+                cancelled_for += step
+            if probe is not None:
+                probe_for += step
+                if probe.done():
+                    probe = None
+            if probe is None and silent > SILENCE:
+                probe, probe_for, silent = self.request("stats"), 0.0, 0.0
+            if cancelled_for > CANCEL_GRACE:
                 self.kill()
                 raise Cancelled()
-            if probe is not None and now - probe_at > ANSWER_WITHIN:
+            if probe is not None and probe_for > ANSWER_WITHIN:
                 self.kill()
-                raise ServerHung(f"the cubist renderer stopped answering (nothing for {now - self.heard:.0f} s): it "
-                                 f"was stopped; the next render starts it again")
+                raise ServerHung(f"the cubist renderer stopped answering (nothing for {SILENCE + probe_for:.0f} s): "
+                                 f"it was stopped; the next render starts it again")
         self._report_progress()
         return pending.reply or {}
 
