@@ -54,9 +54,10 @@ class ServerHung(ServerGone):
 # is never taken for a hung server.
 SILENCE = 5.0
 ANSWER_WITHIN = 10.0
-# A render asked to stop that has not within this long (a stage that checks the cancel flag
-# only between steps, on a loaded machine) is killed: the user asked for it to stop.
-CANCEL_GRACE = 15.0
+# A render asked to stop that has not within this long is killed (the next render starts
+# another server): Esc must end the render job promptly, and some stages check the cancel flag
+# only between their steps (seen: more than 15 s on a loaded machine, 1280 x 960, 64 samples).
+CANCEL_GRACE = 3.0
 
 
 class Pending:

@@ -292,7 +292,9 @@ def scene_cancel():
             raise TimeoutError("the render job still runs 60 s after Esc")
         yield 0.05
     seconds = time.monotonic() - t_esc
-    stats = client.stats()
+    # A render that did not stop within a few seconds was stopped with its server (the next
+    # render starts another): either way nothing of it runs on.
+    stats = client.stats() if client.alive() else {"running": None, "queued": 0}
     yield 0.5
     results["cancel"] = {"operator": started, "cancelled": engine.last_run.get("cancelled"),
                          "error": engine.last_run.get("error"),
