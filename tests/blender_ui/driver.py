@@ -294,7 +294,10 @@ def scene_cancel():
     seconds = time.monotonic() - t_esc
     # A render that did not stop within a few seconds was stopped with its server (the next
     # render starts another): either way nothing of it runs on.
-    stats = client.stats() if client.alive() else {"running": None, "queued": 0}
+    try:
+        stats = client.stats()
+    except sys.modules["blender_addon.serve_client"].ServerGone:
+        stats = {"running": None, "queued": 0}
     yield 0.5
     results["cancel"] = {"operator": started, "cancelled": engine.last_run.get("cancelled"),
                          "error": engine.last_run.get("error"),
