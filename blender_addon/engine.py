@@ -1,5 +1,8 @@
-"""The Cubist render engine: F12 and Render Animation export the scene, run the `cubist`
-binary (runner.py), stream its progress, and hand its picture and passes back to Blender.
+"""The Cubist render engine: F12 and Render Animation export the scene, render it on the
+session's renderer (server.py, serve_render.py: a coarse preview first for F12, then the
+picture) or, for frames whose facets follow a key frame and binaries without `serve`, with the
+`cubist` binary run once (runner.py), stream the progress, and hand the picture and passes back
+to Blender.
 
 The render thread. In Blender's interface F12 and Render Animation call `render()` on the
 render-job thread while the interface keeps running on the main thread (TOOLCHAIN.md), so
@@ -9,7 +12,7 @@ API: no `bpy.ops`, no `bpy.context` (it belongs to the main thread's window), no
 frame (the facet layout's) is evaluated with `RenderEngine.frame_set`, which re-evaluates this
 render's own depsgraph, as Cycles does for motion blur. Images are read with pngio.
 
-Facets across frames. Every frame is its own `cubist` process. Static facets load the layout
+Facets across frames. Every frame is rendered on its own. Static facets load the layout
 frame's layout (runner.layouts); facets that follow the scene (Facet Motion: Follow) load it
 with the follow data saved beside it, and the binary carries each frame's facets from that key
 frame in one step. A frame other than the layout frame whose layout is missing or stale first
@@ -26,10 +29,10 @@ import numpy as np
 
 import bpy
 
-from . import export, mapping, pngio, preferences, runner, turns, viewport
+from . import (chosen, export, mapping, picture, pngio, preferences, runner, serve_client, serve_render, server, turns,
+               viewport)
 from .preferences import addon_preferences
 from .preferences import panel as _panel
-from .serve_client import ServerError, ServerGone
 
 ENGINE_ID = "CUBIST"
 
@@ -70,7 +73,38 @@ def unsaved_folder() -> Path:
 def remove_unsaved_folder() -> None:
     """Removes this session's unsaved-file folder: its layouts belong to a file that is being
     closed (a new or another file is loading, or Blender quits) and that nobody can reopen."""
+    global _unsaved_closed
+    _unsaved_closed += 1
     shutil.rmtree(unsaved_folder(), ignore_errors=True)
+
+
+# How many times the unsaved file's folder was removed: a render that used it and ends after
+# a removal (File > New or quitting during the render) removes what it wrote there since.
+_unsaved_closed = 0
+
+
+def remove_orphaned_folders() -> None:
+    """Removes the unsaved-file folders of Blender sessions that ended without removing theirs
+    (killed, crashed): `cubist-unsaved-PID` whose process is gone."""
+    import os
+    import tempfile
+
+    for p in Path(tempfile.gettempdir()).glob("cubist-unsaved-*"):
+        pid = p.name.rsplit("-", 1)[-1]
+        if pid.isdigit() and int(pid) != os.getpid() and not _process_exists(int(pid)):
+            shutil.rmtree(p, ignore_errors=True)
+
+
+def _process_exists(pid: int) -> bool:
+    import os
+
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OSError):
+        return True  # another user's process, or a platform without signals: left alone
+    return True
 
 
 def current_layout_path(scene) -> Path:
@@ -113,6 +147,11 @@ class CubistRenderEngine(bpy.types.RenderEngine):
         scene = depsgraph.scene_eval
         last_run.clear()
         last_run["frame"] = scene.frame_current
+        self._t0 = time.monotonic()
+        self._result = None  # begun by the preview, ended with the picture (or cancelled)
+        self._image = None  # the server's outcome (serve_render.Outcome), else the PNG `out`
+        last_run["timeline"] = []
+        unsaved_closed = _unsaved_closed
         try:
             self._render(depsgraph, scene)
         except (runner.Cancelled, export.ExportCancelled):
@@ -120,17 +159,62 @@ class CubistRenderEngine(bpy.types.RenderEngine):
         except runner.CubistError as e:
             last_run["error"] = str(e)
             self.report({"ERROR"}, f"Cubist: {e}")
+        except OSError as e:  # a full disk, a folder that went: where and why
+            where = e.filename or last_run.get("workspace")
+            last_run["error"] = f"cannot write {'in ' if not e.filename else ''}{where}: {e.strerror or e}"
+            self.report({"ERROR"}, f"Cubist: {last_run['error']}")
         except Exception as e:  # a bug of ours: still a clear message, never a crash
             traceback.print_exc()
             last_run["error"] = f"{type(e).__name__}: {e}"
             self.report({"ERROR"}, f"Cubist: internal error: {type(e).__name__}: {e}")
         finally:
+            if self._result is not None:
+                # A preview shown, no picture (cancelled, failed): the preview, which Blender
+                # merged into its Render Result when it was shown, is wiped, so no coarse
+                # picture is ever saved or taken for the render.
+                try:
+                    _, _, rw, rh = self._preview_region
+                    _set_rect(_combined(self._result.layers[0]), np.zeros((rw * rh, 4), dtype=np.float32))
+                    self.update_result(self._result)
+                finally:
+                    self.end_result(self._result, cancel=True)
+                    self._result = None
+            if _unsaved_closed != unsaved_closed:
+                # The file closed (or Blender quits) while this frame rendered: what the render
+                # wrote into the unsaved file's folder since belongs to nobody.
+                shutil.rmtree(unsaved_folder(), ignore_errors=True)
             entry = {k: last_run.get(k) for k in ("frame", "settings", "layout", "prepass", "error", "cancelled",
                                                   "warnings")}
             history.append(entry)
             del history[:-HISTORY_LIMIT]
 
     # -----------------------------------------------------------------------------------------
+
+    def _mark(self, what: str) -> None:
+        """Where the time of a render goes (BENCHMARKS.md, the windowed test): seconds since
+        render() began."""
+        t0 = getattr(self, "_t0", None)  # set by render(); absent when a part is run on its own
+        if t0 is not None:
+            last_run.setdefault("timeline", []).append((what, round(time.monotonic() - t0, 4)))
+
+    def _show_preview(self, pixels) -> None:
+        """The coarse preview, blown up to the picture's size, in the Render Result while the
+        picture renders (as Cycles shows its first samples)."""
+        scene_render = self._scene_render
+        w, h = self._size
+        region_ = region(scene_render, w, h)
+        if self._result is None:
+            self._result = self.begin_result(0, 0, region_[2], region_[3], layer=self._layer_name)
+            self._preview_region = region_
+        _set_rect(_combined(self._result.layers[0]), picture.preview_rect(pixels, w, h, region_))
+        self.update_result(self._result)
+        self._mark("preview shown")
+        last_run["preview_seconds"] = dict(last_run.get("timeline", [])).get("preview shown")
+
+    def _put_picture(self, layer, pixels, region_: tuple) -> None:
+        """8-bit pixels (top row first, the whole frame) into the layer's Combined pass over
+        `region_`, as Blender decodes an sRGB PNG (picture.result_rect)."""
+        _set_rect(_combined(layer), picture.result_rect(pixels, region_))
 
     def _cancelled(self) -> bool:
         # Asked between exported objects and while the renderer runs: the interface may draw
@@ -141,7 +225,8 @@ class CubistRenderEngine(bpy.types.RenderEngine):
             return True
         return False
 
-    def _run(self, binary: Path, glb: Path, out: Path, settings: dict, cfg: Path, frame: int, span) -> list:
+    def _run(self, binary: Path, glb: Path, out: Path, settings: dict, cfg: Path, frame: int, span,
+             preview: bool = False) -> list:
         runner.write_settings(cfg, settings)
         last_run["settings_json"] = cfg.read_text(encoding="utf-8")
         if keep_exports is not None:
@@ -162,21 +247,30 @@ class CubistRenderEngine(bpy.types.RenderEngine):
             last_run["pid"] = proc.pid
             last_run["process"] = proc
 
-        # A viewport's server holding this very scene renders it with what it kept (viewport.py);
-        # a frame whose facets follow a saved key frame is the binary's alone (its frames route).
+        # The session's renderer (server.py), which keeps what it computed between renders; a
+        # frame whose facets follow a saved key frame is the binary's alone (its frames route).
         follow_key = settings.get("facet_motion") == "follow" and ("facets" in settings or "save_facets" in settings)
-        server = None if follow_key else viewport.server_for(glb)
-        if server is not None:
+        if not follow_key:
             try:
-                warnings = viewport.render_on_server(server, glb, out, settings, progress, self._cancelled)
-                last_run["server"] = server.pid
-                if not out.is_file():
-                    raise runner.CubistError("the renderer finished without writing an image")
-                return warnings
-            except ServerError as e:
-                raise runner.RendererError(str(e).replace(str(glb), "the exported scene"), 1) from None
-            except ServerGone:
-                pass  # the binary runs on its own below
+                outcome = serve_render.render(binary, glb, out.parent, settings, progress, self._cancelled,
+                                              on_preview=self._show_preview if preview else None,
+                                              on_start=lambda c: last_run.update(server=c.pid))
+            except serve_render.NoServe:
+                pass  # an older binary: it runs on its own below
+            except runner.RendererError as e:
+                raise runner.RendererError(str(e).replace(str(glb), "the exported scene"), e.returncode) from None
+            else:
+                last_run["server"] = outcome.pid
+                last_run["timings"] = outcome.reply.get("timings")
+                last_run["reused"] = outcome.reply.get("reused")
+                last_run["scene_load"] = outcome.reply.get("scene")
+                # What the renderer chose for the panel's Auto values (the panel shows them).
+                last_run["chosen"] = chosen.from_report(f"camera: {outcome.reply.get('camera', '')}")
+                if outcome.preview_reply is not None:
+                    last_run["preview_timings"] = outcome.preview_reply.get("timings")
+                self._mark("reply")
+                self._image = outcome
+                return list(outcome.reply.get("warnings", []))
         try:
             result = runner.run(runner.build_argv(binary, glb, out, cfg), progress, self._cancelled,
                                 on_start=started)
@@ -234,6 +328,8 @@ class CubistRenderEngine(bpy.types.RenderEngine):
             last_run["workspace"] = tmp
             glb = tmp / "frame.glb"
             facts = self._export(depsgraph, glb, frame, warnings)
+            self._mark("exported")
+            self._size, self._scene_render, self._layer_name = (facts.width, facts.height), scene.render, view_layer.name
             settings = mapping.settings_from_panel(panel, facts)
             warnings += facts.warnings
             if self._cancelled():
@@ -273,7 +369,10 @@ class CubistRenderEngine(bpy.types.RenderEngine):
                     source, pre_glb, pre_settings = self._layout_frame_source(depsgraph, scene, panel,
                                                                               props.layout_frame, layout, tmp,
                                                                               warnings)
-            current = runner.layout_is_current(layout, source, follow) if layout is not None else None
+            broken = runner.layout_unreadable(layout) if layout is not None else None
+            if broken is not None:
+                warnings.append(f"the facet layout {layout.name} could not be read ({broken}): computed again")
+            current = runner.layout_is_current(layout, source, follow) and broken is None if layout is not None else None
             plan = runner.plan_layout(settings, layout, frame, props.layout_frame, current)
             if layout is not None and not current:
                 runner.forget_source(layout)
@@ -308,7 +407,8 @@ class CubistRenderEngine(bpy.types.RenderEngine):
             out = tmp / "render.png"
             last_run["settings"] = dict(plan.settings)
             try:
-                warnings += self._run(binary, glb, out, plan.settings, tmp / "settings.json", frame, span)
+                warnings += self._run(binary, glb, out, plan.settings, tmp / "settings.json", frame, span,
+                                      preview=not self.is_animation)
             except runner.RendererError as e:
                 if follow and layout is not None and "triangles" in str(e):
                     # What to do about it, in the panel's words.
@@ -360,22 +460,51 @@ class CubistRenderEngine(bpy.types.RenderEngine):
             px = _read_pass(path, w, h, channels, integer=(name == "facet-ids"))
             px = px.reshape(h, w, channels)[y0:y0 + rh, x0:x0 + rw].reshape(rw * rh, channels)
             passes[bname] = px.copy()
-        result = self.begin_result(0, 0, rw, rh, layer=view_layer.name)
+        pixels = None
+        if self._image is not None:  # the server's raw pixels
+            try:
+                pixels = serve_client.read_rgba(self._image.image, w, h)
+            except (OSError, runner.CubistError) as e:
+                raise runner.CubistError(f"cannot read the renderer's picture: {e}") from None
+        result, self._result = self._result, None
+        if result is None:
+            result = self.begin_result(0, 0, rw, rh, layer=view_layer.name)
         try:
             layer = result.layers[0]
-            layer.load_from_file(str(out), x=x0, y=y0)
+            if pixels is not None:
+                self._put_picture(layer, pixels, (x0, y0, rw, rh))
+            else:
+                layer.load_from_file(str(out), x=x0, y=y0)
             for bname, rect in passes.items():
                 p = layer.passes.find_by_name(bname, "") if hasattr(layer.passes, "find_by_name") else None
                 p = p or layer.passes.get(bname)
                 if p is not None:
-                    if hasattr(p.rect, "foreach_set"):
-                        p.rect.foreach_set(rect.reshape(-1))  # whole array at once
-                    else:
-                        p.rect = rect
+                    _set_rect(p, rect)
         except Exception:
             self.end_result(result, cancel=True)
             raise
         self.end_result(result)
+        self._mark("delivered")
+
+
+def _combined(layer):
+    p = layer.passes.find_by_name("Combined", "") if hasattr(layer.passes, "find_by_name") else None
+    return p or layer.passes["Combined"]
+
+
+def _set_rect(render_pass, rect) -> None:
+    """A pass's pixels, (w * h, channels) float32, copied at once: `foreach_set` takes the
+    array flat in 4.x and as (w * h) rows in 3.x (a row count that does not match is a
+    TypeError). Setting `rect` itself converts every value through Python: seconds at 1080p."""
+    rect = np.ascontiguousarray(rect, dtype=np.float32)
+    if hasattr(render_pass.rect, "foreach_set"):
+        for shaped in (rect.reshape(-1), rect):
+            try:
+                render_pass.rect.foreach_set(shaped)
+                return
+            except TypeError:
+                continue
+    render_pass.rect = rect
 
 
 def region(render, w: int, h: int) -> tuple:
@@ -436,6 +565,13 @@ def get_panels():
             yield panel
 
 
+def _end() -> None:
+    """Blender quits or the add-on is disabled: the session's renderer ends first (it may be
+    writing a saliency cache into the unsaved file's folder), then that folder goes."""
+    server.shutdown()
+    remove_unsaved_folder()
+
+
 @bpy.app.handlers.persistent
 def _render_job_starts(*_args):
     _job_sources.clear()
@@ -453,7 +589,8 @@ def register():
     bpy.utils.register_class(CubistRenderEngine)
     bpy.app.handlers.render_init.append(_render_job_starts)
     bpy.app.handlers.load_pre.append(_file_closing)
-    atexit.register(remove_unsaved_folder)
+    atexit.register(_end)
+    remove_orphaned_folders()
     for panel in get_panels():
         panel.COMPAT_ENGINES.add(ENGINE_ID)
 
@@ -463,11 +600,11 @@ def unregister():
         bpy.app.handlers.render_init.remove(_render_job_starts)
     if _file_closing in bpy.app.handlers.load_pre:
         bpy.app.handlers.load_pre.remove(_file_closing)
-    atexit.unregister(remove_unsaved_folder)
+    atexit.unregister(_end)
     # Blender's Ctrl+Q disables every add-on (`addon_utils.disable_all`) before Python's exit
     # handlers run: the folder goes here. Disabling the add-on drops the layouts of an unsaved
     # file too; they are computed again when needed.
-    remove_unsaved_folder()
+    _end()
     for panel in get_panels():
         panel.COMPAT_ENGINES.discard(ENGINE_ID)
     bpy.utils.unregister_class(CubistRenderEngine)

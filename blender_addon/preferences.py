@@ -1,6 +1,6 @@
 """Add-on preferences: a `cubist` binary of the user's own (used first when set), and what the
 add-on will run, or why it has nothing to run (e.g. a zip without a renderer for this platform).
-Also what the F12 engine (`engine.py`) and the viewport (`viewport.py`) both read without
+Also what the F12 engine (`engine.py`) and the viewport (`viewport/`) both read without
 `bpy.context` (the render thread has no window): the preferences and the Cubist panel's values,
 so neither imports the other for them."""
 

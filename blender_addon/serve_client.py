@@ -1,8 +1,8 @@
 """A client of `cubist serve` (docs/serve.md): one server process, requests sent from any
 thread, replies matched to them by id.
 
-The viewport (viewport.py) keeps one per 3D view in Rendered shading; F12 and Render Animation
-send their render to it when the scene they exported is the one it holds (engine.py). No bpy
+The add-on keeps one per Blender session (server.py), shared by F12, Render Animation and the
+viewport. No bpy
 here, on purpose: tests/python/test_addon_serve.py runs it in plain Python against the real
 binary.
 
@@ -16,6 +16,7 @@ a millisecond or two (BENCHMARKS.md, issue 14), far below a render.
 
 from __future__ import annotations
 
+import collections
 import itertools
 import json
 import os
@@ -29,7 +30,7 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from .runner.errors import Cancelled, CubistError
+from .runner.errors import Cancelled, CubistError, temp_folder_error
 from .runner.process import _stop, popen_platform_args
 from .runner.progress import parse_line
 
@@ -40,6 +41,23 @@ class ServerError(CubistError):
 
 class ServerGone(CubistError):
     """The server process ended (or never started): requests cannot be answered."""
+
+
+class ServerHung(ServerGone):
+    """The server stopped answering (not even `stats`, which it answers at once while it
+    renders): it was killed."""
+
+
+# A request waiting this long without a sign of life from the server (a reply, a progress or
+# other stderr line) sends `stats`; a server that does not answer that within ANSWER_WITHIN is
+# hung. `stats` is answered at once even while a render runs (docs/serve.md), so a slow render
+# is never taken for a hung server.
+SILENCE = 5.0
+ANSWER_WITHIN = 10.0
+# A render asked to stop that has not within this long is killed (the next render starts
+# another server): Esc must end the render job promptly, and some stages check the cancel flag
+# only between their steps (seen: more than 15 s on a loaded machine, 1280 x 960, 64 samples).
+CANCEL_GRACE = 3.0
 
 
 class Pending:
@@ -80,7 +98,10 @@ class ServeClient:
         """Starts `binary serve`. `nice` > 0 (POSIX) lowers its CPU priority: the viewport's
         server then yields the cores to Blender's interface when both want them."""
         self.binary = Path(binary)
-        self.workspace = Path(tempfile.mkdtemp(prefix="cubist-serve-"))
+        try:
+            self.workspace = Path(tempfile.mkdtemp(prefix="cubist-serve-"))
+        except OSError as e:
+            raise ServerGone(temp_folder_error(e)) from None
         argv = [str(self.binary), "serve", "--parent", str(os.getpid())]
         if cache_mib is not None:
             argv += ["--cache-memory", str(int(cache_mib))]
@@ -98,7 +119,11 @@ class ServeClient:
         self._pending: dict[int, Pending] = {}
         self._stderr_tail: list[str] = []
         self._progress: Optional[Callable[[str, float], None]] = None
+        # Progress lines read, for the waiting thread to report (await_reply): callbacks run on
+        # the thread that waits (Blender's render thread), never on the reader thread.
+        self._progress_lines: collections.deque = collections.deque(maxlen=1000)
         self._closed = False
+        self.heard = time.monotonic()  # the last line read from the server (stdout or stderr)
         self._reader = threading.Thread(target=self._read_replies, name="cubist-serve-replies", daemon=True)
         self._reader.start()
         self._err_reader = threading.Thread(target=self._read_stderr, name="cubist-serve-stderr", daemon=True)
@@ -115,18 +140,25 @@ class ServeClient:
 
     def _gone_message(self) -> str:
         code = self.proc.poll()
-        said = next((ln for ln in reversed(self._stderr_tail) if ln.strip()), "")
+        # The last line it said, not a progress line cut short by its death.
+        said = next((ln for ln in reversed(self._stderr_tail) if ln.strip() and not ln.startswith("PROGRESS")), "")
         if said.startswith("error: "):
             said = said[len("error: "):]
         if "unrecognized subcommand" in said or "unexpected argument" in said:
             return f"{self.binary} has no `serve` command: it is older than the add-on"
-        what = f"the cubist server ended (exit code {code})" if code is not None else "the cubist server is closed"
+        if code is not None and code < 0:
+            what = f"the cubist renderer ended (killed by signal {-code})"
+        elif code is not None:
+            what = f"the cubist renderer ended (exit code {code})"
+        else:
+            what = "the cubist renderer is closed"
         return f"{what}: {said}" if said else what
 
     def _read_replies(self) -> None:
         assert self.proc.stdout is not None
         try:
             for line in self.proc.stdout:
+                self.heard = time.monotonic()
                 try:
                     reply = json.loads(line)
                 except ValueError:
@@ -154,14 +186,11 @@ class ServeClient:
         assert self.proc.stderr is not None
         try:
             for line in self.proc.stderr:
+                self.heard = time.monotonic()
                 ln = parse_line(line)
                 if ln.kind == "progress":
-                    cb = self._progress
-                    if cb is not None:
-                        try:
-                            cb(ln.text, ln.fraction)
-                        except Exception:
-                            pass
+                    if self._progress is not None:
+                        self._progress_lines.append((ln.text, ln.fraction))
                 else:
                     self._stderr_tail.append(line.rstrip("\n"))
                     del self._stderr_tail[:-20]
@@ -190,6 +219,20 @@ class ServeClient:
                 pending._set({"id": rid, "ok": False, "error": self._gone_message(), "gone": True})
         return pending
 
+    def set_progress(self, callback: Optional[Callable[[str, float], None]]) -> None:
+        """Where the `PROGRESS` lines of requests that ask for them go (one render job at a
+        time asks: F12 or a frame of an animation), called by `await_reply` on the thread that
+        waits; None: nowhere."""
+        self._progress_lines.clear()
+        self._progress = callback
+
+    def _report_progress(self) -> None:
+        cb = self._progress
+        while self._progress_lines:
+            stage, fraction = self._progress_lines.popleft()
+            if cb is not None:
+                cb(stage, fraction)
+
     def render_request(self, settings: dict, output: Path, scene: Optional[Path] = None,
                        passes: Optional[list] = None, progress: bool = False) -> Pending:
         fields: dict = {"scene": str(scene) if scene is not None else None, "settings": settings,
@@ -206,18 +249,57 @@ class ServeClient:
         """Renders and waits (F12: on the render thread), reporting the server's progress and
         cancelling when `should_cancel()` turns true (raises Cancelled once the server has
         stopped). Raises ServerError with the server's message, ServerGone."""
-        self._progress = on_progress
+        self.set_progress(on_progress)
         try:
             pending = self.render_request(settings, output, scene, passes, progress=on_progress is not None)
-            cancelled = False
-            while pending.wait(poll) is None:
-                if not cancelled and should_cancel():
-                    self.cancel(pending.id)
-                    cancelled = True
-            reply = pending.reply or {}
+            reply = self.await_reply(pending, should_cancel, poll)
         finally:
             self._progress = None
         return self.check(reply)
+
+    def await_reply(self, pending: Pending, should_cancel: Callable[[], bool] = lambda: False,
+                    poll: float = 0.05) -> dict:
+        """Waits for `pending`'s reply, sending `cancel` once `should_cancel()` turns true. A
+        server silent for SILENCE seconds is asked for `stats`; one that does not answer within
+        ANSWER_WITHIN is killed (raises ServerHung), and one that has not stopped CANCEL_GRACE
+        seconds after the cancel too (raises Cancelled): never waits for ever."""
+        # Time is counted only while this thread runs: a host that keeps Python waiting (Blender
+        # drawing for seconds on a loaded machine, holding the interpreter) starves the reader
+        # threads too, and their silence then says nothing about the server.
+        last = time.monotonic()
+        heard = self.heard
+        silent = cancelled_for = probe_for = 0.0
+        cancelled = False
+        probe = None
+        while pending.wait(poll) is None:
+            self._report_progress()
+            now = time.monotonic()
+            step = now - last if now - last < 1.0 else poll
+            last = now
+            if self.heard != heard:
+                heard, silent = self.heard, 0.0
+            else:
+                silent += step
+            if not cancelled and should_cancel():
+                self.cancel(pending.id)
+                cancelled = True
+            elif cancelled:
+                cancelled_for += step
+            if probe is not None:
+                probe_for += step
+                if probe.done():
+                    probe = None
+            if probe is None and silent > SILENCE:
+                probe, probe_for, silent = self.request("stats"), 0.0, 0.0
+            if cancelled_for > CANCEL_GRACE:
+                self.kill()
+                raise Cancelled()
+            if probe is not None and probe_for > ANSWER_WITHIN:
+                self.kill()
+                raise ServerHung(f"the cubist renderer stopped answering (nothing for {SILENCE + probe_for:.0f} s): "
+                                 f"it was stopped; the next render starts it again")
+        self._report_progress()
+        return pending.reply or {}
 
     def check(self, reply: dict) -> dict:
         """The reply if it succeeded; raises Cancelled, ServerGone or ServerError otherwise."""
@@ -237,6 +319,14 @@ class ServeClient:
         if reply is None:
             raise ServerError("the cubist server did not answer `stats`")
         return self.check(reply)["stats"]
+
+    def kill(self) -> None:
+        """Ends the server at once (SIGKILL): it is hung. Requests waiting get an error reply;
+        `close()` still removes the workspace."""
+        try:
+            self.proc.kill()
+        except OSError:
+            pass
 
     def close(self, timeout: float = 5.0) -> None:
         """Cancels what runs, ends the server (killing it if it does not end within
@@ -272,4 +362,4 @@ def wait_all(pendings, timeout: float) -> bool:
     return all(p.wait(max(0.0, end - time.monotonic())) is not None for p in pendings)
 
 
-__all__ = ["Pending", "ServeClient", "ServerError", "ServerGone", "read_rgba", "wait_all"]
+__all__ = ["Pending", "ServeClient", "ServerError", "ServerGone", "ServerHung", "read_rgba", "wait_all"]

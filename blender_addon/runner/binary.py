@@ -182,6 +182,8 @@ def find_binary(preference: str = "", addon_dir: Path = ADDON_DIR, path_env: Opt
 
 
 _KEYS_CACHE: dict[tuple[str, float, int], frozenset] = {}
+# How long `cubist settings` may take: it answers at once.
+ANSWER_SECONDS = 10.0
 
 
 def binary_keys(binary: Path) -> frozenset:
@@ -193,11 +195,16 @@ def binary_keys(binary: Path) -> frozenset:
     if key not in _KEYS_CACHE:
         keys: frozenset = frozenset()
         try:
-            r = subprocess.run([str(binary), "settings"], capture_output=True, text=True, timeout=30,
+            r = subprocess.run([str(binary), "settings"], capture_output=True, text=True, timeout=ANSWER_SECONDS,
                                **popen_platform_args())
             data = json.loads(r.stdout) if r.returncode == 0 else None
             if isinstance(data, dict):
                 keys = frozenset(data)
+        except subprocess.TimeoutExpired:
+            # `cubist settings` prints a table and exits at once: a binary that does not is
+            # hung, and would hang the render too.
+            raise BinaryNotFound(f"{binary} did not answer `settings` within {ANSWER_SECONDS:.0f} s: is it the "
+                                 f"cubist renderer? (fix or clear {PREFERENCE})") from None
         except (OSError, subprocess.SubprocessError, ValueError):
             pass
         if not keys:

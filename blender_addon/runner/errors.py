@@ -26,3 +26,11 @@ class RendererError(CubistError):
 class Cancelled(CubistError):
     def __init__(self):
         super().__init__("render cancelled")
+
+
+def temp_folder_error(e: OSError) -> str:
+    """A temporary folder that cannot be made (the disk full, no permission), in words."""
+    import tempfile
+
+    return (f"cannot create a temporary folder in {tempfile.gettempdir()}: {e.strerror or e} (free some space "
+            f"there, or point TMPDIR to a writable folder)")

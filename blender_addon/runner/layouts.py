@@ -142,6 +142,25 @@ def layout_is_current(layout: Path, source: Optional[str], follow: bool = False)
         return False
 
 
+def layout_unreadable(layout: Path) -> Optional[str]:
+    """Why a saved layout file cannot be the renderer's layout (truncated, overwritten, not
+    JSON), in a few words; None when it reads as a layout or does not exist. Such a file is
+    computed again and saved over, rather than failing every render until it is removed."""
+    try:
+        data = json.loads(layout.read_bytes().decode("utf-8"))
+    except FileNotFoundError:
+        return None
+    except OSError as e:
+        return e.strerror or str(e)
+    except UnicodeDecodeError:
+        return "not UTF-8 text"
+    except ValueError as e:
+        return f"not valid JSON: {e}"
+    if not isinstance(data, dict):
+        return "not a facet layout"
+    return None
+
+
 def forget_source(layout: Path) -> None:
     """Before the layout is computed again: until the new source is recorded, it is stale."""
     source_path(layout).unlink(missing_ok=True)

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Optional
 
-from .errors import BinaryNotFound, Cancelled, RendererError
+from .errors import BinaryNotFound, Cancelled, CubistError, RendererError, temp_folder_error
 from .progress import parse_line
 
 
@@ -144,7 +144,10 @@ class Workspace:
         self.path: Optional[Path] = None
 
     def __enter__(self) -> Path:
-        self.path = Path(tempfile.mkdtemp(prefix=self.prefix))
+        try:
+            self.path = Path(tempfile.mkdtemp(prefix=self.prefix))
+        except OSError as e:
+            raise CubistError(temp_folder_error(e)) from None
         return self.path
 
     def __exit__(self, *exc) -> None:

@@ -250,11 +250,19 @@ def cancel():
         engine.cancel_hook = None
         scene.render.resolution_x, scene.render.resolution_y = SIZE
         scene.cubist.spp = 1
-    proc = engine.last_run.get("process")
+    # F12 renders on the session's renderer (`cubist serve`, kept for the session): the cancel
+    # stops its render; the process stays for the next one (or, had the render not stopped
+    # within a few seconds, was stopped itself).
     workspace = engine.last_run.get("workspace")
+    client = module("server").current()
+    try:
+        stats = client.stats() if client is not None else {"running": None, "queued": 0}
+    except module("serve_client").ServerGone:
+        stats = {"running": None, "queued": 0}
     return {"error": error, "cancelled": bool(engine.last_run.get("cancelled")), "seconds_to_stop":
-            round(time.monotonic() - t0, 2),
-            "renderer_returncode": proc.poll() if proc is not None else "no process",
+            round(time.monotonic() - t0, 2), "server": engine.last_run.get("server"),
+            "server_pid": client.pid if client is not None else None,
+            "renderer_running": stats["running"], "renderer_queued": stats["queued"],
             "workspace_left": bool(workspace) and Path(workspace).exists(),
             "children": child_processes()}
 

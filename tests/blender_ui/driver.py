@@ -279,32 +279,32 @@ def scene_cancel():
         if time.monotonic() - t0 > 120 or not bpy.app.is_job_running("RENDER"):
             raise RuntimeError("the long render did not get under way")
         yield 0.1
-    pid = engine.last_run["pid"]
+    # F12 renders on the session's renderer (a `cubist serve` kept for the whole session): Esc
+    # stops its render, the process stays for the next one.
+    client = sys.modules["blender_addon.server"].current()
     workspace = str(engine.last_run["workspace"])
     during = temp_entries()
     # The pointer over Blender's windows, then Escape, as a user's key press.
     user_input.press("Escape", focus=False)
     t_esc = time.monotonic()
-    renderer_ended = None
     while bpy.app.is_job_running("RENDER"):
-        if renderer_ended is None and engine.last_run["process"].poll() is not None:
-            renderer_ended = time.monotonic() - t_esc
         if time.monotonic() - t_esc > 60:
             raise TimeoutError("the render job still runs 60 s after Esc")
         yield 0.05
     seconds = time.monotonic() - t_esc
-    yield 0.5
-    alive = True
+    # A render that did not stop within a few seconds was stopped with its server (the next
+    # render starts another): either way nothing of it runs on.
     try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        alive = False
-    proc = engine.last_run.get("process")
+        stats = client.stats()
+    except sys.modules["blender_addon.serve_client"].ServerGone:
+        stats = {"running": None, "queued": 0}
+    yield 0.5
     results["cancel"] = {"operator": started, "cancelled": engine.last_run.get("cancelled"),
-                         "error": engine.last_run.get("error"), "renderer_ended_after_esc": renderer_ended,
+                         "error": engine.last_run.get("error"),
                          "engine_saw_cancel_after_esc": engine.last_run.get("cancel_seen", t_esc - 1) - t_esc,
-                         "job_ended_after_esc": seconds, "renderer_alive": alive,
-                         "renderer_returncode": None if proc is None else proc.poll(),
+                         "job_ended_after_esc": seconds, "renderer_running": stats["running"],
+                         "renderer_queued": stats["queued"], "server": engine.last_run.get("server"),
+                         "server_pid": client.pid, "server_alive": client.alive(),
                          "workspace": workspace, "workspace_exists": Path(workspace).exists(),
                          "temp_before": before, "temp_during": during, "temp_after": temp_entries()}
     r.resolution_x, r.resolution_y = 200, 150

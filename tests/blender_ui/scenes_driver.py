@@ -373,13 +373,13 @@ def step_dense_mesh():
     rec["triangles_in_blender"] = triangles
     # Rendered shading on it: the heartbeat while the viewport exports and renders.
     vp = sys.modules["blender_addon.viewport"]
-    vp.record_draws = True
+    vp.drawing.record_draws = True
     area = view3d_area()
     t0 = time.monotonic()
     area.spaces.active.shading.type = "RENDERED"
     drawn = None
     while time.monotonic() - t0 < 300:
-        sessions = list(vp._sessions)
+        sessions = list(vp.sessions)
         s = sessions[0] if sessions else None
         if s is not None and s.error:
             drawn = {"error": s.error}
@@ -393,7 +393,7 @@ def step_dense_mesh():
     # full image: the heartbeat, the longest view_update, the worker's scene write.
     rec["changes"] = []
     for _ in range(2 if drawn is not None and "error" not in drawn else 0):
-        s = next(iter(vp._sessions), None)
+        s = next(iter(vp.sessions), None)
         if s is None:
             break
         s.main_thread.clear()

@@ -69,7 +69,7 @@ def vp():
 
 
 def session():
-    sessions = list(vp()._sessions)
+    sessions = list(vp().sessions)
     return sessions[0] if len(sessions) == 1 else None
 
 
@@ -125,21 +125,28 @@ def wait_for_draw(predicate, timeout, what):
             return s, s.draws[-1]
         yield 0.05
     state = [{"counts": s.counts, "error": s.error, "closed": s.closed, "draws": s.draws[-2:], "area": s.area}
-             for s in list(vp()._sessions)]
+             for s in list(vp().sessions)]
     engines = {k: (v if isinstance(v, str) else "session") for k, v in vp()._by_engine.items()}
     raise TimeoutError(f"{what}: nothing drawn within {timeout} s (sessions {state}, engines {engines}, "
-                       f"rendered areas {vp()._rendered_areas()})")
+                       f"rendered areas {vp().timer.rendered_areas()})")
 
 
 def expected_centre(s, draw):
-    """The image pixel drawn at the centre of the draw's rect (0-1, top row first)."""
+    """The image pixels drawn at the centre of the draw's rect, scene-linear as drawn (Blender's
+    view transform makes them sRGB on the screen, as for F12): [the nearest pixel's colour,
+    the least and the most of the 3 x 3 around it per channel] (a rect larger than the image
+    draws it magnified, filtered between neighbours)."""
     img = s.image
     x, y, w, h = draw["rect"]
     cx, cy = draw["centre"]
     u = (cx + 0.5 - x) / w
     v = 1.0 - (cy + 0.5 - y) / h
-    px = img.pixels[min(img.height - 1, int(v * img.height)), min(img.width - 1, int(u * img.width))]
-    return [float(c) / 255.0 for c in px]
+    row, col = min(img.height - 1, int(v * img.height)), min(img.width - 1, int(u * img.width))
+    linear = sys.modules["blender_addon.picture"].result_rect
+    near = img.pixels[max(0, row - 1):row + 2, max(0, col - 1):col + 2]
+    around = linear(near, (0, 0, near.shape[1], near.shape[0]))
+    nearest = linear(img.pixels[row:row + 1, col:col + 1], (0, 0, 1, 1))[0]
+    return [[float(c) for c in nearest], [float(c) for c in around.min(axis=0)], [float(c) for c in around.max(axis=0)]]
 
 
 def setup():
@@ -149,15 +156,15 @@ def setup():
     prefs = bpy.context.preferences.addons["blender_addon"].preferences
     prefs.binary_path = BINARY
     user_input.install()
-    vp().record_draws = True
+    vp().drawing.record_draws = True
     # The 3D views the viewport tags for redraw when it has a new image (pointers).
-    original = vp()._redraw_views
+    original = vp().timer.redraw_views
 
     def redraw_views(areas):
         results.setdefault("tagged", []).append(sorted(a for a in areas if a is not None) or ["all"])
         original(areas)
 
-    vp()._redraw_views = redraw_views
+    vp().timer.redraw_views = redraw_views
     scene = bpy.context.scene
     scene.render.engine = "CUBIST"
     yield 1.0  # the message bus (colour management) runs in the event loop
@@ -318,23 +325,24 @@ def f12_unchanged():
 
 
 def solid_again():
-    """Back to Solid shading: the session and its server end."""
+    """Back to Solid shading: the session and its folder end; the session-wide server stays
+    (F12 and other views use it)."""
     window, area, region = view3d()
     s = session()
     pid = s.client.pid
-    workspace = s.client.workspace
+    workspace = s.workspace
     t0 = time.monotonic()
     area.spaces.active.shading.type = "SOLID"
     while time.monotonic() - t0 < 30:
-        try:
-            os.kill(pid, 0)
-            alive = True
-        except ProcessLookupError:
-            alive = False
-        if not alive and not vp()._sessions:
+        if not vp().sessions and not workspace.exists():
             break
         yield 0.05
-    results["solid"] = {"seconds": time.monotonic() - t0, "server_alive": alive, "sessions": len(vp()._sessions),
+    try:
+        os.kill(pid, 0)
+        alive = True
+    except ProcessLookupError:
+        alive = False
+    results["solid"] = {"seconds": time.monotonic() - t0, "server_alive": alive, "sessions": len(vp().sessions),
                         "workspace_exists": workspace.exists()}
 
 
@@ -343,13 +351,13 @@ def error_as_text():
     prefs = bpy.context.preferences.addons["blender_addon"].preferences
     prefs.binary_path = str(OUT / "no-such-cubist")
     texts = []
-    original = vp().draw_text
+    original = vp().drawing.draw_text
 
     def recording(region, lines):
         texts.append(list(lines))
         original(region, lines)
 
-    vp().draw_text = recording
+    vp().drawing.draw_text = recording
     window, area, region = view3d()
     area.spaces.active.shading.type = "RENDERED"
     t0 = time.monotonic()
@@ -358,7 +366,7 @@ def error_as_text():
         yield 0.1
     area.spaces.active.shading.type = "SOLID"
     yield 0.5
-    vp().draw_text = original
+    vp().drawing.draw_text = original
     prefs.binary_path = BINARY
     results["error_text"] = texts[:3]
 

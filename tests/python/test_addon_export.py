@@ -433,7 +433,8 @@ def test_renders_like_blenders_gltf_exporter(bpy, export, tmp_path, name):
 # The render thread
 
 
-RENDER_PATH = ("_render", "_cancelled", "_export", "_export_frame", "_run", "_layout_frame_source", "_deliver")
+RENDER_PATH = ("_render", "_cancelled", "_export", "_export_frame", "_run", "_layout_frame_source", "_deliver",
+               "_mark", "_show_preview", "_put_picture")  # render() itself is checked with them
 
 
 def test_the_render_path_uses_no_operator_context_or_scene_frame(engine, export):
@@ -441,12 +442,14 @@ def test_the_render_path_uses_no_operator_context_or_scene_frame(engine, export)
     frame_set (only the engine's own self.frame_set), checked on the code's syntax tree."""
     pngio, runner, mapping, turns = (sys.modules[f"blender_addon.{m}"] for m in ("pngio", "runner", "mapping", "turns"))
     # turns.py's handlers run on the render thread too (render_pre, render_post).
-    sources = [inspect.getsource(m) for m in (export, pngio, runner, mapping)]
+    # The session's renderer and the picture's hand-back run there too (F12 on `cubist serve`).
+    served = [sys.modules[f"blender_addon.{m}"] for m in ("serve_render", "server", "serve_client", "picture")]
+    sources = [inspect.getsource(m) for m in (export, pngio, runner, mapping, *served)]
     sources += [inspect.getsource(f) for f in (turns._long_turns, turns._short_turns, turns.yield_turn)]
     cls = engine.CubistRenderEngine
     sources += [inspect.getsource(cls.__dict__[name]) for name in ("render", *RENDER_PATH)]
     sources += [inspect.getsource(f) for f in (engine.addon_preferences, engine.layout_folder, engine._panel,
-                                               engine.region, engine._read_pass)]
+                                               engine.region, engine._read_pass, engine._set_rect, engine._combined)]
     found = []
     for src in sources:
         for node in ast.walk(ast.parse(textwrap.dedent(src))):
@@ -499,10 +502,17 @@ class RenderThreadHost:
 
     camera_override = None
 
+    is_animation = False  # F12: a preview first
+
     def __init__(self, pass_names):
         self.pass_names = pass_names
         self.stats, self.progress, self.reports, self.result = [], [], [], None
         self.thread = None
+        self._result = self._image = None  # as render() leaves them for _render
+        self.updates = 0
+
+    def update_result(self, result):
+        self.updates += 1
 
     def update_stats(self, a, b):
         self.stats.append(b)
@@ -539,7 +549,7 @@ def test_export_render_and_load_from_a_worker_thread(bpy, engine, exports, tmp_p
     depsgraph = bpy.context.evaluated_depsgraph_get()
     cls = engine.CubistRenderEngine
     host_type = type("Host", (RenderThreadHost,), {name: cls.__dict__[name] for name in RENDER_PATH})
-    host = host_type(["Cubist Depth"])
+    host = host_type(["Combined", "Cubist Depth"])
     errors = []
 
     def work():
@@ -561,7 +571,10 @@ def test_export_render_and_load_from_a_worker_thread(bpy, engine, exports, tmp_p
     assert r.returncode == 0, r.stderr
     pngio = sys.modules["blender_addon.pngio"]
     layer = host.result.layers[0]
-    assert np.array_equal(layer.loaded, pngio.read(cli))
+    # The preview was shown, then the picture: the CLI's, as Blender decodes a PNG.
+    assert host.updates == 1
+    picture = sys.modules["blender_addon.picture"]
+    assert np.array_equal(layer.by_name["Combined"].values, picture.result_rect(pngio.read(cli), (0, 0, 64, 48)).reshape(-1))
     depth = layer.by_name["Cubist Depth"].values.reshape(48, 64)[::-1]  # rows bottom-up in Blender
     assert np.array_equal(depth, pngio.read(tmp_path / "cli.depth.png")[..., 0] / np.float32(255.0))
     assert depth.std() > 0.05

@@ -163,3 +163,87 @@ def test_a_missing_binary_is_a_one_line_error(tmp_path):
     with pytest.raises(ServerGone, match="cannot start"):
         ServeClient(tmp_path / "nope")
     assert set(Path(tempfile.gettempdir()).glob("cubist-serve-*")) == before
+
+
+def test_a_server_that_stops_answering_is_killed_not_waited_for(tmp_path, monkeypatch):
+    """A server that reads requests and never answers (not even `stats`, which a rendering
+    server answers at once): the wait ends with ServerHung after SILENCE + ANSWER_WITHIN, and
+    the process is gone."""
+    from blender_addon import serve_client
+    from blender_addon.serve_client import ServerHung
+
+    monkeypatch.setattr(serve_client, "SILENCE", 0.5)
+    monkeypatch.setattr(serve_client, "ANSWER_WITHIN", 0.5)
+    sleeper = tmp_path / "cubist"
+    sleeper.write_text("#!/bin/sh\nexec sleep 600\n")
+    sleeper.chmod(0o755)
+    c = ServeClient(sleeper)
+    try:
+        t0 = time.monotonic()
+        with pytest.raises(ServerHung, match="stopped answering"):
+            c.render(SMALL, c.workspace / "x.png")
+        assert time.monotonic() - t0 < 5
+        c.proc.wait(5)
+        assert not c.alive()
+    finally:
+        c.close()
+    assert not c.workspace.exists()
+
+
+def test_a_slow_render_is_not_taken_for_a_hung_server(client, monkeypatch):
+    """A render longer than SILENCE without progress lines: the server answers `stats`."""
+    from blender_addon import serve_client
+
+    monkeypatch.setattr(serve_client, "SILENCE", 0.05)
+    monkeypatch.setattr(serve_client, "ANSWER_WITHIN", 2.0)
+    reply = client.render({"width": 500, "height": 400, "spp": 4}, client.workspace / "slow.rgba")
+    assert reply["ok"]
+
+
+def test_f12_on_the_sessions_renderer_shows_a_preview_first(cubist_binary, tmp_path):
+    """serve_render: the preview (a quarter of the size, one sample) comes before the picture,
+    which is `cubist render`'s; a killed server is an error and the next render starts another."""
+    from blender_addon import serve_render, server
+    from blender_addon.runner import RendererError
+
+    settings = {"width": 160, "height": 120, "spp": 2}
+    seen = []
+    try:
+        outcome = serve_render.render(cubist_binary, None, tmp_path, settings, lambda s, f: seen.append(f),
+                                      lambda: False, on_preview=lambda px: seen.append(px.shape))
+        # The preview came before the picture's progress got anywhere.
+        i = seen.index((30, 40, 4))
+        assert all(f == 0.0 for f in seen[:i]) and all(isinstance(f, float) for f in seen[i + 1:]), seen[:5]
+        assert (outcome.width, outcome.height) == (160, 120)
+        expected = cli(cubist_binary, settings, tmp_path / "cli.png", tmp_path)
+        assert np.array_equal(read_rgba(outcome.image, 160, 120), expected)
+        first = server.current()
+        # Killed during a render: an error naming the signal.
+        threading.Timer(0.5, lambda: os.kill(first.pid, signal.SIGKILL)).start()
+        with pytest.raises(RendererError, match="killed by signal 9"):
+            serve_render.render(cubist_binary, None, tmp_path, {"width": 1500, "height": 1500, "spp": 8},
+                                lambda s, f: None, lambda: False)
+        # The next render starts another server.
+        again = serve_render.render(cubist_binary, None, tmp_path, settings, lambda s, f: None, lambda: False)
+        assert again.pid != first.pid and np.array_equal(read_rgba(again.image, 160, 120), expected)
+    finally:
+        server.shutdown()
+    assert server.current() is None
+
+
+def test_picture_conversion_is_blenders_png_decoding():
+    """picture.result_rect: sRGB to linear, premultiplied, bottom-up, the region cut out."""
+    from blender_addon import picture
+
+    px = np.zeros((2, 3, 4), np.uint8)
+    px[0, 0] = (255, 128, 0, 255)  # top left
+    px[1, 2] = (255, 255, 255, 51)  # bottom right, 20% alpha
+    rect = picture.result_rect(px, (0, 0, 3, 2)).reshape(2, 3, 4)
+    assert rect[1, 0] == pytest.approx([1.0, 0.2158605, 0.0, 1.0], abs=1e-6)  # top row is last
+    assert rect[0, 2] == pytest.approx([0.2, 0.2, 0.2, 0.2])
+    assert picture.result_rect(px, (2, 0, 1, 1)).tolist() == rect[0, 2:3].reshape(1, 4).tolist()
+    big = picture.upscale(px, 6, 4)
+    assert big.shape == (4, 6, 4) and (big[:2, :2] == px[0, 0]).all() and (big[2:, 4:] == px[1, 2]).all()
+    # The preview: converted small, then blown up, the same as converting the blown-up picture.
+    for region in ((0, 0, 6, 4), (1, 1, 4, 2)):
+        assert np.array_equal(picture.preview_rect(px, 6, 4, region), picture.result_rect(big, region))

@@ -1,9 +1,9 @@
 """The viewport's path in headless Blender (bpy 5.0.1, issue 14): what `view_update` does with a
 depsgraph (export when the content changed, settings from the panel and the view, a job to
-the viewport's own `cubist serve`), the progressive images (1/4, 1/2, full) and their pixels
+the session-wide `cubist serve`), the progressive images (1/4, 1/2, full) and their pixels
 against `cubist render` of the same exported scene and settings, a panel change re-running only
-paint, F12 reusing the viewport's server when the scene is unchanged, and every session ended
-on a file load and when the add-on is disabled.
+paint, F12 on the same server as the viewport, and every session ended on a file load and when
+the add-on is disabled (the server too when the add-on is).
 
 Not here: drawing. Headless Blender has no GPU context for Python ("GPU functions for drawing
 are not available in background mode"; an EEVEE render, which would make one, fails to get an
@@ -112,8 +112,10 @@ def test_view_update_renders_progressively_what_cubist_render_paints(bpy, vp, tm
     assert vp.update(session, dg, view, True)
     wait_for(session, session.generation)
     assert session.counts["exports"] == 2
+    client = session.client
     session.close(wait=True)
-    assert session.client.proc.poll() is not None and not session.client.workspace.exists()
+    # The session's folder goes; the session-wide server stays for F12 and other views.
+    assert not session.workspace.exists() and client.alive()
 
 
 def test_a_newer_job_cancels_the_running_request(bpy, vp):
@@ -149,7 +151,7 @@ def test_the_worker_writes_the_scene_read_on_the_main_thread(bpy, vp):
     with session.cond:  # the newest job (the worker is not told: it stays asleep)
         session.job = vp.Job(2, session.scene_path, settings, view, new)
     assert not session._write_scene(vp.Job(1, session.scene_path, settings, view, old))
-    assert not old.written and not session.scene_path.exists() and session.scene_hash is None
+    assert not old.written and not session.scene_path.exists()
 
     def broken(path, should_cancel):
         raise OSError("No space left on device")
@@ -163,7 +165,6 @@ def test_the_worker_writes_the_scene_read_on_the_main_thread(bpy, vp):
     assert session.export.number == 1
     wait_for(session, session.generation)
     assert session.export.written and session.export.exporter is None
-    assert session.scene_hash == vp.file_hash(session.scene_path)
     whole = session.scene_path.with_name("whole.glb")
     export_mod().export_glb(bpy.context.evaluated_depsgraph_get(), whole)
     assert whole.read_bytes() == session.scene_path.read_bytes()
@@ -217,29 +218,32 @@ def test_content_changed_tells_panel_changes_from_scene_changes(bpy, vp):
     assert vp.content_changed(SimpleNamespace(updates=[SimpleNamespace(id=scene)])) is False
 
 
-def test_f12_reuses_the_viewport_server_when_the_scene_is_unchanged(bpy, vp, tmp_path):
+def test_f12_renders_on_the_server_the_viewport_uses(bpy, vp, tmp_path):
     engine = sys.modules["blender_addon.engine"]
     scene = new_scene(bpy, 64, 48)
     session = vp.ViewportSession(vp._binary())
     vp.update(session, bpy.context.evaluated_depsgraph_get(), camera_view(bpy, scene, 64, 48), True)
     wait_for(session, session.generation)
+    client = session.client
     engine.keep_exports = tmp_path / "exports"
     try:
         scene.render.filepath = str(tmp_path / "f12.png")
+        served = client.stats()["served"]
         bpy.ops.render.render(write_still=True)
         assert engine.last_run.get("error") is None, engine.last_run
-        assert engine.last_run.get("server") == session.client.pid
-        served = session.client.stats()["served"]
+        assert engine.last_run.get("server") == client.pid
+        # Background F12 is an F12: a preview, then the picture.
+        assert client.stats()["served"] == served + 2
         # The picture is `cubist render`'s of what F12 exported.
         glb = tmp_path / "exports" / f"frame_{scene.frame_current:04d}.glb"
         f12 = read_png(bpy, tmp_path / "f12.png")
         cli = cli_pixels(tmp_path, glb, json.loads(engine.last_run["settings_json"]), "cli")
         assert np.abs(f12 * 255 - cli[::-1]).max() <= 1.0
-        # A changed scene: F12 runs the binary on its own.
+        # A changed scene: the same server loads it.
         bpy.data.objects["Cube"].location.x += 0.5
         bpy.ops.render.render(write_still=True)
-        assert engine.last_run.get("server") is None and engine.last_run.get("error") is None
-        assert session.client.stats()["served"] == served
+        assert engine.last_run.get("server") == client.pid and engine.last_run.get("error") is None
+        assert client.stats()["served"] == served + 4
     finally:
         engine.keep_exports = None
     session.close(wait=True)
@@ -253,33 +257,39 @@ def test_sessions_end_on_file_load_and_when_the_addon_is_disabled(bpy, vp):
     vp.update(a, bpy.context.evaluated_depsgraph_get(), camera_view(bpy, scene, 64, 48), True)
     wait_for(a, a.generation)
     new_scene(bpy, 64, 48)  # loads the factory home file: load_pre
-    assert a.closed and a not in vp._sessions
-    a.client.proc.wait(10)
+    assert a.closed and a not in vp.sessions
+    a.thread.join(10)
+    assert not a.workspace.exists()
     b = vp.ViewportSession(vp._binary())
+    client = b.client
     addon_utils.disable("blender_addon", default_set=True)
     try:
-        assert b.closed and b.client.proc.poll() is not None and not b.client.workspace.exists()
+        # Disabling the add-on ends the sessions and the session-wide server, and their folders.
+        assert b.closed and not b.workspace.exists()
+        assert client.proc.poll() is not None and not client.workspace.exists()
     finally:
         addon_utils.enable("blender_addon", default_set=True, persistent=True)
         bpy.context.preferences.addons["blender_addon"].preferences.binary_path = str(BINARY)
 
 
-def test_blenders_quit_waits_for_servers_being_closed(bpy, vp):
-    """A view left Rendered shading (its engine freed) just before Blender quits: the server is
-    being ended by a thread of its own, which the exit would cut short. Ctrl+Q disables every
-    add-on before Python's exit handlers run (the windowed test found the server's folder left
-    behind): unregistering waits for that thread, so the folder goes."""
+def test_blenders_quit_waits_for_sessions_being_closed(bpy, vp):
+    """A view left Rendered shading (its engine freed) just before Blender quits: its session
+    is being ended by its worker thread, which the exit would cut short. Ctrl+Q disables every
+    add-on before Python's exit handlers run (the windowed test found a folder left behind):
+    unregistering waits for that thread, so the folder goes, and ends the server."""
     import addon_utils
 
     scene = new_scene(bpy, 64, 48)
     s = vp.ViewportSession(vp._binary())
     vp.update(s, bpy.context.evaluated_depsgraph_get(), camera_view(bpy, scene, 64, 48), True)
     wait_for(s, s.generation)
+    client = s.client
     s.close()  # as the engine's __del__ does: without waiting
-    assert list(vp._closing.values()) == [s.client] or not s.client.workspace.exists()
+    assert vp.ending == {s} or not s.workspace.exists()
     addon_utils.disable("blender_addon", default_set=True)
     try:
-        assert vp._closing == {} and not s.client.workspace.exists() and s.client.proc.poll() is not None
+        assert vp.ending == set() and not s.workspace.exists()
+        assert client.proc.poll() is not None and not client.workspace.exists()
     finally:
         addon_utils.enable("blender_addon", default_set=True, persistent=True)
         bpy.context.preferences.addons["blender_addon"].preferences.binary_path = str(BINARY)

@@ -143,10 +143,16 @@ def test_ui_render_animation_with_facets_that_follow_matches_f12_on_a_frame(ui):
 def test_ui_esc_stops_the_renderer_and_leaves_no_temp_files(ui):
     c = ui["results"]["cancel"]
     assert c["cancelled"] is True and c["error"] is None, c
-    assert c["renderer_alive"] is False and c["renderer_returncode"] not in (None, 0), c
+    # The session's renderer stopped that render (nothing runs or waits), or, when it did not
+    # within a few seconds, was stopped itself (the next F12, in the steps after, starts another).
+    assert c["server"] == c["server_pid"], c
+    assert c["renderer_running"] is None and c["renderer_queued"] == 0, c
+    assert c["job_ended_after_esc"] < 15, c
     ws = Path(c["workspace"]).name
     assert ws in c["temp_during"], c  # the check below looks in the right place
-    assert not c["workspace_exists"] and c["temp_after"] == c["temp_before"], c
+    assert not c["workspace_exists"], c
+    # Only the session's renderer's folder may be new (it started with the first F12 here).
+    assert [t for t in c["temp_after"] if t not in c["temp_before"] and not t.startswith("cubist-serve-")] == [], c
     assert sorted(p.name for p in ui["tmp"].glob("cubist-*")) == []
 
 
