@@ -1,3 +1,4 @@
+use super::sampler::strata;
 use super::*;
 
 #[test]
