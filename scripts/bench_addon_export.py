@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
-"""Benchmark of the Blender add-on's hand-off (issue 12): exporting a 1M-triangle scene from
+"""Benchmark of the Blender add-on's hand-off: exporting a 1M-triangle scene from
 the depsgraph with the add-on's exporter (blender_addon/export.py) against Blender's glTF
 exporter operator (the add-on's former path, which only works in background mode), on the same
 scenes, in headless Blender (bpy). Prints a markdown table; `--write` also puts it in
-BENCHMARKS.md (section "Issue 12", kept by scripts/bench.sh).
+BENCHMARKS.md (its own section, kept by scripts/bench.sh).
 
     .venv/bin/python scripts/bench_addon_export.py [--runs 7] [--gltf-runs 3] [--write]
 

@@ -1,12 +1,12 @@
 #!/usr/bin/env python3
-"""Benchmark: what a frame with Facet Motion Follow costs in Blender against a Static one
-(issue 15), through the add-on's F12 path (export, settings, the `cubist` process, loading the
+"""Benchmark: what a frame with Facet Motion Follow costs in Blender against a Static one,
+through the add-on's F12 path (export, settings, the `cubist` process, loading the
 picture), in headless Blender (bpy).
 
     .venv/bin/python scripts/bench_addon_follow.py [--size 1000] [--runs 5]
 
 Scene: venus_11k imported with Blender's glTF importer, a camera orbiting it 2 degrees per frame
-(the turntable of BENCHMARKS "Issue 15"), a sun, the panel's defaults. For each motion, frame 1
+(the turntable of BENCHMARKS.md's animation frames), a sun, the panel's defaults. For each motion, frame 1
 (the Layout Frame) is rendered once to make its layout (and, for Follow, its follow data); then
 F12 on frame 2 is timed `--runs` times, Static and Follow in turn (paired). Wall time of
 `bpy.ops.render.render` and the CPU time of the renderer's process (RUSAGE_CHILDREN), medians.

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Issue 15 item 2: the cost of an animation frame after the first, as whole processes.
+# The cost of an animation frame after the first, as whole processes.
 # A: `cubist render venus_11k --frames 1-2 --orbit 2` at 1000 x 1000 (4 spp, default look);
 # B: the same with `--frames 1-1`. Runs A and B in turn RUNS times (default 5) after one warm-up
 # each, with /usr/bin/time, and prints the median CPU (user + sys) of each, frame 2's cost A - B

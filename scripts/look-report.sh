@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
-# The look report (issue 13; ../shared/ART.md "What we measure"): every scene of
+# The look report (straight planes, ghosts, cues, fill: src/look/): every scene of
 # ../shared/models and ../shared/gltf-samples, the built-in still life and the built-in odd
-# scenes, rendered before (`--preset thesis`, the paper's method: the default look until
-# issue 13) and after (the default), at 640 x 480, measured, with a contact sheet:
+# scenes, rendered before (`--preset thesis`, the paper's method: the default look before
+# the planes look) and after (the default), at 640 x 480, measured, with a contact sheet:
 #   bash scripts/look-report.sh                 # -> docs/look/README.md, docs/look/contact-sheet.jpg
 #   TIME_SIZE=0 bash scripts/look-report.sh     # without the 1000 x 1000 timings (faster)
 # The measures are defined in src/look/mod.rs; `cubist look --help` runs any other selection.

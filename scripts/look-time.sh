@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Issue 13's time target: "the whole look at 1000x1000 takes at most 1.2x today's time", where
-# "today" is the default render of main when the issue was filed (commit f4ae480). Times OLD_BIN's
+# The look's time target: "the whole look at 1000x1000 takes at most 1.2x today's time", where
+# "today" is the default render of commit f4ae480, before the look work. Times OLD_BIN's
 # default render and NEW_BIN's default render at 1000 x 1000, runs paired (old, new; then new,
 # old; ...) so a drift in the machine's speed hits both, and prints per scene the median wall
 # and CPU (user + sys) seconds of each and the median of the paired ratios new / old.

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Peak memory of the largest jobs the settings allow (issue 18, README "Limits"): each runs
+# Peak memory of the largest jobs the settings allow (README "Limits"): each runs
 # under /usr/bin/time and its peak resident memory is printed beside the estimate the
 # settings were checked against (`Settings::memory_estimate`, bound `MAX_JOB_MEMORY`, 6 GiB).
 # Too slow for CI (minutes each on two cores); tests/memory_bound.rs checks the same estimate

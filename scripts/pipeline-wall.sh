@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Issue 16 item 3: the default pipeline on venus_11k at 1000 x 1000 as whole processes, wall and
+# The default pipeline on venus_11k at 1000 x 1000 as whole processes, wall and
 # CPU (user + sys) medians, and each stage's wall and CPU medians from `cubist render -v`.
 # With a second binary (B), runs A B A B ... and prints the ratios A/B pair by pair: under load
 # the paired ratio is the figure to trust.

@@ -1,7 +1,7 @@
 //! Exact Euclidean distance transform in linear time (Felzenszwalb and Huttenlocher, "Distance
-//! transforms of sampled functions", 2012): the p_d of SPEC eq 4.8 for every pixel at once,
+//! transforms of sampled functions", 2012): the p_d of thesis eq 4.8 for every pixel at once,
 //! instead of the thesis's per-pixel circle search, and the pixels within the neighbourhood
-//! radius of a facet (SPEC "Spatial imprecision").
+//! radius of a facet.
 //!
 //! Hand-written: it is two short passes, and the crates that have one (imageproc) would pull
 //! a large dependency tree for a single-threaded f64 version; this one runs its rows on rayon.

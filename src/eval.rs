@@ -1,5 +1,5 @@
 //! Visible-face counting: the number of distinct triangles hit by primary rays, the measure
-//! of the thesis's Table 4.1 (SPEC "Evaluation").
+//! of the thesis's Table 4.1.
 
 use serde::Serialize;
 

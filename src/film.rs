@@ -1,6 +1,6 @@
 //! Per-pixel and per-sample buffers of a render: colour plus everything the later stages
 //! read (hit triangle, object, distance, normal, barycentrics, saliency). Traced once by the
-//! pre-render and reused (SPEC "Pipeline" step 1).
+//! pre-render and reused.
 
 use glam::{Vec3, Vec4};
 use rayon::prelude::*;
@@ -63,7 +63,7 @@ pub struct Film {
     /// Lights the pixel's representative sample found blocked, one bit per light (the first
     /// 8; `shading::Occlusion`): where neighbours agree, anti-aliasing casts no shadow ray.
     pub occlusion: Vec<u8>,
-    /// Per-pixel saliency in [0, 1] (SPEC "Mesh saliency", the saliency map), when computed.
+    /// Per-pixel saliency in [0, 1] (the saliency map), when computed.
     pub saliency: Option<Vec<f32>>,
 }
 
@@ -74,7 +74,7 @@ unsafe impl bytemuck::Zeroable for SampleHit {}
 
 /// `n` values of zero bits, allocated zeroed: large blocks come from the system as fresh zero
 /// pages, so nothing is written here (`vec![Vec4::ZERO; n]` wrote 16 MB on one thread for a
-/// million pixels; perf10, issue 16).
+/// million pixels).
 fn zeroed_vec<T: bytemuck::Zeroable>(n: usize) -> Vec<T> {
     let layout = match std::alloc::Layout::array::<T>(n) {
         Ok(l) if l.size() > 0 => l,
@@ -96,7 +96,7 @@ fn zeroed_vec<T: bytemuck::Zeroable>(n: usize) -> Vec<T> {
 impl Film {
     pub fn new(width: u32, height: u32, spp: u32) -> Film {
         let n = width as usize * height as usize;
-        // Filled on every thread: a million pixels' buffers are tens of MB (issue 16).
+        // Filled on every thread: a million pixels' buffers are tens of MB.
         let hits = rayon::iter::repeat_n(PixelHit::MISS, n).collect();
         let samples = rayon::iter::repeat_n(SampleHit::MISS, n * spp as usize).collect();
         Film::with_hits(width, height, spp, hits, samples)
@@ -104,7 +104,7 @@ impl Film {
 
     /// A film for a trace that writes every pixel (the pre-render): its buffers hold zero bits,
     /// not misses, until then, so nothing is written twice (the miss fill of the hits and
-    /// samples was 44 MB at a million pixels; perf10, issue 16). A trace cut short (cancelled)
+    /// samples was 44 MB at a million pixels). A trace cut short (cancelled)
     /// leaves pixels that read as hits on triangle 0: such a film must be thrown away.
     pub fn to_be_traced(width: u32, height: u32, spp: u32) -> Film {
         let n = width as usize * height as usize;

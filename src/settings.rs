@@ -71,7 +71,7 @@ kebab_enum!(
         /// The thesis's method exactly as the paper has it, for comparisons and evaluations:
         /// Segment faceting (levels 5, 30, 120), every facet re-aimed, eq 4.8 borders, the
         /// recommended 140 deg and discontinuity 200, the `fit` framing; no planes, no
-        /// composition, no backdrop rule (the `analytic` look before issue 13).
+        /// composition, no backdrop rule (what `analytic` was before planes and composition).
         Thesis = "thesis",
     }
 );
@@ -94,13 +94,13 @@ pub struct Settings {
     /// Seed of every random choice (sampling, facets, gradients).
     pub seed: u64,
 
-    // ---- sampling (issue 16)
+    // ---- sampling
     /// Adaptive anti-aliasing: only pixels that differ from a neighbour of their facet by
     /// more than this (sRGB, 0..1, any channel), or show another object, get `spp` samples;
     /// the others keep their centre sample. 0: every pixel gets `spp`.
     pub aa_threshold: f32,
 
-    // ---- camera (SPEC "Cameras")
+    // ---- camera
     pub camera: CameraKind,
     /// Convergence angle of cubist cameras, degrees; the vertical field of view of the
     /// perspective camera. None: 140 for cubist cameras, 60 (or the glTF camera's) for perspective.
@@ -134,7 +134,7 @@ pub struct Settings {
     /// Multiplier on the lights, after the automatic exposure that makes any light units work.
     pub exposure: f32,
 
-    // ---- facets (SPEC "Faceting")
+    // ---- facets
     pub faceting: Faceting,
     /// Facet map image for `constant` faceting.
     pub facet_map: Option<PathBuf>,
@@ -168,7 +168,7 @@ pub struct Settings {
     /// Segment: weight of saliency differences.
     pub weight_saliency: f64,
 
-    // ---- planes faceting and what facets show (issue 13; `facets::planes`, `imprecision::backdrop`)
+    // ---- planes faceting and what facets show (`facets::planes`, `imprecision::backdrop`)
     /// Planes: how many planes the canvas is split into before the subject's outlines cut them.
     pub planes: u32,
     /// Planes: how much denser the planes are at the most salient parts than far from the
@@ -185,7 +185,7 @@ pub struct Settings {
     /// a finger) in their planes.
     pub aim_width_share: f64,
 
-    // ---- spatial imprecision (SPEC "Spatial imprecision")
+    // ---- spatial imprecision
     pub imprecision: Imprecision,
     /// Largest distance from facet centre to saliency centre, pixels at 1000 px.
     pub discontinuity: f64,
@@ -195,7 +195,7 @@ pub struct Settings {
     /// Field of view of linear facets, degrees (eq 4.7); 0 = orthographic facets.
     pub facet_fov: f64,
 
-    // ---- painterly effects (SPEC "Painterly effects")
+    // ---- painterly effects
     /// Facet border darkening distance md of eq 4.8, pixels at 1000 px; 0 = off.
     pub border_width: f64,
     /// 0 = no darkening, 1 = eq 4.8 as printed.
@@ -215,7 +215,7 @@ pub struct Settings {
     /// [0, 1]; 0 = off.
     pub chiaroscuro: f64,
 
-    // ---- per-plane light, passage and brushwork (issue 13; `paint::plane_light`,
+    // ---- per-plane light, passage and brushwork (`paint::plane_light`,
     // `paint::passage`, `paint::brushwork`, `paint::canvas`)
     /// Light-to-dark ramp across each facet (each plane lit on its own), in [0, 1]; 0 = off.
     pub plane_light: f64,
@@ -230,7 +230,7 @@ pub struct Settings {
     /// Canvas weave showing through the paint, in [0, 1]; 0 = off.
     pub canvas_grain: f64,
 
-    // ---- saliency (SPEC "Mesh saliency")
+    // ---- saliency
     pub saliency_method: SaliencyMethod,
     /// Directory keeping per-mesh saliency across runs, keyed by mesh content (animation
     /// frames rendered by separate processes compute each mesh once). None: no disk cache.
@@ -254,7 +254,7 @@ pub struct Settings {
 
 impl Settings {
     /// Pixel-valued parameters are given at 1000 px; this converts them to this image's
-    /// pixels, scaling with the image's geometric mean side sqrt(w h) (SPEC "Parameters").
+    /// pixels, scaling with the image's geometric mean side sqrt(w h).
     pub fn pixel_scale(&self) -> f64 {
         ((self.width as f64) * (self.height as f64)).sqrt() / 1000.0
     }

@@ -150,7 +150,7 @@ pub fn surface(world: &World, hit: &Hit, origin: Vec3, dir: Vec3) -> SurfacePoin
 }
 
 /// A hit's unit shading normal facing the incoming ray, as `surface` gives it, without the
-/// material: all a trace with no lights keeps of the surface (perf8, issue 16).
+/// material: all a trace with no lights keeps of the surface.
 pub fn shading_normal(world: &World, hit: &Hit, dir: Vec3) -> Vec3 {
     let object = &world.objects[hit.object as usize];
     let g = &world.geometries[object.geometry];

@@ -1,7 +1,7 @@
 //! Faceting and spatial imprecision through the whole pipeline, on the procedural still life
 //! with a synthetic saliency map (a known function of the hit point), so these tests do not
-//! depend on the mesh saliency stage: the measurable behaviour of SPEC "Faceting" and
-//! "Spatial imprecision".
+//! depend on the mesh saliency stage: the measurable behaviour of faceting and
+//! spatial imprecision.
 
 use std::path::Path;
 
@@ -46,7 +46,7 @@ fn bump(prep: &Prepared, object: usize) -> impl Fn(Vec3) -> f32 + '_ {
     move |p: Vec3| (1.0 - (p - centre).length_squared() / (0.35 * 0.35)).max(0.0)
 }
 
-/// The per-pixel saliency map of SPEC "Mesh saliency" for a saliency function of the hit point:
+/// The per-pixel saliency map of Lee et al. 2005 for a saliency function of the hit point:
 /// the average over the pixel's samples, 0 for background.
 fn saliency_map(prep: &Prepared, film: &Film, s: &dyn Fn(Vec3) -> f32) -> Vec<f32> {
     (0..film.pixel_count())

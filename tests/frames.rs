@@ -1,4 +1,4 @@
-//! Animation frames (`cubist render --frames`, issue 15): frame file names, farm chunks equal to
+//! Animation frames (`cubist render --frames`): frame file names, farm chunks equal to
 //! one run byte for byte (any thread count), the glTF samples rendering moving, and facets that
 //! follow the scene sticking to it (stickiness and flicker, static against follow).
 //!
@@ -197,7 +197,7 @@ fn compare(label: &str, scene: &Path, side: u32, p: &FramesParams) -> (Coherence
     (stat, follow)
 }
 
-/// Issue 15 item 4's targets: at a 2 deg/frame orbit, follow keeps >= 90% of the points seen in
+/// The targets of facets that follow: at a 2 deg/frame orbit, follow keeps >= 90% of the points seen in
 /// consecutive frames in their facet, and flickers no more than static facets, which slide (the
 /// "shower door"), so fewer points keep theirs.
 #[test]

@@ -1,5 +1,5 @@
 //! Malformed input that once crashed, hung or exhausted memory, kept as regression tests
-//! (issue 8, item 5). Files found by the fuzzers (scripts/fuzz.sh) live in
+//!. Files found by the fuzzers (scripts/fuzz.sh) live in
 //! tests/fuzz_regressions/<target>/, and every fuzz seed (fuzz/seeds/<target>/) runs too;
 //! inputs too large to keep as files are generated here. Each must give a clean one-line
 //! `Err` or a scene every later stage takes, within a watchdog's time, never a panic.
@@ -113,7 +113,7 @@ fn settings_json_regressions() {
     assert!(cases > 5, "only {cases} of {} settings inputs are JSON", files.len());
 }
 
-/// The settings_scene target's inputs (issue 18): settings JSON, a NUL, a glTF document; what
+/// The settings_scene target's inputs: settings JSON, a NUL, a glTF document; what
 /// the target does, with a watchdog.
 #[test]
 fn settings_scene_regressions() {
@@ -169,7 +169,7 @@ fn settings_scene_regressions() {
     assert!(rendered * 2 > files.len(), "{rendered} of {} inputs rendered", files.len());
 }
 
-/// The layout_file target's inputs (issue 18): JSON and PNG layouts, rasterised.
+/// The layout_file target's inputs: JSON and PNG layouts, rasterised.
 #[test]
 fn layout_file_regressions() {
     let files = regression_files("layout_file");

@@ -1,4 +1,4 @@
-//! Hardening (issue 18): bounded memory and time for every input, no panic, all-or-nothing
+//! Hardening: bounded memory and time for every input, no panic, all-or-nothing
 //! output, bad input refused with errors naming the setting or the glTF object, short
 //! messages, long file names, no path escape. Each class has a generator of inputs made in
 //! code (not the issue's examples alone): every numeric setting at every extreme value, every
@@ -254,7 +254,7 @@ fn config_values_name_their_key() {
         ("camera_up", json!([1, 2])),
         ("exposure", json!(1e39)),
         ("segments", json!([100000])),
-        // The painterly keys (issue 13), added after the hardening: the same classes hold.
+        // The painterly keys, added after the hardening: the same classes hold.
         ("stroke_length", json!(1e300)),
         ("stroke_length", json!(-1.0)),
         ("stroke_width", json!(0.0)),

@@ -1,4 +1,4 @@
-//! The default look (issue 13) on scenes built in code, so these run on a fresh clone: the
+//! The default look on scenes built in code, so these run on a fresh clone: the
 //! odd scenes (very tall, flat, z-up, several objects, a walker, a pole, a board edge-on, a
 //! bench, far, huge, tiny) and the still life; with `--include-ignored`, the tall and thin
 //! shared samples (../shared).
@@ -29,10 +29,10 @@ fn the_default_look_on_odd_scenes() {
         // at the report's 640 x 480; the report holds the 97% target.
         assert!(r.straight >= 0.93, "{name}: straight runs {:.3}", r.straight);
         assert!(r.ghost <= 0.05, "{name}: ghost share {:.3}", r.ghost);
-        // Issue 13 item 5, by construction (imprecision::cues): no most salient vertex the
+        // Cues kept, by construction (imprecision::cues): no most salient vertex the
         // unfaceted render shows drops out of the final image.
         assert!(r.cues_final >= r.cues_pre, "{name}: cues kept {}/{}", r.cues_final, r.cues_pre);
-        // Issue 13: 40% on single-object scenes, the whole object in view. Met by the very
+        // The subject fills 40% of single-object scenes, the whole object in view. Met by the very
         // tall figure (the composition's wider wrap and the better of the two converging
         // cameras), the compact subjects, and the figure on a pedestal four times its width
         // (far, huge, tiny: its silhouette fills about a third of its bounding box seen level;
@@ -169,7 +169,7 @@ fn golden_default_and_thesis_still_life() {
     }
 }
 
-/// The tall thin shared samples fill 40% of the canvas, whole (issue 13 item 4): CesiumMan (a
+/// The tall thin shared samples fill 40% of the canvas, whole: CesiumMan (a
 /// figure walking across the default view, an arm out) by its broad side under the cylindrical
 /// camera. Needs ../shared.
 #[test]

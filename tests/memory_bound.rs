@@ -1,4 +1,4 @@
-//! The memory bound (issue 18, README "Limits"): a job's peak memory stays under the estimate
+//! The memory bound (README "Limits"): a job's peak memory stays under the estimate
 //! its settings are checked against (`Settings::memory_estimate`, refused above
 //! `MAX_JOB_MEMORY`). Each run's peak resident memory is read from the kernel (wait4's
 //! ru_maxrss) and compared with the estimate, for every kind of job at 1 Mpx: the estimate is

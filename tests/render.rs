@@ -29,7 +29,7 @@ fn sphere_1280() -> Prepared {
     Prepared::new(Scene { meshes: vec![mesh], objects: vec![object], ..Default::default() })
 }
 
-/// SPEC "Evaluation": orthographic close to 50%, perspective fewer than orthographic, the
+/// The thesis's evaluation (Table 4.1): orthographic close to 50%, perspective fewer than orthographic, the
 /// spherical cubist camera near 100% at 240 and 360 degrees.
 #[test]
 fn sphere_visible_faces_follow_table_4_1() {

@@ -1,4 +1,4 @@
-//! Numerical stability under stress (issue 8, item 4): scenes scaled by 1e-6 and 1e6 and moved
+//! Numerical stability under stress: scenes scaled by 1e-6 and 1e6 and moved
 //! 1e6 units away give the same visible faces and the same picture; the ambiguity's limits
 //! (0, 1e-6, 179.999, 180, 360, 720); coincident, degenerate and sliver triangles; rays
 //! starting on a surface; image sizes 1x1 and 1x4000. The later stages: facets of one pixel,
@@ -281,7 +281,7 @@ fn ambiguity_limits() {
 
 #[test]
 fn planar_at_zero_ambiguity_is_the_orthographic_camera() {
-    // alpha -> 0 puts f_p at infinity (SPEC eq 4.1): the same faces as alpha = 1e-6.
+    // alpha -> 0 puts f_p at infinity (thesis eq 4.1): the same faces as alpha = 1e-6.
     let prep = Prepared::new(test_scene());
     let a = visible_faces(&prep, &settings(CameraKind::Planar, Some(0.0), 64, 48, 1)).unwrap();
     let b = visible_faces(&prep, &settings(CameraKind::Planar, Some(1e-6), 64, 48, 1)).unwrap();
@@ -458,7 +458,7 @@ fn empty_and_pointlike_scenes() {
 // ---- Stages after the pre-render (saliency, facets, imprecision, painterly effects) -------
 
 /// An icosphere of `levels` subdivisions of radius `r`: every vertex on the sphere, so its
-/// mesh saliency is 0 everywhere (SPEC: no variation, no NaN).
+/// mesh saliency is 0 everywhere (no variation, no NaN).
 fn icosphere(levels: u32, r: f32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
     let m = cubist::scene::default::icosphere("icosphere", levels, r, 0);
     (m.positions, m.triangles)
@@ -544,7 +544,7 @@ fn one_pixel_facets() {
 fn zero_saliency_scenes_keep_saliency_centres_on_facet_centres() {
     within(180, "zero saliency", || {
         // An icosphere: mesh saliency 0 at every vertex, so the saliency map is 0 everywhere,
-        // every saliency centre is its facet centre (SPEC eq 4.5: a facet with no saliency keeps
+        // every saliency centre is its facet centre (thesis eq 4.5: a facet with no saliency keeps
         // sc = fc) and saliency imprecision re-aims nothing: the unfaceted picture.
         let (p, t) = icosphere(3, 1.0);
         let prep = Prepared::new(one_mesh_scene(mesh("icosphere", p, t)));
@@ -692,7 +692,7 @@ fn the_analytic_preset_does_not_depend_on_units_or_placement() {
             // (k-means superpixels, eigenvectors, discretisation) turns such ulps into ~1% of the
             // pixels changing facet. A 1e-6 scale 1e6 away leaves f64 only 1e-4 of the object's
             // size as resolution: the geometry itself moves, ~4% of the pixels change facet.
-            // The planes faceting (the default since issue 13) gives the same planes, bit for
+            // The planes faceting (the default look's) gives the same planes, bit for
             // bit, under pure scales and offsets (its density is quantised). When the geometry
             // itself moves (1e-6 at 1e6), its greedy splits may choose another first cut, and
             // every later one differs: then only the number of facets and the picture's overall

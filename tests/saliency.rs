@@ -1,4 +1,4 @@
-//! Mesh saliency against its definition (SPEC "Mesh saliency"): a brute-force O(n^2) oracle,
+//! Mesh saliency against its definition: a brute-force O(n^2) oracle,
 //! shapes whose salient parts are known, invariances, the approximation's error and `auto`'s
 //! choice on hard tessellations (`saliency_meshes`), and the saliency map through the CLI.
 
@@ -18,7 +18,7 @@ use proptest::prelude::*;
 
 // ---------------------------------------------------------------- the oracle
 
-/// SPEC "Mesh saliency" written as plainly as possible, O(n^2), on the library's welded surface,
+/// Lee et al. 2005 written as plainly as possible, O(n^2), on the library's welded surface,
 /// curvature and eps (those have their own tests).
 fn oracle(a: &Analysed) -> Vec<f64> {
     let p = &a.surface.positions;

@@ -1,4 +1,4 @@
-//! `cubist serve` end to end (issue 14): the binary driven through its stdin and stdout as the
+//! `cubist serve` end to end: the binary driven through its stdin and stdout as the
 //! Blender add-on drives it. Request sequences; at each invalidation level the same pixels as a
 //! fresh `cubist render` with the same settings; bad requests answered and survived; cancel;
 //! the end of stdin; the parent's death; no file left but the outputs asked for.

@@ -1,4 +1,4 @@
-//! The stage cache (`pipeline::Session`, issue 14): at every invalidation level, a render that
+//! The stage cache (`pipeline::Session`): at every invalidation level, a render that
 //! reuses kept outputs gives exactly the pixels (image and passes) and warnings of a fresh
 //! `render` of the same scene and settings, and re-runs only the stages the change reaches.
 

@@ -28,7 +28,7 @@ fn presets_bundle_the_papers_settings() {
         assert_eq!(from_json, p);
     }
     assert!(Painter::new(&params::paint(&Settings::preset(Preset::Plain))).unwrap().is_empty());
-    // The paper's method stays reachable as it has it (issue 13).
+    // The paper's method stays reachable as it has it.
     let t = Settings::preset(Preset::Thesis);
     t.validate().unwrap();
     assert_eq!((t.faceting, angle(&t), t.discontinuity), (Faceting::Segment, 140.0, 200.0));

@@ -165,7 +165,7 @@ impl Blas {
     pub(super) fn build(g: &Geometry, key: u128) -> Option<Blas> {
         // Exact copies found by sorting (hash of the corner set, id) in parallel: the same
         // triangles kept as a serial hash set gave (the lowest id of each corner set), at a
-        // fraction of its cost on million-triangle meshes (issue 16).
+        // fraction of its cost on million-triangle meshes.
         let corner_set = |i: u32| {
             // The corners as a set (either winding, any starting corner), bit for bit.
             let mut key = g.corners(i).map(|p| p.to_array().map(f32::to_bits));

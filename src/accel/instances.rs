@@ -61,7 +61,7 @@ impl Instance {
 }
 
 /// The objects whose geometry is baked for them (no placement), up to `GROUP_CAP` triangles
-/// in all, traced as one BLAS over their render-space triangles (perf16, issues 14 and 16): a
+/// in all, traced as one BLAS over their render-space triangles: a
 /// ray through a table of a dozen small objects entered each object's box and walked each
 /// BLAS in turn; one tree over them all splits space across objects. The still life's
 /// primary rays took 0.67x the time, with the same hits. Every BLAS of a geometry is kept

@@ -56,7 +56,7 @@ fn our_collapse_builds_the_tree_obvhs_builds() {
     }
 }
 
-/// perf9: the pair layout's traversal reaches the same leaves in the same order as obvhs's
+/// The pair layout's traversal reaches the same leaves in the same order as obvhs's
 /// `ray_traverse_dynamic`, with the same distances handed on, for closest hits (tmax
 /// lowered by each hit) and any-hit queries, on random triangle soups of several sizes
 /// (one triangle: a root leaf) and rays from inside and outside, axis-aligned ones included.

@@ -3,7 +3,7 @@
 
 use super::*;
 
-/// A BVH2 laid out for traversal (perf9, issue 16): for each inner node, its two children's
+/// A BVH2 laid out for traversal: for each inner node, its two children's
 /// boxes side by side, one four-lane vector per axis ([left min, right min, left max, right
 /// max]), so one slab test of a few vector operations serves both children; with what each child
 /// is (an inner node's own pair, or a leaf's triangles), 64 bytes, one cache line, per pair
@@ -145,7 +145,7 @@ impl Pairs {
 }
 
 impl Pairs {
-    /// `traverse` for a packet of four rays (perf16, issue 16): `o` and `inv` hold the rays'
+    /// `traverse` for a packet of four rays: `o` and `inv` hold the rays'
     /// origins and inverse directions per axis (one lane a ray), `tmax` each ray's current
     /// limit (-inf: the lane takes no part). Each pair's boxes are tested for all four rays at
     /// once, by the same operations per lane as `traverse_on` (so a lane enters exactly the
@@ -289,7 +289,7 @@ pub(super) struct InlineStack {
 }
 
 impl InlineStack {
-    /// An empty stack, its slots left unwritten. perf10 (issue 16): built as
+    /// An empty stack, its slots left unwritten. Built as
     /// `[MaybeUninit::uninit(); INLINE_STACK]` beside `len: 0`, the whole 264-byte struct was
     /// zero-filled by a `memset` call at every traversal (two per primary ray, two per shadow
     /// ray: about 2% of a render's CPU).

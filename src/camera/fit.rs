@@ -1,5 +1,5 @@
 //! `fit`: how far behind the scene a converging (or planar) camera's focal centre must go for
-//! every sampled vertex to lie within a share of its half-angles (SPEC "Framing"); `framing`
+//! every sampled vertex to lie within a share of its half-angles; `framing`
 //! places the `fit` framing's C with it and `compose` starts each candidate's C from it.
 
 use glam::DVec3;
@@ -61,12 +61,12 @@ pub(super) fn fit_depth(
         })
     };
     // Whether every point fits with C at depth k: the same test at every k as testing all
-    // `points`, with fewer points (issue 16: 24 bisections of 50 steps over 30,000 points
+    // `points`, with fewer points (24 bisections of 50 steps over 30,000 points
     // were most of framing's time). A point `QuickLimits` finds clearly within at some k is
     // within at every larger k (moving C back along the view only lowers x/z, y/z and x/|w|;
     // the margin is far above the rounding), so once a test at k fails and no later test is
     // below k (`raise`), such points are dropped from `open`.
-    // (perf9: `open` borrows `points` until the first drop, and the list of points kept is
+    // (`open` borrows `points` until the first drop, and the list of points kept is
     // built in a buffer reused from test to test: no copy of 30,000 points per call.)
     let mut open: std::borrow::Cow<'_, [DVec3]> = std::borrow::Cow::Borrowed(points);
     let mut spare: Vec<DVec3> = Vec::new();
@@ -114,7 +114,7 @@ pub(super) fn fit_depth(
     hi
 }
 
-/// `fit_depth`'s test without the trigonometry where its answer is clear (issue 16: its
+/// `fit_depth`'s test without the trigonometry where its answer is clear (its
 /// bisection evaluated atan2/asin 50 x 30,000 times per candidate, 0.25 s of a 2.2 s render):
 /// an angle's limit compared as the ratio its tangent (or sine) is, with a relative margin of
 /// 1e-7, a billion times the rounding of `view_angles`' functions, so wherever this answers it

@@ -1,6 +1,6 @@
 //! Cameras turn a screen point into a ray and, for animation, a scene point back into the
 //! screen point whose ray passes through it (`Camera::project`, the exact inverse of `ray`);
-//! they never see the sampler, the film or the scene. One file per model of SPEC "Cameras";
+//! they never see the sampler, the film or the scene. One file per camera model;
 //! `framing.rs` chooses their parameters from the settings and the scene; `moved.rs` moves a
 //! camera rigidly (animation frames: orbits, animated glTF cameras); `warp.rs` remaps the canvas
 //! in front of a camera so a thin subject fills it.
@@ -30,7 +30,7 @@ pub use planar::Planar;
 pub use spherical::Spherical;
 pub use warp::Warped;
 
-/// The camera model (SPEC "Cameras").
+/// The camera model.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum CameraKind {
@@ -68,8 +68,8 @@ impl std::fmt::Display for CameraKind {
 }
 
 /// A primary ray. `focus` is the signed distance along the ray to its focal point (where the
-/// camera's rays converge); infinite for parallel rays. Re-aiming a facet (SPEC "Spatial
-/// imprecision") moves this point.
+/// camera's rays converge); infinite for parallel rays. Re-aiming a facet (spatial
+/// imprecision) moves this point.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CameraRay {
     pub origin: Vec3,

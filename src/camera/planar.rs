@@ -32,7 +32,7 @@ impl Planar {
 
 impl Camera for Planar {
     /// origin = c_p + u y s + h x s r; direction = normalize(f_p - origin). The thesis prints
-    /// origin - f_p, which points away from the scene: a typo (SPEC). Written as
+    /// origin - f_p, which points away from the scene: a typo. Written as
     /// normalize(c_d - offset / L) so that alpha -> 0 (L -> infinity) tends to c_d without
     /// overflow.
     fn ray(&self, p: DVec2) -> CameraRay {

@@ -22,7 +22,7 @@ pub struct Spherical {
 
 impl Spherical {
     /// The unit vector from C to the ray's origin. Eq 4.2 prints "x / alpha_x"; read as
-    /// x * alpha_x (SPEC). As in the listing, -c_d is rotated first about u by x alpha_x,
+    /// x * alpha_x. As in the listing, -c_d is rotated first about u by x alpha_x,
     /// then about the fixed h by y alpha_y; signs are chosen so the image's right shows the
     /// scene's right and its top the top (the listing's matrix convention is not given).
     pub fn outward(&self, p: DVec2) -> DVec3 {

@@ -1,4 +1,4 @@
-//! What the framing frames (ART.md "The subject fills the canvas"):
+//! What the framing frames:
 //! - the scene without its backdrops (`scene::backdrop`: a floor or a wall much larger than the
 //!   rest). Framed with its floor, a scene of objects on a 20 m plane showed them a few pixels
 //!   tall on a kite of floor. The backdrop is still rendered, shaded and faceted like anything

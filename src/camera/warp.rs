@@ -1,4 +1,4 @@
-//! A canvas warp (issue 13, ART.md "The subject fills the canvas"): a monotone remap of the
+//! A canvas warp: a monotone remap of the
 //! screen's columns and rows that gives those showing the subject more of the canvas and the
 //! empty ones less, each within a bounded scale, so a subject whose outline fills little of
 //! its bounding box (a figure with its limbs apart) still fills the canvas. `Warped` puts it in

@@ -42,7 +42,7 @@ pub enum Command {
     /// per scene, see each flag's help). Nothing is rendered. With --schema, what every
     /// setting is (for front ends); with --stages, the stages a render of these settings runs.
     Settings(SettingsCmdArgs),
-    /// The look report (ART.md "What we measure"): render each scene, measure straight planes,
+    /// The look report: render each scene, measure straight planes,
     /// whole-canvas planes, subject fill, ghosts, cues kept and per-plane light, print a
     /// markdown table (or JSON) and write a contact sheet. Default size 640 x 480.
     Look(LookArgs),
@@ -131,7 +131,7 @@ pub struct RenderArgs {
     pub settings: SettingsArgs,
 }
 
-/// Animation frames of `render` (SPEC "Animation", README "Animation").
+/// Animation frames of `render` (README "Animation").
 #[derive(Args, Debug, Default)]
 pub struct FramesArgs {
     /// Render frames A-B of the scene's animation (or one frame N), all in this process; -o

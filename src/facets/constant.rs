@@ -1,4 +1,4 @@
-//! Constant faceting (SPEC "Faceting", thesis 4.3.1): a facet map image drawn by the user
+//! Constant faceting (thesis 4.3.1): a facet map image drawn by the user
 //! (the thesis traced Picasso's *Le Guitariste*), each distinct colour a facet, scaled to the
 //! output nearest-neighbour when the layout is rasterised.
 

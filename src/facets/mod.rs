@@ -1,4 +1,4 @@
-//! Facets (SPEC "Faceting"): a facet layout is a resolution-independent description of how
+//! Facets: a facet layout is a resolution-independent description of how
 //! the image splits into facets, rasterised to a facet id per pixel at any size, so one layout
 //! can be saved once and reused for every frame of an animation on any machine.
 //!
@@ -157,7 +157,7 @@ impl FacetLayout {
         if !self.sites.is_empty() {
             voronoi::nearest_sites(&self.sites, width, height, &mut ids);
         }
-        // The polygons in order, by bands of rows in parallel (facet9, issue 14): each pixel
+        // The polygons in order, by bands of rows in parallel: each pixel
         // takes the last polygon over it, as when they are drawn one after another.
         if !self.polygons.is_empty() && w > 0 {
             let polygons: Vec<(u32, Vec<DVec2>)> = self
@@ -345,7 +345,7 @@ impl FacetMap {
     }
 }
 
-/// How the image is split into facets (SPEC "Faceting").
+/// How the image is split into facets.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FacetMethod {
     /// One facet: the unfaceted cubist view.

@@ -1,4 +1,4 @@
-//! Patch faceting (SPEC "Faceting", thesis 4.3.1, Fig. 4.4): convex quadrilaterals painted in
+//! Patch faceting (thesis 4.3.1, Fig. 4.4): convex quadrilaterals painted in
 //! succession, later ones occluding earlier ones, until every pixel is covered.
 //!
 //! Edge length a..2a with a = sqrt(2 w h r_occ / (5 n_p)) (eq 4.3). Each quad's centre is a

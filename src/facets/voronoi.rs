@@ -1,4 +1,4 @@
-//! Voronoi faceting (SPEC "Faceting", thesis 4.3.1): k points stratified over m grid cells,
+//! Voronoi faceting (thesis 4.3.1): k points stratified over m grid cells,
 //! each pixel in the facet of its nearest point. The nearest point is found through a bucket
 //! grid (rings of cells searched outwards until no closer point can exist), not the thesis's
 //! O(pixels x k) loop; ties go to the lower point index, so the map is exact and deterministic.
@@ -45,7 +45,7 @@ pub fn layout(k: u32, cells: u32, aspect: f64, seed: u64) -> FacetLayout {
 /// pixels: x w, y h); ties go to the lower index. Exact, and bounded in time whatever the
 /// sites (clustered, coincident, all in one corner): a k-d tree searched from the previous
 /// pixel's site, so a pixel visits a few nodes. (A bucket grid took O(pixels x sites) for
-/// sites in one cell: 65,536 of them took minutes; issue 18.)
+/// sites in one cell: 65,536 of them took minutes.)
 pub fn nearest_sites(sites: &[[f64; 2]], width: u32, height: u32, ids: &mut [u32]) {
     let (w, h) = (width as f64, height as f64);
     let pts: Vec<[f64; 2]> = sites.iter().map(|s| [s[0] * w, s[1] * h]).collect();

@@ -1,5 +1,5 @@
-//! What a facet may show (issue 13): background facets keep the backdrop (item 2, no ghosts),
-//! and a re-aimed facet's view shift stays within its own width (item 5, cues kept).
+//! What a facet may show: background facets keep the backdrop (no ghosts),
+//! and a re-aimed facet's view shift stays within its own width (cues kept).
 //!
 //! The thesis re-aims every facet at its saliency centre. A facet that shows mostly backdrop
 //! has its saliency centre on the little geometry it touches (or none), so its rays turn
@@ -86,7 +86,7 @@ pub fn facet_widths(map: &FacetMap) -> Vec<f64> {
 /// Keeps each re-aimed facet's view shift within `share` of its mean width: the aim point sc
 /// moves back towards fc until |sc - fc| <= share x width, and the facet is re-aimed again.
 /// Why: a thin plane (an arm, a guitar's neck, a finger) re-aimed by more than its width shows
-/// the ground beside the part instead of the part, and the cue is lost (issue 13 item 5). A
+/// the ground beside the part instead of the part, and the cue is lost. A
 /// shift within a fraction of the plane keeps what the plane showed recognisably its own.
 pub fn limit_shift(aims: &mut [FacetAim], widths: &[f64], share: f64, ctx: &AimContext) {
     if share <= 0.0 {
@@ -108,7 +108,7 @@ pub fn limit_shift(aims: &mut [FacetAim], widths: &[f64], share: f64, ctx: &AimC
 }
 
 /// Share of the pixels showing geometry `keep_cues` guards (the top of the pre-render's
-/// saliency map): wider than issue 13 item 5's "top 5% of mesh saliency", since a top vertex
+/// saliency map): wider than the "top 5% of mesh saliency", since a top vertex
 /// is seen through the pixels of all its triangles, whose interpolated saliency is lower.
 pub const CUE_PIXEL_SHARE: f64 = 0.15;
 
@@ -116,7 +116,7 @@ pub const CUE_PIXEL_SHARE: f64 = 0.15;
 /// most salient pixels stays in view: a re-aimed facet shows at pixel p what the pre-render
 /// showed near p + (sc - fc), so a salient pixel q of the facet stays shown only when
 /// q - (sc - fc) still lies in the facet. Why: a cue at a plane's edge (an eye, a beak, the
-/// tip of an ear) shifted out of its plane is lost (issue 13 item 5: the most salient vertices
+/// tip of an ear) shifted out of its plane is lost (the most salient vertices
 /// shown at least as often as in the unfaceted render). The salient pixels are the top
 /// `CUE_PIXEL_SHARE` of `saliency` over the pixels that show geometry.
 /// `by_facet`: the facets' pixels (`FacetMap::facet_pixels`).

@@ -1,4 +1,4 @@
-//! Aims carried with the scene (`--facet-motion follow`, issue 15 item 4): a key frame's facet
+//! Aims carried with the scene (`--facet-motion follow`): a key frame's facet
 //! aims anchored to the surface points they show, and carried to any later frame in one step,
 //! so a facet that follows the subject keeps its view instead of being re-aimed from the pixels
 //! it covers in each frame (which shifts its view as its outline changes: flicker).
@@ -52,7 +52,7 @@ pub fn anchor_aims(ctx: &AimContext, aims: &[FacetAim]) -> Vec<KeyAim> {
         .collect()
 }
 
-/// Facets that follow keep their view (issue 15 item 4): each facet of frame N takes the key
+/// Facets that follow keep their view: each facet of frame N takes the key
 /// frame's aim carried with the scene, instead of one decided again from the pixels it covers
 /// now (which shifts its view as its outline changes: flicker). Its centre is where the surface
 /// point its key-frame centre showed is now (`ctx.camera.project` of the anchor posed by

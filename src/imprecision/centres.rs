@@ -51,7 +51,7 @@ pub fn facet_centres(map: &FacetMap) -> Vec<Option<DVec2>> {
         .collect()
 }
 
-/// Eq 4.5, corrected (SPEC): the saliency-weighted mean position of each facet's pixels plus,
+/// Eq 4.5, corrected: the saliency-weighted mean position of each facet's pixels plus,
 /// when `neighborhood` > 0, every pixel within that distance (pixels) of the facet. The
 /// thesis divides by |F|, which is not a centroid; we divide by the sum of the weights. A facet
 /// with no saliency keeps sc = fc.
@@ -111,7 +111,7 @@ pub fn neighbourhood_work(map: &FacetMap, radius: f64) -> f64 {
         return 0.0;
     }
     let (w, h) = (map.width as i64, map.height as i64);
-    // Bounding boxes by rows in parallel, joined by min and max (perf7, issue 16).
+    // Bounding boxes by rows in parallel, joined by min and max.
     let empty = vec![(i64::MAX, i64::MAX, i64::MIN, i64::MIN); map.facet_count as usize];
     let boxes = map
         .ids
@@ -221,7 +221,7 @@ pub fn random_centre(fc: DVec2, radius: f64, seed: u64, facet: u32) -> DVec2 {
 mod tests {
     use super::*;
 
-    /// The neighbourhood work, its boxes made by rows in parallel (perf7), equals the one
+    /// The neighbourhood work, its boxes made by rows in parallel, equals the one
     /// pass over the image.
     #[test]
     fn neighbourhood_work_matches_one_pass() {

@@ -1,4 +1,4 @@
-//! Cues kept by construction (issue 13 item 5): "the most salient vertices (top 5% of mesh
+//! Cues kept by construction: "the most salient vertices (top 5% of mesh
 //! saliency) are visible in the final image at least as often as in the unfaceted render from
 //! the same camera".
 //!
@@ -23,7 +23,7 @@ use crate::film::{Film, NO_HIT};
 use crate::scene::{Scene, World};
 use crate::trace::screen_point;
 
-/// The most salient vertices: this top share of mesh saliency (issue 13 item 5).
+/// The most salient vertices: this top share of mesh saliency.
 pub const CUE_SHARE: f64 = 0.05;
 
 /// The most salient vertices of the placed meshes: the top `CUE_SHARE` of mesh saliency over

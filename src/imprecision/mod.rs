@@ -1,4 +1,4 @@
-//! Perceptual spatial imprecision (SPEC "Spatial imprecision", thesis 4.3.2): per facet, the
+//! Perceptual spatial imprecision (thesis 4.3.2): per facet, the
 //! facet centre (eq 4.4), the saliency centre (eq 4.5, corrected), the discontinuity limit, and
 //! the re-aim of the facet's rays at a new focal point, optionally as a size-keeping linear
 //! facet (eq 4.6, alpha from eq 4.7).
@@ -6,11 +6,11 @@
 //! Positions are continuous pixel coordinates: pixel (x, y) covers [x, x+1) x [y, y+1), its
 //! centre is (x + 0.5, y + 0.5), y grows downwards (row 0 at the top).
 //!
-//! The re-aim, generalised to every camera through each ray's focal point q (SPEC rule for
+//! The re-aim, generalised to every camera through each ray's focal point q (the rule for
 //! converging cameras): the facet-centre ray is turned, about its origin on the camera surface,
 //! towards P, the scene point seen at the saliency centre; its focal point moves by
 //! delta = f_c (d_c' - d_c). Every ray of the facet is re-aimed at its own q + delta. With
-//! one shared focal point (spherical, planar) that is the SPEC's "every ray of the facet is
+//! one shared focal point (spherical, planar) that is the method's "every ray of the facet is
 //! re-aimed at the new focal point"; the cylindrical camera's focal line shifts; parallel
 //! rays (focus at infinity) take the limit: every direction turns by d_c' - d_c.
 //!

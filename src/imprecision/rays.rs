@@ -1,4 +1,4 @@
-//! The re-aim of a facet's rays (SPEC "Spatial imprecision") and linear facets (eq 4.6, eq
+//! The re-aim of a facet's rays and linear facets (eq 4.6, eq
 //! 4.7): from pixel positions to the rays the re-trace follows.
 
 use glam::{DVec2, DVec3};
@@ -45,7 +45,7 @@ impl AimContext<'_> {
     /// The largest turn (|d_c' - d_c|) at pixel position `fc` that changes no ray: the smaller
     /// of 1e-6 and a thousandth of the angle between neighbouring pixels' rays. Why: with one
     /// focal point shared by every ray (spherical, planar cameras) a saliency centre on the
-    /// background aims the facet at its own focal point (SPEC: the point at the focal distance
+    /// background aims the facet at its own focal point (the point at the focal distance
     /// of the ray at sc), i.e. no turn at all, but the f32 rays leave a turn of ~3e-8; without
     /// this bound such facets (often the large background ones) were re-traced into the same
     /// pixels, up to 80% of the image.
@@ -87,7 +87,7 @@ impl AimContext<'_> {
 
     /// The linear facet (eq 4.6) of a facet whose (re-aimed) rays have mean hit distance d_ai,
     /// estimated from up to `D_AI_SAMPLES` of its pixels. None when all of them miss: such a
-    /// facet is left as it is (SPEC).
+    /// facet is left as it is.
     pub fn linear(&self, fc: DVec2, reaim: Option<&Reaim>, pixels: &[u32], fov_deg: f64) -> Option<Linear> {
         let w = self.width as usize;
         let m = pixels.len().min(D_AI_SAMPLES);

@@ -1,4 +1,4 @@
-//! The render pipeline of SPEC Fig. 4.1, its front door. `params` turns the validated
+//! The render pipeline of thesis Fig. 4.1, its front door. `params` turns the validated
 //! settings into each stage's own parameters; `stages` holds the stages, each a function of
 //! plain values returning its output and the key of what it read; `run` runs them in order,
 //! each only when its key changed since the output its lane keeps (`cache`): with nothing

@@ -1,4 +1,4 @@
-//! The one stage runner: the stages of a render (SPEC Fig. 4.1, `stages`) in order, each run
+//! The one stage runner: the stages of a render (thesis Fig. 4.1, `stages`) in order, each run
 //! only when its key differs from the output its `Lane` keeps (`cache::Run::step`). A one-off
 //! render (`pipeline::render`) runs it over an empty lane with `Policy::OneOff`; a `Session`
 //! (`cubist serve`) over the lane it keeps for the image size with `Policy::Kept`. So a kept
@@ -344,7 +344,7 @@ fn later_stages(
     }
     let tracer = view.tracer(prep, &params.trace);
     let ctx = stages::aim_context(prep, view, &params.trace);
-    // Spatial imprecision (SPEC "Spatial imprecision"): re-aim facets, re-trace only the pixels
+    // Spatial imprecision: re-aim facets, re-trace only the pixels
     // of facets whose rays changed; at discontinuity 0 with converging facets nothing runs.
     if plan.imprecision {
         if params.aim.reads_saliency() && film.saliency.is_none() {

@@ -115,7 +115,7 @@ impl Blocked {
         let ext = hi - lo;
         let mut side = cell * per as f64;
         let dims_for = |s: f64| [ext.x, ext.y, ext.z].map(|e| (e / s) as i64 + 1);
-        // A sigma tiny against the mesh (never the case with SPEC's eps) coarsens the grid so
+        // A sigma tiny against the mesh (never the case with the method's eps) coarsens the grid so
         // the dense array stays bounded.
         while dims_for(side).iter().map(|&d| d as u64).product::<u64>() > max_blocks.min(1 << 24) {
             side *= 1.25;

@@ -1,6 +1,6 @@
 //! Mean curvature per vertex: the cotangent Laplacian with mixed Voronoi areas (Meyer, Desbrun,
 //! Schroeder, Barr 2003), projected on the vertex normal; boundary vertices take their interior
-//! neighbours' curvature (SPEC "Mesh saliency": "boundary vertices (hole rims) must not spike").
+//! neighbours' curvature (Lee et al. 2005: "boundary vertices (hole rims) must not spike").
 //!
 //! Why this estimator: it is the standard discrete mean-curvature operator (convergent on
 //! well-shaped meshes, exact on planes), needs only the one ring, and its mixed area stays

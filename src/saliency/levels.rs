@@ -1,4 +1,4 @@
-//! The scale space of Lee, Varshney and Jacobs (2005) as SPEC "Mesh saliency" states it:
+//! The scale space of Lee, Varshney and Jacobs (2005):
 //! Gaussian-weighted means of mean curvature at eight distinct scales, five centre-surround
 //! levels, per-level normalisation, non-linear suppression, sum, final scaling to [0, 1].
 
@@ -18,7 +18,7 @@ pub const LEVEL_PAIRS: [(usize, usize); 5] = [(0, 2), (1, 4), (2, 5), (3, 6), (4
 
 /// Noise floor of a level's centre-surround difference, as a fraction of the mean |H|.
 ///
-/// Why: the SPEC asks that a mesh with no variation (a sphere) gets 0, but a discrete
+/// Why: the method asks that a mesh with no variation (a sphere) gets 0, but a discrete
 /// estimator never returns an exactly constant H on a tessellated sphere; normalising that
 /// residue to [0, 1] would turn discretisation noise into full-range saliency. Differences
 /// below this fraction of the mesh's typical curvature are treated as no variation: they are
@@ -30,7 +30,7 @@ pub const LEVEL_PAIRS: [(usize, usize); 5] = [(0, 2), (1, 4), (2, 5), (3, 6), (4
 /// (`tests/saliency.rs::noise_floor_has_margin`).
 pub const NOISE_FLOOR: f64 = 0.03;
 
-/// eps of SPEC "Mesh saliency": 0.3% of the bounding-box diagonal, raised to half the mean edge
+/// eps of Lee et al. 2005: 0.3% of the bounding-box diagonal, raised to half the mean edge
 /// length on coarse meshes so every 2-sigma neighbourhood holds at least a ring.
 pub fn epsilon(diagonal: f64, mean_edge: f64) -> f64 {
     (0.003 * diagonal).max(0.5 * mean_edge)
@@ -148,8 +148,8 @@ impl Buffers {
     }
 }
 
-/// Values of a normalised level (maximum 1) closer than this count as equal in step 5 (SPEC
-/// "Mesh saliency": local maxima, the global maximum M_i, mbar_i).
+/// Values of a normalised level (maximum 1) closer than this count as equal in step 5 (of
+/// Lee et al.'s normalisation: local maxima, the global maximum M_i, mbar_i).
 ///
 /// Why: on a solid of revolution (the still life's fruit, jug, bowl) vertices of one ring hold
 /// values equal in exact arithmetic, and their computed means differ in the last bits only,
@@ -253,7 +253,7 @@ pub fn combine(points: &[DVec3], adjacency: &Adjacency, h: &[f64], means: &[f64]
         any_level = true;
         s.par_iter_mut().for_each(|x| *x /= max);
         let peaks = local_maxima(points, &s, LEVEL_SCALES[li] * eps, Some(adjacency));
-        // SPEC step 5's "global maximum" M_i is one value, 1; the vertex holding it is one peak
+        // Step 5's "global maximum" M_i is one value, 1; the vertex holding it is one peak
         // within TIE of 1 (the first in canonical order). When a symmetric solid has several
         // such peaks, the others stay "other local maxima" (they are as distinctive as M_i,
         // and pull mbar towards 1), and which one is left out moves mbar by TIE at most.

@@ -1,4 +1,4 @@
-//! The saliency map (SPEC "Mesh saliency", thesis 4.3.2 step 1): per pixel, the hit point's
+//! The saliency map (thesis 4.3.2 step 1): per pixel, the hit point's
 //! saliency interpolated from its triangle's vertices by the barycentrics, averaged over the
 //! pixel's samples, 0 for background. Read off the pre-render's sample buffer: no second trace.
 

@@ -1,4 +1,4 @@
-//! Mesh saliency (Lee, Varshney, Jacobs 2005; SPEC "Mesh saliency") per mesh in its own
+//! Mesh saliency (Lee, Varshney, Jacobs 2005) per mesh in its own
 //! coordinates, cached by content, and the per-pixel saliency map read off the pre-render.
 //!
 //! Stages: `surface` (weld by position, canonical order) -> `curvature` (cotangent mean
@@ -8,7 +8,7 @@
 //! meshes too large for the exact sums; `cache` keeps results on disk across processes (the
 //! Blender add-on runs once per animation frame).
 //!
-//! Choices the SPEC leaves open, each documented where it is made: H = (K . n) / 2 from the
+//! Choices the paper leaves open, each documented where it is made: H = (K . n) / 2 from the
 //! cotangent Laplacian with mixed areas, rim and zero-area vertices filled from their
 //! neighbours (`curvature`); neighbourhoods strictly within 2 sigma, centre vertex included;
 //! levels normalised by their maximum; a local maximum is a vertex no other vertex within the
@@ -40,7 +40,7 @@ use crate::error::Result;
 use crate::film::Film;
 use crate::scene::{Mesh, Scene, World};
 
-/// How mesh saliency's Gaussian means are evaluated (SPEC "Mesh saliency").
+/// How mesh saliency's Gaussian means are evaluated.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum SaliencyMethod {
     /// Exact while the exact sums' work counted on the mesh stays within `EXACT_BUDGET`, clustered
@@ -137,7 +137,7 @@ pub struct Analysed {
     pub surface: surface::Surface,
     /// Mean curvature per surface vertex.
     pub h: Vec<f64>,
-    /// SPEC's eps with its coarse-mesh rule.
+    /// the method's eps with its coarse-mesh rule.
     pub eps: f64,
     /// One-ring neighbours (a shortcut for the local-maximum test).
     pub adjacency: surface::Adjacency,
@@ -211,7 +211,7 @@ pub fn mesh_saliency(mesh: &Mesh) -> Vec<f32> {
 
 /// Saliency of one mesh by `method`, per vertex in the mesh's vertex order, in [0, 1].
 pub fn mesh_saliency_with(mesh: &Mesh, method: SaliencyMethod) -> Vec<f32> {
-    // Huge meshes under `Auto`: through a bounded-size proxy (`proxy`, issue 16).
+    // Huge meshes under `Auto`: through a bounded-size proxy (`proxy`).
     if method == SaliencyMethod::Auto
         && mesh.positions.len() > proxy::PROXY_ABOVE
         && let Some(v) = proxy::proxy_saliency(&mesh.positions, &mesh.triangles)
@@ -308,7 +308,7 @@ pub fn visible_meshes(scene: &Scene, world: &World, film: &Film) -> Vec<bool> {
     meshes
 }
 
-/// Saliency of the meshes hit by some sample of `film` (SPEC: skip what the picture does not
+/// Saliency of the meshes hit by some sample of `film` (skip what the picture does not
 /// need), from `memo` (this process's per-mesh results) or the disk cache when they hold it.
 pub fn for_film(
     scene: &Scene,

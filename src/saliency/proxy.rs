@@ -1,8 +1,8 @@
-//! Mesh saliency of a huge mesh through a bounded-size proxy (issue 16: million-triangle
+//! Mesh saliency of a huge mesh through a bounded-size proxy (million-triangle
 //! scenes): what `SaliencyMethod::Auto` does for meshes of more than `PROXY_ABOVE` vertices.
 //!
 //! The mesh is clustered on a uniform grid (Rossignac and Borrel's vertex clustering) of cells
-//! `CELL_EPS` x eps a side (eps: SPEC's 0.3% of the bounding-box diagonal): each occupied cell
+//! `CELL_EPS` x eps a side (eps: the method's 0.3% of the bounding-box diagonal): each occupied cell
 //! becomes one proxy vertex at the centroid of the mesh vertices in it, and each triangle whose
 //! corners fall in three different cells becomes a proxy triangle (duplicates dropped).
 //! Saliency is computed on the proxy as on any mesh (`analyse`, `Analysed::saliency` with
@@ -59,7 +59,7 @@ pub fn proxy_saliency(positions: &[Vec3], triangles: &[[u32; 3]]) -> Option<Vec<
     proxy_saliency_with(positions, triangles, CELL_EPS, None, PROXY_BETA).map(|(v, _)| v)
 }
 
-/// `proxy_saliency` with cells of `cell_eps` x eps, eps given (None: SPEC's), and clustered
+/// `proxy_saliency` with cells of `cell_eps` x eps, eps given (None: the method's), and clustered
 /// means with cells of sigma / `beta` where the proxy is not summed exactly; also returns the
 /// proxy's vertex count.
 pub fn proxy_saliency_with(

@@ -1,4 +1,4 @@
-//! `cubist serve` (issue 14): a long-running renderer speaking JSON lines, one request per
+//! `cubist serve`: a long-running renderer speaking JSON lines, one request per
 //! line on stdin, one reply per line on stdout (docs/serve.md has every field). It keeps a
 //! `pipeline::Session`, so a request re-runs only the stages its changes invalidate.
 //!

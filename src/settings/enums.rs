@@ -5,7 +5,7 @@
 use serde::{Deserialize, Serialize};
 
 kebab_enum!(
-    /// The camera model (SPEC "Cameras").
+    /// The camera model.
     CameraKind {
         /// Spherical for compact scenes, cylindrical for tall ones (height >= 1.6 x width).
         Auto = "auto",
@@ -36,7 +36,7 @@ kebab_enum!(
 );
 
 kebab_enum!(
-    /// How the image is split into facets (SPEC "Faceting").
+    /// How the image is split into facets.
     Faceting {
         /// One facet: the unfaceted cubist view.
         None = "none",
@@ -49,13 +49,13 @@ kebab_enum!(
         /// Multiscale normalized-cut segments of the pre-render, selected by saliency.
         Segment = "segment",
         /// Straight-edged planes tiling the whole canvas, denser at salient parts, cut along
-        /// the subject's outlines (`facets::planes`, issue 13).
+        /// the subject's outlines (`facets::planes`).
         Planes = "planes",
     }
 );
 
 kebab_enum!(
-    /// How each facet's view is re-aimed (SPEC "Spatial imprecision").
+    /// How each facet's view is re-aimed.
     Imprecision {
         /// Towards the facet's saliency centre (eq 4.5).
         Saliency = "saliency",
@@ -113,7 +113,7 @@ kebab_enum!(
 );
 
 kebab_enum!(
-    /// How mesh saliency's Gaussian means are evaluated (SPEC "Mesh saliency").
+    /// How mesh saliency's Gaussian means are evaluated.
     SaliencyMethod {
         /// Exact while the exact sums' work, counted on the mesh, stays under 5e7 pairs (~0.5 s), clustered above.
         Auto = "auto",

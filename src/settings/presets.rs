@@ -26,7 +26,7 @@ impl Settings {
             // every pixel moved by at most 0.2 dB on eight scenes (pixels off by > 8 codes:
             // +0.01-0.02% of the canvas) while anti-aliasing's rays fell by 25-45%: below 13
             // codes a neighbour's difference is mostly shading and texture gradient, which
-            // more samples do not change (BENCHMARKS.md, "Session 13").
+            // more samples do not change (BENCHMARKS.md).
             aa_threshold: 0.05,
             seed: 0,
             camera: CameraKind::Auto,
@@ -125,7 +125,7 @@ impl Preset {
                 s.chiaroscuro = 0.0;
             }
             Preset::Analytic => {
-                // Our look (issue 13): planes, composition, the backdrop kept still; the
+                // Our look: planes, composition, the backdrop kept still; the
                 // thesis's discontinuity 200 at 1000 px, bold borders, a painter's palette.
                 planes_look(s);
                 s.discontinuity = 200.0;
@@ -139,7 +139,7 @@ impl Preset {
                 s.gradients = 0.0;
                 s.colors = 0;
                 s.chiaroscuro = 0.3;
-                // Each plane lit on its own, passage, brushwork (issue 13; ART.md).
+                // Each plane lit on its own, passage, brushwork.
                 s.plane_light = 0.7;
                 s.border_style = BorderStyle::Passage;
                 s.brushwork = 0.8;
@@ -157,7 +157,7 @@ impl Preset {
                 s.colors = 8;
                 s.chiaroscuro = 0.5;
                 // Heavier paint: broad strokes over the eight colours, so they read as paint,
-                // not a print (ART.md's panel).
+                // not a print.
                 s.plane_light = 0.6;
                 s.border_style = BorderStyle::Passage;
                 s.brushwork = 0.9;
@@ -204,7 +204,7 @@ impl Preset {
     }
 }
 
-/// The facet, camera and imprecision values of our presets (issue 13; every preset but
+/// The facet, camera and imprecision values of our presets (every preset but
 /// `plain` and `thesis`): planes faceting, the `compose` framing with the angles chosen per
 /// scene, background facets not re-aimed and view shifts within a share of each facet's width
 /// (`imprecision::backdrop`).

@@ -66,7 +66,7 @@ impl Range {
 
 /// Pixels of the image.
 pub const PX: &str = "px";
-/// Pixels at 1000 px, scaled with sqrt(width x height) / 1000 (SPEC "Parameters").
+/// Pixels at 1000 px, scaled with sqrt(width x height) / 1000.
 pub const PX_AT_1000: &str = "px at 1000 px";
 pub const DEGREES: &str = "deg";
 /// The scene file's units.

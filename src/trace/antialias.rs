@@ -7,7 +7,7 @@ impl Tracer<'_> {
     /// The colour of pixel `i` from `spp` stratified samples (alpha: the fraction that hit),
     /// with the shadow rays `occlusion` answers left out. `centre` (only at 4 spp): the colour
     /// (and coverage) of the pixel's centre sample, already traced, taken as one of the 4
-    /// samples with 3 new ones around it (`centre_rook_offset`; issue 16).
+    /// samples with 3 new ones around it (`centre_rook_offset`).
     #[allow(clippy::too_many_arguments)]
     pub(super) fn supersample(
         &self,
@@ -90,7 +90,7 @@ impl Tracer<'_> {
     }
 }
 
-/// serve5 (issue 14): what anti-aliasing takes as known of pixel `i`'s lights
+/// What anti-aliasing takes as known of pixel `i`'s lights
 /// (`agreed_occlusion`), as one number: a pixel refined through the same rays with the same
 /// number gets the same colour (a session reuses it, `pipeline::stages::antialias_stage`).
 pub fn antialias_known(film: &Film, facets: &[u32], i: usize) -> u64 {
@@ -102,10 +102,10 @@ pub fn antialias_known(film: &Film, facets: &[u32], i: usize) -> u64 {
 }
 
 /// The lights whose occlusion pixel `i`'s centre sample and those of its facet neighbours
-/// agree on (SPEC: cast shadow rays only where a light is partly occluded).
+/// agree on (cast shadow rays only where a light is partly occluded).
 pub(super) fn agreed_occlusion(film: &Film, facets: &[u32], i: usize) -> Known {
     // `facet_neighbourhood`'s pixels, gathered by plain loops (its chain of iterators cost
-    // more than `agree` itself; `agree` does not depend on their order). perf8, issue 16.
+    // more than `agree` itself; `agree` does not depend on their order).
     let (w, h) = (film.width as usize, film.height as usize);
     let (x, y) = (i % w, i / w);
     let f = facets[i];
@@ -138,7 +138,7 @@ pub fn pixels_to_refine(film: &Film, facets: &[u32], threshold: f32) -> Vec<u32>
     }
     // Each pixel's object and 8-bit sRGB codes (the encoder's threshold table, not a power per
     // channel) in one word, rows in parallel: every pixel is read by its 8 neighbours, so
-    // they read 8 bytes, not a 32-byte hit and a colour. perf8 (issue 16).
+    // they read 8 bytes, not a 32-byte hit and a colour.
     let (w, h) = (film.width as usize, film.height as usize);
     let lut = Srgb8::get();
     let mut keys = vec![0u64; n];

@@ -7,7 +7,7 @@ use super::*;
 pub(super) const PARALLEL_WRITE: usize = 1 << 16;
 
 /// Stores `trace_subset`'s chunks for the pixels of `list` in `film`: bands of rows in
-/// parallel when `list` is long and ascends (the re-trace's does; perf7, issue 16), else in
+/// parallel when `list` is long and ascends (the re-trace's does), else in
 /// turn.
 pub(super) fn write_subset(film: &mut Film, list: &[u32], chunks: Vec<SubsetChunk>) {
     let spp = film.spp as usize;

@@ -30,7 +30,7 @@ pub fn sample_offset(seed: u64, pixel: u64, s: u32, spp: u32) -> DVec2 {
 pub(super) const CENTRE_ROOKS: [[u32; 3]; 4] = [[0, 2, 1], [1, 0, 2], [2, 0, 1], [1, 2, 0]];
 
 /// Offset of new sample `s` (0..3) of pixel `pixel` when anti-aliasing at 4 samples takes the
-/// pixel's centre sample, already traced, as its fourth (issue 16): 3 rooks on a 3 x 3 grid
+/// pixel's centre sample, already traced, as its fourth: 3 rooks on a 3 x 3 grid
 /// (one per column and row, none in the middle cell, which holds the centre), jittered in
 /// their cells, the permutation picked by a hash of (seed, pixel). With equal weights, the
 /// mean squared error of a pixel's coverage by a random straight edge is below that of 4

@@ -1,3 +1,4 @@
+use super::sampler::strata;
 use super::*;
 
 #[test]
@@ -96,7 +97,7 @@ fn only_pixels_whose_facet_neighbours_disagree_are_refined() {
     assert!(pixels_to_refine(&film, &facets, 0.02).is_empty());
 }
 
-/// perf8: the word-per-pixel comparison in shifted rows picks exactly the pixels the
+/// The word-per-pixel comparison in shifted rows picks exactly the pixels the
 /// plain loop over each pixel's facet neighbours picks, on random films with a few
 /// facets, objects, misses and colours near the threshold.
 #[test]
@@ -163,7 +164,7 @@ fn still_life_prerender(
     (prep, params, pre)
 }
 
-/// perf8: an ascending list is traced in place by bands of rows; it gives the film the
+/// An ascending list is traced in place by bands of rows; it gives the film the
 /// pixels the chunked trace and copy (any order) gives it, sparse shadow rays included,
 /// on 1 and 3 threads.
 #[test]
@@ -196,7 +197,7 @@ fn subset_traced_in_place_matches_the_chunked_trace() {
     }
 }
 
-/// perf16: the whole film traced by `render_rows` (centre rays in 2 x 2 packets) and the
+/// The whole film traced by `render_rows` (centre rays in 2 x 2 packets) and the
 /// anti-aliasing (each pixel's rays as one packet) give the pixels tracing one ray at a
 /// time gives (the chunked subset trace; `supersample`'s rays one by one), bit for bit, on
 /// odd and even sizes, lit (the coarse shadow grid first) and hits only.
@@ -265,7 +266,7 @@ fn packets_trace_what_single_rays_trace() {
     }
 }
 
-/// perf8: the loops gathering the neighbours of `agreed_occlusion` and `coarse_occlusion`
+/// The loops gathering the neighbours of `agreed_occlusion` and `coarse_occlusion`
 /// agree with `facet_neighbourhood` and `coarse_grid_around` on random films of odd and
 /// even sizes, with and without facets.
 #[test]
@@ -396,7 +397,7 @@ fn deferred_shading_matches_the_lit_pre_render() {
     }
 }
 
-/// `write_subset` in parallel bands (perf7) stores what the serial loop stores, for lists
+/// `write_subset` in parallel bands stores what the serial loop stores, for lists
 /// long enough to take the parallel path and for short or unordered ones.
 #[test]
 fn write_subset_in_bands_matches_the_serial_loop() {

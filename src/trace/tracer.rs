@@ -12,7 +12,7 @@ pub(super) type SubsetChunk = (Vec<(Vec4, PixelHit, u8)>, Vec<SampleHit>);
 /// triangles, so a tile's rays likely find them still in cache (the likely reason, not
 /// measured; the other stages' sparser pixel lists were slower in tiles). Each pixel is traced
 /// as before, only in another order (same bits). Measured on the 1M-triangle scene at
-/// 1000 x 1000 (issue 16): the pre-render 0.93x CPU.
+/// 1000 x 1000: the pre-render 0.93x CPU.
 pub(super) const TILE: usize = 16;
 
 /// The picked pixels of one row of a tile (band offsets, ascending), and the 2 x 2 packets
@@ -367,7 +367,7 @@ impl Tracer<'_> {
 
     /// `render_subset` for an ascending `list` (the re-trace's moved pixels, its grid and the
     /// rest): bands of rows in parallel, each tracing its pixels of `list` straight into the
-    /// film. perf8 (issue 16): no result buffer for the whole list (about 27 MB of fresh pages
+    /// film. No result buffer for the whole list (about 27 MB of fresh pages
     /// for venus_11k's 480K moved pixels at 1000 x 1000) and no copy out of it. The same pixels:
     /// each is traced as before, only stored at once.
     pub(super) fn render_subset_in_place(

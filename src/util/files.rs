@@ -223,7 +223,7 @@ impl<'a> Outputs<'a> {
     /// not `fsync`ed first. The sync only guards against an operating-system crash between
     /// the rename and the disk's write-back, which matters for a farm's frames, not for a
     /// frame the client reads within milliseconds; it cost 14-18 ms of a 4 MB raw frame's
-    /// request on a loaded machine (session 11).
+    /// request on a loaded machine.
     pub fn transient() -> Self {
         Outputs { items: Vec::new(), transient: true }
     }

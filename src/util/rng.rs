@@ -1,6 +1,6 @@
 //! Counter-based random numbers: every random choice of a render is a hash of (seed, what,
 //! index), never a shared generator's state, so results do not depend on evaluation order or
-//! thread count (DEVELOPERS.md: same image on any thread count, any machine).
+//! thread count (same image on any thread count, any machine).
 
 /// SplitMix64 (Steele, Lea and Flood 2014): a tiny, well-mixed hash used as a counter-based RNG.
 #[inline]

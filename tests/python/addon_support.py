@@ -16,7 +16,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 BINARY = ROOT / "target" / "release" / ("cubist.exe" if sys.platform == "win32" else "cubist")
 
-# Blender writes its user configuration here instead of ~/.config/blender (TOOLCHAIN.md).
+# Blender writes its user configuration here instead of ~/.config/blender (BLENDER_USER_RESOURCES).
 # Set before anything imports bpy.
 os.environ.setdefault("BLENDER_USER_RESOURCES", tempfile.mkdtemp(prefix="cubist-blender-user-"))
 
@@ -104,7 +104,7 @@ def addon(bpy_module, cubist_binary):
 
 def new_scene(bpy, width=64, height=48, engine="CUBIST"):
     """An empty factory scene with a camera looking at a monkey and a cube, a sun, a grey
-    world, and colour management that round-trips 8-bit sRGB exactly (TOOLCHAIN.md)."""
+    world, and colour management that round-trips 8-bit sRGB exactly (Standard view transform)."""
     # Not read_factory_settings: it resets the preferences and so disables the add-on.
     bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
     scene = bpy.context.scene

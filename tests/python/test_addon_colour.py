@@ -1,4 +1,4 @@
-"""Colour management (issue 19) in headless Blender (bpy 5.0.1): with factory settings (the
+"""Colour management in headless Blender (bpy 5.0.1): with factory settings (the
 AgX view transform) F12 saves the renderer's own colours; a scene whose colour management the
 user set is left as set, and the Cubist panel warns and offers the fix; passes stay data."""
 

@@ -1,4 +1,4 @@
-"""Facets that follow the scene in Blender (issue 15 item 6): the panel's Facet Motion choice,
+"""Facets that follow the scene in Blender: the panel's Facet Motion choice,
 the settings it sends, and Render Animation with follow in headless Blender (bpy 5.0.1):
 each frame is its own `cubist` process carrying its facets from the layout frame's layout and
 follow data, saved beside the .blend, so a frame rendered alone (F12, a farm chunk on another

@@ -1,4 +1,4 @@
-"""The viewport's path in headless Blender (bpy 5.0.1, issue 14): what `view_update` does with a
+"""The viewport's path in headless Blender (bpy 5.0.1): what `view_update` does with a
 depsgraph (export when the content changed, settings from the panel and the view, a job to
 the session-wide `cubist serve`), the progressive images (1/4, 1/2, full) and their pixels
 against `cubist render` of the same exported scene and settings, a panel change re-running only

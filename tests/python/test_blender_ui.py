@@ -1,5 +1,5 @@
-"""The add-on in Blender's interactive UI, where F12 runs render() on the render-job thread
-(issue 12): a windowed Blender (Debian's 3.4.1) under Xvfb, driven by tests/blender_ui/driver.py
+"""The add-on in Blender's interactive UI, where F12 runs render() on the render-job thread:
+a windowed Blender (Debian's 3.4.1) under Xvfb, driven by tests/blender_ui/driver.py
 as a user: F12 with Lock Interface off and on, Render Animation with a moving camera and cube
 (static facets, then facets that follow and F12 on one frame alone), a frame away from the
 facet layout's frame, Esc during a render, colour management.

@@ -1,4 +1,4 @@
-"""The Cubist viewport (issue 14) in Blender's interactive UI: a windowed Blender (Debian's
+"""The Cubist viewport in Blender's interactive UI: a windowed Blender (Debian's
 3.4.1) under Xvfb, driven by tests/blender_ui/viewport_driver.py as a user would: Rendered
 shading in the factory scene's 3D view, a panel value changed, looking through the camera, F12
 with the scene unchanged, back to Solid, a binary that does not exist, and quitting Blender

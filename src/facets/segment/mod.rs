@@ -1,4 +1,4 @@
-//! Segment faceting (SPEC "Faceting", Segment; thesis 4.3.1, Fig. 4.5): the pre-render is
+//! Segment faceting (Segment; thesis 4.3.1, Fig. 4.5): the pre-render is
 //! segmented at several levels by normalized cuts, salient segments become quadrilateral
 //! facets drawn in ascending saliency over the level-1 segments.
 //!
@@ -80,7 +80,7 @@ pub fn auto_superpixels(width: u32, height: u32, max_segments: u32) -> usize {
 /// minutes on two cores). The default 5,30,120 at 8192 x 8192 is 1.6e9.
 pub const MAX_EIGEN_WORK: f64 = 4e9;
 
-/// A clear error up front instead of an hour-long segmentation (issue 18).
+/// A clear error up front instead of an hour-long segmentation.
 pub fn check_work(width: u32, height: u32, params: &SegmentParams) -> Result<()> {
     let max_n = params.segments.iter().copied().max().unwrap_or(1);
     let pixels = width as usize * height as usize;

@@ -1,4 +1,4 @@
-//! Segment selection, shape fitting and ordering (SPEC "Faceting", Segment; thesis 4.3.1 steps
+//! Segment selection, shape fitting and ordering (Segment; thesis 4.3.1 steps
 //! 2-4): a segment becomes a facet when its mean saliency reaches its level's threshold; its
 //! shape is the quadrilateral through its left-most, top-most, right-most and bottom-most
 //! pixels; facets are drawn in ascending mean saliency; uncovered pixels keep their level-1

@@ -1,4 +1,4 @@
-//! The imprecision stage (SPEC "Spatial imprecision"): each facet's centres, the point it is
+//! The imprecision stage: each facet's centres, the point it is
 //! aimed at and its new rays, within what a facet may show (the backdrop held, shifts
 //! bounded, the most salient vertices kept in view).
 

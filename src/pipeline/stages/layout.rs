@@ -1,4 +1,4 @@
-//! The faceting stage (SPEC "Faceting"): the facet layout computed from the pre-render, or
+//! The faceting stage: the facet layout computed from the pre-render, or
 //! loaded so every frame of an animation shares it, rasterised at the image's size.
 
 use crate::error::Result;

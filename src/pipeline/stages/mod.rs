@@ -1,4 +1,4 @@
-//! The render's stages (SPEC Fig. 4.1), each a function of plain values returning its output,
+//! The render's stages (thesis Fig. 4.1), each a function of plain values returning its output,
 //! with the key of exactly what it reads (which `cache::Run` keeps its output by):
 //!
 //! | stage | inputs | output |

@@ -1,4 +1,4 @@
-//! The pre-render (SPEC "Pipeline" step 1): the camera framed for the scene, then one trace of
+//! The pre-render: the camera framed for the scene, then one trace of
 //! the whole image into every buffer the later stages read. Rendering, facet inspection, the
 //! saliency map and face counting all start here.
 
@@ -92,7 +92,7 @@ pub fn prerender(
         }
         Shading::HitsOnly => None,
     };
-    // Issue 18: every light is evaluated at every sample; hours of work are refused up front.
+    // Bounded work: every light is evaluated at every sample; hours of work are refused up front.
     if let Some(rig) = &rig {
         let work = rig.lights.len() as u64 * trace.width as u64 * trace.height as u64 * trace.spp as u64;
         if work > crate::util::limits::MAX_LIGHT_SAMPLES {

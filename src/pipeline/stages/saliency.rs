@@ -1,4 +1,4 @@
-//! The saliency stage (SPEC "Mesh saliency"): mesh saliency of the meshes the pre-render hit,
+//! The saliency stage: mesh saliency of the meshes the pre-render hit,
 //! and the per-pixel saliency map read off the same samples (no second trace).
 
 use crate::error::Result;

@@ -95,7 +95,7 @@ pub fn deform(
 }
 
 /// `deform` of a primitive no frame deforms again: its own vectors are deformed, not copies
-/// (the same values; issue 16: a million triangles' vertices at load).
+/// (the same values; no copy of a million triangles' vertices at load).
 pub fn deform_owned(
     mut d: Deformable,
     weights: &[f32],

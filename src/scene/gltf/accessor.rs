@@ -182,7 +182,7 @@ pub(super) fn read_floats<const N: usize>(
     };
     let mut out = vec![[0.0f32; N]; count];
     if let Some(view) = acc.view() {
-        // Ranges checked above; large accessors decode in parallel (issue 16: a million
+        // Ranges checked above; large accessors decode in parallel (a million
         // triangles' vertices), each element alone, so the values are the same.
         let elem = cs * N;
         let (bytes, stride) = elements(&view, buffers, elem);
