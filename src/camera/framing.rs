@@ -755,6 +755,13 @@ fn probe_coverage(camera: &dyn Camera, accel: &Accel, w: u32, h: u32) -> Vec<f64
     probe(camera, accel, (w, h), |_, hit| if hit.is_some() { 1.0 } else { 0.0 })
 }
 
+/// A `columns`-wide probe of `camera` at the canvas's `aspect`: 1 where a pixel centre's ray
+/// hits geometry, else 0, with its width and height (the look report's stretch measure).
+pub fn probe_image(camera: &dyn Camera, accel: &Accel, aspect: f64, columns: u32) -> (Vec<f64>, u32, u32) {
+    let (w, h) = probe_size(aspect, columns);
+    (probe_coverage(camera, accel, w, h), w, h)
+}
+
 /// The share of a tiny image (`columns` wide, one ray per pixel centre) whose rays hit
 /// geometry: `compose`'s estimate of a candidate's subject fill. Deterministic (a hit count).
 /// With `guard`, 0 when the guard refuses the candidate.

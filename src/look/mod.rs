@@ -25,6 +25,7 @@
 //! - time: the render's wall time (all stages), and, with `time_size`, the median wall time of
 //!   `time_runs` renders at that size (one process, noisy: a benchmark is the reference).
 
+pub mod legibility;
 pub mod measures;
 pub mod odd;
 
@@ -71,6 +72,16 @@ pub struct LookRow {
     /// cues_final / cues_pre (1 when the pre-render shows none).
     pub cues_kept: f64,
     pub light: f64,
+    /// The subject's proportions against a pinhole view of it (`legibility::stretch`; 1 = the
+    /// same), None when one of them does not see it.
+    pub stretch: Option<f64>,
+    /// Median edge plane against median salient plane, by area (`legibility::hierarchy`).
+    pub hierarchy: Option<f64>,
+    /// Salient features kept whole in one plane, and how many there are.
+    pub whole: f64,
+    pub features: usize,
+    /// The share of the subject's outline crossed by planes or opened by the paint.
+    pub outline_broken: f64,
     /// Wall time of this render, milliseconds.
     pub time_ms: f64,
     /// Median wall time at the timing size, milliseconds, when asked.
@@ -97,6 +108,10 @@ pub struct Render<'a> {
     pub scene: &'a Scene,
     pub world: &'a World,
     pub vertex_saliency: &'a [Option<Arc<Vec<f32>>>],
+    /// The pre-render's per-pixel saliency map.
+    pub saliency_map: &'a [f32],
+    /// `legibility::stretch`, measured by the caller (it traces two probes).
+    pub stretch: Option<f64>,
     pub time_ms: f64,
 }
 
@@ -119,6 +134,9 @@ pub fn measure(r: &Render) -> LookRow {
         .collect();
     let min_px = ((LIGHT_MIN_SHARE * (w as f64) * (h as f64)) as usize).max(16);
     let (light, _) = measures::plane_light(r.map, &lum, min_px, LIGHT_RANGE, LIGHT_R2);
+    let subject: Vec<bool> = pre_cov.iter().map(|&c| c > 0.5).collect();
+    let salient = legibility::salient_pixels(r.saliency_map, &subject);
+    let features = legibility::features(&salient, w, h);
     LookRow {
         scene: r.scene_name.to_string(),
         camera: r.camera.to_string(),
@@ -133,6 +151,11 @@ pub fn measure(r: &Render) -> LookRow {
         cues_final,
         cues_kept: if cues_pre == 0 { 1.0 } else { cues_final as f64 / cues_pre as f64 },
         light,
+        stretch: r.stretch,
+        hierarchy: legibility::hierarchy(r.map, &salient),
+        whole: legibility::features_whole(r.map, &features),
+        features: features.len(),
+        outline_broken: legibility::outline_broken(r.map, &subject, &lum),
         time_ms: r.time_ms,
         time_big_ms: None,
     }
@@ -199,11 +222,11 @@ pub fn contact_sheet(rows: &[Vec<&RgbaImage>], thumb_width: u32, columns: usize)
 pub fn markdown(rows: &[LookRow]) -> String {
     let pct = |v: f64| format!("{:.1}", 100.0 * v);
     let mut s = String::from(
-        "| scene | facets | straight % | planes % | largest % | fill % | bbox % | ghost % | cues kept | light % | ms | ms (timing size) |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "| scene | facets | straight % | planes % | largest % | fill % | bbox % | ghost % | cues kept | light % | stretch | hierarchy | whole % (features) | outline broken % | ms | ms (timing size) |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for r in rows {
         s += &format!(
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {:.2} ({}/{}) | {} | {:.0} | {} |\n",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {:.2} ({}/{}) | {} | {} | {} | {} ({}) | {} | {:.0} | {} |\n",
             r.scene,
             r.facets,
             pct(r.straight),
@@ -216,6 +239,11 @@ pub fn markdown(rows: &[LookRow]) -> String {
             r.cues_final,
             r.cues_pre,
             pct(r.light),
+            r.stretch.map_or("-".into(), |v| format!("{v:.2}")),
+            r.hierarchy.map_or("-".into(), |v| format!("{v:.1}")),
+            pct(r.whole),
+            r.features,
+            pct(r.outline_broken),
             r.time_ms,
             r.time_big_ms.map_or("-".into(), |t| format!("{t:.0}")),
         );

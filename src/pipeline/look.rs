@@ -39,6 +39,12 @@ pub fn look(prep: &Prepared, settings: &Settings, scene_name: &str) -> Result<Lo
         rendered.aims.iter().map(|a| a.moved()).collect()
     };
     let saliency = crate::saliency::for_film(&prep.scene, &prep.world, &prep.saliency, &pre, &params.saliency)?;
+    let saliency_map = crate::saliency::map::saliency_map(&prep.world, &saliency, &pre);
+    let stretch = if params.facets.faceted() || params.framing.kind != crate::camera::CameraKind::Perspective {
+        look::legibility::stretch(&params.framing, &prep.world, &prep.accel)?
+    } else {
+        Some(1.0)
+    };
     let row = look::measure(&look::Render {
         scene_name,
         camera: &rendered.camera,
@@ -53,6 +59,8 @@ pub fn look(prep: &Prepared, settings: &Settings, scene_name: &str) -> Result<Lo
         scene: &prep.scene,
         world: &prep.world,
         vertex_saliency: &saliency.per_mesh,
+        saliency_map: &saliency_map,
+        stretch,
         time_ms,
     });
     Ok(Look { row, image: rendered.image })
