@@ -118,15 +118,18 @@ use super::fit::fit_depth;
 /// best ambiguity range (120-150 deg, section 5).
 pub const MAX_HALF_ANGLE: f64 = 75.0 * std::f64::consts::PI / 180.0;
 /// The half-angle caps step 6 tries in turn: the thesis's range first, then a wider wrap.
-pub const HALF_ANGLE_CAPS: [f64; 2] = [MAX_HALF_ANGLE, 85.0 * std::f64::consts::PI / 180.0];
+pub const HALF_ANGLE_CAPS: [f64; 1] = [12.0 * std::f64::consts::PI / 180.0];
 /// Default `fill` for `compose`: the scene's extent over the canvas's span, per axis.
 pub const COMPOSE_FILL: f64 = 0.94;
 /// The ratios between the horizontal and vertical scale per pixel (angle or length per pixel)
 /// step 4 may allow, least distortion first (step 5 picks one per scene).
-pub const ANISOTROPY_STEPS: [f64; 4] = [1.0, 1.5, 2.0, 2.5];
+pub const ANISOTROPY_STEPS: [f64; 1] = [1.0];
 /// The share of the canvas a composition should fill (ART.md: the subject occupies most of
 /// the picture); step 5 takes the least distortion that reaches it.
 pub const FILL_GOAL: f64 = 0.5;
+/// The widest span a canvas may be widened to so both axes have the same scale per pixel: a
+/// thin subject keeps its proportions with empty canvas beside it.
+pub const ISO_WIDEST: f64 = 150.0 * std::f64::consts::PI / 180.0;
 /// Centring passes of step 2.
 const CENTRING_PASSES: usize = 2;
 /// Candidate distances of C behind its closest place, in scene radii (step 5).
@@ -292,7 +295,7 @@ fn spans_seen(
         if sx > anisotropy * height {
             height = sx / anisotropy;
         } else if height > anisotropy * sx {
-            angle_x = ((height / anisotropy) * aspect / r).min(widest);
+            angle_x = ((height / anisotropy) * aspect / r).min(ISO_WIDEST);
         }
         return Composition { centre, angle_x, angle_y: 0.0, height, fill: 0.0, rank: usize::MAX, candidate: 0 };
     }
@@ -302,7 +305,7 @@ fn spans_seen(
     if sx > anisotropy * angle_y {
         angle_y = sx / anisotropy;
     } else if angle_y > anisotropy * sx {
-        angle_x = (angle_y / anisotropy * aspect).min(widest);
+        angle_x = (angle_y / anisotropy * aspect).min(ISO_WIDEST);
     }
     Composition { centre: c, angle_x, angle_y, height: 0.0, fill: 0.0, rank: usize::MAX, candidate: 0 }
 }

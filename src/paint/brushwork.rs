@@ -35,7 +35,7 @@ use crate::util::rng::{splitmix64, sub_seed, unit_f64};
 
 const SALT: u64 = 0x6272_7573_6877_6f72; // "brushwor"
 /// Grid spacing of stroke anchors, in stroke widths (strokes side by side, overlapping).
-pub const SPACING: f32 = 1.5;
+pub const SPACING: f32 = 1.8;
 /// Largest seeded turn of a plane's strokes off the direction across its ramp, degrees.
 pub const PLANE_TURN_DEG: f32 = 20.0;
 /// Largest turn of one stroke off its plane's direction, degrees.
@@ -43,9 +43,9 @@ pub const STROKE_TURN_DEG: f32 = 6.0;
 /// Largest relative change of a stroke's value.
 pub const VALUE_JITTER: f32 = 0.16;
 /// Value change across the bristle streaks (peak to peak).
-pub const BRISTLE_VALUE: f32 = 0.14;
+pub const BRISTLE_VALUE: f32 = 0.08;
 /// Bristle streaks across a stroke (lattice cells of the 1-D noise).
-pub const BRISTLES: usize = 4;
+pub const BRISTLES: usize = 3;
 /// The fine layer paints where the coarse layer strays from the picture by more than this
 /// (mean difference of the square root of luminance, roughly perceptual).
 pub const FINE_THRESHOLD: f32 = 0.025;

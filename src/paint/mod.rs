@@ -422,6 +422,9 @@ impl<'a> PaintContext<'a> {
     }
 }
 
+/// How far the ochre palette turns a plane towards its grey or green (`palette::PlaneHues`).
+pub const PLANE_HUE_STRENGTH: f32 = 0.35;
+
 /// One painterly effect. `apply` must be deterministic (no thread-dependent order) and must
 /// keep the canvas's alpha conventions (see the module doc).
 pub trait Effect: Send + Sync {
@@ -516,7 +519,7 @@ impl PaintParams {
                         p.border_width, p.border_strength, p.scale, p.border_style, p.seed, p.plane_light
                     ),
                     Step::Gradients => format!("{} {}", p.gradients, p.seed),
-                    Step::Palette => format!("{:?} {:?}", p.palette_image, p.palette),
+                    Step::Palette => format!("{:?} {:?} {}", p.palette_image, p.palette, p.seed),
                     Step::Quantise => format!("{}", p.colors),
                     Step::PlaneLight => format!("{} {}", p.plane_light, p.seed),
                     Step::Brushwork => {
@@ -581,7 +584,14 @@ impl Painter {
                 Step::Gradients => Box::new(gradients::Gradients { fraction: p.gradients, seed: p.seed }),
                 Step::Palette => match (&p.palette_image, palette::ramp(p.palette)) {
                     (Some(path), _) => Box::new(palette::ColourTransfer::from_image(path)?),
-                    (None, Some(ramp)) => Box::new(palette::ColourTransfer::from_ramp(ramp)),
+                    (None, Some(ramp)) => {
+                        let mut t = palette::ColourTransfer::from_ramp(ramp);
+                        // The ochre palette of 1910-11 is not one hue: greys and greens too.
+                        if p.palette == Palette::Ochre {
+                            t.hues = Some(palette::PlaneHues { strength: PLANE_HUE_STRENGTH, seed: p.seed });
+                        }
+                        Box::new(t)
+                    }
                     (None, None) => unreachable!("chain() leaves the palette out without one"),
                 },
                 Step::Quantise => Box::new(quantise::Quantise { colors: p.colors }),

@@ -144,13 +144,53 @@ pub struct ColourTransfer {
     /// and spreading the excess evenly (global contrast-limited equalisation, Pizer et al.
     /// 1987) bounds that amplification and keeps the mapping monotone.
     pub contrast_limit: f64,
+    /// Cool greys and grey-greens among the ochres, plane by plane (`PlaneHues`); None: the
+    /// reference's colours only.
+    pub hues: Option<PlaneHues>,
+}
+
+/// A narrow palette that is not one hue: each plane keeps the value the reference gives it
+/// and is turned, by a seeded choice, towards a cool grey or a grey-green (the 1910-11
+/// canvases' greys and greens among the ochres), or left in the reference's hue.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlaneHues {
+    /// How far a turned plane goes towards its hue, in [0, 1].
+    pub strength: f32,
+    pub seed: u64,
+}
+
+/// The plane hues' shares: cool grey, then grey-green; the rest keep the reference's hue.
+pub const COOL_GREY_SHARE: f64 = 0.25;
+pub const GREY_GREEN_SHARE: f64 = 0.2;
+/// The hues, as linear RGB directions of luminance 1.
+const COOL_GREY: [f32; 3] = [0.93, 1.0, 1.1];
+const GREY_GREEN: [f32; 3] = [0.92, 1.04, 0.86];
+const HUES_SALT: u64 = 0x6875_6573_3130_3131; // "hues1011"
+
+impl PlaneHues {
+    /// The colour `c` of a pixel of plane `facet`, turned towards the plane's hue at the same
+    /// luminance.
+    pub fn turn(&self, c: Vec3, facet: u32) -> Vec3 {
+        let u = crate::util::rng::unit_f64(crate::util::rng::splitmix64(
+            crate::util::rng::sub_seed(self.seed, HUES_SALT) ^ crate::util::rng::splitmix64(facet as u64),
+        ));
+        let hue = if u < COOL_GREY_SHARE {
+            Vec3::from(COOL_GREY)
+        } else if u < COOL_GREY_SHARE + GREY_GREEN_SHARE {
+            Vec3::from(GREY_GREEN)
+        } else {
+            return c;
+        };
+        let target = hue / luminance(hue) * luminance(c);
+        c.lerp(target, self.strength)
+    }
 }
 
 impl ColourTransfer {
     /// A built-in palette: its ramp sampled at `LEVELS` quantiles.
     pub fn from_ramp(ramp: &Ramp) -> ColourTransfer {
         let levels = (0..LEVELS).map(|k| ramp.at((k as f32 + 0.5) / LEVELS as f32)).collect();
-        ColourTransfer { levels, contrast_limit: CONTRAST_LIMIT }
+        ColourTransfer { levels, contrast_limit: CONTRAST_LIMIT, hues: None }
     }
 
     /// A painting (PNG or JPEG, any size); fully transparent pixels are not part of it.
@@ -192,7 +232,7 @@ impl ColourTransfer {
         order.par_sort_unstable();
         let sorted: Vec<Vec3> = order.iter().map(|k| colours[(*k & 0xffff_ffff) as usize]).collect();
         let levels = choose_levels(&sorted, LEVELS);
-        Ok(ColourTransfer { levels, contrast_limit: CONTRAST_LIMIT })
+        Ok(ColourTransfer { levels, contrast_limit: CONTRAST_LIMIT, hues: None })
     }
 
     /// The reference's colours, darkest first.
@@ -209,7 +249,7 @@ impl Effect for ColourTransfer {
     /// Pixel of rank k among N takes the level at quantile (k + 1/2) / N, ranks counted in
     /// the contrast-limited histogram of `StableKeys` (luminance against a robust top, not
     /// the brightest pixel); pixels tied on luminance share their group's middle rank.
-    fn apply(&self, canvas: &mut Canvas<'_>, _ctx: &PaintContext) -> Result<()> {
+    fn apply(&self, canvas: &mut Canvas<'_>, ctx: &PaintContext) -> Result<()> {
         let coverage = super::Coverage(canvas.coverage.as_deref());
         let lum: Vec<f32> = canvas
             .px
@@ -220,9 +260,11 @@ impl Effect for ColourTransfer {
         // `level_indices`, each pixel's level written as it is looked up (no index buffer).
         let Some((keys, table)) = self.keys_and_levels(&lum) else { return Ok(()) };
         let levels = &self.levels;
-        canvas.px.par_iter_mut().zip(&keys.keys).for_each(|(p, &k)| {
+        let hues = self.hues.filter(|_| ctx.facets.is_some());
+        canvas.px.par_iter_mut().zip(&keys.keys).enumerate().for_each(|(i, (p, &k))| {
             if k != UNPAINTED {
-                *p = levels[table[k as usize] as usize].extend(p.w);
+                let c = levels[table[k as usize] as usize];
+                *p = hues.map_or(c, |h| h.turn(c, ctx.facet(i))).extend(p.w);
             }
         });
         Ok(())

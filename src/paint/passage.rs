@@ -39,7 +39,7 @@ pub const FLOOR: f32 = 0.45;
 /// Relative value difference (|a - b| / max) at which a line has its full strength.
 pub const FULL_CONTRAST: f32 = 0.25;
 /// Lost and found: along the edges a line's strength varies between this share and 1 ...
-pub const LOST: f32 = 0.25;
+pub const LOST: f32 = 0.05;
 /// ... over about this share of the image's size sqrt(w h).
 pub const LOST_PERIOD: f32 = 0.05;
 /// Largest share of the other side's colour a pixel takes on an edge whose line is lost.

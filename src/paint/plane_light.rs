@@ -11,7 +11,8 @@
 use glam::Vec2;
 use rayon::prelude::*;
 
-use super::planes::Plane;
+use super::planes::{Plane, smoothstep};
+use crate::film::PixelHit;
 use super::{Canvas, Effect, PaintContext};
 use crate::error::Result;
 
@@ -19,6 +20,14 @@ use crate::error::Result;
 pub const LIGHT: f32 = 0.25;
 /// ... and the dark end darkened by this one.
 pub const DARK: f32 = 0.85;
+
+/// The composition's light (the painters' lit central pyramid or oval, calm corners): at the
+/// subject's centre the plane's value is raised by this share of `amount` ...
+pub const CENTRE_LIGHT: f32 = 0.16;
+/// ... and at the canvas's corners lowered by this one, where the ramps also calm down
+/// (`CALM`: the share of the ramp's amount lost there).
+pub const EDGE_DARK: f32 = 0.22;
+pub const CALM: f32 = 0.6;
 
 /// A light-to-dark ramp across every facet.
 pub struct PlaneLight {
@@ -38,6 +47,50 @@ impl PlaneLight {
     pub fn at(&self, plane: &Plane, p: Vec2) -> f32 {
         self.factor(plane.ramp(p))
     }
+
+    /// The factor at `p` of `plane` within the composition: `r` = the distance from the
+    /// subject's centre over the canvas's half diagonal (`Oval::r`). The ramp calms towards
+    /// the edges and the value follows the central light.
+    pub fn composed(&self, plane: &Plane, p: Vec2, r: f32) -> f32 {
+        let edge = smoothstep(0.35, 1.1, r);
+        let ramp = 1.0 + self.amount * (1.0 - CALM * edge) * (LIGHT * (1.0 - plane.ramp(p)) - DARK * plane.ramp(p));
+        ramp * (1.0 + self.amount * (CENTRE_LIGHT * (1.0 - smoothstep(0.0, 0.7, r)) - EDGE_DARK * edge))
+    }
+}
+
+/// Where the composition's light is centred: the subject's centre (the centroid of the pixels
+/// showing geometry; the canvas's centre without any), and the canvas's half diagonal.
+#[derive(Clone, Copy, Debug)]
+pub struct Oval {
+    pub centre: Vec2,
+    pub half_diagonal: f32,
+}
+
+impl Oval {
+    pub fn of(width: usize, height: usize, hits: &[PixelHit]) -> Oval {
+        let half_diagonal = 0.5 * ((width * width + height * height) as f32).sqrt().max(1.0);
+        let (mut sx, mut sy, mut n) = (0u64, 0u64, 0u64);
+        if hits.len() == width * height {
+            for (i, h) in hits.iter().enumerate() {
+                if h.is_hit() {
+                    sx += (i % width) as u64;
+                    sy += (i / width) as u64;
+                    n += 1;
+                }
+            }
+        }
+        let centre = if n > 0 {
+            Vec2::new(sx as f32 / n as f32 + 0.5, sy as f32 / n as f32 + 0.5)
+        } else {
+            Vec2::new(width as f32 / 2.0, height as f32 / 2.0)
+        };
+        Oval { centre, half_diagonal }
+    }
+
+    /// The distance of `p` from the centre over the half diagonal.
+    pub fn r(&self, p: Vec2) -> f32 {
+        (p - self.centre).length() / self.half_diagonal
+    }
 }
 
 impl Effect for PlaneLight {
@@ -45,19 +98,26 @@ impl Effect for PlaneLight {
         "plane light"
     }
 
+    fn reads_hits(&self) -> bool {
+        true
+    }
+
     fn apply(&self, canvas: &mut Canvas<'_>, ctx: &PaintContext) -> Result<()> {
         // Unfaceted: there is no plane to light (as there is no facet border).
         let Some(facets) = ctx.facets else { return Ok(()) };
         let w = canvas.width as usize;
         let planes = ctx.planes(canvas.width, canvas.pixel_count(), self.seed);
+        let oval = Oval::of(w, canvas.height as usize, ctx.hits);
         let factor = |x: usize, y: usize| {
-            self.at(&planes[facets.ids[y * w + x] as usize], Vec2::new(x as f32 + 0.5, y as f32 + 0.5))
+            let p = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
+            self.composed(&planes[facets.ids[y * w + x] as usize], p, oval.r(p))
         };
         if ctx.kept_across_chains() {
             // A session keeps each pixel's factor (it reads the planes and the facet map):
             // a paint-only change multiplies by it.
             let n = canvas.pixel_count();
-            let key = [self.amount.to_bits() as u64, self.seed, w as u64, n as u64];
+            let centre = ((oval.centre.x.to_bits() as u64) << 32) | oval.centre.y.to_bits() as u64;
+            let key = [self.amount.to_bits() as u64, self.seed ^ centre, w as u64, n as u64];
             let f =
                 ctx.factors(self.name(), key, false, || (0..n).into_par_iter().map(|i| factor(i % w, i / w)).collect());
             canvas.scale_painted(|x, y| f[y * w + x]);

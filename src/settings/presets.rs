@@ -128,9 +128,13 @@ impl Preset {
                 // Our look: planes, composition, the backdrop kept still; the
                 // thesis's discontinuity 200 at 1000 px, bold borders, a painter's palette.
                 planes_look(s);
-                s.discontinuity = 200.0;
-                s.border_width = 12.0;
-                s.border_strength = 0.85;
+                // Fewer, larger planes away from the salient parts (a hierarchy), re-aimed
+                // less, so the subject keeps its cues; firm, narrow joins.
+                s.planes = 100;
+                s.plane_detail = 12.0;
+                s.discontinuity = 110.0;
+                s.border_width = 7.0;
+                s.border_strength = 0.95;
                 // Passage draws the silhouettes (no halo); the planes' own ramps replace the
                 // corner gradients.
                 s.silhouette_width = 0.0;
@@ -142,7 +146,9 @@ impl Preset {
                 // Each plane lit on its own, passage, brushwork.
                 s.plane_light = 0.7;
                 s.border_style = BorderStyle::Passage;
-                s.brushwork = 0.8;
+                s.brushwork = 0.85;
+                s.stroke_length = 30.0;
+                s.stroke_width = 8.0;
                 s.canvas_grain = 0.5;
             }
             Preset::Braque => {

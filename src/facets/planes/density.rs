@@ -49,8 +49,11 @@ fn blur(v: &mut [f64], cols: usize, rows: usize, r: usize) {
 /// parts: a face, a hand), the subject's presence (planes over the subject rather than the
 /// backdrop), and nearness to the subject's centre (calm edges and corners).
 const W_SALIENCY: f64 = 0.55;
-const W_SUBJECT: f64 = 0.25;
-const W_CENTRE: f64 = 0.20;
+const W_SUBJECT: f64 = 0.15;
+const W_CENTRE: f64 = 0.30;
+/// The salient features the planes keep whole (`Cues::protect`): the cells whose own
+/// saliency is in this top share of the subject's cells.
+const PROTECT_SHARE: f64 = 0.04;
 /// Steps of the density between 1 and `detail` (see `Density::new`).
 const LEVELS: f64 = 32.0;
 
@@ -79,6 +82,9 @@ pub struct Cues {
     pub rows: usize,
     /// round(D LEVELS) per grid cell, in 0..=LEVELS.
     pub steps: Vec<f64>,
+    /// 1 on the cells of the salient features (an eye, a nose, a handle: the most salient
+    /// cells of the subject, widened by a cell), else 0: the split keeps its lines off them.
+    pub protect: Vec<f64>,
 }
 
 impl Cues {
@@ -123,8 +129,9 @@ impl Cues {
             }
         }
         let diag = ((columns * columns + rows * rows) as f64).sqrt();
+        let protect = salient_cells(&sal, &cov, columns, rows);
         blur(&mut cov, columns, rows, (0.04 * diag).round() as usize);
-        blur(&mut sal, columns, rows, (0.02 * diag).round() as usize);
+        blur(&mut sal, columns, rows, (0.012 * diag).round() as usize);
         let smax = sal.iter().copied().fold(0.0, f64::max);
         if smax > 0.0 {
             sal.iter_mut().for_each(|s| *s /= smax);
@@ -153,7 +160,7 @@ impl Cues {
                 (d.clamp(0.0, 1.0) * LEVELS).round()
             })
             .collect();
-        Cues { columns, rows, steps }
+        Cues { columns, rows, steps, protect }
     }
 
     /// The site density at `detail`: 1 + (detail - 1) D per cell.
@@ -161,6 +168,34 @@ impl Cues {
         let values = self.steps.iter().map(|&q| 1.0 + (detail - 1.0).max(0.0) * q / LEVELS).collect();
         Density { columns: self.columns, rows: self.rows, values }
     }
+}
+
+/// The salient features on the grid (`Cues::protect`) from each cell's mean saliency and
+/// coverage before blurring: the subject's cells (half covered or more) in the top
+/// `PROTECT_SHARE` by saliency, widened by one cell. Ties at the cut are all in.
+fn salient_cells(sal: &[f64], cov: &[f64], columns: usize, rows: usize) -> Vec<f64> {
+    let mut values: Vec<f64> = sal.iter().zip(cov).filter(|(s, c)| **c >= 0.5 && **s > 0.0).map(|(s, _)| *s).collect();
+    let mut out = vec![0.0; sal.len()];
+    if values.is_empty() {
+        return out;
+    }
+    let k = ((values.len() as f64 * (1.0 - PROTECT_SHARE)) as usize).min(values.len() - 1);
+    let (_, cut, _) = values.select_nth_unstable_by(k, f64::total_cmp);
+    let cut = *cut;
+    for y in 0..rows {
+        for x in 0..columns {
+            let i = y * columns + x;
+            if cov[i] >= 0.5 && sal[i] > 0.0 && sal[i] >= cut {
+                for (dx, dy) in [(0i64, 0i64), (-1, 0), (1, 0), (0, -1), (0, 1)] {
+                    let (nx, ny) = (x as i64 + dx, y as i64 + dy);
+                    if nx >= 0 && ny >= 0 && (nx as usize) < columns && (ny as usize) < rows {
+                        out[ny as usize * columns + nx as usize] = 1.0;
+                    }
+                }
+            }
+        }
+    }
+    out
 }
 
 #[cfg(test)]
@@ -179,6 +214,10 @@ mod tests {
         assert!(at(20, 60) > at(140, 60) + 2.0, "{} {}", at(20, 60), at(140, 60));
         // Centre beats corner at equal saliency.
         assert!(at(150, 60) > at(159, 0));
+        // The features kept whole: salient cells of the subject only.
+        let cov = Cues::new(w, h, &|i| (i % w as usize) < 100, Some(&sal), );
+        assert!(cov.protect.iter().any(|&p| p == 1.0));
+        assert!(cov.protect.iter().enumerate().all(|(k, &p)| p == 0.0 || k % cov.columns < 90), "features off the subject");
         // Detail 1: uniform.
         let u = Density::new(w, h, &|i| i % 2 == 0, Some(&sal), 1.0);
         assert!(u.values.iter().all(|&v| v == 1.0));

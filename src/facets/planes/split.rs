@@ -33,7 +33,12 @@ const DIRECTIONS: [(f64, f64); 7] =
 /// Jitter of a direction, degrees either way.
 const JITTER_DEG: f64 = 8.0;
 /// Seeded direction candidates per split.
-const RANDOM_CANDIDATES: usize = 4;
+const RANDOM_CANDIDATES: usize = 6;
+/// Score lost by a line crossing the salient features (`Weights::protect`), at
+/// `PROTECT_CELLS` cells crossed and more: a feature stays whole in one plane unless no
+/// other line divides the plane.
+const PROTECT_PENALTY: f64 = 1.6;
+const PROTECT_CELLS: f64 = 2.0;
 /// Score bonus of a line along the subject's outline (the score's other terms are in [0, 2.5]).
 const OUTLINE_BONUS: f64 = 0.6;
 
@@ -51,6 +56,9 @@ pub struct Weights<'a> {
     pub columns: usize,
     pub rows: usize,
     pub values: &'a [f64],
+    /// 1 on the cells of the salient features (`density::Cues::protect`), which lines avoid;
+    /// empty: none.
+    pub protect: &'a [f64],
     /// Canvas size, pixels.
     pub width: f64,
     pub height: f64,
@@ -61,6 +69,29 @@ impl Weights<'_> {
         let x = ((p.x / self.width * self.columns as f64) as usize).min(self.columns - 1);
         let y = ((p.y / self.height * self.rows as f64) as usize).min(self.rows - 1);
         self.values[y * self.columns + x]
+    }
+
+    /// The protected cells the segment from `a` to `b` (pixel units) crosses, sampled at half
+    /// a cell.
+    fn crossed(&self, a: DVec2, b: DVec2) -> f64 {
+        if self.protect.is_empty() {
+            return 0.0;
+        }
+        let cell = (self.width / self.columns as f64).min(self.height / self.rows as f64);
+        let n = (((b - a).length() / (0.5 * cell)).ceil() as usize).max(1);
+        let mut last = usize::MAX;
+        let mut count = 0.0;
+        for k in 0..=n {
+            let p = a + (b - a) * (k as f64 / n as f64);
+            let x = ((p.x / self.width * self.columns as f64) as usize).min(self.columns - 1);
+            let y = ((p.y / self.height * self.rows as f64) as usize).min(self.rows - 1);
+            let i = y * self.columns + x;
+            if i != last {
+                count += self.protect[i];
+                last = i;
+            }
+        }
+        count
     }
 
     /// (weight, weighted centroid) of `poly` (pixel units).
@@ -188,7 +219,7 @@ pub fn split(
             break;
         }
         splits += 1;
-        if let Some((a, b)) = best_cut(&leaves[i], runs, min_width, seed, splits, &mut ends, snap) {
+        if let Some((a, b)) = best_cut(&leaves[i], weights, runs, min_width, seed, splits, &mut ends, snap) {
             leaves[i].poly.clear();
             live += 1;
             for q in [a, b] {
@@ -263,8 +294,10 @@ fn snapped(poly: &[DVec2], e: (DVec2, DVec2), ends: &[DVec2], snap: f64) -> Opti
     ((b - a).length() > 2.0 * snap).then_some((a, b))
 }
 
+#[allow(clippy::too_many_arguments)]
 fn best_cut(
     leaf: &Leaf,
+    weights: &Weights,
     runs: &[Run],
     min_width: f64,
     seed: u64,
@@ -334,9 +367,12 @@ fn best_cut(
         // Trapezoids and quadrilaterals over triangles: a field of triangles reads as
         // shattered glass, not as planes.
         let sides = 0.25 * ((a.len() >= 4) as u8 + (b.len() >= 4) as u8) as f64;
-        let score = balance + compact + sides + bonus * (balance > 0.2) as u8 as f64;
+        let e = chord(poly, p, d);
+        let crossed = e.map_or(0.0, |(e0, e1)| weights.crossed(e0, e1));
+        let score = balance + compact + sides + bonus * (balance > 0.2) as u8 as f64
+            - PROTECT_PENALTY * (crossed / PROTECT_CELLS).min(1.0);
         if best.as_ref().is_none_or(|(s, _, _, _)| score > *s) {
-            best = Some((score, a, b, chord(poly, p, d)));
+            best = Some((score, a, b, e));
         }
     }
     best.map(|(_, a, b, e)| {
@@ -367,7 +403,7 @@ mod tests {
     #[test]
     fn planes_tile_the_canvas_and_respect_the_width() {
         let values = vec![1.0; 40 * 30];
-        let wts = Weights { columns: 40, rows: 30, values: &values, width: 400.0, height: 300.0 };
+        let wts = Weights { columns: 40, rows: 30, values: &values, protect: &[], width: 400.0, height: 300.0 };
         let leaves = split(&wts, &[], 60, 8.0, 0.08 * 120000.0, 3);
         assert!(leaves.len() >= 50 && leaves.len() <= 61, "{}", leaves.len());
         let total: f64 = leaves.iter().map(|l| signed_area(l).abs()).sum();
@@ -381,7 +417,7 @@ mod tests {
     fn planes_are_smaller_where_the_density_is_higher() {
         // Density 8 on the left half, 1 on the right.
         let values: Vec<f64> = (0..40 * 30).map(|i| if i % 40 < 20 { 8.0 } else { 1.0 }).collect();
-        let wts = Weights { columns: 40, rows: 30, values: &values, width: 400.0, height: 300.0 };
+        let wts = Weights { columns: 40, rows: 30, values: &values, protect: &[], width: 400.0, height: 300.0 };
         let leaves = split(&wts, &[], 80, 4.0, 1e9, 1);
         let left = leaves.iter().filter(|l| centroid(l).x < 200.0).count();
         assert!(left > 2 * (leaves.len() - left), "{left} of {}", leaves.len());
@@ -392,7 +428,7 @@ mod tests {
         // Seeded cuts end on earlier ends near them: any two distinct corners of the planes are
         // at least the snap distance apart (an end nearer would have moved onto the other).
         let values: Vec<f64> = (0..40 * 30).map(|i| 1.0 + ((i * 7919) % 13) as f64).collect();
-        let wts = Weights { columns: 40, rows: 30, values: &values, width: 640.0, height: 480.0 };
+        let wts = Weights { columns: 40, rows: 30, values: &values, protect: &[], width: 640.0, height: 480.0 };
         let min_width = 16.0;
         let leaves = split(&wts, &[], 150, min_width, 0.08 * 640.0 * 480.0, 5);
         let mut corners: Vec<DVec2> = leaves.iter().flatten().copied().collect();
@@ -413,11 +449,29 @@ mod tests {
     #[test]
     fn an_outline_run_becomes_a_cut() {
         let values = vec![1.0; 40 * 30];
-        let wts = Weights { columns: 40, rows: 30, values: &values, width: 400.0, height: 300.0 };
+        let wts = Weights { columns: 40, rows: 30, values: &values, protect: &[], width: 400.0, height: 300.0 };
         // A long diagonal run through the canvas: some plane edge lies along it.
         let run = Run { a: DVec2::new(100.0, 50.0), b: DVec2::new(300.0, 250.0) };
         let leaves = split(&wts, &[run], 4, 8.0, 1e9, 1);
         let on_line = |p: DVec2| ((p - run.a).perp_dot((run.b - run.a).normalize())).abs() < 1e-6;
         assert!(leaves.iter().any(|l| l.iter().filter(|p| on_line(**p)).count() >= 2));
+    }
+
+    #[test]
+    fn lines_keep_off_the_salient_features() {
+        // A salient blob of 4 x 4 cells in the middle: with it protected, fewer planes share it.
+        let values = vec![1.0; 40 * 30];
+        let blob = |i: usize| (18..22).contains(&(i % 40)) && (13..17).contains(&(i / 40));
+        let protect: Vec<f64> = (0..40 * 30).map(|i| blob(i) as u8 as f64).collect();
+        let sharing = |protect: &[f64]| {
+            let wts = Weights { columns: 40, rows: 30, values: &values, protect, width: 400.0, height: 300.0 };
+            let leaves = split(&wts, &[], 40, 8.0, 1e9, 7);
+            let inside = |l: &Vec<DVec2>| {
+                (180..220).step_by(4).any(|x| (130..170).step_by(4).any(|y| contains(l, DVec2::new(x as f64 + 0.5, y as f64 + 0.5))))
+            };
+            leaves.iter().filter(|l| inside(l)).count()
+        };
+        let (free, kept) = (sharing(&[]), sharing(&protect));
+        assert!(kept < free, "planes over the feature: {kept} protected, {free} not");
     }
 }
