@@ -280,10 +280,22 @@ impl<'a> PaintContext<'a> {
         let n = pixels;
         let ids = self.facets.map(|f| &f.ids[..]).filter(|d| d.len() == n);
         let hits = (self.hits.len() == n).then_some(self.hits);
+        let open = match (ids, hits) {
+            (Some(ids), Some(hits)) => open_planes(ids, hits, self.facet_count()),
+            _ => Vec::new(),
+        };
         let r: std::sync::Arc<Vec<u64>> = std::sync::Arc::new(
             (0..n)
                 .into_par_iter()
-                .map(|i| ((ids.map_or(0, |d| d[i]) as u64) << 32) | hits.map_or(0, |h| h[i].object) as u64)
+                .map(|i| {
+                    let f = ids.map_or(0, |d| d[i]);
+                    let object = if open.get(f as usize).copied().unwrap_or(false) {
+                        OPEN_REGION
+                    } else {
+                        hits.map_or(0, |h| h[i].object)
+                    };
+                    ((f as u64) << 32) | object as u64
+                })
                 .collect(),
         );
         if self.inputs.keep
@@ -420,6 +432,34 @@ impl<'a> PaintContext<'a> {
         self.facets
             .map_or(1, |f| (f.facet_count as usize).max(f.ids.iter().copied().max().map_or(0, |m| m as usize + 1)))
     }
+}
+
+/// The object part of the region of a plane that spans figure and ground (`open_planes`).
+const OPEN_REGION: u32 = u32::MAX - 1;
+/// A plane spans figure and ground when each has at least this share of its pixels.
+pub const OPEN_MIN_SHARE: f64 = 0.15;
+
+/// The planes that span figure and ground (passage: the planes faceting leaves some whole
+/// across the outline): each side holds at least `OPEN_MIN_SHARE` of the plane. Their pixels
+/// are one region, so strokes, light and joins treat the plane as one and the outline opens
+/// inside it.
+fn open_planes(ids: &[u32], hits: &[PixelHit], count: usize) -> Vec<bool> {
+    let mut on = vec![(0u64, 0u64); count];
+    for (&f, h) in ids.iter().zip(hits) {
+        if let Some(c) = on.get_mut(f as usize) {
+            if h.is_hit() {
+                c.0 += 1;
+            } else {
+                c.1 += 1;
+            }
+        }
+    }
+    on.iter()
+        .map(|&(a, b)| {
+            let t = (a + b) as f64;
+            t > 0.0 && a as f64 >= OPEN_MIN_SHARE * t && b as f64 >= OPEN_MIN_SHARE * t
+        })
+        .collect()
 }
 
 /// How far the ochre palette turns a plane towards its grey or green (`palette::PlaneHues`).

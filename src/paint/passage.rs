@@ -244,21 +244,13 @@ impl Effect for Passage {
         if w == 0 || h == 0 || !(md > 0.0) {
             return Ok(());
         }
-        let ids = ctx.facets.map(|f| &f.ids[..]);
         // Regions (facet << 32 | object): ordered by (facet, object), the tie-break when both
-        // sides match in value.
-        // (A one-off render reads the facet ids and hits instead: no regions buffer held.)
-        let regions = ctx.inputs_kept().then(|| ctx.regions(w * h));
-        let hits = (ctx.hits.len() == w * h).then_some(ctx.hits);
-        let ids = ids.filter(|d| d.len() == w * h);
-        let key = |i: usize| match &regions {
-            Some(r) => r[i],
-            None => ((ids.map_or(0, |d| d[i]) as u64) << 32) | hits.map_or(0, |o| o[i].object) as u64,
-        };
-        let same = |i: usize, j: usize| match &regions {
-            Some(r) => r[i] == r[j],
-            None => ids.is_none_or(|d| d[i] == d[j]) && hits.is_none_or(|o| o[i].object == o[j].object),
-        };
+        // sides match in value. The same regions the edges are found in (`PaintContext::regions`:
+        // a plane open across the outline is one region).
+        let ids = ctx.facets.map(|f| &f.ids[..]).filter(|d| d.len() == w * h);
+        let regions = ctx.regions(w * h);
+        let key = |i: usize| regions[i];
+        let same = |i: usize, j: usize| regions[i] == regions[j];
         let edges = ctx.edges(w as u32, h as u32, md);
         let dist = &edges.dist;
         // The first run over these edges (a facet or camera change) keeps no geometry: only

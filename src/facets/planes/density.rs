@@ -48,9 +48,9 @@ fn blur(v: &mut [f64], cols: usize, rows: usize, r: usize) {
 /// Weights of the three cues in the density (they sum to 1): mesh saliency (the important
 /// parts: a face, a hand), the subject's presence (planes over the subject rather than the
 /// backdrop), and nearness to the subject's centre (calm edges and corners).
-const W_SALIENCY: f64 = 0.55;
-const W_SUBJECT: f64 = 0.15;
-const W_CENTRE: f64 = 0.30;
+const W_SALIENCY: f64 = 0.5;
+const W_SUBJECT: f64 = 0.3;
+const W_CENTRE: f64 = 0.2;
 /// The salient features the planes keep whole (`Cues::protect`): the cells whose own
 /// saliency is in this top share of the subject's cells.
 const PROTECT_SHARE: f64 = 0.04;

@@ -214,6 +214,12 @@ pub fn layout_prepared(input: &PlanesInput, params: &PlanesParams, prep: &Prepar
                     piece.push(clipped[0]);
                 }
             }
+            // Passage: some planes the outline crosses stay whole across it, so the figure
+            // opens into the ground there (never at a salient feature, never for a piece that
+            // is most of its plane).
+            if area.abs() >= min_piece && open_across(cell, area.abs(), &weights, params.seed, k) {
+                continue;
+            }
             if area.abs() >= min_piece && (next as usize) < MAX_FACETS as usize {
                 polygons.push((next, piece));
                 side.push(k as u32 + 1);
@@ -252,6 +258,29 @@ pub fn layout_prepared(input: &PlanesInput, params: &PlanesParams, prep: &Prepar
     map.ids.par_iter_mut().for_each(|id| *id = compact[relabel[*id as usize] as usize]);
     map.facet_count = layout.facet_count;
     (layout, map)
+}
+
+/// The share of the planes an outline crosses that it leaves whole (`open_across`).
+pub const OPEN_SHARE: f64 = 0.3;
+/// A plane stays whole across the outline only while the subject's piece of it is at most
+/// this share of it.
+pub const OPEN_PIECE_SHARE: f64 = 0.6;
+const OPEN_STREAM: u64 = 0x6f70_656e; // "open"
+
+/// Whether the outline of layer `layer` leaves `cell` whole (passage): a seeded
+/// `OPEN_SHARE` of the planes whose piece inside it (`piece_area`, pixels) is at most
+/// `OPEN_PIECE_SHARE` of the plane and which hold no salient feature.
+fn open_across(cell: &[DVec2], piece_area: f64, weights: &split::Weights, seed: u64, layer: usize) -> bool {
+    let area = polygon::signed_area(cell).abs();
+    if area <= 0.0 || piece_area > OPEN_PIECE_SHARE * area {
+        return false;
+    }
+    let c = split::centroid(cell);
+    let key = ((c.x.to_bits() >> 20) ^ (c.y.to_bits() >> 7)).wrapping_add(layer as u64);
+    if crate::util::rng::rand01(seed, OPEN_STREAM, key) >= OPEN_SHARE {
+        return false;
+    }
+    !weights.touches_protected(cell)
 }
 
 /// The polygons (pixel units) as a layout in normalised coordinates.

@@ -94,6 +94,18 @@ impl Weights<'_> {
         count
     }
 
+    /// Whether `poly` (pixel units) covers the centre of a protected cell.
+    pub fn touches_protected(&self, poly: &[DVec2]) -> bool {
+        if self.protect.is_empty() {
+            return false;
+        }
+        let (sx, sy) = (self.width / self.columns as f64, self.height / self.rows as f64);
+        let grid: Vec<DVec2> = poly.iter().map(|p| DVec2::new(p.x / sx, p.y / sy)).collect();
+        let mut hit = false;
+        crate::facets::fill_polygon(&grid, self.columns as u32, self.rows as u32, |i| hit |= self.protect[i] > 0.0);
+        hit
+    }
+
     /// (weight, weighted centroid) of `poly` (pixel units).
     fn of(&self, poly: &[DVec2]) -> (f64, DVec2) {
         let (sx, sy) = (self.width / self.columns as f64, self.height / self.rows as f64);
