@@ -1,111 +1,26 @@
-//! Composition (issue 13, ART.md "The subject fills the canvas"): the `compose` framing of the
-//! converging cameras, chosen per scene from its vertices.
+//! Composition: the `compose` framing of the converging cameras, chosen per scene from its
+//! vertices, so the subject is framed close with its proportions kept.
 //!
-//! Why not `fit`: with the focal centre C outside the scene, the part of the scene a
-//! converging camera shows depends only on C (the lines through C); the convergence angle
-//! only scales that view onto the canvas. `fit` keeps the angle at 140 deg and moves C back
-//! until the scene spans 80% of it, so a compact subject fills 15-40% of the canvas and a
-//! tall or thin one under 15%, with an empty backdrop around it. The cameras give more
-//! freedom than a pinhole: their horizontal and vertical spans are independent.
+//! With the focal centre C behind the subject, a converging camera shows what the lines
+//! through C show: the convergence angle only scales that view onto the canvas. The rule:
+//! 1. C goes behind the subject, as close as it may while every vertex stays within
+//!    `margin` x `MAX_HALF_ANGLE` of the view axis (a few candidate distances further back,
+//!    `DEPTH_STEPS`, are measured too). The cap is small: nearer, the converging camera's
+//!    reverse perspective swells the parts nearest C into a blob.
+//! 2. C slides across the view so the scene's angular extent is centred, then step 1 runs
+//!    again from there (`CENTRING_PASSES`).
+//! 3. The spans are fitted to the vertices with both axes at the same scale per pixel: the
+//!    wider extent sets its span and the other span is widened to match (up to
+//!    `ISO_WIDEST`), so a tall or thin subject keeps its proportions with canvas beside it.
+//! 4. Each candidate's fill is measured by tracing a tiny image; the closest candidate that
+//!    fills `FILL_GOAL`, else the closest within `NEAR_BEST` of the best fill, wins.
+//! 5. (`framing`) `auto` on a tall scene composes with both converging cameras and keeps the
+//!    better (`Composition::better_than`); a subject much wider from another side is seen from
+//!    that side when the front fills little (`framing::frame_camera`).
 //!
-//! The rule, in order:
-//! 1. C goes as close behind the scene as it can while every vertex stays within
-//!    `margin` x `MAX_HALF_ANGLE` of the view axis: the widest wrap around the subject
-//!    (the cubist "several sides at once") the cameras can show without grazing rays.
-//!    (A user's ambiguity fixes the angle: such a camera is framed by `fit`.)
-//! 2. C slides across the view (right and up) so the scene's angular extent is centred,
-//!    then step 1 runs again from there (twice): an asymmetric subject (a bunny's ears, a
-//!    figure's raised arm) is not pushed off-centre with an empty margin on one side.
-//! 3. The spans are fitted to the vertices: horizontal angle and vertical angle (spherical)
-//!    or band height (cylindrical) = the scene's extent / `margin`, so the whole subject is in
-//!    view with a thin margin.
-//! 4. The two spans are kept within a ratio of the same scale per pixel (the wider one is
-//!    kept and the other widened): a tall or flat subject is stretched at most that much.
-//! 5. Closest is not always fullest: a part of the scene near C (a tail, a raised ear)
-//!    reaches the angle cap first and the bulk beyond it stays small; and a thin subject
-//!    (a fox head on) needs some stretch. So steps 1-4 run for C at a few distances further
-//!    back (`DEPTH_STEPS`) and a few stretch ratios (`ANISOTROPY_STEPS`); each candidate's
-//!    fill is measured by tracing a tiny image. The least stretched, then closest, candidate
-//!    that fills `FILL_GOAL` of the canvas wins; when none does (a figure with outstretched
-//!    arms), the least stretched and closest within `NEAR_BEST` of the best fill.
-//!
-//! 6. When no candidate within the thesis's range fills `FILL_GOAL`, steps 1-5 run again with
-//!    C allowed closer (`HALF_ANGLE_CAPS`: vertices up to 85 deg from the axis): a stronger
-//!    convergence magnifies the subject's middle against its far-flung parts (a T-posed
-//!    figure's torso against its hands, 31% -> 45% of the canvas), still all in view. The
-//!    wider wrap is kept only when its best fills clearly more (by 1 / `NEAR_BEST`).
-//! 7. (`framing`) `auto` on a tall scene composes with both converging cameras and keeps the
-//!    cylindrical one (the thesis's choice for standing figures) unless the spherical one
-//!    reaches the goal with less stretch or, neither reaching it, fills more
-//!    (`Composition::better_than`).
-//!
-//! 8. (`framing::frame_camera`) When the view is the renderer's own and the front composition
-//!    fills under 40%, other views are composed too and the fullest kept when it fills clearly
-//!    more: the view raised by 30 deg (a figure on a wide pedestal 26-29% -> 53-56%, a drape
-//!    flaring on the ground 32% -> 42%, seen from above with their base as a plane), and, when
-//!    the subject is at least 1.2 x wider from another side, its broad side from both faces,
-//!    with both converging cameras under `auto` (CesiumMan, walking across the default view,
-//!    22% -> 46% from its own front under the cylindrical camera, whose straight verticals
-//!    keep its head where the spherical wrap bent it into a bowl; a board seen edge-on). The
-//!    other views are ranked on a coarse sample of the scene and only the best one's chosen
-//!    candidate (`compose_candidate`) is composed again on the full sample.
-//!
-//! 9. (`framing::frame_camera`, second round) When those still fill under 40%: the views turned
-//!    45 deg either way (objects spread in a row overlap into one group, as on the painters'
-//!    tables: a shelf of five objects 39% -> 51%), and C placed from the centroid of the
-//!    vertices instead of the bounding sphere's centre, from the front, the oblique views and
-//!    the broad side (a thin part reaching out, an arm held forward, pulls the sphere's centre
-//!    off the body, so C sits behind empty space; behind the bulk it magnifies the body: the
-//!    walker 32% -> 39%). A converging camera magnifies what lies nearest C, and the fullest
-//!    candidate is often one small part blown up over the canvas (the walker's back arm over
-//!    55% of it, the nearest of the five objects as a ball filling the picture); these
-//!    candidates are refused when more than half the subject's probe pixels lie within a
-//!    quarter of the scene's radius of C (`framing::NearGuard`). Only scenes under 40% after
-//!    step 8 run this round, so every other keeps its camera.
-//!
-//! 10. (`framing::warp_canvas`) When a composed camera still fills under 40% after those
-//!     rounds, it is seen through a canvas warp (`warp::Warped`): the columns and rows of a
-//!     64-column probe that show the subject get more of the canvas and the empty ones less,
-//!     smoothly, at most `framing::WARP_STEPS` (1.1-1.5) times denser or sparser than the even
-//!     spacing; the least strength whose probe fills 44% (the floor / `NEAR_BEST`) is kept. The
-//!     view and the spans stay the composition's, the whole subject stays in view (the canvas's
-//!     edges are fixed) and no part grows past 1.5x against the even spacing: the walker
-//!     39% -> 46% at 1.2x. Every scene the rounds fill keeps its camera exactly.
-//!
-//! Why a warp for the last step: a stick-thin figure whose limbs stand apart (the odd walker:
-//! its silhouette fills under half its bounding box from every side) stays at 39% under steps
-//! 1-9 with the whole of it in view, at most 2.5 x stretch and no part magnified over half of
-//! it. More stretch was tried and refused: at 4-6 x a walking figure fills 39-45%
-//! but no longer reads as a figure (ART.md: cues must stay legible). So were the focal line on
-//! the figure (session 7, by hand, cylindrical camera, 140-360 deg): with the line inside the
-//! torso every column sees the torso, 47-51% filled, but torso and head become horizontal
-//! stripes across the canvas, cut at both edges (at 360 deg the figure unrolls into a vase);
-//! just behind its back, 150 deg, 39% with the back arm smeared along the edge, cut off.
-//!
-//! Tried in session 8 and not adopted (the walker at 640 x 480, fill before re-aiming; each
-//! candidate `compose`d in full, guarded as step 9's are):
-//! - Other views: yaw every 30 deg x tilt -20, 0, 30 and 55 deg, C from the sphere's centre and
-//!   from the centroid (96 compositions, both converging cameras under `auto`). The fullest,
-//!   45-52%, all gain by magnifying the part nearest C: the front raised 30 deg (48%) draws the
-//!   torso as a ball and the limbs as blobs; looking up 5-20 deg (the broad side and 10 deg off
-//!   it, C behind the centroid: 43-52%) lifts C to the shoulders, where the back arm hangs
-//!   between C and the torso, and the club grows over the canvas's left half. The fill also
-//!   jumps 39% -> 50% for 5 deg of tilt: a rule keyed on it would be unstable on other figures.
-//! - The cylindrical camera from the side, the back and 20 deg off either (tilt 0 and 15 deg):
-//!   at most 32%.
-//! - A tighter margin (`fill` 0.96-0.98 instead of 0.94): 36-39.8%; the spans tighten, but C moves
-//!   back with them and magnifies less.
-//! - A portrait canvas (480 x 640; the 1910 portraits are upright): 43%, the torso a ball again.
-//!
-//! The walker's outline fills about 47% of its bounding box from its broad side, and the box
-//! at most margin^2 of the canvas (88% at the default 0.94), so about 41% is the most a framing
-//! reaches without magnifying one part over the others; from either face of the broad side an
-//! arm lies between C and the torso, so the part magnified is that arm. No view or framing rule
-//! was adopted; the canvas warp (step 10) gives the canvas to the rows and columns the figure
-//! crosses instead.
-//!
-//! No constant depends on a particular scene: the angle cap is the thesis's best ambiguity
-//! range's top (150 deg, section 5), the margin the `fill` setting.
+//! Why: filling the canvas by stretching or by a strong wrap made subjects unreadable; a
+//! smaller subject in true proportions reads, and the planes fill the canvas around it.
+//! docs/design/composition.md keeps the history.
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -116,9 +31,9 @@ use super::fit::fit_depth;
 
 /// Largest half-angle a vertex may reach from the view axis: spans stay within the thesis's
 /// best ambiguity range (120-150 deg, section 5).
-pub const MAX_HALF_ANGLE: f64 = 75.0 * std::f64::consts::PI / 180.0;
+pub const MAX_HALF_ANGLE: f64 = 12.0 * std::f64::consts::PI / 180.0;
 /// The half-angle caps step 6 tries in turn: the thesis's range first, then a wider wrap.
-pub const HALF_ANGLE_CAPS: [f64; 1] = [12.0 * std::f64::consts::PI / 180.0];
+pub const HALF_ANGLE_CAPS: [f64; 1] = [MAX_HALF_ANGLE];
 /// Default `fill` for `compose`: the scene's extent over the canvas's span, per axis.
 pub const COMPOSE_FILL: f64 = 0.94;
 /// The ratios between the horizontal and vertical scale per pixel (angle or length per pixel)

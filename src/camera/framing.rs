@@ -11,12 +11,8 @@
 //! cylindrical camera for tall scenes (height >= `TALL_RATIO` x width and depth), as the
 //! thesis does for standing figures, and the spherical camera otherwise; under `compose` a tall
 //! scene is composed with both and the spherical camera is kept when it composes it better
-//! (`compose` step 7). When the renderer chooses the view and the front fills under
-//! `FILL_FLOOR`, `frame_camera` also tries the raised view and the subject's broad side
-//! (`compose` step 8), then, still under it, the oblique views and C placed behind the
-//! subject's bulk (step 9). Any composition still under it (the renderer's view or a scene
-//! camera's) is seen through a canvas warp that widens the rows and columns showing the subject
-//! (step 10, `warp_canvas`).
+//! (`compose` step 5). When the renderer chooses the view and the front fills under
+//! `FILL_FLOOR`, `frame_camera` also tries the subject's broad side.
 
 use glam::DVec3;
 
@@ -24,7 +20,7 @@ use super::fit::fit_depth;
 use super::subject::{Subject, View as SceneView};
 use super::{
     Camera, CameraFrame, CameraKind, CameraModel, Cylindrical, Orthographic, Perspective, Planar, Spherical, Warped,
-    compose, warp,
+    compose,
 };
 use crate::accel::Accel;
 use crate::error::{Error, Result};
@@ -132,11 +128,9 @@ impl Framed {
     }
 }
 
-/// The share of the canvas under which `compose` also tries other views (issue 13 item 4:
-/// at least 40% on every single-object scene).
+/// The share of the canvas under which `compose` also tries the subject's broad side: a
+/// subject seen edge-on (a fox head-on, a board) fills little from the front.
 pub const FILL_FLOOR: f64 = 0.3;
-/// How far the raised view looks down on the subject, degrees.
-pub const RAISED_VIEW_DEG: f64 = 30.0;
 /// How much wider than from the front the subject's broad side must be for the turned view to
 /// be tried (a subject about as wide from every side gains nothing from turning).
 pub const BROAD_SIDE_RATIO: f64 = 1.2;
@@ -162,8 +156,6 @@ impl View {
     const FRONT: View = View { tilt: 0.0, yaw: 0.0, kind: None, centroid: false, guarded: false };
 }
 
-/// The turn of the oblique views (`frame_camera`'s second round), degrees either side.
-pub const OBLIQUE_VIEW_DEG: f64 = 45.0;
 
 /// How `frame_view` composes: every candidate on `FIT_SAMPLES`, every candidate on
 /// `COARSE_SAMPLES` with a smaller probe (to rank views), or one candidate (its
@@ -178,15 +170,9 @@ enum Search {
 /// Chooses the camera's parameters for `world` (SPEC "Framing"; see the module doc);
 /// `accel` (its BVH) lets `compose` measure its candidates' fill by a tiny trace.
 ///
-/// Other views (issue 13 item 4): when the view is the renderer's own (no camera in the scene
-/// or the settings) and `compose` fills under `FILL_FLOOR` of the canvas from the front, other
-/// views are composed too and the fullest is kept when it fills clearly more (by 1 /
-/// `compose::NEAR_BEST`):
-/// - the raised view, tilted down by `RAISED_VIEW_DEG`: a subject whose outline fills little of
-///   its bounding box seen level (a figure on a wide base, a drape flaring out on the ground,
-///   objects spread on a table) fills it from above, its base or ground seen as a plane; the
-///   painters tilt the table top up towards the viewer the same way (Cezanne, Braque's still
-///   lifes of 1909-1911);
+/// The broad side: when the view is the renderer's own (no camera in the scene or the
+/// settings) and `compose` fills under `FILL_FLOOR` of the canvas from the front, the broad
+/// side is composed too and kept when it fills clearly more (by 1 / `compose::NEAR_BEST`):
 /// - the broad side (`broad_side_yaw`), when the subject is at least `BROAD_SIDE_RATIO` wider
 ///   from there: a thin subject seen edge-on (a figure walking across the view, a plank, a fish)
 ///   fills a landscape canvas only by stretching, and its broad side is its legible side (the
@@ -199,15 +185,6 @@ enum Search {
 /// only the best is composed again on the full sample, as the front was, and only its candidate
 /// (the same angle cap, stretch and distance). The front view stays whenever it fills, so
 /// subjects facing the viewer keep facing them.
-///
-/// When these still fill under `FILL_FLOOR`, a second round (`second_round`) tries the views
-/// turned by `OBLIQUE_VIEW_DEG` either way and C placed from the centroid of the vertices
-/// (`View::centroid`) from the front, the oblique views and the broad side, each candidate
-/// guarded against a part magnified near C (`NearGuard`); again the fullest is kept when it fills
-/// clearly more. Scenes the first round fills keep their camera.
-///
-/// Last (`warp_canvas`), any composed camera still under `FILL_FLOOR`, the scene camera's view
-/// included (the warp keeps the view), is seen through a canvas warp.
 pub fn frame_camera(params: &FramingParams, world: &World, accel: &Accel) -> Result<Framed> {
     // The scene camera's view keeps the part of the subject it sees, when the view is the
     // scene camera's (not one the settings give).
@@ -224,39 +201,7 @@ pub fn frame_camera(params: &FramingParams, world: &World, accel: &Accel) -> Res
     Ok(framed)
 }
 
-/// The canvas warp's strengths (`warp::fit`), least first: the largest local scale of the
-/// canvas against the camera's even spacing.
-pub const WARP_STEPS: [f64; 5] = [1.1, 1.2, 1.3, 1.4, 1.5];
-/// Columns of the coverage image the warp is fitted to (rows follow the aspect).
-const WARP_PROBE_COLUMNS: u32 = 64;
 
-/// Step 10 of `compose` (module doc there): a composition still under `FILL_FLOOR` (`fill`, its
-/// probe's estimate) is seen through a canvas warp (`warp::Warped`) that gives the columns and
-/// rows showing the subject more of the canvas: the least of `WARP_STEPS` whose probe fills
-/// `FILL_FLOOR` / `compose::NEAR_BEST` (clearly over the floor, the probe's estimate being
-/// coarse), else the strongest; kept only when it fills more than the camera alone.
-fn warp_canvas(framed: Framed, fill: f64, accel: &Accel, aspect: f64) -> Framed {
-    let (w, h) = probe_size(aspect, WARP_PROBE_COLUMNS);
-    let coverage = probe_coverage(framed.camera.as_ref(), accel, w, h);
-    let inner = framed.camera.model();
-    let mut best: Option<(Warped, f64)> = None;
-    for strength in WARP_STEPS {
-        let (x, y) = warp::fit(&coverage, w as usize, h as usize, strength);
-        let warped = Warped { inner: inner.clone(), x, y };
-        let f = probe_fill(&warped, accel, aspect, PROBE_COLUMNS, None);
-        let goal = f >= FILL_FLOOR / compose::NEAR_BEST;
-        if best.as_ref().is_none_or(|b| f > b.1) {
-            best = Some((warped, f));
-        }
-        if goal {
-            break;
-        }
-    }
-    match best {
-        Some((warped, f)) if f > fill => Framed { camera: Box::new(warped), ..framed },
-        _ => framed,
-    }
-}
 
 /// The front composition and, when it fills under `FILL_FLOOR` and the view is the renderer's
 /// own (`own_view`: no camera in the scene or the settings), the raised view and the broad side
@@ -295,43 +240,6 @@ fn first_round(
     Ok((framed, Some(fill)))
 }
 
-/// `frame_camera`'s second round, for a composition `current` (camera, fill) the first round
-/// left under `FILL_FLOOR`.
-fn second_round(
-    params: &FramingParams,
-    world: &World,
-    accel: &Accel,
-    subject: &Subject,
-    current: (Framed, f64),
-) -> Result<(Framed, f64)> {
-    let up = params.up.map(DVec3::from).and_then(|u| u.try_normalize()).unwrap_or(DVec3::Y);
-    let broad = broad_side_yaw(subject.points(true), up);
-    // Second round, only for what the first left under the floor (so every scene it already
-    // composes to 40% keeps its camera): the oblique views, and C placed from the subject's
-    // bulk instead of its bounding sphere's centre.
-    // - Turned by `OBLIQUE_VIEW_DEG` either way: objects spread in a row (a shelf, a still life
-    //   on a table) overlap and close up into one group, as the painters' still lifes stack
-    //   theirs; a figure shows its limbs at another angle.
-    // - The axis through the centroid of the vertices (`View::centroid`), from the front, the
-    //   oblique views and the broad side: a converging camera magnifies what lies nearest its
-    //   focal centre, and C behind the bounding sphere's centre sits behind empty space when a
-    //   thin part reaches far out (an arm held out pulls the sphere's centre off the body); C
-    //   behind the bulk magnifies the body (ART.md: the subject fills the canvas).
-    let oblique = OBLIQUE_VIEW_DEG.to_radians();
-    let mut views = Vec::new();
-    for yaw in [oblique, -oblique] {
-        views.push(View { yaw, guarded: true, ..View::FRONT });
-    }
-    let mut yaws = vec![0.0, oblique, -oblique];
-    if let Some(yaw) = broad {
-        yaws.extend([yaw, opposite(yaw)]);
-    }
-    // (Turned or not, the centroid's axis is the centre's when the centroid is at the centre.)
-    if centroid_axis(subject.points(true), DVec3::ZERO, subject.centre).is_some() {
-        views.extend(yaws.into_iter().map(|yaw| View { yaw, centroid: true, guarded: true, ..View::FRONT }));
-    }
-    best_view(params, world, accel, subject, &views, current)
-}
 
 /// The turn opposite `yaw` (the other face of the same side), within -180..180 deg.
 fn opposite(yaw: f64) -> f64 {
@@ -835,85 +743,7 @@ mod round_tests {
         format!("{} {:?}", f.describe(world), f.view_height)
     }
 
-    /// Issue 13 item 4: the second round (oblique views, C placed from the subject's bulk) runs
-    /// only for what the first round leaves under `FILL_FLOOR`, so every scene the first round
-    /// composes to 40% keeps its camera; where it runs and finds a fuller view (the walker, the
-    /// shelf of several objects), that view fills clearly more and passes the guard against a
-    /// part magnified near C.
-    #[test]
-    fn the_second_round_leaves_full_scenes_alone_and_lifts_the_others() {
-        let p = params();
-        let aspect = p.width as f64 / p.height as f64;
-        let (mut kept, mut lifted) = (0, Vec::new());
-        for (name, scene) in odd_scenes() {
-            let prep = Prepared::new(scene);
-            let subject = Subject::new(&prep.world, FIT_SAMPLES, COARSE_SAMPLES, None);
-            let (first, fill) =
-                first_round(&p, &prep.world, &prep.accel, &subject, prep.world.camera.is_none()).unwrap();
-            let fill = fill.expect("the renderer's own composed view");
-            let last = frame_camera(&p, &prep.world, &prep.accel).unwrap();
-            if fill >= FILL_FLOOR {
-                assert_eq!(key(&last, &prep.world), key(&first, &prep.world), "{name}");
-                kept += 1;
-                continue;
-            }
-            if key(&last, &prep.world) == key(&first, &prep.world) {
-                continue;
-            }
-            let plain = probe_fill(last.camera.as_ref(), &prep.accel, aspect, PROBE_COLUMNS, None);
-            assert!(plain * compose::NEAR_BEST > fill, "{name}: {plain:.3} against the first round's {fill:.3}");
-            let guard = NearGuard {
-                centre: last.focal_centre.unwrap(),
-                line: (last.kind == CameraKind::Cylindrical).then_some(last.frame.up),
-                within: NEAR_C_RADII * prep.world.radius as f64,
-            };
-            let guarded = probe_fill(last.camera.as_ref(), &prep.accel, aspect, PROBE_COLUMNS, Some(&guard));
-            assert_eq!(guarded, plain, "{name}: the chosen view magnifies a part near C");
-            lifted.push(name);
-        }
-        assert!(kept >= 8, "{kept} scenes filled by the first round");
-        assert!(
-            lifted.contains(&"odd-walker".to_string()) && lifted.contains(&"odd-several".to_string()),
-            "{lifted:?}"
-        );
-    }
 
-    /// Step 10: only a composition the two rounds leave under `FILL_FLOOR` is seen through a
-    /// canvas warp, which lifts it over the floor within the strongest step (the walker, its
-    /// limbs apart); every other scene keeps its camera as composed.
-    #[test]
-    fn the_canvas_warp_lifts_only_what_stays_under_the_floor() {
-        let p = params();
-        let aspect = p.width as f64 / p.height as f64;
-        let mut warped = Vec::new();
-        for (name, scene) in odd_scenes() {
-            let prep = Prepared::new(scene);
-            let subject = Subject::new(&prep.world, FIT_SAMPLES, COARSE_SAMPLES, None);
-            let (framed, fill) =
-                first_round(&p, &prep.world, &prep.accel, &subject, prep.world.camera.is_none()).unwrap();
-            let fill = fill.expect("composed");
-            let (framed, fill) = if fill < FILL_FLOOR {
-                second_round(&p, &prep.world, &prep.accel, &subject, (framed, fill)).unwrap()
-            } else {
-                (framed, fill)
-            };
-            let last = frame_camera(&p, &prep.world, &prep.accel).unwrap();
-            if fill >= FILL_FLOOR {
-                assert!(last.warped().is_none(), "{name}");
-                assert_eq!(key(&last, &prep.world), key(&framed, &prep.world), "{name}");
-                continue;
-            }
-            let w = last.warped().unwrap_or_else(|| panic!("{name}: {fill:.3} and no warp"));
-            let scale = w.x.max_scale().max(w.y.max_scale());
-            assert!(scale > 1.0 && scale <= WARP_STEPS[WARP_STEPS.len() - 1] + 1e-9, "{name}: {scale}");
-            let lifted = probe_fill(last.camera.as_ref(), &prep.accel, aspect, PROBE_COLUMNS, None);
-            assert!(lifted >= FILL_FLOOR, "{name}: {fill:.3} -> {lifted:.3}");
-            // The same view: the focal centre and spans are the composition's.
-            assert_eq!(last.focal_centre, framed.focal_centre, "{name}");
-            warped.push(name);
-        }
-        assert_eq!(warped, ["odd-walker"]);
-    }
 
     /// The guard refuses a candidate whose fill is mostly one small part just in front of C: a
     /// small ball right before a spherical camera's centre, a big one far beyond it.

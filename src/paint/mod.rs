@@ -462,8 +462,9 @@ fn open_planes(ids: &[u32], hits: &[PixelHit], count: usize) -> Vec<bool> {
         .collect()
 }
 
-/// How far the ochre palette turns a plane towards its grey or green (`palette::PlaneHues`).
-pub const PLANE_HUE_STRENGTH: f32 = 0.35;
+/// How far the ochre palette turns a plane at the canvas's edge towards its grey or green
+/// (`palette::PlaneHues`).
+pub const PLANE_HUE_STRENGTH: f32 = 0.6;
 
 /// One painterly effect. `apply` must be deterministic (no thread-dependent order) and must
 /// keep the canvas's alpha conventions (see the module doc).

@@ -149,40 +149,36 @@ pub struct ColourTransfer {
     pub hues: Option<PlaneHues>,
 }
 
-/// A narrow palette that is not one hue: each plane keeps the value the reference gives it
-/// and is turned, by a seeded choice, towards a cool grey or a grey-green (the 1910-11
-/// canvases' greys and greens among the ochres), or left in the reference's hue.
+/// A narrow palette that is not one hue: warm ochres at the composition's lit centre, cooler
+/// greys and grey-greens towards its edges (as the 1910-11 canvases cool their peripheries),
+/// each plane at the value the reference gives it, so value carries the form. A plane's hue
+/// is taken at its own centre (one hue a plane) with a small seeded turn of its own.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PlaneHues {
-    /// How far a turned plane goes towards its hue, in [0, 1].
+    /// How far a plane at the canvas's edge goes towards its cool hue, in [0, 1].
     pub strength: f32,
     pub seed: u64,
 }
 
-/// The plane hues' shares: cool grey, then grey-green; the rest keep the reference's hue.
-pub const COOL_GREY_SHARE: f64 = 0.25;
-pub const GREY_GREEN_SHARE: f64 = 0.2;
-/// The hues, as linear RGB directions of luminance 1.
+/// The share of the planes whose cool hue is a grey-green rather than a grey.
+pub const GREY_GREEN_SHARE: f64 = 0.35;
+/// The cool hues, as linear RGB directions of luminance 1.
 const COOL_GREY: [f32; 3] = [0.93, 1.0, 1.1];
 const GREY_GREEN: [f32; 3] = [0.92, 1.04, 0.86];
 const HUES_SALT: u64 = 0x6875_6573_3130_3131; // "hues1011"
 
 impl PlaneHues {
-    /// The colour `c` of a pixel of plane `facet`, turned towards the plane's hue at the same
-    /// luminance.
-    pub fn turn(&self, c: Vec3, facet: u32) -> Vec3 {
+    /// The colour `c` of a pixel of plane `facet`, whose centre lies `r` from the
+    /// composition's centre (`plane_light::Oval::r`), turned towards the plane's cool hue at
+    /// the same luminance: not at all at the centre, `strength` at the edges.
+    pub fn turn(&self, c: Vec3, facet: u32, r: f32) -> Vec3 {
         let u = crate::util::rng::unit_f64(crate::util::rng::splitmix64(
             crate::util::rng::sub_seed(self.seed, HUES_SALT) ^ crate::util::rng::splitmix64(facet as u64),
         ));
-        let hue = if u < COOL_GREY_SHARE {
-            Vec3::from(COOL_GREY)
-        } else if u < COOL_GREY_SHARE + GREY_GREEN_SHARE {
-            Vec3::from(GREY_GREEN)
-        } else {
-            return c;
-        };
+        let hue = if u < GREY_GREEN_SHARE { Vec3::from(GREY_GREEN) } else { Vec3::from(COOL_GREY) };
+        let t = super::planes::smoothstep(0.25, 0.95, r) * (0.75 + 0.5 * u as f32);
         let target = hue / luminance(hue) * luminance(c);
-        c.lerp(target, self.strength)
+        c.lerp(target, (self.strength * t).min(1.0))
     }
 }
 
@@ -261,10 +257,31 @@ impl Effect for ColourTransfer {
         let Some((keys, table)) = self.keys_and_levels(&lum) else { return Ok(()) };
         let levels = &self.levels;
         let hues = self.hues.filter(|_| ctx.facets.is_some());
+        // Each plane's distance from the composition's centre, at the plane's own centre.
+        let plane_r: Vec<f32> = match hues {
+            Some(_) => {
+                let (w, h) = (canvas.width as usize, canvas.height as usize);
+                let oval = super::plane_light::Oval::of(w, h, ctx.hits);
+                let mut sums = vec![(0.0f64, 0.0f64, 0u64); ctx.facet_count()];
+                for i in 0..w * h {
+                    if let Some(s) = sums.get_mut(ctx.facet(i) as usize) {
+                        *s = (s.0 + (i % w) as f64, s.1 + (i / w) as f64, s.2 + 1);
+                    }
+                }
+                sums.iter()
+                    .map(|&(x, y, n)| {
+                        let n = n.max(1) as f64;
+                        oval.r(glam::Vec2::new((x / n) as f32 + 0.5, (y / n) as f32 + 0.5))
+                    })
+                    .collect()
+            }
+            None => Vec::new(),
+        };
         canvas.px.par_iter_mut().zip(&keys.keys).enumerate().for_each(|(i, (p, &k))| {
             if k != UNPAINTED {
                 let c = levels[table[k as usize] as usize];
-                *p = hues.map_or(c, |h| h.turn(c, ctx.facet(i))).extend(p.w);
+                let f = ctx.facet(i);
+                *p = hues.map_or(c, |h| h.turn(c, f, plane_r.get(f as usize).copied().unwrap_or(0.0))).extend(p.w);
             }
         });
         Ok(())

@@ -130,7 +130,7 @@ impl Preset {
                 planes_look(s);
                 // Fewer, larger planes away from the salient parts (a hierarchy), re-aimed
                 // less, so the subject keeps its cues; firm, narrow joins.
-                s.planes = 100;
+                s.planes = 90;
                 s.plane_detail = 12.0;
                 // A mid-dark ground: the palette's ranks put the lit subject over browns and
                 // greys, as the 1910 canvases' central light over a darker ground.
@@ -147,7 +147,7 @@ impl Preset {
                 s.colors = 0;
                 s.chiaroscuro = 0.3;
                 // Each plane lit on its own, passage, brushwork.
-                s.plane_light = 0.7;
+                s.plane_light = 0.8;
                 s.border_style = BorderStyle::Passage;
                 s.brushwork = 0.85;
                 s.stroke_length = 30.0;

@@ -29,7 +29,7 @@ const STREAM: u64 = 0x0073_706c_6974; // "split"
 /// canvases' scaffolding is mostly verticals and horizontals, then steep diagonals, a few
 /// shallow ones.
 const DIRECTIONS: [(f64, f64); 7] =
-    [(90.0, 0.3), (0.0, 0.2), (72.0, 0.12), (108.0, 0.12), (55.0, 0.08), (125.0, 0.08), (20.0, 0.1)];
+    [(90.0, 0.2), (0.0, 0.12), (72.0, 0.16), (108.0, 0.16), (55.0, 0.12), (125.0, 0.12), (20.0, 0.12)];
 /// Jitter of a direction, degrees either way.
 const JITTER_DEG: f64 = 8.0;
 /// Seeded direction candidates per split.
