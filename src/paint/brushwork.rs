@@ -52,6 +52,9 @@ pub const FINE_THRESHOLD: f32 = 0.025;
 /// A pixel darker than the first share of a stroke's luminance keeps its paint; the stroke
 /// covers it fully from the second share on.
 pub const DARK_KEPT: (f32, f32) = (0.45, 0.8);
+/// How far a stroke's colour goes from the picture under it towards its plane's mean colour:
+/// the plane is repainted as a plane, not as the render's smooth shading under glass.
+pub const PLANE_FLATTEN: f32 = 0.45;
 /// Strokes narrower than this (pixels) are not painted: the layer would be noise.
 pub const MIN_WIDTH: f32 = 1.5;
 
@@ -110,16 +113,22 @@ struct Anchor {
     centre: Vec2,
     samples: [u32; 3],
     jitter: f32,
+    /// The facet the stroke paints (its region's facet).
+    facet: u32,
 }
 
 impl Anchor {
-    fn tint(&self, source: &[Vec4]) -> Tint {
+    /// The stroke's colour: the picture at its samples, drawn `PLANE_FLATTEN` of the way to
+    /// its plane's mean colour (`means`, by facet; empty: none), value jittered.
+    fn tint(&self, source: &[Vec4], means: &[Vec3]) -> Tint {
         let (mut sum, mut n) = (Vec3::ZERO, 0.0f32);
         for &j in self.samples.iter().filter(|&&j| j != u32::MAX) {
             sum += source[j as usize].truncate();
             n += 1.0;
         }
-        let colour = sum / n.max(1.0) * self.jitter;
+        let local = sum / n.max(1.0);
+        let local = means.get(self.facet as usize).map_or(local, |m| local.lerp(*m, PLANE_FLATTEN));
+        let colour = local * self.jitter;
         let value = luminance(colour);
         Tint { colour, inv_value: if value > 0.0 { 1.0 / value } else { 0.0 }, value }
     }
@@ -155,7 +164,10 @@ impl Layer {
         for (k, s) in strokes.iter_mut().enumerate() {
             s.order = k as u32;
         }
-        let cells = strokes.iter().map(|s| Anchor { centre: s.centre, samples: s.samples, jitter: s.jitter }).collect();
+        let cells = strokes
+            .iter()
+            .map(|s| Anchor { centre: s.centre, samples: s.samples, jitter: s.jitter, facet: (s.region >> 32) as u32 })
+            .collect();
         strokes.sort_unstable_by_key(|s| s.key);
         let cell_of = strokes.iter().map(|s| s.order).collect();
         let nb = height.div_ceil(BAND).max(1);
@@ -206,8 +218,8 @@ impl Layer {
     }
 
     /// Every stroke's tint from `source`, read in cell order, listed in key order.
-    fn tints(&self, source: &[Vec4]) -> Vec<Tint> {
-        self.to_key_order(&self.in_cell_order(|s| s.tint(source)))
+    fn tints(&self, source: &[Vec4], means: &[Vec3]) -> Vec<Tint> {
+        self.to_key_order(&self.in_cell_order(|s| s.tint(source, means)))
     }
 }
 
@@ -619,6 +631,28 @@ enum Fine<'p> {
     Traced((f32, f32), Vec<Vec4>),
 }
 
+/// Each facet's mean colour over its painted pixels (`regions`: facet << 32 | object), in a
+/// fixed order (the same sums on any thread count).
+fn plane_means(source: &[Vec4], regions: &[Region], coverage: &Coverage) -> Vec<Vec3> {
+    let count = regions.iter().map(|r| (r >> 32) as usize + 1).max().unwrap_or(0);
+    let mut sums = vec![([0.0f64; 3], 0u64); count];
+    for (i, (p, r)) in source.iter().zip(regions).enumerate() {
+        if coverage.is_painted(i) {
+            let s = &mut sums[(r >> 32) as usize];
+            s.0[0] += p.x as f64;
+            s.0[1] += p.y as f64;
+            s.0[2] += p.z as f64;
+            s.1 += 1;
+        }
+    }
+    sums.iter()
+        .map(|(c, n)| {
+            let n = (*n).max(1) as f64;
+            Vec3::new((c[0] / n) as f32, (c[1] / n) as f32, (c[2] / n) as f32)
+        })
+        .collect()
+}
+
 impl Effect for Brushwork {
     fn name(&self) -> &'static str {
         "brushwork"
@@ -660,7 +694,8 @@ impl Effect for Brushwork {
             (None, None) => unreachable!("a layer is made when no plan is kept"),
         };
         let source: &[Vec4] = px;
-        let coarse_tints = coarse_layer.tints(source);
+        let means = plane_means(source, &regions, &surface.coverage);
+        let coarse_tints = coarse_layer.tints(source, &means);
         // The fine layer (Hertzmann's next brush): half the size, where the coarse layer
         // strays from the picture. Its candidates: a stroke in every cell (a kept plan's or
         // a recorded one's, all of them; traced, those the test keeps).
@@ -683,7 +718,7 @@ impl Effect for Brushwork {
         // ... in the picture before the layers.
         let before = |p: Vec2| probes_in(source, p);
         // The fine layer with its tints (key order) and probes (cell order).
-        let tints_and_probes = |l: &Layer| (l.tints(source), l.in_cell_order(|s| before(s.centre)));
+        let tints_and_probes = |l: &Layer| (l.tints(source, &means), l.in_cell_order(|s| before(s.centre)));
         let fine: Option<(Fine, Vec<Tint>, Vec<Probes>)> = match (old.as_deref(), fine_size) {
             (_, None) | (Some(StrokePlan { fine: None, .. }), _) => None,
             (Some(StrokePlan { fine: Some(frags), .. }), _) => {
@@ -741,7 +776,7 @@ impl Effect for Brushwork {
                     let keep_at = |p: Vec2| keep(&probes_in(&source, p));
                     let layer = Layer::new(self.strokes(1, size, &surface, &angle, Some(&keep_at)), h);
                     if !layer.strokes.is_empty() {
-                        let tints = layer.tints(&source);
+                        let tints = layer.tints(&source, &means);
                         composite(&layer, &tints, None, px, &surface, opacity);
                     }
                 }
