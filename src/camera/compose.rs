@@ -493,37 +493,31 @@ mod tests {
     }
 
     #[test]
-    fn the_least_stretched_closest_candidate_that_fills_wins() {
+    fn both_axes_keep_the_same_scale_per_pixel() {
+        // A tall thin subject: the horizontal span is widened to the vertical one's scale, so
+        // the subject keeps its proportions with canvas beside it.
         let pts = ellipsoid(DVec3::new(0.2, 1.0, 0.2), DVec3::ZERO);
         let f = frame();
-        // Fill grows with the horizontal span per vertical span (more stretch fills a thin subject).
-        let fill = |k: &Composition| 0.3 * (k.angle_y / k.angle_x).min(2.0);
-        let k = compose(&pts, CameraKind::Spherical, &f, DVec3::ZERO, 4.0 / 3.0, 1.0, 0.94, &fill);
-        assert!(fill(&k) >= FILL_GOAL, "{k:?}");
-        assert!(in_view(&k, CameraKind::Spherical, &pts));
-        // With no candidate reaching the goal, the fullest within NEAR_BEST.
-        let k = compose(&pts, CameraKind::Spherical, &f, DVec3::ZERO, 4.0 / 3.0, 1.0, 0.94, &|_| 0.2);
-        assert!(in_view(&k, CameraKind::Spherical, &pts));
+        for fill in [&(|_: &Composition| 0.6) as &(dyn Fn(&Composition) -> f64 + Sync), &|_| 0.2] {
+            let k = compose(&pts, CameraKind::Spherical, &f, DVec3::ZERO, 4.0 / 3.0, 1.0, 0.94, fill);
+            let stretch = (k.angle_x / (4.0 / 3.0)) / k.angle_y;
+            assert!((0.99..=1.01).contains(&stretch) || k.angle_x >= ISO_WIDEST - 1e-9, "{stretch} {k:?}");
+            assert!(in_view(&k, CameraKind::Spherical, &pts));
+        }
     }
 
     #[test]
-    fn a_wider_wrap_only_when_the_thesis_range_does_not_fill() {
+    fn the_focal_centre_stays_behind_within_the_cap() {
+        // Every vertex within the cap (over the margin) of the view axis seen from C: no
+        // vertex near C, whose reverse perspective would swell it.
         let pts = ellipsoid(DVec3::new(0.6, 0.4, 0.5), DVec3::ZERO);
         let f = frame();
-        let widest = 2.0 * MAX_HALF_ANGLE / 0.94 + 1e-6;
-        // Fills the goal within the thesis's range: its first candidate (rank 0), no wider.
         let k = compose(&pts, CameraKind::Spherical, &f, DVec3::ZERO, 4.0 / 3.0, 1.0, 0.94, &|_| 0.6);
         assert_eq!(k.rank, 0);
-        assert!(k.angle_x <= widest && k.angle_y <= widest, "{k:?}");
-        // Only the wider wrap fills more (a T-posed figure): it is taken, still all in view.
-        let fill = |k: &Composition| if k.angle_x.max(k.angle_y) > widest { 0.45 } else { 0.3 };
-        let k = compose(&pts, CameraKind::Spherical, &f, DVec3::ZERO, 4.0 / 3.0, 1.0, 0.94, &fill);
-        assert!(k.angle_x.max(k.angle_y) > widest && k.fill == 0.45, "{k:?}");
+        let ((h0, h1), (v0, v1)) = extents(&pts, CameraKind::Spherical, &f, k.centre);
+        let most = h0.abs().max(h1.abs()).max(v0.abs()).max(v1.abs());
+        assert!(most <= MAX_HALF_ANGLE + 1e-9, "{most} {k:?}");
         assert!(in_view(&k, CameraKind::Spherical, &pts));
-        // A wider wrap filling about as much is not worth it.
-        let fill = |k: &Composition| if k.angle_x.max(k.angle_y) > widest { 0.31 } else { 0.3 };
-        let k = compose(&pts, CameraKind::Spherical, &f, DVec3::ZERO, 4.0 / 3.0, 1.0, 0.94, &fill);
-        assert!(k.angle_x <= widest && k.angle_y <= widest, "{k:?}");
     }
 
     #[test]
@@ -550,10 +544,9 @@ mod tests {
     fn one_candidate_is_made_as_the_search_makes_it() {
         let pts = ellipsoid(DVec3::new(0.3, 1.0, 0.25), DVec3::new(0.1, 0.2, 0.0));
         let f = frame();
-        let widest = 2.0 * MAX_HALF_ANGLE / 0.94 + 1e-6;
         let fills: [&(dyn Fn(&Composition) -> f64 + Sync); 3] = [
             &|k: &Composition| 0.2 + 0.4 * (k.angle_y / k.angle_x).min(1.0) * (k.angle_x / 3.0).min(1.0),
-            &|k: &Composition| if k.angle_x.max(k.angle_y) > widest { 0.45 } else { 0.3 },
+            &|_: &Composition| 0.6,
             // None reaches the goal, the farthest C fills most: a fallback further back.
             &|k: &Composition| (0.1 + 0.08 * (-k.centre.z).max(0.0)).min(0.45),
         ];
@@ -566,7 +559,7 @@ mod tests {
                 seen.insert(k.candidate);
             }
         }
-        assert!(seen.len() >= 3, "the cases pick different candidates: {seen:?}");
+        assert!(seen.len() >= 2, "the cases pick different candidates: {seen:?}");
     }
 
     #[test]

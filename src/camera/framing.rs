@@ -156,7 +156,6 @@ impl View {
     const FRONT: View = View { tilt: 0.0, yaw: 0.0, kind: None, centroid: false, guarded: false };
 }
 
-
 /// How `frame_view` composes: every candidate on `FIT_SAMPLES`, every candidate on
 /// `COARSE_SAMPLES` with a smaller probe (to rank views), or one candidate (its
 /// `Composition::candidate`) on `FIT_SAMPLES`.
@@ -201,8 +200,6 @@ pub fn frame_camera(params: &FramingParams, world: &World, accel: &Accel) -> Res
     Ok(framed)
 }
 
-
-
 /// The front composition and, when it fills under `FILL_FLOOR` and the view is the renderer's
 /// own (`own_view`: no camera in the scene or the settings), the raised view and the broad side
 /// (`frame_camera`), with the fill of the composition chosen (None: the camera was not
@@ -239,7 +236,6 @@ fn first_round(
     let (framed, fill) = best_view(params, world, accel, subject, &views, (front, fill))?;
     Ok((framed, Some(fill)))
 }
-
 
 /// The turn opposite `yaw` (the other face of the same side), within -180..180 deg.
 fn opposite(yaw: f64) -> f64 {
@@ -730,7 +726,6 @@ mod view_tests {
 #[cfg(test)]
 mod round_tests {
     use super::*;
-    use crate::look::odd::odd_scenes;
     use crate::pipeline::Prepared;
     use crate::settings::Settings;
 
@@ -742,8 +737,6 @@ mod round_tests {
     fn key(f: &Framed, world: &World) -> String {
         format!("{} {:?}", f.describe(world), f.view_height)
     }
-
-
 
     /// The guard refuses a candidate whose fill is mostly one small part just in front of C: a
     /// small ball right before a spherical camera's centre, a big one far beyond it.

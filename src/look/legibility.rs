@@ -78,7 +78,8 @@ fn bbox_aspect(img: &(Vec<f64>, u32, u32)) -> Option<f64> {
 /// The salient pixels: the top `SALIENT_SHARE` of the subject's pixels (`subject[i]`) by
 /// `saliency`, when any pixel has a positive saliency.
 pub fn salient_pixels(saliency: &[f32], subject: &[bool]) -> Vec<bool> {
-    let mut values: Vec<f32> = saliency.iter().zip(subject).filter(|(s, on)| **on && **s > 0.0).map(|(s, _)| *s).collect();
+    let mut values: Vec<f32> =
+        saliency.iter().zip(subject).filter(|(s, on)| **on && **s > 0.0).map(|(s, _)| *s).collect();
     if values.is_empty() {
         return vec![false; saliency.len()];
     }
@@ -241,8 +242,14 @@ mod tests {
     #[test]
     fn hierarchy_compares_edge_planes_with_salient_planes() {
         // A 4 x 4 block of small planes in the middle, one big plane around it.
-        let m = map(40, 40, |x, y| if (16..24).contains(&x) && (16..24).contains(&y) { 1 + (x / 2 % 4) + 4 * (y / 2 % 4) } else { 0 }, 17);
-        let salient: Vec<bool> = (0..1600).map(|i| (18..22).contains(&(i % 40)) && (18..22).contains(&(i / 40))).collect();
+        let m = map(
+            40,
+            40,
+            |x, y| if (16..24).contains(&x) && (16..24).contains(&y) { 1 + (x / 2 % 4) + 4 * (y / 2 % 4) } else { 0 },
+            17,
+        );
+        let salient: Vec<bool> =
+            (0..1600).map(|i| (18..22).contains(&(i % 40)) && (18..22).contains(&(i / 40))).collect();
         let r = hierarchy(&m, &salient).unwrap();
         assert!((r - (1600.0 - 64.0) / 4.0).abs() < 1e-9, "{r}");
     }

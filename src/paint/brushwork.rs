@@ -113,21 +113,21 @@ struct Anchor {
     centre: Vec2,
     samples: [u32; 3],
     jitter: f32,
-    /// The facet the stroke paints (its region's facet).
-    facet: u32,
+    /// The region the stroke paints.
+    region: Region,
 }
 
 impl Anchor {
     /// The stroke's colour: the picture at its samples, drawn `PLANE_FLATTEN` of the way to
-    /// its plane's mean colour (`means`, by facet; empty: none), value jittered.
-    fn tint(&self, source: &[Vec4], means: &[Vec3]) -> Tint {
+    /// its region's mean colour (`means`), value jittered.
+    fn tint(&self, source: &[Vec4], means: &RegionMeans) -> Tint {
         let (mut sum, mut n) = (Vec3::ZERO, 0.0f32);
         for &j in self.samples.iter().filter(|&&j| j != u32::MAX) {
             sum += source[j as usize].truncate();
             n += 1.0;
         }
         let local = sum / n.max(1.0);
-        let local = means.get(self.facet as usize).map_or(local, |m| local.lerp(*m, PLANE_FLATTEN));
+        let local = means.get(&self.region).map_or(local, |m| local.lerp(*m, PLANE_FLATTEN));
         let colour = local * self.jitter;
         let value = luminance(colour);
         Tint { colour, inv_value: if value > 0.0 { 1.0 / value } else { 0.0 }, value }
@@ -166,7 +166,7 @@ impl Layer {
         }
         let cells = strokes
             .iter()
-            .map(|s| Anchor { centre: s.centre, samples: s.samples, jitter: s.jitter, facet: (s.region >> 32) as u32 })
+            .map(|s| Anchor { centre: s.centre, samples: s.samples, jitter: s.jitter, region: s.region })
             .collect();
         strokes.sort_unstable_by_key(|s| s.key);
         let cell_of = strokes.iter().map(|s| s.order).collect();
@@ -218,7 +218,7 @@ impl Layer {
     }
 
     /// Every stroke's tint from `source`, read in cell order, listed in key order.
-    fn tints(&self, source: &[Vec4], means: &[Vec3]) -> Vec<Tint> {
+    fn tints(&self, source: &[Vec4], means: &RegionMeans) -> Vec<Tint> {
         self.to_key_order(&self.in_cell_order(|s| s.tint(source, means)))
     }
 }
@@ -631,24 +631,26 @@ enum Fine<'p> {
     Traced((f32, f32), Vec<Vec4>),
 }
 
-/// Each facet's mean colour over its painted pixels (`regions`: facet << 32 | object), in a
-/// fixed order (the same sums on any thread count).
-fn plane_means(source: &[Vec4], regions: &[Region], coverage: &Coverage) -> Vec<Vec3> {
-    let count = regions.iter().map(|r| (r >> 32) as usize + 1).max().unwrap_or(0);
-    let mut sums = vec![([0.0f64; 3], 0u64); count];
+/// Each region's mean colour (linear RGB) over its painted pixels.
+type RegionMeans = std::collections::HashMap<Region, Vec3>;
+
+/// Each region's mean colour over its painted pixels (`regions`: facet << 32 | object),
+/// summed in pixel order (the same sums on any thread count).
+fn plane_means(source: &[Vec4], regions: &[Region], coverage: &Coverage) -> RegionMeans {
+    let mut sums: std::collections::HashMap<Region, ([f64; 3], u64)> = std::collections::HashMap::new();
     for (i, (p, r)) in source.iter().zip(regions).enumerate() {
         if coverage.is_painted(i) {
-            let s = &mut sums[(r >> 32) as usize];
+            let s = sums.entry(*r).or_insert(([0.0; 3], 0));
             s.0[0] += p.x as f64;
             s.0[1] += p.y as f64;
             s.0[2] += p.z as f64;
             s.1 += 1;
         }
     }
-    sums.iter()
-        .map(|(c, n)| {
-            let n = (*n).max(1) as f64;
-            Vec3::new((c[0] / n) as f32, (c[1] / n) as f32, (c[2] / n) as f32)
+    sums.into_iter()
+        .map(|(r, (c, n))| {
+            let n = n.max(1) as f64;
+            (r, Vec3::new((c[0] / n) as f32, (c[1] / n) as f32, (c[2] / n) as f32))
         })
         .collect()
 }

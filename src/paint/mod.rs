@@ -178,6 +178,8 @@ pub struct PaintContext<'a> {
     pub lighting: Option<&'a Lighting<'a>>,
     /// What several effects derive from the facet map and the hits alone, computed once.
     inputs: &'a PaintInputs,
+    /// `PaintParams::open_planes`.
+    open_planes: bool,
 }
 
 /// What the effects derive from the facet map and the hits alone (not from the colour, nor
@@ -281,7 +283,7 @@ impl<'a> PaintContext<'a> {
         let ids = self.facets.map(|f| &f.ids[..]).filter(|d| d.len() == n);
         let hits = (self.hits.len() == n).then_some(self.hits);
         let open = match (ids, hits) {
-            (Some(ids), Some(hits)) => open_planes(ids, hits, self.facet_count()),
+            (Some(ids), Some(hits)) if self.open_planes => open_planes(ids, hits, self.facet_count()),
             _ => Vec::new(),
         };
         let r: std::sync::Arc<Vec<u64>> = std::sync::Arc::new(
@@ -506,6 +508,9 @@ pub struct PaintParams {
     pub stroke_length: f64,
     pub stroke_width: f64,
     pub canvas_grain: f64,
+    /// The facets include planes left whole across the subject's outline (the planes
+    /// faceting's passage): such a plane is one region for the effects (`PaintContext::regions`).
+    pub open_planes: bool,
     pub scale: f64,
     pub seed: u64,
     /// The render's background, linear RGB, and whether the output is transparent.
@@ -556,8 +561,14 @@ impl PaintParams {
                     Step::Chiaroscuro => format!("{} {}", p.chiaroscuro, p.seed),
                     Step::Silhouettes => format!("{} {} {}", p.silhouette_width, p.silhouette_strength, p.scale),
                     Step::Borders => format!(
-                        "{} {} {} {:?} {} {}",
-                        p.border_width, p.border_strength, p.scale, p.border_style, p.seed, p.plane_light
+                        "{} {} {} {:?} {} {} {}",
+                        p.border_width,
+                        p.border_strength,
+                        p.scale,
+                        p.border_style,
+                        p.seed,
+                        p.plane_light,
+                        p.open_planes
                     ),
                     Step::Gradients => format!("{} {}", p.gradients, p.seed),
                     Step::Palette => format!("{:?} {:?} {}", p.palette_image, p.palette, p.seed),
@@ -587,6 +598,8 @@ pub struct Painter {
     keys: Vec<String>,
     background: [f32; 3],
     transparent: bool,
+    /// `PaintParams::open_planes`.
+    open_planes: bool,
 }
 
 /// Where a chain may start: the canvas after its first `done` effects, as an earlier run of a
@@ -627,8 +640,8 @@ impl Painter {
                     (Some(path), _) => Box::new(palette::ColourTransfer::from_image(path)?),
                     (None, Some(ramp)) => {
                         let mut t = palette::ColourTransfer::from_ramp(ramp);
-                        // The ochre palette of 1910-11 is not one hue: greys and greens too.
-                        if p.palette == Palette::Ochre {
+                        // The ochre-grey palette of 1910-11 is not one hue: greys and greens too.
+                        if p.palette == Palette::OchreGrey {
                             t.hues = Some(palette::PlaneHues { strength: PLANE_HUE_STRENGTH, seed: p.seed });
                         }
                         Box::new(t)
@@ -650,7 +663,13 @@ impl Painter {
                 }),
             });
         }
-        Ok(Painter { effects, keys: p.keys(), background: p.background, transparent: p.transparent })
+        Ok(Painter {
+            effects,
+            keys: p.keys(),
+            background: p.background,
+            transparent: p.transparent,
+            open_planes: p.open_planes,
+        })
     }
 
     /// Each enabled effect's parameters, as text, in chain order: two painters whose first k
@@ -662,7 +681,7 @@ impl Painter {
 
     /// A chain of the given effects (tests, benchmarks).
     pub fn from_effects(effects: Vec<Box<dyn Effect>>, background: [f32; 3], transparent: bool) -> Painter {
-        Painter { effects, keys: Vec::new(), background, transparent }
+        Painter { effects, keys: Vec::new(), background, transparent, open_planes: false }
     }
 
     pub fn is_empty(&self) -> bool {
@@ -723,7 +742,7 @@ impl Painter {
         }
         let (w, h) = (film.width, film.height);
         let mut canvas = Canvas::new(w, h, &mut film.color, self.background, self.transparent);
-        let ctx = PaintContext { hits: &film.hits, facets, lighting, inputs };
+        let ctx = PaintContext { hits: &film.hits, facets, lighting, inputs, open_planes: self.open_planes };
         let mut start = 0;
         if let Some(r) =
             resume.filter(|r| r.done <= self.effects.len() && r.px.is_none_or(|px| px.len() == canvas.px.len()))

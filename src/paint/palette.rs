@@ -22,6 +22,9 @@ pub enum Palette {
     None,
     /// Picasso and Braque, 1910: umber, ochre, lead white.
     Ochre,
+    /// Picasso and Braque, 1910-11: `OCHRE_GREY`'s umbers and ochres, turned plane by plane
+    /// towards cool greys and grey-greens away from the composition's centre (`PlaneHues`).
+    OchreGrey,
     /// Grisaille, 1911: warm blacks, brownish and cool greys.
     Grey,
     /// Picasso's blue period: Prussian blue to pale blue-grey.
@@ -46,6 +49,20 @@ pub struct Ramp {
 /// Picasso and Braque, 1910: umber darks, ochre mid-tones, lead-white lights.
 pub const OCHRE: Ramp = Ramp {
     name: "ochre",
+    stops: &[
+        (0.00, [0x1c, 0x14, 0x0d]),
+        (0.12, [0x3d, 0x2c, 0x1c]),
+        (0.35, [0x7a, 0x5a, 0x36]),
+        (0.60, [0xa8, 0x84, 0x4f]),
+        (0.82, [0xc9, 0xad, 0x78]),
+        (1.00, [0xeb, 0xdc, 0xb4]),
+    ],
+};
+
+/// The ochre of 1910-11 with its lights held lower (a narrower value range, no cream), under
+/// the `OchreGrey` palette's cool edges.
+pub const OCHRE_GREY: Ramp = Ramp {
+    name: "ochre-grey",
     stops: &[
         (0.00, [0x1c, 0x14, 0x0d]),
         (0.12, [0x3d, 0x2c, 0x1c]),
@@ -99,6 +116,7 @@ pub fn ramp(palette: Palette) -> Option<&'static Ramp> {
     match palette {
         Palette::None => None,
         Palette::Ochre => Some(&OCHRE),
+        Palette::OchreGrey => Some(&OCHRE_GREY),
         Palette::Grey => Some(&GREY),
         Palette::BluePeriod => Some(&BLUE_PERIOD),
         Palette::Olive => Some(&OLIVE),

@@ -12,9 +12,9 @@ use glam::Vec2;
 use rayon::prelude::*;
 
 use super::planes::{Plane, smoothstep};
-use crate::film::PixelHit;
 use super::{Canvas, Effect, PaintContext};
 use crate::error::Result;
+use crate::film::PixelHit;
 
 /// At amount 1, the light end is brightened by this fraction ...
 pub const LIGHT: f32 = 0.25;

@@ -49,11 +49,12 @@ fn every_plane_gets_a_ramp_from_its_light_end_to_its_dark_end() {
     let facets = voronoi(w, h, 20, 3);
     let mut frame = flat(w, h, Vec3::splat(0.4));
     let light = PlaneLight { amount: 0.7, seed: 5 };
+    let oval = super::plane_light::Oval::of(w as usize, h as usize, &frame.hits);
     run(Box::new(PlaneLight { amount: 0.7, seed: 5 }), &mut frame, Some(&facets));
     let planes = planes(w, &facets.ids, 20, 5);
     for (i, c) in frame.color.iter().enumerate() {
         let p = Vec2::new((i as u32 % w) as f32 + 0.5, (i as u32 / w) as f32 + 0.5);
-        let want = 0.4 * light.at(&planes[facets.ids[i] as usize], p);
+        let want = 0.4 * light.composed(&planes[facets.ids[i] as usize], p, oval.r(p));
         assert!((c.x - want).abs() < 1e-6, "pixel {i}");
     }
     // The ends: 1 + amount LIGHT and 1 - amount DARK.

@@ -203,6 +203,7 @@ pub fn paint(s: &Settings) -> PaintParams {
         palette: match s.palette {
             settings::Palette::None => Palette::None,
             settings::Palette::Ochre => Palette::Ochre,
+            settings::Palette::OchreGrey => Palette::OchreGrey,
             settings::Palette::Grey => Palette::Grey,
             settings::Palette::BluePeriod => Palette::BluePeriod,
             settings::Palette::Olive => Palette::Olive,
@@ -218,6 +219,8 @@ pub fn paint(s: &Settings) -> PaintParams {
         stroke_length: s.stroke_length,
         stroke_width: s.stroke_width,
         canvas_grain: s.canvas_grain,
+        // The planes faceting leaves some planes whole across the outline (passage).
+        open_planes: s.faceting == settings::Faceting::Planes && s.plane_outlines,
         scale: s.pixel_scale(),
         seed: s.seed,
         background: s.background,

@@ -92,6 +92,9 @@ kebab_enum!(
         None = "none",
         /// Picasso and Braque, 1910: umber, ochre, lead white.
         Ochre = "ochre",
+        /// Picasso and Braque, 1910-11: umber and ochre at the lit centre, cool greys and
+        /// grey-greens towards the edges, each plane one hue at its own value.
+        OchreGrey = "ochre-grey",
         /// Grisaille, 1911: warm blacks, brownish and cool greys.
         Grey = "grey",
         /// Picasso's blue period: Prussian blue to pale blue-grey.

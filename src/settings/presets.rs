@@ -142,7 +142,7 @@ impl Preset {
                 // corner gradients.
                 s.silhouette_width = 0.0;
                 s.silhouette_strength = 0.5;
-                s.palette = Palette::Ochre;
+                s.palette = Palette::OchreGrey;
                 s.gradients = 0.0;
                 s.colors = 0;
                 s.chiaroscuro = 0.3;

@@ -215,9 +215,12 @@ mod tests {
         // Centre beats corner at equal saliency.
         assert!(at(150, 60) > at(159, 0));
         // The features kept whole: salient cells of the subject only.
-        let cov = Cues::new(w, h, &|i| (i % w as usize) < 100, Some(&sal), );
+        let cov = Cues::new(w, h, &|i| (i % w as usize) < 100, Some(&sal));
         assert!(cov.protect.iter().any(|&p| p == 1.0));
-        assert!(cov.protect.iter().enumerate().all(|(k, &p)| p == 0.0 || k % cov.columns < 90), "features off the subject");
+        assert!(
+            cov.protect.iter().enumerate().all(|(k, &p)| p == 0.0 || k % cov.columns < 90),
+            "features off the subject"
+        );
         // Detail 1: uniform.
         let u = Density::new(w, h, &|i| i % 2 == 0, Some(&sal), 1.0);
         assert!(u.values.iter().all(|&v| v == 1.0));

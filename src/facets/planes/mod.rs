@@ -176,15 +176,14 @@ pub fn layout_prepared(input: &PlanesInput, params: &PlanesParams, prep: &Prepar
         .collect();
 
     // 3. The scaffolding.
-    let weights =
-        split::Weights {
-            columns: density.columns,
-            rows: density.rows,
-            values: &density.values,
-            protect: &prep.cues.protect,
-            width: wf,
-            height: hf,
-        };
+    let weights = split::Weights {
+        columns: density.columns,
+        rows: density.rows,
+        values: &density.values,
+        protect: &prep.cues.protect,
+        width: wf,
+        height: hf,
+    };
     let count = params.planes.clamp(1, MAX_PLANES) as usize;
     let cells = split::split(&weights, &runs, count, SPLIT_WIDTH * diag, MAX_PLANE_SHARE * wf * hf, params.seed);
     let mut polygons: Vec<(u32, Vec<DVec2>)> = cells.iter().enumerate().map(|(i, c)| (i as u32, c.clone())).collect();

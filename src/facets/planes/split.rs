@@ -479,7 +479,9 @@ mod tests {
             let wts = Weights { columns: 40, rows: 30, values: &values, protect, width: 400.0, height: 300.0 };
             let leaves = split(&wts, &[], 40, 8.0, 1e9, 7);
             let inside = |l: &Vec<DVec2>| {
-                (180..220).step_by(4).any(|x| (130..170).step_by(4).any(|y| contains(l, DVec2::new(x as f64 + 0.5, y as f64 + 0.5))))
+                (180..220)
+                    .step_by(4)
+                    .any(|x| (130..170).step_by(4).any(|y| contains(l, DVec2::new(x as f64 + 0.5, y as f64 + 0.5))))
             };
             leaves.iter().filter(|l| inside(l)).count()
         };
