@@ -157,13 +157,13 @@ fn settings_prints_every_resolved_key_as_json() {
     assert_eq!(code, 0, "{err}");
     let json = parse(&out);
     // Every key of `Settings`, and back into Settings the defaults (the output is a valid
-    // config file; f32 values print as typed, 0.62 rather than 0.6200000047683716).
+    // config file; f32 values print as typed, 0.34 rather than 0.3400000035762787).
     let keys = json.as_object().unwrap();
     let all = serde_json::to_value(Settings::default()).unwrap();
     assert!(keys.keys().eq(all.as_object().unwrap().keys()), "{out}");
     let back: Settings = serde_json::from_value(json.clone()).unwrap();
     assert_eq!(back, Settings::default());
-    assert_eq!(json["background"], serde_json::json!([0.62, 0.56, 0.46]));
+    assert_eq!(json["background"], serde_json::json!([0.34, 0.3, 0.24]));
     for key in ["preset", "fill", "superpixels", "weight_object", "saliency_method", "saliency_cache", "passes"] {
         assert!(keys.contains_key(key), "no `{key}` in {out}");
     }
@@ -217,11 +217,11 @@ fn settings_schema_describes_every_key_the_stages_and_the_presets() {
     assert_eq!(schema["version"], 1);
     let settings = schema["settings"].as_array().unwrap();
     let field = |key: &str| settings.iter().find(|f| f["key"] == key).unwrap_or_else(|| panic!("no {key}"));
-    // The defaults are what `cubist settings` prints (f32 values as typed: 0.62).
+    // The defaults are what `cubist settings` prints (f32 values as typed: 0.34).
     let (_, out, _) = run(dir.path(), &["settings"]);
     let defaults: serde_json::Value = serde_json::from_str(&out).unwrap();
     assert_eq!(settings.len(), defaults.as_object().unwrap().len());
-    assert_eq!(field("background")["default"], serde_json::json!([0.62, 0.56, 0.46]));
+    assert_eq!(field("background")["default"], serde_json::json!([0.34, 0.3, 0.24]));
     for f in settings {
         assert_eq!(f["default"], defaults[f["key"].as_str().unwrap()], "{f}");
     }

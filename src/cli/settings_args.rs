@@ -95,7 +95,7 @@ pub struct SettingsArgs {
     /// Cast shadow rays (true/false) [default: true]
     #[arg(long, help_heading = "Shading")]
     pub shadows: Option<bool>,
-    /// Background colour R,G,B, linear, 0..1 [default: 0.62,0.56,0.46]
+    /// Background colour R,G,B, linear, 0..1 [default: 0.34,0.3,0.24]
     #[arg(long, value_delimiter = ',', num_args = 1, value_name = "R,G,B", help_heading = "Shading", value_parser = finite_f32)]
     pub background: Option<Vec<f32>>,
     /// Transparent background (alpha 0) [default: false]
