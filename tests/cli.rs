@@ -169,7 +169,7 @@ fn settings_prints_every_resolved_key_as_json() {
     }
     assert_eq!(json["preset"], "analytic");
     assert_eq!(json["ambiguity"], serde_json::Value::Null);
-    assert_eq!(json["discontinuity"], 200.0);
+    assert_eq!(json["discontinuity"], 110.0);
 
     for (name, preset) in [
         ("analytic", Preset::Analytic),

@@ -27,7 +27,9 @@ fn a_saved_layout_reused_gives_the_identical_image_and_passes() {
         a.extend_from_slice(&common);
         let first = render(d, "a.png", &a);
         assert!(first.status.success(), "{}", String::from_utf8_lossy(&first.stderr));
-        let mut b = vec!["--facets", file, "--verbose"];
+        // The same faceting: it says how the layout's planes are painted (open planes of the
+        // planes faceting are one region).
+        let mut b = vec!["--faceting", method, "--facets", file, "--verbose"];
         b.extend_from_slice(&common);
         let again = render(d, "b.png", &b);
         assert!(again.status.success(), "{}", String::from_utf8_lossy(&again.stderr));

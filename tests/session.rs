@@ -98,7 +98,7 @@ fn a_facet_change_keeps_the_pixels_whose_rays_and_neighbours_did_not_change() {
     let s = Settings { width: 200, height: 150, spp: 2, passes: vec![], ..Settings::default() };
     same(&mut session, &scene, &s, "first");
     let mut kept = Vec::new();
-    for (planes, plane_detail) in [(151, 5.0), (150, 5.0), (150, 5.5), (149, 5.5), (150, 5.0)] {
+    for (planes, plane_detail) in [(91, 12.0), (90, 12.0), (90, 12.5), (89, 12.5), (90, 12.0)] {
         let c = Settings { planes, plane_detail, ..s.clone() };
         let what = format!("planes {planes}, detail {plane_detail}");
         let frame = session.render(&c, &Progress::silent()).unwrap();
@@ -114,7 +114,7 @@ fn a_facet_change_keeps_the_pixels_whose_rays_and_neighbours_did_not_change() {
     assert!(kept.iter().any(|k| k.retrace_traced > 0 && k.antialiasing_traced > 0), "{kept:?}");
     // A setting the faceting method does not read gives the same facets: every later stage
     // is kept.
-    let unread = Settings { planes: 150, plane_detail: 5.0, segments: vec![5, 31, 120], ..s.clone() };
+    let unread = Settings { planes: 90, plane_detail: 12.0, segments: vec![5, 31, 120], ..s.clone() };
     let mut all_but_faceting = ALL.to_vec();
     all_but_faceting.retain(|s| *s != "faceting");
     assert_eq!(same(&mut session, &scene, &unread, "segments under Planes"), all_but_faceting);

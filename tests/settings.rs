@@ -12,7 +12,7 @@ fn presets_bundle_the_papers_settings() {
     let a = Settings::default();
     assert_eq!(a.preset, Preset::Analytic);
     assert_eq!(a.faceting, Faceting::Planes);
-    assert_eq!(a.discontinuity, 200.0);
+    assert_eq!(a.discontinuity, 110.0);
     let angle = |s: &Settings| params::framing(s).angle_deg(params::camera_kind(CameraKind::Spherical), None);
     assert_eq!(angle(&a), 140.0);
     assert!(a.border_width > 0.0 && a.border_strength > 0.0 && a.palette != Palette::None);

@@ -153,10 +153,10 @@ pub struct SettingsArgs {
     /// Segment: weight of saliency differences [default: 0.5]
     #[arg(long, help_heading = "Facets", allow_negative_numbers = true, value_parser = finite_f64)]
     pub weight_saliency: Option<f64>,
-    /// Planes: how many planes the canvas is split into before the subject's outlines cut them [default: 150]
+    /// Planes: how many planes the canvas is split into before the subject's outlines cut them [default: 90]
     #[arg(long, help_heading = "Facets")]
     pub planes: Option<u32>,
-    /// Planes: how much denser planes are at the most salient parts than far from the subject, 1..100 [default: 5]
+    /// Planes: how much denser planes are at the most salient parts than far from the subject, 1..100 [default: 12]
     #[arg(long, help_heading = "Facets", allow_negative_numbers = true, value_parser = finite_f64)]
     pub plane_detail: Option<f64>,
     /// Planes: cut the planes along the subject's outlines (true/false) [default: true]
@@ -166,7 +166,7 @@ pub struct SettingsArgs {
     /// How facets are re-aimed [default: saliency]
     #[arg(long, value_enum, help_heading = "Spatial imprecision")]
     pub imprecision: Option<Imprecision>,
-    /// Largest facet-centre to saliency-centre shift, pixels at 1000 px; the paper recommends 50-200 [analytic: 200]
+    /// Largest facet-centre to saliency-centre shift, pixels at 1000 px; the paper recommends 50-200 [analytic: 110]
     #[arg(long, help_heading = "Spatial imprecision", allow_negative_numbers = true, value_parser = finite_f64)]
     pub discontinuity: Option<f64>,
     /// Re-aim a facet only when this share of its pixels showed geometry, 0..1; 0 = every facet, as the thesis [analytic: 0.5]
@@ -185,10 +185,10 @@ pub struct SettingsArgs {
     #[arg(long, help_heading = "Spatial imprecision", value_parser = finite_f64)]
     pub facet_fov: Option<f64>,
 
-    /// Facet border darkening distance md (eq 4.8), pixels at 1000 px; 0 = off [analytic: 12]
+    /// Facet border darkening distance md (eq 4.8), pixels at 1000 px; 0 = off [analytic: 7]
     #[arg(long, help_heading = "Painterly effects", value_parser = finite_f64)]
     pub border_width: Option<f64>,
-    /// Facet border darkening strength, 0..1; 1 = eq 4.8 as printed [analytic: 0.85]
+    /// Facet border darkening strength, 0..1; 1 = eq 4.8 as printed [analytic: 0.95]
     #[arg(long, help_heading = "Painterly effects", value_parser = finite_f64)]
     pub border_strength: Option<f64>,
     /// Background darkening distance around the objects, pixels at 1000 px; 0 = off [analytic: 0]
@@ -197,7 +197,7 @@ pub struct SettingsArgs {
     /// Silhouette darkening strength, 0..1 [analytic: 0.5]
     #[arg(long, help_heading = "Painterly effects", value_parser = finite_f64)]
     pub silhouette_strength: Option<f64>,
-    /// Built-in palette mapped onto the luminance ranks [analytic: ochre]
+    /// Built-in palette mapped onto the luminance ranks [analytic: ochre-grey]
     #[arg(long, value_enum, help_heading = "Painterly effects")]
     pub palette: Option<Palette>,
     /// A painting (PNG/JPEG, any size) whose colours are mapped onto the luminance ranks; overrides --palette
@@ -212,19 +212,19 @@ pub struct SettingsArgs {
     /// Per-facet relighting, its lights turned towards the plane's lit side, 0..1; 0 = off [analytic: 0.3]
     #[arg(long, help_heading = "Painterly effects", value_parser = finite_f64)]
     pub chiaroscuro: Option<f64>,
-    /// Light-to-dark ramp across each facet, each plane lit on its own, 0..1; 0 = off [analytic: 0.7]
+    /// Light-to-dark ramp across each facet, each plane lit on its own, 0..1; 0 = off [analytic: 0.8]
     #[arg(long, help_heading = "Painterly effects", value_parser = finite_f64)]
     pub plane_light: Option<f64>,
     /// Facet borders: symmetric (eq 4.8 on both sides) or passage (one side, lost and found, silhouettes too) [analytic: passage]
     #[arg(long, value_enum, help_heading = "Painterly effects")]
     pub border_style: Option<BorderStyle>,
-    /// Opacity of the brush-stroke layer, 0..1; 0 = off [analytic: 0.8]
+    /// Opacity of the brush-stroke layer, 0..1; 0 = off [analytic: 0.85]
     #[arg(long, help_heading = "Painterly effects", value_parser = finite_f64)]
     pub brushwork: Option<f64>,
-    /// Brush stroke length, pixels at 1000 px [default: 26]
+    /// Brush stroke length, pixels at 1000 px [default: 30]
     #[arg(long, value_name = "PX", help_heading = "Painterly effects", value_parser = finite_f64)]
     pub stroke_length: Option<f64>,
-    /// Brush stroke width, pixels at 1000 px [default: 7]
+    /// Brush stroke width, pixels at 1000 px [default: 8]
     #[arg(long, value_name = "PX", help_heading = "Painterly effects", value_parser = finite_f64)]
     pub stroke_width: Option<f64>,
     /// Canvas weave showing through the paint, 0..1; 0 = off [analytic: 0.5]
