@@ -34,7 +34,7 @@ pub mod passage;
 pub mod plane_light;
 pub mod planes;
 
-use glam::{Vec3, Vec4};
+use glam::{Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
@@ -178,6 +178,9 @@ pub struct Sequence<'a> {
     pub palette: Option<&'a palette::PaletteKey>,
     /// The facet map the planes are read from (the layout's), instead of the frame's own.
     pub planes_from: Option<&'a FacetMap>,
+    /// Per facet id, how far its plane moved since `planes_from` (pixels; facets that follow
+    /// the scene: `facets::motion::Carried::shift`).
+    pub plane_shift: Option<&'a [Vec2]>,
     /// Where strokes go (`strokes::surface`), instead of the still's grid.
     pub seeds: Option<&'a dyn crate::strokes::SeedSource>,
 }
@@ -344,10 +347,18 @@ impl<'a> PaintContext<'a> {
             return p;
         }
         let from = self.sequence.and_then(|s| s.planes_from).filter(|f| f.ids.len() == pixels).or(self.facets);
-        let p = std::sync::Arc::new(match from {
+        let mut p = match from {
             Some(f) => planes::planes(width, &f.ids, self.facet_count().max(f.facet_count as usize), seed),
             None => planes::planes(width, &vec![0; pixels], 1, seed),
-        });
+        };
+        if let Some(shift) = self.sequence.and_then(|s| s.plane_shift) {
+            for (plane, d) in p.iter_mut().zip(shift) {
+                plane.centre += *d;
+                let along = d.dot(plane.dark);
+                plane.span = (plane.span.0 + along, plane.span.1 + along);
+            }
+        }
+        let p = std::sync::Arc::new(p);
         if let Ok(mut g) = self.inputs.planes.lock() {
             *g = Some((seed, p.clone()));
         }

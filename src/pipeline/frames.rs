@@ -703,13 +703,16 @@ fn render_frame(
         pre.saliency = Some(map);
     }
 
-    let (map, revealed) = match key {
+    let (map, revealed, plane_shift) = match key {
         Some((key, key_map)) => {
             let carried = timings.time("facet motion", || motion::carry(&key.key(key_map), &pre));
-            (carried.map, Some(carried.revealed))
+            (carried.map, Some(carried.revealed), Some(carried.shift))
         }
-        None => (keep.map.clone(), None),
+        None => (keep.map.clone(), None, None),
     };
+    // The planes (their light ramps, the strokes' directions): the key frame's, moved with
+    // their facets when facets follow; the layout's, still, when they do not.
+    let planes_from = key.map_or(&keep.map, |(_, key_map)| key_map);
     if keep.faceted && params.aim.neighborhood > 0.0 && pre.saliency.is_some() {
         imprecision::check_neighbourhood(&map, params.aim.neighbourhood_px())?;
     }
@@ -746,7 +749,8 @@ fn render_frame(
         let seeds = timings.time("stroke seeds", || SurfaceSeeds::new(&hits, w, h, world, camera, facets, fade_px));
         let sequence = Sequence {
             palette: keep.palette.as_ref(),
-            planes_from: keep.faceted.then_some(&keep.map),
+            planes_from: keep.faceted.then_some(planes_from),
+            plane_shift: plane_shift.as_deref(),
             seeds: Some(&seeds),
         };
         paint_stage(painter, &mut film, facets, Some(&lighting), Painting::Sequence(&sequence), &mut timings)?;

@@ -23,7 +23,7 @@ pub mod file;
 
 use std::collections::VecDeque;
 
-use glam::{DVec2, Vec3};
+use glam::{DVec2, Vec2, Vec3};
 
 use super::FacetMap;
 use crate::camera::Camera;
@@ -63,6 +63,10 @@ pub struct Carried {
     /// Fraction of the frame's surface pixels whose point the key frame did not see (hidden,
     /// turned away or out of its picture): their facets were grown from their neighbours'.
     pub revealed: f64,
+    /// Per facet id: the mean move (pixels, x right, y down) of its pixels from the key frame
+    /// to this one, over the pixels whose point the key frame saw; zero for the background's
+    /// facets (`background_facets`), which stay where they are.
+    pub shift: Vec<Vec2>,
 }
 
 /// Per-pixel triangle and depth from the camera surface, read off a pre-pass film (one sample
@@ -109,11 +113,21 @@ pub fn carry(key: &Key, film: &Film) -> Carried {
     let mut ids = vec![UNSET; n];
     let (mut surface, mut revealed) = (0usize, 0usize);
     let background = background_facets(key);
+    let facets = key.map.facet_count as usize;
+    let mut moves = vec![(DVec2::ZERO, 0u64); facets];
+    let at = |i: usize| DVec2::new((i % w as usize) as f64, (i / w as usize) as f64);
     for (i, hit) in film.hits.iter().enumerate() {
         if hit.is_hit() {
             surface += 1;
             match seen_at_key(key, hit.tri, hit.u, hit.v) {
-                Some(k) => ids[i] = key.map.ids[k],
+                Some(k) => {
+                    let id = key.map.ids[k];
+                    ids[i] = id;
+                    if let Some(m) = moves.get_mut(id as usize) {
+                        m.0 += at(i) - at(k);
+                        m.1 += 1;
+                    }
+                }
                 None => revealed += 1,
             }
         } else {
@@ -121,9 +135,16 @@ pub fn carry(key: &Key, film: &Film) -> Carried {
         }
     }
     grow(&mut ids, w, h, key.map.ids[0]);
+    for &id in &background {
+        if let Some(m) = moves.get_mut(id as usize) {
+            *m = (DVec2::ZERO, 0);
+        }
+    }
+    let shift = moves.iter().map(|&(sum, n)| if n > 0 { (sum / n as f64).as_vec2() } else { Vec2::ZERO }).collect();
     Carried {
         map: FacetMap { width: w, height: h, ids, facet_count: key.map.facet_count },
         revealed: if surface == 0 { 0.0 } else { revealed as f64 / surface as f64 },
+        shift,
     }
 }
 
