@@ -73,7 +73,10 @@ ADDON_DEFAULTS = {
 }
 
 # Render passes: panel toggle -> the renderer's pass name (`pass_facet_ids` for `facet-ids`).
-PASS_TOGGLES = {"pass_" + name.replace("-", "_"): name for name, _help in schema.choices("passes")}
+# The 16-bit RGBA motion pass is written for animation frames of the command line only (a
+# render of one frame has no next frame): not a toggle of the panel.
+PASS_TOGGLES = {"pass_" + name.replace("-", "_"): name for name, _help in schema.choices("passes")
+                if schema.pass_format(name) != "rgba16"}
 
 # Panel properties with no settings key of their own, placed after the settings key whose
 # panel they belong to (the order of the panel's values, of the panels (panel_layout.py), and

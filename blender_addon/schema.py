@@ -70,5 +70,5 @@ def automatic(key: str, case: str):
 
 
 def pass_format(name: str) -> str:
-    """How the renderer writes pass `name`: 'grey', 'grey16' or 'rgb'."""
+    """How the renderer writes pass `name`: 'grey', 'grey16', 'rgba16' or 'rgb'."""
     return SETTINGS["passes"]["formats"][name]

@@ -19,6 +19,7 @@ pub mod facets;
 pub mod film;
 pub mod imprecision;
 pub mod look;
+pub mod motion;
 pub mod output;
 pub mod paint;
 pub mod pipeline;
@@ -28,6 +29,7 @@ pub mod scene;
 pub mod serve;
 pub mod settings;
 pub mod shading;
+pub mod strokes;
 pub mod trace;
 pub mod util;
 

@@ -139,6 +139,7 @@ fn run_render(args: RenderArgs) -> anyhow::Result<()> {
     if args.frames.frames.is_some() {
         return run_frames(args, settings);
     }
+    pipeline::params::check_still_passes(&settings)?;
     if pipeline::follows_saved_key(&settings) {
         return run_followed(args, settings);
     }
@@ -290,6 +291,9 @@ fn run_frames(args: RenderArgs, settings: cubist::Settings) -> anyhow::Result<()
         // A frame's picture and passes all or nothing.
         let mut outputs = Outputs::new();
         add_picture(&mut outputs, &path, &out.image, &out.passes, &out.passes16)?;
+        if let Some(motion) = &out.motion {
+            outputs.png_rgba16(&pass_path(&path, Pass::Motion.as_str()), motion)?;
+        }
         outputs.commit()?;
         per_frame.push((out.frame, out.timings, out.revealed));
         Ok(())

@@ -28,6 +28,8 @@ pub enum Pass {
     Normals,
     /// Hit distance, grey, near = white.
     Depth,
+    /// Screen motion from the previous frame and to the next (animation frames: `motion`).
+    Motion,
 }
 
 impl Pass {
@@ -41,13 +43,15 @@ impl Pass {
             Pass::Objects => "objects",
             Pass::Normals => "normals",
             Pass::Depth => "depth",
+            Pass::Motion => "motion",
         }
     }
 
     /// How the pass's image is written: `grey` (8-bit, R = G = B: saliency, depth), `grey16`
-    /// (16-bit grey: facet ids) or `rgb` (8-bit colour).
+    /// (16-bit grey: facet ids), `rgba16` (16-bit colour: motion) or `rgb` (8-bit colour).
     pub fn format(self) -> &'static str {
         match self {
+            Pass::Motion => "rgba16",
             Pass::Saliency | Pass::Depth => "grey",
             Pass::FacetIds => "grey16",
             Pass::Facets | Pass::Segments | Pass::Objects | Pass::Normals => "rgb",

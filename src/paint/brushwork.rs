@@ -31,6 +31,7 @@ use super::noise::lattice1;
 use super::planes::{Plane, smoothstep};
 use super::{Canvas, Coverage, Effect, PaintContext, luminance};
 use crate::error::Result;
+use crate::strokes::{Grid, SeedSource};
 use crate::util::rng::{splitmix64, sub_seed, unit_f64};
 
 const SALT: u64 = 0x6272_7573_6877_6f72; // "brushwor"
@@ -94,6 +95,8 @@ struct Stroke {
     jitter: f32,
     /// Its place among its layer's strokes in cell (scan) order (`Layer::cells`).
     order: u32,
+    /// Its seed's opacity (fading in or out: `strokes::StrokeSeed`).
+    opacity: f32,
 }
 
 /// A stroke's flat colour: the mean of the picture at its samples, value jittered.
@@ -254,7 +257,7 @@ fn shape(s: &Stroke, dx: f32, dy_dir: (f32, f32), region: Region, opacity: f32) 
     let x = ((v * s.inv_half_wid) * BRISTLES as f32).min(BRISTLES as f32 - 1e-3);
     let k = x as usize;
     let b = s.bristles[k] + (s.bristles[k + 1] - s.bristles[k]) * fade(x - k as f32);
-    let mut alpha = edge * opacity;
+    let mut alpha = edge * opacity * s.opacity;
     // Dry-brush tail: over the last half of the length only the loaded bristles paint.
     if un > 0.5 {
         let t = (un - 0.5) * 1.4 - 0.2;
@@ -307,37 +310,40 @@ impl Brushwork {
             .collect()
     }
 
-    /// The strokes of layer `layer` (0 coarse, 1 fine), in cell order: one per grid cell,
-    /// anchored at a seeded point of the cell, on a painted pixel; `keep(anchor)`, when
-    /// given, says whether the cell gets its stroke.
+    /// The strokes of layer `layer` (0 coarse, 1 fine), in the seeds' order: one per seed of
+    /// `seeds` (`strokes::SeedSource`: a still's jittered grid, or seeds on the surfaces) on a
+    /// painted pixel; `keep(anchor)`, when given, says whether a seed gets its stroke. All
+    /// that is random about a stroke comes from its seed's id.
     fn strokes(
         &self,
         layer: u64,
         (length, width): (f32, f32),
         surface: &Surface,
         angle: &[Vec2],
+        seeds: &dyn SeedSource,
         keep: Option<&(dyn Fn(Vec2) -> bool + Sync)>,
     ) -> Vec<Stroke> {
         let (w, h) = (surface.w, surface.h);
         let cell = width * SPACING;
-        let (nx, ny) = ((w as f32 / cell).ceil() as usize, (h as f32 / cell).ceil() as usize);
-        let seed = splitmix64(sub_seed(self.seed, SALT) ^ layer);
-        (0..ny)
-            .into_par_iter()
-            .flat_map_iter(|cy| {
-                (0..nx).filter_map(move |cx| {
-                    let hsh = splitmix64(seed ^ splitmix64((cy * nx + cx) as u64));
+        let seeds = seeds.seeds(sub_seed(self.seed, SALT), layer, cell, w, h);
+        seeds
+            .par_iter()
+            .filter_map(|seed| {
+                {
+                    let (hsh, centre) = (seed.id, seed.pos);
                     let r = |k: u64| unit_f64(splitmix64(hsh ^ k)) as f32;
-                    let centre = Vec2::new((cx as f32 + r(1)) * cell, (cy as f32 + r(2)) * cell);
                     let (x, y) = (centre.x as usize, centre.y as usize);
-                    if x >= w || y >= h {
+                    if !(centre.x >= 0.0 && centre.y >= 0.0) || x >= w || y >= h {
                         return None;
                     }
                     let i = y * w + x;
                     if !surface.coverage.is_painted(i) || keep.is_some_and(|keep| !keep(centre)) {
                         return None;
                     }
-                    let region = surface.region(i);
+                    let region = match seed.plane {
+                        Some(f) => ((f as u64) << 32) | (surface.region(i) & 0xffff_ffff),
+                        None => surface.region(i),
+                    };
                     let turn = (2.0 * r(3) - 1.0) * STROKE_TURN_DEG.to_radians();
                     let dir = Vec2::from_angle(turn).rotate(angle[(region >> 32) as usize]);
                     let half_len = 0.5 * length * (0.8 + 0.4 * r(4));
@@ -365,8 +371,9 @@ impl Brushwork {
                         samples,
                         jitter: 1.0 + VALUE_JITTER * (2.0 * r(5) - 1.0),
                         order: 0,
+                        opacity: seed.opacity,
                     })
-                })
+                }
             })
             .collect()
     }
@@ -669,6 +676,7 @@ impl Effect for Brushwork {
         let length = self.length.max(width);
         let planes = ctx.planes(canvas.width, w * h, self.seed);
         let angle = self.directions(&planes);
+        let seeds: &dyn SeedSource = ctx.seeds().unwrap_or(&Grid);
         let opacity = self.opacity.min(1.0);
         // A session keeps the strokes and their fragments (opaque canvases: a transparent
         // one's coverage comes from the colour, which may change under the same regions).
@@ -689,7 +697,8 @@ impl Effect for Brushwork {
         // Everything the layers read of the picture before them is read first, in cell order
         // (no copy of the picture): the tints (every stroke's colour comes from the picture
         // under the layers), and the fine layer's test's values of that picture.
-        let coarse_new = old.is_none().then(|| Layer::new(self.strokes(0, (length, width), &surface, &angle, None), h));
+        let coarse_new =
+            old.is_none().then(|| Layer::new(self.strokes(0, (length, width), &surface, &angle, seeds, None), h));
         let coarse_layer = match (&old, &coarse_new) {
             (Some(plan), _) => &plan.coarse.layer,
             (None, Some(layer)) => layer,
@@ -728,7 +737,7 @@ impl Effect for Brushwork {
                 Some((Fine::Kept(frags), t, b))
             }
             (None, Some(size)) if record => {
-                let l = Layer::new(self.strokes(1, size, &surface, &angle, None), h);
+                let l = Layer::new(self.strokes(1, size, &surface, &angle, seeds, None), h);
                 let (t, b) = tints_and_probes(&l);
                 Some((Fine::Recorded(l), t, b))
             }
@@ -776,7 +785,7 @@ impl Effect for Brushwork {
                 Fine::Traced(size, source) => {
                     // The test at an anchor, its probes read from the copy of the picture.
                     let keep_at = |p: Vec2| keep(&probes_in(&source, p));
-                    let layer = Layer::new(self.strokes(1, size, &surface, &angle, Some(&keep_at)), h);
+                    let layer = Layer::new(self.strokes(1, size, &surface, &angle, seeds, Some(&keep_at)), h);
                     if !layer.strokes.is_empty() {
                         let tints = layer.tints(&source, &means);
                         composite(&layer, &tints, None, px, &surface, opacity);
@@ -812,6 +821,7 @@ mod tests {
             samples: [u32::MAX; 3],
             jitter: 1.0,
             order: 0,
+            opacity: 1.0,
         }
     }
 

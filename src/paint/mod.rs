@@ -34,7 +34,7 @@ pub mod passage;
 pub mod plane_light;
 pub mod planes;
 
-use glam::{Vec3, Vec4};
+use glam::{Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
@@ -169,6 +169,22 @@ pub struct Lighting<'a> {
     pub view: chiaroscuro::ViewAxes,
 }
 
+/// What animation frames hold still across a sequence, so that what does not move in the
+/// scene does not change in the picture (`Painter::apply_sequence`).
+#[derive(Default)]
+pub struct Sequence<'a> {
+    /// The palette's luminance mapping, decided once (`Painter::palette_key`) instead of from
+    /// each frame's own pixels (a moving subject would shift every pixel's rank).
+    pub palette: Option<&'a palette::PaletteKey>,
+    /// The facet map the planes are read from (the layout's), instead of the frame's own.
+    pub planes_from: Option<&'a FacetMap>,
+    /// Per facet id, how far its plane moved since `planes_from` (pixels; facets that follow
+    /// the scene: `facets::motion::Carried::shift`).
+    pub plane_shift: Option<&'a [Vec2]>,
+    /// Where strokes go (`strokes::surface`), instead of the still's grid.
+    pub seeds: Option<&'a dyn crate::strokes::SeedSource>,
+}
+
 /// What the effects read besides the canvas.
 pub struct PaintContext<'a> {
     /// The representative hit of every pixel (normals for chiaroscuro).
@@ -180,6 +196,8 @@ pub struct PaintContext<'a> {
     inputs: &'a PaintInputs,
     /// `PaintParams::open_planes`.
     open_planes: bool,
+    /// Animation frames: what holds still across the sequence.
+    sequence: Option<&'a Sequence<'a>>,
 }
 
 /// What the effects derive from the facet map and the hits alone (not from the colour, nor
@@ -328,10 +346,19 @@ impl<'a> PaintContext<'a> {
         {
             return p;
         }
-        let p = std::sync::Arc::new(match self.facets {
-            Some(f) => planes::planes(width, &f.ids, self.facet_count(), seed),
+        let from = self.sequence.and_then(|s| s.planes_from).filter(|f| f.ids.len() == pixels).or(self.facets);
+        let mut p = match from {
+            Some(f) => planes::planes(width, &f.ids, self.facet_count().max(f.facet_count as usize), seed),
             None => planes::planes(width, &vec![0; pixels], 1, seed),
-        });
+        };
+        if let Some(shift) = self.sequence.and_then(|s| s.plane_shift) {
+            for (plane, d) in p.iter_mut().zip(shift) {
+                plane.centre += *d;
+                let along = d.dot(plane.dark);
+                plane.span = (plane.span.0 + along, plane.span.1 + along);
+            }
+        }
+        let p = std::sync::Arc::new(p);
         if let Ok(mut g) = self.inputs.planes.lock() {
             *g = Some((seed, p.clone()));
         }
@@ -424,6 +451,16 @@ impl<'a> PaintContext<'a> {
         }
     }
 
+    /// Animation frames: the palette's mapping decided for the sequence.
+    pub fn palette_key(&self) -> Option<&palette::PaletteKey> {
+        self.sequence.and_then(|s| s.palette)
+    }
+
+    /// Animation frames: where strokes go.
+    pub fn seeds(&self) -> Option<&dyn crate::strokes::SeedSource> {
+        self.sequence.and_then(|s| s.seeds)
+    }
+
     /// The facet id of pixel `i` (0 without a facet map).
     pub fn facet(&self, i: usize) -> u32 {
         self.facets.map_or(0, |f| f.ids[i])
@@ -477,6 +514,11 @@ pub trait Effect: Send + Sync {
         false
     }
     fn apply(&self, canvas: &mut Canvas<'_>, ctx: &PaintContext) -> Result<()>;
+    /// A colour transfer's luminance mapping for this canvas, to hold for a sequence
+    /// (`Painter::palette_key`); None for every other effect.
+    fn palette_key(&self, _canvas: &Canvas<'_>) -> Option<palette::PaletteKey> {
+        None
+    }
 }
 
 /// What the painterly effects need besides the render. Distances are pixels at 1000 px,
@@ -729,6 +771,53 @@ impl Painter {
         resume: Option<Resume<'_>>,
         keep: Option<usize>,
     ) -> Result<Option<Vec<Vec4>>> {
+        self.run(film, facets, lighting, inputs, resume, keep, None)
+    }
+
+    /// `apply` for a frame of an animation: what `sequence` holds still is read from it.
+    pub fn apply_sequence(
+        &self,
+        film: &mut Film,
+        facets: Option<&FacetMap>,
+        lighting: Option<&Lighting>,
+        sequence: &Sequence,
+    ) -> Result<()> {
+        self.run(film, facets, lighting, &PaintInputs::default(), None, None, Some(sequence)).map(|_| ())
+    }
+
+    /// The palette's luminance mapping of `film` painted by the effects before the palette
+    /// (None without a palette): what `Sequence::palette` holds for a sequence.
+    pub fn palette_key(
+        &self,
+        film: &Film,
+        facets: Option<&FacetMap>,
+        lighting: Option<&Lighting>,
+        sequence: &Sequence,
+    ) -> Result<Option<palette::PaletteKey>> {
+        let mut color = film.color.clone();
+        let mut canvas = Canvas::new(film.width, film.height, &mut color, self.background, self.transparent);
+        let inputs = PaintInputs::default();
+        let ctx = PaintContext { hits: &film.hits, facets, lighting, inputs: &inputs, sequence: Some(sequence) };
+        for e in &self.effects {
+            if let Some(key) = e.palette_key(&canvas) {
+                return Ok(Some(key));
+            }
+            e.apply(&mut canvas, &ctx)?;
+        }
+        Ok(None)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn run(
+        &self,
+        film: &mut Film,
+        facets: Option<&FacetMap>,
+        lighting: Option<&Lighting>,
+        inputs: &PaintInputs,
+        resume: Option<Resume<'_>>,
+        keep: Option<usize>,
+        sequence: Option<&Sequence>,
+    ) -> Result<Option<Vec<Vec4>>> {
         if self.effects.is_empty() {
             return Ok(None);
         }
@@ -742,7 +831,8 @@ impl Painter {
         }
         let (w, h) = (film.width, film.height);
         let mut canvas = Canvas::new(w, h, &mut film.color, self.background, self.transparent);
-        let ctx = PaintContext { hits: &film.hits, facets, lighting, inputs, open_planes: self.open_planes };
+        let ctx =
+            PaintContext { hits: &film.hits, facets, lighting, inputs, open_planes: self.open_planes, sequence };
         let mut start = 0;
         if let Some(r) =
             resume.filter(|r| r.done <= self.effects.len() && r.px.is_none_or(|px| px.len() == canvas.px.len()))

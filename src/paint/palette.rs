@@ -264,15 +264,7 @@ impl Effect for ColourTransfer {
     /// the contrast-limited histogram of `StableKeys` (luminance against a robust top, not
     /// the brightest pixel); pixels tied on luminance share their group's middle rank.
     fn apply(&self, canvas: &mut Canvas<'_>, ctx: &PaintContext) -> Result<()> {
-        let coverage = super::Coverage(canvas.coverage.as_deref());
-        let lum: Vec<f32> = canvas
-            .px
-            .par_iter()
-            .enumerate()
-            .map(|(i, p)| if coverage.is_painted(i) { luminance(p.truncate()).max(0.0) } else { -1.0 })
-            .collect();
-        // `level_indices`, each pixel's level written as it is looked up (no index buffer).
-        let Some((keys, table)) = self.keys_and_levels(&lum) else { return Ok(()) };
+        let lum = painted_luminances(canvas);
         let levels = &self.levels;
         let hues = self.hues.filter(|_| ctx.facets.is_some());
         // Each plane's distance from the composition's centre, at the plane's own centre.
@@ -295,14 +287,79 @@ impl Effect for ColourTransfer {
             }
             None => Vec::new(),
         };
+        let turned = |c: Vec3, i: usize| {
+            let f = ctx.facet(i);
+            hues.map_or(c, |h| h.turn(c, f, plane_r.get(f as usize).copied().unwrap_or(0.0)))
+        };
+        // Animation frames: the sequence's one palette table (a still background keeps its
+        // colours while the subject moves).
+        if let Some(key) = ctx.palette_key() {
+            canvas.px.par_iter_mut().zip(&lum).enumerate().for_each(|(i, (p, &l))| {
+                if let Some(k) = key.level(l) {
+                    *p = turned(levels[(k as usize).min(levels.len() - 1)], i).extend(p.w);
+                }
+            });
+            return Ok(());
+        }
+        // `level_indices`, each pixel's level written as it is looked up (no index buffer).
+        let Some((keys, table)) = self.keys_and_levels(&lum) else { return Ok(()) };
         canvas.px.par_iter_mut().zip(&keys.keys).enumerate().for_each(|(i, (p, &k))| {
             if k != UNPAINTED {
-                let c = levels[table[k as usize] as usize];
-                let f = ctx.facet(i);
-                *p = hues.map_or(c, |h| h.turn(c, f, plane_r.get(f as usize).copied().unwrap_or(0.0))).extend(p.w);
+                *p = turned(levels[table[k as usize] as usize], i).extend(p.w);
             }
         });
         Ok(())
+    }
+
+    fn palette_key(&self, canvas: &Canvas<'_>) -> Option<PaletteKey> {
+        let lum = painted_luminances(canvas);
+        let top = luminance_quantile(&lum, TOP_QUANTILE);
+        let keys = StableKeys::from_luminances(&lum);
+        if keys.total == 0 {
+            return None;
+        }
+        let n = self.levels.len();
+        let levels = rank_quantiles(&keys.histogram, keys.total, self.contrast_limit)
+            .iter()
+            .map(|q| ((q * n as f64) as usize).min(n - 1) as u32)
+            .collect();
+        Some(PaletteKey { scale: if top > 0.0 && top.is_finite() { 1.0 / top } else { 0.0 }, levels })
+    }
+}
+
+/// Each pixel's luminance, -1 where the effects do not paint.
+fn painted_luminances(canvas: &Canvas<'_>) -> Vec<f32> {
+    let coverage = super::Coverage(canvas.coverage.as_deref());
+    canvas
+        .px
+        .par_iter()
+        .enumerate()
+        .map(|(i, p)| if coverage.is_painted(i) { luminance(p.truncate()).max(0.0) } else { -1.0 })
+        .collect()
+}
+
+/// A colour transfer's luminance-to-level mapping, decided on one picture and held for the
+/// frames of a sequence: each key (as `StableKeys` makes them, against the picture's robust
+/// top) takes its `rank_quantiles` quantile's level, keys absent from that picture included
+/// (the quantiles are non-decreasing), so a frame's pixel of the same luminance always takes
+/// the same colour.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PaletteKey {
+    /// 1 / the picture's robust top luminance.
+    scale: f32,
+    /// The level of every key.
+    levels: Vec<u32>,
+}
+
+impl PaletteKey {
+    /// The level of a pixel of luminance `l` (None: not painted, `l` < 0).
+    pub fn level(&self, l: f32) -> Option<u32> {
+        if l < 0.0 {
+            return None;
+        }
+        let last = (KEY_LEVELS - 1) as f32;
+        let k = ((l * self.scale).min(1.0).sqrt() * last + 0.5) as usize;
+        Some(self.levels[k.min(self.levels.len() - 1)])
     }
 }
 

@@ -48,7 +48,8 @@ use crate::imprecision::carried::{self, KeyAim};
 use crate::imprecision::{self, AimContext, FacetAim};
 use crate::output::{Gray16, Pass};
 use crate::paint::chiaroscuro::ViewAxes;
-use crate::paint::{Lighting, Painter};
+use crate::paint::palette::PaletteKey;
+use crate::paint::{Lighting, Painter, Sequence};
 use crate::progress::Progress;
 use crate::saliency;
 use crate::scene::animation::{self, Choice, Clip};
@@ -56,6 +57,7 @@ use crate::scene::world::Similarity;
 use crate::scene::{Scene, SceneCamera, World};
 use crate::settings::Settings;
 use crate::shading::LightRig;
+use crate::strokes::surface::SurfaceSeeds;
 use crate::trace::{TraceParams, Tracer, screen_point};
 
 /// Most frames one run renders (a range is validated before anything is loaded or traced).
@@ -143,6 +145,8 @@ pub struct FrameOutput {
     pub revealed: Option<f64>,
     /// What the frame shows, per pixel (with `FramesParams::measure`).
     pub surface: Option<Surface>,
+    /// The `motion` pass, when asked for (`motion::motion_pass`).
+    pub motion: Option<crate::motion::Rgba16>,
 }
 
 /// What the whole run decided, for the user.
@@ -188,7 +192,8 @@ pub fn render_frames(
     };
     let camera_line = base.describe(key_geometry.world());
 
-    let keep = setup.time("layout", || key_frame(prep, &params, frames, &key_geometry, &cameras, &mut warnings))?;
+    let keep =
+        setup.time("layout", || key_frame(prep, &params, frames, &key_geometry, &cameras, &painter, &mut warnings))?;
     if params.motion == FacetMotion::Follow && !keep.faceted {
         warnings.push("facet motion `follow` has no effect without facets".into());
     }
@@ -208,6 +213,11 @@ pub fn render_frames(
         }
         geometry = timings.time("geometry", || poser.geometry(frames, f, Some(geometry)))?;
         let camera = cameras.at(f, geometry.world());
+        let neighbours = if params.passes.contains(&Pass::Motion) {
+            timings.time("motion poses", || neighbour_frames(&mut poser, frames, &cameras, f))?
+        } else {
+            Neighbours::default()
+        };
         let key = match (&keep.key, &chain) {
             (Some(_), Some(c)) => Some((&c.key, &c.map)),
             (Some(k), None) => Some((k, &keep.map)),
@@ -224,6 +234,7 @@ pub fn render_frames(
             &base,
             f,
             frames.measure,
+            &neighbours,
             timings,
             progress,
         )?;
@@ -281,6 +292,27 @@ impl<'a> Poser<'a> {
     fn new(prep: &'a Prepared, clips: Vec<&'a Clip>, fps: f64) -> Poser<'a> {
         let scene = if clips.is_empty() { Scene::default() } else { prep.scene.clone() };
         Poser { prep, clips, scene, space: None, base: None, fps }
+    }
+
+    /// Frame `f`'s scene in render space, without a BVH (what the `motion` pass reads of the
+    /// frames around one): as `geometry` poses it.
+    fn world(&mut self, frames: &FramesParams, f: u32) -> Result<World> {
+        if self.clips.is_empty() {
+            return Ok(self.prep.world.clone());
+        }
+        let rest = &self.prep.scene;
+        let rig = rest.rig.as_ref().expect("clips come from the scene's rig");
+        let pose = rig.pose(&self.clips, frames.time(f), |m| &rest.meshes[m].triangles);
+        animation::apply(&mut self.scene, &pose);
+        let space = *self.space.get_or_insert_with(|| World::render_space(&self.scene));
+        let objects_only = pose.meshes.is_empty() && pose.camera.is_none() && pose.lights.is_empty();
+        if let (true, Some(base)) = (objects_only, &self.base) {
+            let mut world = base.clone();
+            if world.set_transforms(&self.scene, &pose.transforms)?.is_empty() {
+                return Ok(world);
+            }
+        }
+        Ok(World::in_space(&self.scene, space))
     }
 
     /// Frame `f`'s geometry, cheapest first (ARCHITECTURE "Changing a prepared scene"):
@@ -341,6 +373,30 @@ impl<'a> Poser<'a> {
         };
         Ok(Geometry::Posed { frame: f, world: Box::new(world), accel, rigid: false })
     }
+}
+
+/// The scenes and cameras of the frames before and after one (the `motion` pass reads them).
+#[derive(Default)]
+struct Neighbours<'a> {
+    previous: Option<(World, Moved<'a>)>,
+    next: Option<(World, Moved<'a>)>,
+}
+
+/// Frame `f`'s neighbours' scenes (posed, no BVH) and cameras: frame 0 has no previous one.
+fn neighbour_frames<'a>(
+    poser: &mut Poser<'_>,
+    frames: &FramesParams,
+    cameras: &Cameras<'a>,
+    f: u32,
+) -> Result<Neighbours<'a>> {
+    let mut at = |g: u32| -> Result<(World, Moved<'a>)> {
+        let world = poser.world(frames, g)?;
+        let camera = cameras.at(g, &world);
+        Ok((world, camera))
+    };
+    let previous = if f > 0 { Some(at(f - 1)?) } else { None };
+    let next = if f < u32::MAX { Some(at(f + 1)?) } else { None };
+    Ok(Neighbours { previous, next })
 }
 
 /// The camera of every frame: the layout frame's, moved rigidly.
@@ -439,6 +495,9 @@ struct Keep {
     /// With facets that follow and re-aimed: the layout frame's aims, anchored to the surface
     /// points they show (`imprecision::carried` carries them to every frame).
     aims: Option<Vec<KeyAim>>,
+    /// The palette's luminance mapping, from the layout frame's picture: every frame maps
+    /// luminance to colour alike, so a moving subject does not shift the still background's.
+    palette: Option<PaletteKey>,
 }
 
 /// One centre ray per pixel, hits only: what the saliency map, the facets' motion and the key
@@ -482,6 +541,7 @@ fn key_frame(
     frames: &FramesParams,
     geometry: &Geometry,
     cameras: &Cameras,
+    painter: &Painter,
     warnings: &mut Vec<String>,
 ) -> Result<Keep> {
     let plan = Plan::new(params);
@@ -548,7 +608,28 @@ fn key_frame(
             follow_file::save(&follow_file::path_for(path), key)?;
         }
     }
-    Ok(Keep { faceted, map, key, aims })
+    // The palette's mapping from the layout frame's picture (traced lit here when the layout
+    // did not need it), painted by the effects before the palette.
+    let palette = if Plan::new(params).paint && painter.names().contains(&"palette") {
+        let view = camera.frame(&cameras.base.frame);
+        let rig = LightRig::new(world, &view, trace.shadows, trace.exposure);
+        let lit = if film.width == trace.width && film.height == trace.height {
+            film
+        } else {
+            let tracer =
+                Tracer { world, accel, rig: Some(&rig), background: Vec3::from(trace.background), seed: trace.seed };
+            let mut lit = Film::new(trace.width, trace.height, 1);
+            tracer.render(&mut lit, &|_, p| camera.ray(p), None, None, &Progress::silent());
+            lit
+        };
+        let axes = ViewAxes { right: view.right.as_vec3(), up: view.up.as_vec3(), forward: view.forward.as_vec3() };
+        let lighting = Lighting { world, rig: &rig, view: axes };
+        let sequence = Sequence { planes_from: faceted.then_some(&map), ..Sequence::default() };
+        painter.palette_key(&lit, faceted.then_some(&map), Some(&lighting), &sequence)?
+    } else {
+        None
+    };
+    Ok(Keep { faceted, map, key, aims, palette })
 }
 
 /// A key frame must match the frames it is carried to: same picture size, same triangles.
@@ -605,6 +686,7 @@ fn render_frame(
     base: &Framed,
     frame: u32,
     measure: bool,
+    neighbours: &Neighbours,
     mut timings: Timings,
     progress: &Progress,
 ) -> Result<FrameOutput> {
@@ -621,13 +703,16 @@ fn render_frame(
         pre.saliency = Some(map);
     }
 
-    let (map, revealed) = match key {
+    let (map, revealed, plane_shift) = match key {
         Some((key, key_map)) => {
             let carried = timings.time("facet motion", || motion::carry(&key.key(key_map), &pre));
-            (carried.map, Some(carried.revealed))
+            (carried.map, Some(carried.revealed), Some(carried.shift))
         }
-        None => (keep.map.clone(), None),
+        None => (keep.map.clone(), None, None),
     };
+    // The planes (their light ramps, the strokes' directions): the key frame's, moved with
+    // their facets when facets follow; the layout's, still, when they do not.
+    let planes_from = key.map_or(&keep.map, |(_, key_map)| key_map);
     if keep.faceted && params.aim.neighborhood > 0.0 && pre.saliency.is_some() {
         imprecision::check_neighbourhood(&map, params.aim.neighbourhood_px())?;
     }
@@ -656,12 +741,40 @@ fn render_frame(
     if plan.paint {
         let axes = ViewAxes { right: view.right.as_vec3(), up: view.up.as_vec3(), forward: view.forward.as_vec3() };
         let lighting = Lighting { world, rig: &rig, view: axes };
+        // Strokes on the surfaces, fading over a stroke's width at occlusion edges.
+        let fade_px = ((params.paint.stroke_width * params.paint.scale) as f32).max(2.0);
         let facets = keep.faceted.then_some(&map);
-        paint_stage(painter, &mut film, facets, Some(&lighting), Painting::InPlace, &mut timings)?;
+        let (w, h) = (trace.width as usize, trace.height as usize);
+        let hits = film.hits.clone();
+        let seeds = timings.time("stroke seeds", || SurfaceSeeds::new(&hits, w, h, world, camera, facets, fade_px));
+        let sequence = Sequence {
+            palette: keep.palette.as_ref(),
+            planes_from: keep.faceted.then_some(planes_from),
+            plane_shift: plane_shift.as_deref(),
+            seeds: Some(&seeds),
+        };
+        paint_stage(painter, &mut film, facets, Some(&lighting), Painting::Sequence(&sequence), &mut timings)?;
     }
+    let motion = params.passes.contains(&Pass::Motion).then(|| {
+        timings.time("motion", || {
+            use crate::motion::FrameView;
+            let this = FrameView { world, camera };
+            let prev_view = neighbours.previous.as_ref().map(|(w, c)| FrameView { world: w, camera: c as &dyn Camera });
+            let next_view = neighbours.next.as_ref().map(|(w, c)| FrameView { world: w, camera: c as &dyn Camera });
+            let v = crate::motion::motion_vectors(
+                &film.hits,
+                trace.width,
+                trace.height,
+                &this,
+                prev_view.as_ref(),
+                next_view.as_ref(),
+            );
+            crate::motion::motion_pass(&v, trace.width, trace.height)
+        })
+    });
     let Encoded { image, passes, passes16 } = encode_stage(&film, &map, &aims, params, &mut timings);
     let surface = measure.then(|| Surface::new(key_of(&pre, world, camera, trace), &pre));
-    Ok(FrameOutput { frame, image, passes, passes16, facets: map, timings, revealed, surface })
+    Ok(FrameOutput { frame, image, passes, passes16, facets: map, timings, revealed, surface, motion })
 }
 
 #[cfg(test)]

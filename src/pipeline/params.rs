@@ -242,6 +242,17 @@ pub fn mesh_saliency_ahead(s: &Settings) -> Option<SaliencyParams> {
     super::Plan::new(&params).saliency.then_some(params.saliency)
 }
 
+/// A still has no next frame: the `motion` pass is for animation frames only.
+pub fn check_still_passes(s: &Settings) -> crate::error::Result<()> {
+    if s.passes.contains(&settings::Pass::Motion) {
+        return Err(crate::error::Error::setting(
+            "pass",
+            "the motion pass needs animation frames (render --frames A-B)",
+        ));
+    }
+    Ok(())
+}
+
 pub fn pass(p: settings::Pass) -> Pass {
     match p {
         settings::Pass::Saliency => Pass::Saliency,
@@ -251,6 +262,7 @@ pub fn pass(p: settings::Pass) -> Pass {
         settings::Pass::Objects => Pass::Objects,
         settings::Pass::Normals => Pass::Normals,
         settings::Pass::Depth => Pass::Depth,
+        settings::Pass::Motion => Pass::Motion,
     }
 }
 

@@ -329,6 +329,7 @@ fn render(session: &mut Session, job: &Job) -> Result<Value> {
         settings.passes = passes.clone();
         settings.validate()?;
     }
+    crate::pipeline::params::check_still_passes(&settings)?;
     // The layout is saved with the images, all or nothing, not by the render.
     let save_facets = settings.save_facets.take();
     let progress = if req.progress {

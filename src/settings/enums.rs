@@ -144,5 +144,8 @@ kebab_enum!(
         Normals = "normals",
         /// Hit distance, grey, near = white.
         Depth = "depth",
+        /// Animation frames only: each pixel's screen motion from the previous frame and to
+        /// the next, 16-bit RGBA (Blender's Vector pass layout; docs/animation.md).
+        Motion = "motion",
     }
 );

@@ -266,6 +266,12 @@ impl<'a> Outputs<'a> {
         self.add(path, move |f| img.write_to(f, ImageFormat::Png).map_err(|e| e.to_string()))
     }
 
+    /// Adds a 16-bit RGBA PNG.
+    pub fn png_rgba16(&mut self, path: &Path, img: &'a crate::motion::Rgba16) -> Result<()> {
+        check_png_path(path)?;
+        self.add(path, move |f| img.write_to(f, ImageFormat::Png).map_err(|e| e.to_string()))
+    }
+
     /// Adds a text file (JSON).
     pub fn text(&mut self, path: &Path, text: String) -> Result<()> {
         self.add(path, move |f| f.write_all(text.as_bytes()).map_err(|e| e.to_string()))

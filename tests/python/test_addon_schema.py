@@ -45,7 +45,8 @@ def test_the_panel_owns_every_setting_blender_does_not_decide():
         if key in presets.BLENDER_KEYS:
             continue
         if field["type"] == "array" and field.get("items") == "enum":
-            names = [v for v, _ in schema.choices(key)]
+            # (The motion pass, 16-bit RGBA, is for the command line's animation frames only.)
+            names = [v for v, _ in schema.choices(key) if schema.pass_format(v) != "rgba16"]
             assert sorted(presets.PASS_TOGGLES.values()) == sorted(names)
             continue
         assert key in presets.DEFAULTS, key
@@ -63,7 +64,7 @@ def test_the_panel_owns_every_setting_blender_does_not_decide():
 
 def test_passes_are_the_renderers():
     names = [name for _toggle, name, *_ in mapping.PASSES]
-    assert names == [v for v, _ in schema.choices("passes")]
+    assert names == [v for v, _ in schema.choices("passes") if schema.pass_format(v) != "rgba16"]
     for _toggle, name, _bname, channels, _chan, kind in mapping.PASSES:
         grey = schema.pass_format(name).startswith("grey")
         assert (channels, kind) == ((1, "VALUE") if grey else (3, "COLOR")), name

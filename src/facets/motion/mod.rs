@@ -11,10 +11,11 @@
 //! frame, never frames between: a render farm's chunks agree.
 //!
 //! A point may have had no facet at the key frame: it was hidden there (behind another
-//! surface, or turned away) or out of the picture. Such pixels, and background pixels where the
-//! key frame showed a surface, take the facet of the nearest pixel that has one (breadth-first,
-//! so facets grow over what the motion reveals); background pixels where the key frame showed
-//! background keep their facet (the backdrop does not move). `Carried::revealed` says how much
+//! surface, or turned away) or out of the picture. Such pixels take the facet of the nearest
+//! pixel that has one (breadth-first, so facets grow over what the motion reveals).
+//! Background pixels (no surface) keep the key frame's background facets, grown over what its
+//! surfaces covered from the background's own (`background_facets`): the backdrop does not
+//! move, and its facets do not change as the surfaces move in front of it. `Carried::revealed` says how much
 //! of the picture had to be filled so: when it grows, the view has changed too much for one
 //! key frame, and a new one is made (`pipeline::frames`).
 
@@ -22,7 +23,7 @@ pub mod file;
 
 use std::collections::VecDeque;
 
-use glam::{DVec2, Vec3};
+use glam::{DVec2, Vec2, Vec3};
 
 use super::FacetMap;
 use crate::camera::Camera;
@@ -62,6 +63,10 @@ pub struct Carried {
     /// Fraction of the frame's surface pixels whose point the key frame did not see (hidden,
     /// turned away or out of its picture): their facets were grown from their neighbours'.
     pub revealed: f64,
+    /// Per facet id: the mean move (pixels, x right, y down) of its pixels from the key frame
+    /// to this one, over the pixels whose point the key frame saw; zero for the background's
+    /// facets (`background_facets`), which stay where they are.
+    pub shift: Vec<Vec2>,
 }
 
 /// Per-pixel triangle and depth from the camera surface, read off a pre-pass film (one sample
@@ -107,22 +112,53 @@ pub fn carry(key: &Key, film: &Film) -> Carried {
     let n = film.hits.len();
     let mut ids = vec![UNSET; n];
     let (mut surface, mut revealed) = (0usize, 0usize);
+    let background = background_facets(key);
+    let facets = key.map.facet_count as usize;
+    let mut moves = vec![(DVec2::ZERO, 0u64); facets];
+    let at = |i: usize| DVec2::new((i % w as usize) as f64, (i / w as usize) as f64);
     for (i, hit) in film.hits.iter().enumerate() {
         if hit.is_hit() {
             surface += 1;
             match seen_at_key(key, hit.tri, hit.u, hit.v) {
-                Some(k) => ids[i] = key.map.ids[k],
+                Some(k) => {
+                    let id = key.map.ids[k];
+                    ids[i] = id;
+                    if let Some(m) = moves.get_mut(id as usize) {
+                        m.0 += at(i) - at(k);
+                        m.1 += 1;
+                    }
+                }
                 None => revealed += 1,
             }
-        } else if key.tri[i] == NO_HIT {
-            ids[i] = key.map.ids[i];
+        } else {
+            ids[i] = background[i];
         }
     }
     grow(&mut ids, w, h, key.map.ids[0]);
+    for &id in &background {
+        if let Some(m) = moves.get_mut(id as usize) {
+            *m = (DVec2::ZERO, 0);
+        }
+    }
+    let shift = moves.iter().map(|&(sum, n)| if n > 0 { (sum / n as f64).as_vec2() } else { Vec2::ZERO }).collect();
     Carried {
         map: FacetMap { width: w, height: h, ids, facet_count: key.map.facet_count },
         revealed: if surface == 0 { 0.0 } else { revealed as f64 / surface as f64 },
+        shift,
     }
+}
+
+/// The background's facets of every pixel: the key frame's where it showed background, grown
+/// over what its surfaces covered from the background's alone. A frame's background pixels
+/// take these, whatever the surfaces do in front of them: a still background keeps its facets
+/// from frame to frame (grown from the surfaces' facets, as other unseen pixels are, they
+/// would change with every move of the surfaces nearby).
+fn background_facets(key: &Key) -> Vec<u32> {
+    const UNSET: u32 = u32::MAX;
+    let mut ids: Vec<u32> =
+        key.tri.iter().zip(&key.map.ids).map(|(&t, &id)| if t == NO_HIT { id } else { UNSET }).collect();
+    grow(&mut ids, key.map.width, key.map.height, key.map.ids[0]);
+    ids
 }
 
 /// Gives every unset pixel the facet of the nearest set one (breadth-first over 4-neighbours

@@ -7,7 +7,7 @@ use glam::Vec4;
 use crate::error::Result;
 use crate::facets::FacetMap;
 use crate::film::Film;
-use crate::paint::{Lighting, PaintInputs, PaintParams, Painter, Resume};
+use crate::paint::{Lighting, PaintInputs, PaintParams, Painter, Resume, Sequence};
 use crate::pipeline::cache::Gen;
 use crate::pipeline::{Stage, Timings};
 
@@ -65,8 +65,11 @@ impl Prefix {
 
 /// How the paint leaves its work.
 pub enum Painting<'a> {
-    /// In the film's colour (a one-off render, an animation frame: no second colour buffer).
+    /// In the film's colour (a one-off render: no second colour buffer).
     InPlace,
+    /// In the film's colour, as a frame of a sequence (`Painter::apply_sequence`: the palette,
+    /// the planes and the strokes' seeds held for the sequence).
+    Sequence(&'a Sequence<'a>),
     /// In a copy of the colour (the film's is left as it was), reading and filling `inputs`
     /// (made for this film's hits and facet map), resuming from a canvas kept part-way
     /// (`resume`: effects done and the canvas) and keeping the canvas after `keep_at` effects.
@@ -86,9 +89,16 @@ pub fn paint_stage(
     painting: Painting,
     timings: &mut Timings,
 ) -> Result<(Vec<Vec4>, Option<(usize, Vec<Vec4>)>)> {
-    let Painting::Kept { inputs, resume, keep_at, opaque } = painting else {
-        timings.time(Stage::Paint.name(), || painter.apply(film, facets, lighting))?;
-        return Ok((Vec::new(), None));
+    let (inputs, resume, keep_at, opaque) = match painting {
+        Painting::InPlace => {
+            timings.time(Stage::Paint.name(), || painter.apply(film, facets, lighting))?;
+            return Ok((Vec::new(), None));
+        }
+        Painting::Sequence(sequence) => {
+            timings.time(Stage::Paint.name(), || painter.apply_sequence(film, facets, lighting, sequence))?;
+            return Ok((Vec::new(), None));
+        }
+        Painting::Kept { inputs, resume, keep_at, opaque } => (inputs, resume, keep_at, opaque),
     };
     // (Opaque: the canvas is the colour itself, so the kept one is copied once.)
     let (mut colour, resume) = match resume {
