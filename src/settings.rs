@@ -54,9 +54,9 @@ pub use validate::{
 kebab_enum!(
     /// Bundles of settings; explicit flags and JSON keys override them.
     Preset {
-        /// Our look (the default of `cubist render`): planes over the whole canvas, the subject
-        /// composed to fill it, the backdrop kept still; discontinuity 200, bold borders, ochre
-        /// palette, some gradients.
+        /// Our look (the default of `cubist render`): planes over the whole canvas, small at the
+        /// subject and large at the edges, the subject composed in proportion, the backdrop kept
+        /// still; discontinuity 110, firm broken borders, the ochre-grey palette, brushwork.
         Analytic = "analytic",
         /// Braque's earthy 1909-10 canvases: olive palette, 8 colours, heavy borders, many
         /// gradients, light manipulated facet by facet.

@@ -59,10 +59,10 @@ fn a_turntable_of_the_still_life_names_its_frames_and_a_chunk_equals_the_run() {
 }
 
 /// Facets that follow on a turntable get a new key frame every 30 degrees by default
-/// (`FramesParams::turntable_rekey`): at 10 degrees a frame, `--rekey 3`. Frames 1-4 equal a
-/// run keyed at the layout frame only (key frame 4 is itself carried from frame 1); frames 5-6
-/// are carried from key frame 4, so the points revealed since frame 1 keep the facets they
-/// grew into by frame 4, and the pictures differ.
+/// (`FramesParams::turntable_rekey`): at 10 degrees a frame, `--rekey 3`. Frames 1-3 equal a
+/// run keyed at the layout frame only; key frame 4 has the facets carried from frame 1 but
+/// lights and strokes its planes as they are there (not as frame 1's planes moved), and
+/// frames 5-6 are carried from it, so the pictures differ from frame 4 on.
 #[test]
 fn a_following_turntable_rekeys_every_thirty_degrees_by_default() {
     let dir = tempfile::tempdir().unwrap();
@@ -77,8 +77,8 @@ fn a_following_turntable_rekeys_every_thirty_degrees_by_default() {
     let (default, every3, never) =
         (run("default", &[]), run("every3", &["--rekey", "3"]), run("never", &["--rekey", "0"]));
     assert!(default == every3, "the default is not a key frame every 30 degrees");
-    assert!(default[..4] == never[..4], "frames up to the first new key frame changed");
-    assert!(default[4..] != never[4..], "frames 5-6 are not carried from key frame 4");
+    assert!(default[..3] == never[..3], "frames before the first new key frame changed");
+    assert!(default[3..].iter().zip(&never[3..]).all(|(a, b)| a != b), "frames 4-6 are not keyed at frame 4");
 }
 
 #[test]
@@ -181,8 +181,7 @@ fn mean_coherence(out: &[FrameOutput]) -> Coherence {
     }
 }
 
-fn compare(label: &str, scene: &Path, side: u32, p: &FramesParams) -> (Coherence, Coherence) {
-    let mut s = small(side);
+fn compare(label: &str, scene: &Path, mut s: Settings, p: &FramesParams) -> (Coherence, Coherence) {
     let stat = mean_coherence(&frames(scene, &s, p));
     s.facet_motion = cubist::settings::FacetMotion::Follow;
     let follow = mean_coherence(&frames(scene, &s, p));
@@ -197,20 +196,22 @@ fn compare(label: &str, scene: &Path, side: u32, p: &FramesParams) -> (Coherence
     (stat, follow)
 }
 
-/// The targets of facets that follow: at a 2 deg/frame orbit, follow keeps >= 90% of the points seen in
-/// consecutive frames in their facet, and flickers no more than static facets, which slide (the
-/// "shower door"), so fewer points keep theirs.
+/// The targets of facets that follow: at a 5 deg/frame orbit, follow keeps >= 90% of the points
+/// seen in consecutive frames in their facet, and flickers no more than static facets, which
+/// slide (the "shower door"), so fewer points keep theirs. At 2 deg/frame the composed view's
+/// subject moves so little that static facets hardly slide (98.5% kept, follow 97.3%: the
+/// points follow grows over what the turn reveals), so the comparison says nothing there.
 #[test]
 #[ignore = "needs ../shared"]
 fn facets_that_follow_stick_to_a_turntable_and_flicker_no_more_than_static_ones() {
     let venus = shared("models/venus_11k.glb");
-    let (stat, follow) = compare("venus turntable 2 deg/frame", &venus, 200, &params(1, 8, 24.0, None, 2.0));
+    let (stat, follow) = compare("venus turntable 5 deg/frame", &venus, small(200), &params(1, 6, 24.0, None, 5.0));
     assert!(follow.stickiness >= 0.9, "follow keeps {:.1}% in their facet", follow.stickiness * 100.0);
     assert!(follow.stickiness > stat.stickiness, "follow {follow:?} no stickier than static {stat:?}");
     // The target: flicker no higher than static's. Follow keeps each point in its facet
     // and each facet aimed at the scene points its key frame aimed at (`imprecision::carried`);
     // static facets slide over the subject and are re-aimed from what they cover each frame.
-    // Measured (200x200, default look): follow 21% below static.
+    // Measured (200x200, default look): follow 24% below static.
     assert!(follow.flicker <= stat.flicker, "follow flickers more: {follow:?} against static {stat:?}");
     assert!(follow.points > 1000, "too few points compared: {follow:?}");
 }
@@ -220,7 +221,7 @@ fn facets_that_follow_stick_to_a_turntable_and_flicker_no_more_than_static_ones(
 fn facets_that_follow_stick_to_the_fox_walking() {
     let fox = shared("gltf-samples/Fox.glb");
     let p = params(1, 8, 24.0, Some(Choice::parse("Walk")), 0.0);
-    let (stat, follow) = compare("Fox walk", &fox, 200, &p);
+    let (stat, follow) = compare("Fox walk", &fox, small(200), &p);
     let mut s = small(200);
     s.facet_motion = cubist::settings::FacetMotion::Follow;
     let rekeyed = mean_coherence(&frames(&fox, &s, &FramesParams { rekey: 4, ..p.clone() }));

@@ -29,8 +29,7 @@ pub const STEPS_PER_PIXEL: f32 = 32.0;
 /// The encoding's zero.
 pub const ZERO: u16 = 32768;
 
-/// A 16-bit RGBA image (the motion pass).
-pub type Rgba16 = ImageBuffer<Rgba<u16>, Vec<u16>>;
+pub use crate::util::files::Rgba16;
 
 /// One frame's scene as the motion reads it: its triangles (render space, the same ids in
 /// every frame) and its camera.

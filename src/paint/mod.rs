@@ -183,6 +183,9 @@ pub struct Sequence<'a> {
     pub plane_shift: Option<&'a [Vec2]>,
     /// Where strokes go (`strokes::surface`), instead of the still's grid.
     pub seeds: Option<&'a dyn crate::strokes::SeedSource>,
+    /// The composition's light centre (the layout frame's subject), instead of the frame's own
+    /// subject: a moving subject would relight the still background.
+    pub oval: Option<plane_light::Oval>,
 }
 
 /// What the effects read besides the canvas.
@@ -291,6 +294,11 @@ impl PaintInputs {
 }
 
 impl<'a> PaintContext<'a> {
+    /// Where the composition's light is centred: the sequence's, else this picture's subject.
+    pub fn oval(&self, width: usize, height: usize) -> plane_light::Oval {
+        self.sequence.and_then(|s| s.oval).unwrap_or_else(|| plane_light::Oval::of(width, height, self.hits))
+    }
+
     /// Each pixel's region: facet id << 32 | object id (0 without a facet map, 0 without
     /// hits), the background counting as one object; `pixels` of them.
     pub fn regions(&self, pixels: usize) -> std::sync::Arc<Vec<u64>> {
@@ -797,7 +805,14 @@ impl Painter {
         let mut color = film.color.clone();
         let mut canvas = Canvas::new(film.width, film.height, &mut color, self.background, self.transparent);
         let inputs = PaintInputs::default();
-        let ctx = PaintContext { hits: &film.hits, facets, lighting, inputs: &inputs, sequence: Some(sequence) };
+        let ctx = PaintContext {
+            hits: &film.hits,
+            facets,
+            lighting,
+            inputs: &inputs,
+            open_planes: self.open_planes,
+            sequence: Some(sequence),
+        };
         for e in &self.effects {
             if let Some(key) = e.palette_key(&canvas) {
                 return Ok(Some(key));
@@ -831,8 +846,7 @@ impl Painter {
         }
         let (w, h) = (film.width, film.height);
         let mut canvas = Canvas::new(w, h, &mut film.color, self.background, self.transparent);
-        let ctx =
-            PaintContext { hits: &film.hits, facets, lighting, inputs, open_planes: self.open_planes, sequence };
+        let ctx = PaintContext { hits: &film.hits, facets, lighting, inputs, open_planes: self.open_planes, sequence };
         let mut start = 0;
         if let Some(r) =
             resume.filter(|r| r.done <= self.effects.len() && r.px.is_none_or(|px| px.len() == canvas.px.len()))

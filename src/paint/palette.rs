@@ -271,7 +271,7 @@ impl Effect for ColourTransfer {
         let plane_r: Vec<f32> = match hues {
             Some(_) => {
                 let (w, h) = (canvas.width as usize, canvas.height as usize);
-                let oval = super::plane_light::Oval::of(w, h, ctx.hits);
+                let oval = ctx.oval(w, h);
                 let mut sums = vec![(0.0f64, 0.0f64, 0u64); ctx.facet_count()];
                 for i in 0..w * h {
                     if let Some(s) = sums.get_mut(ctx.facet(i) as usize) {

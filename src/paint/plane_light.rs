@@ -107,7 +107,7 @@ impl Effect for PlaneLight {
         let Some(facets) = ctx.facets else { return Ok(()) };
         let w = canvas.width as usize;
         let planes = ctx.planes(canvas.width, canvas.pixel_count(), self.seed);
-        let oval = Oval::of(w, canvas.height as usize, ctx.hits);
+        let oval = ctx.oval(w, canvas.height as usize);
         let factor = |x: usize, y: usize| {
             let p = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
             self.composed(&planes[facets.ids[y * w + x] as usize], p, oval.r(p))

@@ -49,6 +49,7 @@ use crate::imprecision::{self, AimContext, FacetAim};
 use crate::output::{Gray16, Pass};
 use crate::paint::chiaroscuro::ViewAxes;
 use crate::paint::palette::PaletteKey;
+use crate::paint::plane_light::Oval;
 use crate::paint::{Lighting, Painter, Sequence};
 use crate::progress::Progress;
 use crate::saliency;
@@ -498,6 +499,8 @@ struct Keep {
     /// The palette's luminance mapping, from the layout frame's picture: every frame maps
     /// luminance to colour alike, so a moving subject does not shift the still background's.
     palette: Option<PaletteKey>,
+    /// The composition's light centre, from the layout frame's subject.
+    oval: Option<Oval>,
 }
 
 /// One centre ray per pixel, hits only: what the saliency map, the facets' motion and the key
@@ -608,9 +611,16 @@ fn key_frame(
             follow_file::save(&follow_file::path_for(path), key)?;
         }
     }
+    // The composition's light centre, from the layout frame's centre rays (a layout loaded or
+    // made here agrees): held still across the sequence.
+    let oval = plan.paint.then(|| {
+        let made = if pre.is_none() { Some(prepass(world, accel, &camera, trace)) } else { None };
+        let hits = &pre.as_ref().or(made.as_ref()).expect("one of the two is traced").hits;
+        Oval::of(trace.width as usize, trace.height as usize, hits)
+    });
     // The palette's mapping from the layout frame's picture (traced lit here when the layout
     // did not need it), painted by the effects before the palette.
-    let palette = if Plan::new(params).paint && painter.names().contains(&"palette") {
+    let palette = if plan.paint && painter.names().contains(&"palette") {
         let view = camera.frame(&cameras.base.frame);
         let rig = LightRig::new(world, &view, trace.shadows, trace.exposure);
         let lit = if film.width == trace.width && film.height == trace.height {
@@ -618,18 +628,19 @@ fn key_frame(
         } else {
             let tracer =
                 Tracer { world, accel, rig: Some(&rig), background: Vec3::from(trace.background), seed: trace.seed };
-            let mut lit = Film::new(trace.width, trace.height, 1);
+            // The samples the layout's pre-render takes: a layout loaded or made here maps alike.
+            let mut lit = Film::new(trace.width, trace.height, trace.spp);
             tracer.render(&mut lit, &|_, p| camera.ray(p), None, None, &Progress::silent());
             lit
         };
         let axes = ViewAxes { right: view.right.as_vec3(), up: view.up.as_vec3(), forward: view.forward.as_vec3() };
         let lighting = Lighting { world, rig: &rig, view: axes };
-        let sequence = Sequence { planes_from: faceted.then_some(&map), ..Sequence::default() };
+        let sequence = Sequence { planes_from: faceted.then_some(&map), oval, ..Sequence::default() };
         painter.palette_key(&lit, faceted.then_some(&map), Some(&lighting), &sequence)?
     } else {
         None
     };
-    Ok(Keep { faceted, map, key, aims, palette })
+    Ok(Keep { faceted, map, key, aims, palette, oval })
 }
 
 /// A key frame must match the frames it is carried to: same picture size, same triangles.
@@ -752,6 +763,7 @@ fn render_frame(
             planes_from: keep.faceted.then_some(planes_from),
             plane_shift: plane_shift.as_deref(),
             seeds: Some(&seeds),
+            oval: keep.oval,
         };
         paint_stage(painter, &mut film, facets, Some(&lighting), Painting::Sequence(&sequence), &mut timings)?;
     }

@@ -21,6 +21,8 @@ use crate::error::{Error, Result, short_path};
 
 /// A 16-bit grey image (the `facet-ids` pass, PNG facet layouts).
 pub type Gray16 = ImageBuffer<Luma<u16>, Vec<u16>>;
+/// A 16-bit RGBA image (the motion pass).
+pub type Rgba16 = ImageBuffer<image::Rgba<u16>, Vec<u16>>;
 
 // ---- bounded reads
 
@@ -267,7 +269,7 @@ impl<'a> Outputs<'a> {
     }
 
     /// Adds a 16-bit RGBA PNG.
-    pub fn png_rgba16(&mut self, path: &Path, img: &'a crate::motion::Rgba16) -> Result<()> {
+    pub fn png_rgba16(&mut self, path: &Path, img: &'a Rgba16) -> Result<()> {
         check_png_path(path)?;
         self.add(path, move |f| img.write_to(f, ImageFormat::Png).map_err(|e| e.to_string()))
     }
