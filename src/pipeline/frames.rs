@@ -512,12 +512,6 @@ fn prepass(world: &World, accel: &Accel, camera: &dyn Camera, trace: &TraceParam
     film
 }
 
-/// The key frame of facets that follow: its pre-pass's per-pixel triangles and depths, its
-/// geometry and camera.
-pub fn key_data(world: &World, accel: &Accel, camera: &dyn Camera, trace: &TraceParams) -> KeyData {
-    key_of(&prepass(world, accel, camera, trace), world, camera, trace)
-}
-
 /// Key data from a frame's pre-pass film.
 fn key_of(film: &Film, world: &World, camera: &dyn Camera, trace: &TraceParams) -> KeyData {
     let (w, h) = (trace.width, trace.height);

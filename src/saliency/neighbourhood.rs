@@ -126,10 +126,6 @@ impl Grid {
         }
     }
 
-    pub fn cell_size(&self) -> f64 {
-        self.cell
-    }
-
     fn coords(&self, p: DVec3) -> [i64; 3] {
         let c = ((p - self.origin) / self.cell).floor();
         [c.x as i64, c.y as i64, c.z as i64]

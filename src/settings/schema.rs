@@ -217,7 +217,3 @@ pub const FIELDS: &[Field] = &[
     field("allow_external_files", Boolean),
 ];
 
-/// The field of `key`.
-pub fn field_of(key: &str) -> Option<&'static Field> {
-    FIELDS.iter().find(|f| f.key == key)
-}
