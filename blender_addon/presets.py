@@ -165,10 +165,11 @@ def _ordered_defaults() -> dict:
 DEFAULTS = _ordered_defaults()
 
 # Panel values a preset does not touch: sampling and seed (quality, not look), the scene's own
-# choices (background, camera lens and focus), files, animation (facet motion included),
-# passes, the saliency method (accuracy, not look).
+# choices (camera lens and focus, whether the world's colour is the ground), files, animation
+# (facet motion included), passes, the saliency method (accuracy, not look). The ground colour
+# is a look's: the analytic preset's is mid-dark, the others' lighter.
 NOT_IN_PRESETS = frozenset({"spp", "seed", "animate_seed", "use_camera_lens", "use_camera_focus",
-                            "use_world_background", "background", "facet_map", "static_facets", "facet_motion",
+                            "use_world_background", "facet_map", "static_facets", "facet_motion",
                             "layout_folder", "layout_frame", "layout_file", "saliency_method",
                             "use_saliency_cache", "saliency_cache"} | set(PASS_TOGGLES))
 LOOK_KEYS = tuple(k for k in DEFAULTS if k not in NOT_IN_PRESETS)

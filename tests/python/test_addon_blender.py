@@ -181,7 +181,7 @@ def test_f12_with_an_untouched_panel_is_cubist_render(bpy, engine, exports, tmp_
     scene = new_scene(bpy, 80, 60)
     out = render_still(bpy, scene, tmp_path / "f12.png")
     sent = json.loads(engine.last_run["settings_json"])
-    assert (sent["preset"], sent["faceting"], sent["palette"]) == ("analytic", "planes", "ochre")
+    assert (sent["preset"], sent["faceting"], sent["palette"]) == ("analytic", "planes", "ochre-grey")
     glb = exports / f"frame_{scene.frame_current:04d}.glb"
     vec = lambda k: ",".join(repr(float(c)) for c in sent[k])  # noqa: E731
     flags = ["--width", "80", "--height", "60", "--spp", "1", "--camera-position", vec("camera_position"),
@@ -261,10 +261,10 @@ def test_settings_json_follows_the_panel_and_the_scene(bpy, engine, tmp_path):
     set_world_colour(scene, (0.5, 0.25, 0.125))
     render_still(bpy, scene, tmp_path / "b.png")
     after = json.loads(engine.last_run["settings_json"])
-    assert (before["discontinuity"], after["discontinuity"]) == (200.0, 120.0)
+    assert (before["discontinuity"], after["discontinuity"]) == (110.0, 120.0)
     assert (before.get("ambiguity"), after["ambiguity"]) == (None, 150.0)
     assert (before["spp"], after["spp"]) == (1, 2)
-    assert (before["palette"], after["palette"]) == ("ochre", "olive")
+    assert (before["palette"], after["palette"]) == ("ochre-grey", "olive")
     assert (before["weight_depth"], after["weight_depth"]) == (0.5, 0.75)
     assert "fill" not in before and after["fill"] == 0.7  # typed values, not 32-bit floats' digits
     assert (after["width"], after["height"]) == (24, 16)
@@ -315,7 +315,7 @@ def test_builtin_preset_operator_sets_the_panel(bpy):
     scene.cubist.pass_depth = True
     bpy.ops.cubist.apply_preset(name="Voronoi Facets")
     c = scene.cubist
-    assert (c.preset, c.faceting, c.discontinuity, c.palette) == ("ANALYTIC", "VORONOI", 200.0, "OCHRE")
+    assert (c.preset, c.faceting, c.discontinuity, c.palette) == ("ANALYTIC", "VORONOI", 110.0, "OCHRE_GREY")
     bpy.ops.cubist.apply_preset(name="Plain")
     assert (c.preset, c.faceting, c.discontinuity, c.palette, c.border_width) == ("PLAIN", "NONE", 0.0, "NONE", 0.0)
     bpy.ops.cubist.apply_preset(name="Braque")

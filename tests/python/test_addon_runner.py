@@ -206,9 +206,11 @@ def test_presets_set_every_look_value_and_nothing_else():
     for name in presets.BUILTIN:
         assert set(presets.preset_values(name)) == set(presets.LOOK_KEYS), name
     assert presets.preset_values("Voronoi Facets")["faceting"] == "VORONOI"
-    # Sampling, passes, files and the scene's own choices are not part of a look.
-    for key in ("spp", "seed", "pass_depth", "layout_folder", "use_world_background", "background"):
+    # Sampling, passes, files and the scene's own choices are not part of a look; the ground
+    # colour is.
+    for key in ("spp", "seed", "pass_depth", "layout_folder", "use_world_background"):
         assert key not in presets.LOOK_KEYS
+    assert "background" in presets.LOOK_KEYS
 
 
 @pytest.mark.parametrize("prop,value,key,expected", [

@@ -92,8 +92,9 @@ def test_f12_shows_a_preview_then_the_picture_on_the_sessions_renderer(ui):
     # The coarse preview reached the Render Result before the picture did.
     assert marks["exported"] < marks["preview shown"] < marks["reply"] < marks["delivered"], first["timeline"]
     assert first["preview_timings"] is not None and first["reused"] == []
-    # What the renderer chose for the panel's Auto values, for the panel to show.
-    assert 60.0 < first["chosen"]["ambiguity"] < 180.0, first["chosen"]
+    # What the renderer chose for the panel's Auto values, for the panel to show (compose keeps
+    # the subject within a narrow cone of the focal centre, at most 160 deg).
+    assert 0.0 < first["chosen"]["ambiguity"] <= 160.0, first["chosen"]
     # One panel value changed: what it does not reach is reused.
     assert {"pre-render", "saliency"} <= set(again["reused"]), again["reused"]
     print(f"\nfirst F12 at 1920x1080: {first['seconds']} s from the key (preview {first['preview_seconds']:.2f} s "
