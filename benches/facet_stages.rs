@@ -1,4 +1,4 @@
-//! Facets and spatial imprecision (issue 4), timed and measured through the real pipeline:
+//! Facets and spatial imprecision, timed and measured through the real pipeline:
 //! mesh saliency as `cubist render` computes it (`cargo bench --bench facet_stages`).
 //!
 //! Table 1: each faceting method's stages at `--size` (1000) on venus_11k: the `analytic`

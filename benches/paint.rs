@@ -1,6 +1,6 @@
 //! Cost of each painterly effect and of the whole chain on a 1000x1000 render of the built-in
 //! still life by the default pipeline (preset `analytic` without its painterly effects: Segment
-//! facets, re-aimed; issue 6 target: whole chain < 100 ms on 2 cores).
+//! facets, re-aimed; target: whole chain < 100 ms on 2 cores).
 //!
 //! `cargo bench --bench paint` prints the table; `-- --save DIR` also writes each effect's
 //! picture there (for looking at them); `-- --only NAME` runs only the rows starting with NAME. Each row is the median of several runs of the chain

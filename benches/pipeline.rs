@@ -2,7 +2,7 @@
 //! `cargo bench --bench pipeline -- --help` for options). A bench binary printing markdown,
 //! not a timed test: nothing here can fail on a slow machine.
 //!
-//! 1. Primary rays (issue 2): Mrays/s through the spherical and perspective cameras, traced
+//! 1. Primary rays: Mrays/s through the spherical and perspective cameras, traced
 //!    by the render loop (`Tracer::render`, no shading: `Accel::closest` plus the per-sample
 //!    hit records) against a bare obvhs traversal of the same rays (`Accel::bare_traversal`),
 //!    and the loop's overhead in percent (target: at most 30%).

@@ -1,4 +1,4 @@
-//! Million-triangle scenes (issue 16 item 2): generates glTF scenes of 1M, 5M and 10M
+//! Million-triangle scenes: generates glTF scenes of 1M, 5M and 10M
 //! triangles, then loads, builds and renders each at 1000 x 1000 with the default settings,
 //! one child process per scene, printing the time of every stage and the peak resident
 //! memory (VmHWM) against the issue's limits. A bench printing markdown, not a timed test.
@@ -232,7 +232,7 @@ fn main() {
         return;
     }
     let cores = rayon::current_num_threads();
-    println!("### Million-triangle scenes (issue 16 item 2, `benches/scale.rs`)\n");
+    println!("### Million-triangle scenes (`benches/scale.rs`)\n");
     println!(
         "Each scene loaded (glTF), placed in render space (world), its two-level BVH built (with the meshes' saliency computed beside it), and rendered at {0} x {0} with the default settings (preset `analytic`), as one `cubist render`, in a process of its own; {1} rayon threads; load average before: {2}. Times in ms (the fastest of {3} run(s) by total), wall; CPU = the process's CPU time, s; peak = VmHWM, MiB; BVH = the BVHs and their triangles, MiB. `unique`: one subdivided surface of every triangle; `instanced`: a {4}-triangle surface placed by N nodes.\n",
         args.size,

@@ -5,7 +5,7 @@ picture) or, for frames whose facets follow a key frame and binaries without `se
 to Blender.
 
 The render thread. In Blender's interface F12 and Render Animation call `render()` on the
-render-job thread while the interface keeps running on the main thread (TOOLCHAIN.md), so
+render-job thread while the interface keeps running on the main thread, so
 everything reached from `render()` reads only the depsgraph it receives and the engine's own
 API: no `bpy.ops`, no `bpy.context` (it belongs to the main thread's window), no
 `temp_override`, no `scene.frame_set`, nothing added to or removed from `bpy.data`. Another

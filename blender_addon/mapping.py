@@ -187,7 +187,7 @@ def settings_from_panel(panel: Mapping[str, object], facts: SceneFacts) -> dict:
         s["background"] = [f32(c) for c in p["background"][:3]]
     s["transparent"] = bool(facts.transparent)
     # The add-on's exported GLB is self-contained (buffers and images inside): it never needs
-    # files outside the scene's folder (issue 18's URI confinement stays on).
+    # files outside the scene's folder (the URI confinement stays on).
     s["allow_external_files"] = False
 
     # Facets. A layout file of the user's replaces the computed (or static) layout.

@@ -11,7 +11,7 @@ RGBA rows, top row first) for the viewport, `.png` for F12. A file, not shared m
 server writes it atomically and only then replies, the reader needs no synchronisation beyond
 the reply, nothing platform-specific is involved (no named segments to leak if a process dies:
 the workspace is one temporary folder, removed on close), and at viewport sizes the copy costs
-a millisecond or two (BENCHMARKS.md, issue 14), far below a render.
+a millisecond or two (BENCHMARKS.md), far below a render.
 """
 
 from __future__ import annotations

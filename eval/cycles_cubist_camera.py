@@ -1,5 +1,5 @@
 """Cycles through an OSL version of the spherical cubist camera (SPEC "Cameras", eq 4.2): the
-peer a Blender user would compare `cubist render` with (issue 16 item 3).
+peer a Blender user would compare `cubist render` with.
 
 Imports a glTF scene into headless Blender (bpy 5.0.1 from .venv: `bash scripts/setup-python.sh`),
 places a custom (OSL) camera whose rays start on a sphere of radius d around the focal centre C

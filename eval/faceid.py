@@ -2,7 +2,7 @@
 mesh's face ids through exactly the camera `cubist faces --json` reports, and we count the
 distinct ids.
 
-Why the details matter (TOOLCHAIN.md "pyrender as a CPU reference rasterizer"):
+Why the details matter:
 - each face i is coloured with i + 1 packed in 24 bits, flat (unlit) shading, black
   background, no back-face culling (a ray tracer sees back faces through holes too);
 - pyrender renders into a 4x multisampled buffer and enables GL_MULTISAMPLE before every

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""PSNR of the default render against its own 64 spp reference (issue 16 item 3).
+"""PSNR of the default render against its own 64 spp reference.
 
 For each scene, renders the picture twice with the same settings: as `cubist render` gives it
 (4 spp on the pixels the adaptive anti-aliasing picks, one sample elsewhere) and as the

@@ -33,7 +33,7 @@ import tempfile
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "eval"))
 
-# Table 4.1 of the thesis (SPEC.md "Evaluation"): percent of faces. The thesis prints 840
+# Table 4.1 of the thesis: percent of faces. The thesis prints 840
 # faces for the orthographic sphere beside "50%": 640 is 50% of 1280 (a typo).
 PAPER = {
     "sphere": {

@@ -1,4 +1,4 @@
-//! Prints ART.md's per-plane light measure (`cubist::paint::measure::per_plane_light`) of
+//! Prints the per-plane light measure (`cubist::paint::measure::per_plane_light`) of
 //! rendered pictures: the share of facets whose luminance varies across them by a gradient of
 //! at least 15% of the image's range.
 //!

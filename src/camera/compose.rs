@@ -39,7 +39,7 @@ pub const COMPOSE_FILL: f64 = 0.94;
 /// The ratios between the horizontal and vertical scale per pixel (angle or length per pixel)
 /// step 4 may allow, least distortion first (step 5 picks one per scene).
 pub const ANISOTROPY_STEPS: [f64; 1] = [1.0];
-/// The share of the canvas a composition should fill (ART.md: the subject occupies most of
+/// The share of the canvas a composition should fill (the subject occupies most of
 /// the picture); step 5 takes the least distortion that reaches it.
 pub const FILL_GOAL: f64 = 0.5;
 /// The widest span a canvas may be widened to so both axes have the same scale per pixel: a
@@ -89,7 +89,7 @@ impl Composition {
 /// (min, max) of the horizontal angle and of the vertical angle (spherical) or height above
 /// `c` (cylindrical).
 ///
-/// perf9 (issue 16): the extremes of the same angles without an `asin`/`atan2` per point (half
+/// Why: the extremes of the same angles without an `asin`/`atan2` per point (half
 /// of framing's time went to them, 30,000 points a few dozen times per camera). Each angle is
 /// a monotone function of a key found without trigonometry: `asin(r)` of its argument r, and
 /// `atan2(n, z)` of the slope n / z where z > 0 and |n| <= `SLOPE_CAP` z. The angles are taken
@@ -163,7 +163,7 @@ fn slope(n: f64, z: f64) -> Option<f64> {
 
 /// What the spans of step 3 and 4 read of `points` seen from a focal centre `c`: their
 /// `extents` and, for the cylindrical camera, their mean distance from the focal line. It
-/// depends on C alone, so perf9 (issue 16) measures it once per centre for the candidates'
+/// depends on C alone, so it is measured once per centre for the candidates'
 /// four stretch ratios (it was measured once per candidate, a quarter of framing's time).
 struct Seen {
     c: DVec3,
@@ -268,7 +268,7 @@ pub fn compose(
 }
 
 /// Candidate `candidate` of `compose` (its `Composition::candidate`) alone, with its fill, as
-/// `compose` makes it from these `points` (issue 13: a view ranked on a coarse sample of the
+/// `compose` makes it from these `points` (a view ranked on a coarse sample of the
 /// scene is composed again on the full sample without searching every candidate). `rank` is
 /// the candidate's place when it reaches `FILL_GOAL`, else `usize::MAX`.
 #[allow(clippy::too_many_arguments)]
@@ -332,7 +332,7 @@ fn centre_at(
 }
 
 /// Every candidate at one angle cap, in order of preference, with the fills of the candidates
-/// up to the first that reaches `FILL_GOAL` (all of them when none does): perf9 (issue 16),
+/// up to the first that reaches `FILL_GOAL` (all of them when none does):
 /// `compose` reads no fill after that one, so the later candidates are not probed (each probe
 /// is a trace of a tiny image; they were about 40% of framing's time). Measured a few at a
 /// time in order, in parallel, so the fills are the same whatever the thread count.

@@ -35,8 +35,8 @@ pub const PINHOLE_FILL: f64 = 0.9;
 pub const TALL_RATIO: f64 = 1.6;
 /// Vertices sampled for fitting (every n-th triangle corner beyond this many).
 const FIT_SAMPLES: usize = 30_000;
-/// Vertices sampled to rank the other views when the front fills under `FILL_FLOOR` (issue 13:
-/// a coarse search finds the best view and its candidate, then only that one is composed on
+/// Vertices sampled to rank the other views when the front fills under `FILL_FLOOR` (a
+/// coarse search finds the best view and its candidate, then only that one is composed on
 /// `FIT_SAMPLES`).
 const COARSE_SAMPLES: usize = 3_000;
 
@@ -48,7 +48,7 @@ pub enum Framing {
     /// At the centre of the scene's bounding box (the thesis's literal default).
     Centre,
     /// Per scene: C as close behind the scene as the cameras allow and the horizontal and
-    /// vertical spans fitted to it, so the subject fills the canvas (`compose`, issue 13).
+    /// vertical spans fitted to it, so the subject fills the canvas (`compose`).
     Compose,
 }
 
@@ -603,7 +603,7 @@ const COARSE_PROBE_COLUMNS: u32 = 24;
 /// about 1 / distance from C, or from the focal line): with C right behind a small part (an arm
 /// behind the body, the nearest of several objects), the fullest candidate is that part blown up
 /// over the canvas and the rest shrunk beside it, a "magnified ghost" that no longer reads
-/// (ART.md: cues stay legible). A guarded probe refuses such a candidate: when more than
+/// (cues stay legible). A guarded probe refuses such a candidate: when more than
 /// `NEAR_C_SHARE` of the pixels showing geometry show a point within `within` of C (of the focal
 /// line: `line`, its direction), it counts as filling nothing.
 struct NearGuard {

@@ -1,4 +1,4 @@
-//! The measures of ART.md "What we measure", each a pure function of a render's buffers, so
+//! The measures of "What we measure", each a pure function of a render's buffers, so
 //! each is unit-tested on pictures whose answer is known.
 
 use glam::DVec2;

@@ -1,4 +1,4 @@
-//! The look report (issue 13 item 8; ART.md "What we measure"): one render per scene,
+//! The look report ("What we measure"): one render per scene,
 //! measured from the render and its buffers, a row per scene, and contact sheets to look at
 //! side by side. `pipeline::look` renders and calls `measure`; `cubist look` runs it;
 //! `scripts/look-report.sh` runs it over the shared scenes, before (the `thesis` preset, the
@@ -40,13 +40,13 @@ use crate::film::Film;
 use crate::imprecision::cues::CueVertices;
 use crate::scene::{Scene, World};
 
-/// Minimum straight run, as a share of the image diagonal (ART.md).
+/// Minimum straight run, as a share of the image diagonal.
 pub const RUN_SHARE: f64 = 0.01;
-/// Boundary simplification tolerance, pixels (ART.md).
+/// Boundary simplification tolerance, pixels.
 pub const SIMPLIFY_PX: f64 = 1.0;
-/// The most salient vertices: this top share of mesh saliency (issue 13 item 5).
+/// The most salient vertices: this top share of mesh saliency.
 pub use crate::imprecision::cues::CUE_SHARE;
-/// Per-plane light: the gradient's span, as a share of the image's luminance range (ART.md).
+/// Per-plane light: the gradient's span, as a share of the image's luminance range.
 pub const LIGHT_RANGE: f64 = 0.15;
 /// Per-plane light: the share of a facet's variance its gradient must explain.
 pub const LIGHT_R2: f64 = 0.3;

@@ -1,4 +1,4 @@
-//! Odd scenes the shared models do not cover (DEVELOPERS.md: our scenes are not the users'):
+//! Odd scenes the shared models do not cover (our scenes are not the users'):
 //! very tall, very flat, z-up, several objects spread out, a figure walking across the view,
 //! a pole, a board seen edge-on, a long bench, far from the origin, huge and tiny, objects on a
 //! floor many times their size, a room modelled as one closed box around the camera. Built in code so the look report and the tests check the composition and the planes
@@ -99,7 +99,7 @@ pub fn odd_scenes() -> Vec<(String, Scene)> {
         add(&mut s, vec![part], DMat4::from_translation(DVec3::new(x, 0.0, 0.2 * (k % 2) as f64)));
     }
     out.push(("odd-several".to_string(), s));
-    // Tall, thin and wide subjects seen from an awkward side (issue 13: fill on tall and thin
+    // Tall, thin and wide subjects seen from an awkward side (fill on tall and thin
     // subjects, checked on shapes other than the shared models'): a figure walking across the
     // view, an arm reaching out; a pole ten times taller than wide with a knob; a board seen
     // edge-on (its broad side faces +X); a long low bench.

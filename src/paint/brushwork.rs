@@ -1,4 +1,4 @@
-//! Brushwork (ART.md "Visible brushwork", issue 13): a stroke layer that repaints each plane
+//! Brushwork ("Visible brushwork"): a stroke layer that repaints each plane
 //! with short, mostly parallel strokes whose direction changes from plane to plane, as
 //! Cezanne's and the cubists' hatching.
 //!

@@ -1,4 +1,4 @@
-//! Canvas grain (ART.md "Visible brushwork": "the canvas grain shows through thin paint"):
+//! Canvas grain ("Visible brushwork": "the canvas grain shows through thin paint"):
 //! the last effect, a plain-weave linen texture modulating the value of the whole painting.
 //!
 //! The weave: vertical (warp) and horizontal (weft) threads `period` pixels apart, crossing

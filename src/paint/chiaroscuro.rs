@@ -2,7 +2,7 @@
 //! view projections, chiaroscuro - use of light and shadow - is also manipulated"): every facet
 //! is relit as if the lights had been turned and dimmed or brightened for it alone.
 //!
-//! The turn matches the per-plane light (`plane_light`, ART.md "Each plane has its own
+//! The turn matches the per-plane light (`plane_light`, "Each plane has its own
 //! light"): each facet's lights turn about the view axis until the key light comes from the
 //! side its plane is lit from (`planes::Plane::light_side`; the key seen from the camera
 //! comes from `planes::KEY`), by `amount` of that turn, so the relit shading and the ramp

@@ -1,4 +1,4 @@
-//! Measures of the look (ART.md "What we measure") that concern the paint. One definition,
+//! Measures of the look ("What we measure") that concern the paint. One definition,
 //! shared by the tests, the paint benchmark and the look report.
 //!
 //! **Per-plane light**: the share of facets whose luminance varies across them by a
@@ -14,7 +14,7 @@
 use image::RgbaImage;
 
 /// A facet counts when the gradient's variation across it is at least this share of the
-/// image's luma range (ART.md).
+/// image's luma range.
 pub const PLANE_LIGHT_SHARE: f64 = 0.15;
 /// Facets smaller than this are not counted.
 pub const MIN_PIXELS: u64 = 64;

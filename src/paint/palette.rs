@@ -3,7 +3,7 @@
 //! the same way. Built-in palettes are references too: luminance-ordered colour ramps written
 //! for this project (no painting's pixels), so the look works with no painting at hand.
 //!
-//! The mapping is a stable function of the picture (issue 16 item 3): luminance is keyed
+//! The mapping is a stable function of the picture: luminance is keyed
 //! against a robust top (`TOP_QUANTILE`), not the brightest pixel, and the contrast limit
 //! bounds its slope (`rank_quantiles`), so the film's sampling differences are not amplified.
 
@@ -209,7 +209,7 @@ impl ColourTransfer {
 
     /// A painting (PNG or JPEG, any size); fully transparent pixels are not part of it.
     pub fn from_image(path: &Path) -> Result<ColourTransfer> {
-        // Bounded (issue 18): a regular file, its size checked before decoding.
+        // Bounded: a regular file, its size checked before decoding.
         let bytes = crate::util::files::read_bounded(path, crate::util::limits::MAX_IMAGE_FILE)
             .map_err(|m| Error::input(path, format!("the palette image: {m}")))?;
         let img = crate::util::files::decode_image(&bytes, crate::util::limits::MAX_IMAGE_PIXELS)
@@ -420,7 +420,7 @@ pub const TOP_QUANTILE: f64 = 0.999;
 /// `TOP_QUANTILE` of the painted pixels (`luminance_quantile`), not the brightest pixel's,
 /// and brighter pixels take the top key.
 ///
-/// Why (issue 16 item 3): the brightest pixel is one sample's worth of the picture (a
+/// Why: the brightest pixel is one sample's worth of the picture (a
 /// specular glint, a grazing normal brightened by chiaroscuro), and changes with the number
 /// of samples; every key is divided by it, and the contrast-limited histogram spreads its
 /// excess evenly over the keys, so the whole picture's mapping moved with that one pixel:
@@ -599,7 +599,7 @@ pub const SMOOTHING: usize = KEY_LEVELS / 256;
 /// the excess spread evenly over every key (one pass). An infinite limit returns the counts
 /// as they are (plain ranks).
 ///
-/// Why smoothed (issue 16 item 3): a flat area is a spike of the histogram, and how much of
+/// Why smoothed: a flat area is a spike of the histogram, and how much of
 /// it the clip removes, spread over every key, depends on how wide the spike is. Sampling
 /// noise widens or narrows spikes (a facet of one value at 64 spp spreads over a few keys at
 /// 4), which moved the whole mapping. Clipping a histogram smoothed wider than that noise
@@ -744,7 +744,7 @@ mod tests {
         assert!(order.windows(2).all(|w| idx[w[0]] <= idx[w[1]]));
     }
 
-    /// The picture's mapping must not hang on its brightest pixel (issue 16 item 3): a glint
+    /// The picture's mapping must not hang on its brightest pixel: a glint
     /// twice as bright, or gone, leaves every other pixel's level where it was.
     #[test]
     fn one_glint_does_not_move_the_other_pixels() {

@@ -1,4 +1,4 @@
-//! Passage (ART.md "Each plane has its own light", issue 13): where two planes meet, one side
+//! Passage ("Each plane has its own light"): where two planes meet, one side
 //! is a hard dark line and the other dissolves into the neighbour, so the surface shimmers in
 //! shallow relief instead of every border blurring evenly on both sides (eq 4.8 darkens both
 //! sides alike: the blind panel's "dark halo outlines").

@@ -1,4 +1,4 @@
-//! Per-plane light (ART.md "Each plane has its own light", issue 13): every facet is shaded
+//! Per-plane light ("Each plane has its own light"): every facet is shaded
 //! from light to dark across itself, as if lit on its own (chiaroscuro per plane), the way
 //! Picasso and Braque modelled each plane of 1909-1912 from a light edge to a dark one.
 //!

@@ -1,6 +1,6 @@
 //! The facets seen as the painters' planes: each facet's size, centre and principal axes,
 //! from its pixels alone (any facet map: polygons, segments, Voronoi cells, one facet), and
-//! the side its own light comes from (ART.md "Each plane has its own light").
+//! the side its own light comes from ("Each plane has its own light").
 //!
 //! Shared by the per-plane light (the ramp across each plane), chiaroscuro (the facet's
 //! relit lights come from the ramp's light side), passage and brushwork (strokes run across

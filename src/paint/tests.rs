@@ -702,7 +702,7 @@ proptest! {
     }
 }
 
-// ---- issue 13: the default look (the effects themselves: tests_plane.rs)
+// ---- the default look (the effects themselves: tests_plane.rs)
 
 #[test]
 fn the_default_chain_is_identical_on_any_thread_count() {
@@ -732,7 +732,7 @@ fn the_thesis_borders_stay_reachable() {
     assert_eq!(s.border_style, crate::settings::BorderStyle::Passage);
     s.border_style = crate::settings::BorderStyle::Symmetric;
     assert!(Painter::new(&paint(&s)).unwrap().names().contains(&"borders"));
-    // A preset without issue 13's paint has none of it.
+    // A preset without the look's paint has none of it.
     let plain = Settings::preset(Preset::Plain);
     assert_eq!((plain.plane_light, plain.brushwork, plain.canvas_grain), (0.0, 0.0, 0.0));
     assert_eq!(plain.border_style, crate::settings::BorderStyle::Symmetric);
@@ -740,7 +740,7 @@ fn the_thesis_borders_stay_reachable() {
 
 #[test]
 fn the_default_render_lights_most_planes_on_their_own() {
-    // ART.md's per-plane light measure on the built-in still life: most facets carry a
+    // the per-plane light measure on the built-in still life: most facets carry a
     // gradient of at least 15% of the image's range; without the per-plane light fewer do.
     use crate::pipeline::{Prepared, render};
     let prep = Prepared::new(crate::scene::Scene::default_scene());

@@ -1,4 +1,4 @@
-//! Tests of issue 13's paint: per-plane light, passage, brushwork, canvas grain, on synthetic
+//! Tests of the look's paint: per-plane light, passage, brushwork, canvas grain, on synthetic
 //! canvases and facet maps (any facet map: Voronoi cells here). The default look's chain and
 //! its per-plane light measure on a real render are in `tests.rs`.
 

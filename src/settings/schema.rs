@@ -216,4 +216,3 @@ pub const FIELDS: &[Field] = &[
     field("passes", Array).of(Enum).choices(choices::<Pass>),
     field("allow_external_files", Boolean),
 ];
-

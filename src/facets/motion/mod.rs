@@ -208,7 +208,7 @@ pub struct Coherence {
     pub flicker: f64,
 }
 
-/// Stickiness and flicker from frame `a` to frame `b` (issue 15 item 4): each pixel of `b`
+/// Stickiness and flicker from frame `a` to frame `b`: each pixel of `b`
 /// showing a surface point is matched, through the scene's exact motion, to the pixel of `a`
 /// showing the same point (as facets follow: `a`'s geometry and camera, `Camera::project`).
 /// `image_*` are RGBA8 pictures at the frames' size.

@@ -1,4 +1,4 @@
-//! Where the planes go (issue 13 item 1, ART.md "Planes everywhere": densest around the
+//! Where the planes go ("Planes everywhere": densest around the
 //! subject's important parts, larger and calmer towards the edges, thinning out in the
 //! corners): a density over the canvas from the pre-render. The split (`split`) gives each
 //! plane about the same integral of it, so a plane's area goes as 1 / density.

@@ -1,4 +1,4 @@
-//! Planes faceting (issue 13 item 1; ART.md "Planes everywhere"): the whole canvas, background
+//! Planes faceting ("Planes everywhere"): the whole canvas, background
 //! included, is split into flat polygonal planes with straight edges, small around the
 //! subject's salient parts and larger towards the edges, cut along the subject's outlines.
 //!
@@ -70,8 +70,8 @@ pub const MAX_PLANE_SHARE: f64 = 0.12;
 /// the outline stays within about two pixels of the silhouette, and runs straight between.
 pub const OUTLINE_TOLERANCE: f64 = 0.003;
 /// Shortest outline edge, as a share of the image diagonal (`outlines::merge_short_edges`): a
-/// bend traced pixel by pixel becomes edges long enough to read as straight strokes (ART.md:
-/// runs of at least 1% of the diagonal).
+/// bend traced pixel by pixel becomes edges long enough to read as straight strokes (runs
+/// of at least 1% of the diagonal).
 pub const OUTLINE_MIN_EDGE: f64 = 0.012;
 /// Outline runs at least this share of the image diagonal long are candidate cuts.
 pub const RUN_SHARE: f64 = 0.04;
@@ -90,7 +90,7 @@ pub const THIN_WIDTH: f64 = 0.007;
 pub const OBJECT_SHARE: f64 = 0.02;
 /// A plane smaller than (this share of the image diagonal)^2, or thinner on average than
 /// `MIN_WIDTH` of the diagonal, joins a neighbour: its edges would be too short to read as
-/// straight runs (ART.md: runs of at least 1% of the diagonal) or it would read as a crack.
+/// straight runs (runs of at least 1% of the diagonal) or it would read as a crack.
 pub const MIN_SIDE: f64 = 0.02;
 pub const MIN_WIDTH: f64 = 0.007;
 /// No split leaves a plane narrower than this share of the image diagonal: slivers and
@@ -131,8 +131,8 @@ pub fn prepare(input: &PlanesInput, outlines: bool) -> Prepared {
     let diag = (wf * wf + hf * hf).sqrt();
     let hits = input.hits;
     let covered = |i: usize| hits[i].is_hit();
-    // The density and the outlines read only the pre-render: made side by side (perf7,
-    // issue 16: the outlines' labelling is serial).
+    // The density and the outlines read only the pre-render: made side by side (the
+    // outlines' labelling is serial).
     let (cues, layers) = rayon::join(
         || density::Cues::new(input.width, input.height, &covered, input.saliency),
         || {
@@ -312,8 +312,8 @@ fn root(parent: &mut [u32], mut a: u32) -> u32 {
 /// in a few rounds. Deterministic: fixed orders, ties to the lower id.
 fn merge_small(ids: &[u32], w: usize, h: usize, count: usize, side: &[u32], min_side: f64, min_width: f64) -> Vec<u32> {
     // The counts by bands of rows in parallel, summed (integers: the same totals in any
-    // order; perf7, issue 16), once over the pixels: a later round's counts are the first
-    // round's summed over each facet's root (facet9, issue 14: one pass over the image
+    // order), once over the pixels: a later round's counts are the first
+    // round's summed over each facet's root (one pass over the image
     // instead of one a round).
     let first = std::cell::OnceCell::new();
     let counts = |current: &[u32]| {

@@ -1,5 +1,5 @@
-//! The subject's outlines as straight-edged rings: what the planes are cut along (issue 13 item
-//! 1, ART.md "may follow the subject's silhouettes", thesis 5.5.1: the painters aligned facets
+//! The subject's outlines as straight-edged rings: what the planes are cut along ("may
+//! follow the subject's silhouettes", thesis 5.5.1: the painters aligned facets
 //! with the silhouette of the content).
 //!
 //! From the pre-render's object ids: a label per pixel (object, or background), specks smaller
@@ -37,7 +37,7 @@ pub const MAX_OBJECT_LAYERS: usize = 16;
 /// and each component's (value, area). Numbered in scan order of each component's first
 /// pixel, so deterministic.
 ///
-/// By runs (perf7, issue 16): each row's runs of equal values are joined (union-find) to the
+/// By runs: each row's runs of equal values are joined (union-find) to the
 /// runs of the row above they touch with the same value, then numbered in scan order of their
 /// first run, which holds the component's first pixel: the numbering a flood fill started at
 /// each unvisited pixel in scan order gives (`components_by_flood`, the tests' reference), at
@@ -242,7 +242,7 @@ fn bounding_box(w: usize, h: usize, inside: &(dyn Fn(usize) -> bool + Sync)) -> 
 
 /// `trace` of the mask of the pixels `inside` (with `seed`: only its 4-connected components
 /// holding a pixel where `seed` is true, `keep_seeded`), made, filled and walked within the
-/// mask's bounding box alone (facet9, issue 14: an object's layer is a part of the image). The
+/// mask's bounding box alone (an object's layer is a part of the image). The
 /// same rings as over the whole image: outside the box the lattice has no edge, and inside it
 /// the vertices come in the same order (rows, then columns); the points are moved back by the
 /// box's corner (whole numbers: exact).
@@ -277,7 +277,7 @@ pub fn trace(mask: &[bool], w: usize, h: usize) -> Vec<Vec<DVec2>> {
     let at =
         |x: i64, y: i64| x >= 0 && y >= 0 && (x as usize) < w && (y as usize) < h && mask[y as usize * w + x as usize];
     // Outgoing boundary edges per lattice vertex, one bit per direction, each vertex from
-    // the four pixels around it (rows of vertices in parallel; perf7, issue 16): the edge
+    // the four pixels around it (rows of vertices in parallel): the edge
     // going right along the top of pixel (x, y), down the right of (x - 1, y), left along the
     // bottom of (x - 1, y - 1) and up the left of (x, y - 1), each where the mask ends.
     let mut out = vec![0u8; vw * (h + 1)];
@@ -375,7 +375,7 @@ pub fn simplify_chain(chain: &[DVec2], tolerance: f64) -> Vec<DVec2> {
 /// is a triangle): of the shortest edge's two ends, the corner nearer the line through its
 /// neighbours goes (the one whose removal moves the outline least). A curve traced pixel by
 /// pixel simplifies to many short edges where it bends; each would be drawn as a facet border
-/// too short to read as a straight stroke (ART.md: runs of at least 1% of the diagonal).
+/// too short to read as a straight stroke (runs of at least 1% of the diagonal).
 pub fn merge_short_edges(ring: Vec<DVec2>, min_edge: f64) -> Vec<DVec2> {
     merge_short(ring, true, min_edge)
 }
@@ -429,7 +429,7 @@ fn merge_short(mut points: Vec<DVec2>, closed: bool, min_edge: f64) -> Vec<DVec2
 ///
 /// Junctions joined by a boundary shorter than `reach` lattice steps are one point (a tight
 /// cluster where several objects meet): kept apart, each would pin an edge too short to read
-/// as a straight stroke (ART.md: runs of at least 1% of the diagonal), which no layer could
+/// as a straight stroke (runs of at least 1% of the diagonal), which no layer could
 /// merge away. Joined shortest boundary first, while the group's box stays within `reach`.
 pub struct Junctions {
     /// The lattice's width (image width + 1).
@@ -651,7 +651,7 @@ pub fn layers(
     if !labels.par_iter().any(|&l| l != BACKGROUND) {
         return Vec::new();
     }
-    // Layer 0 beside the objects' layers (facet9, issue 14), each traced, then all simplified.
+    // Layer 0 beside the objects' layers, each traced, then all simplified.
     let (first, objects) = rayon::join(
         || trace_within_box(w, h, &|i| labels[i] != BACKGROUND, None),
         || -> Vec<Vec<Vec<DVec2>>> {
@@ -703,7 +703,7 @@ pub fn layers(
             // Far to near.
             stats.sort_by(|a, b| (b.2 / b.1 as f64).total_cmp(&(a.2 / a.1 as f64)).then(a.0.cmp(&b.0)));
             // Each object's layer on its own (their masks, fills and walks are serial): side by
-            // side, in this order (facet9, issue 14: the camera change makes them anew).
+            // side, in this order (the camera change makes them anew).
             (0..stats.len())
                 .into_par_iter()
                 .map(|k| {

@@ -248,7 +248,7 @@ pub fn split(
 /// A seeded cut's ends closer than this share of `min_width` to an earlier cut's end (or a
 /// plane's corner) on the plane's boundary move onto it: without it, two junctions a few
 /// pixels apart leave a boundary too short to read as a straight stroke (the largest share of
-/// the facet-boundary length off straight runs, issue 13).
+/// the facet-boundary length off straight runs).
 pub const SNAP_SHARE: f64 = 0.6;
 
 /// Where the line through `p` along `d` enters and leaves convex `poly`.
