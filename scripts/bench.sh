@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Regenerates BENCHMARKS.md: a description of this machine, a summary of the targets the
-# issues set, then the tables of every bench binary (benches/*.rs), one section per issue.
+# Runs every bench binary (benches/*.rs) and writes target/bench-report.md: a description of
+# this machine, a summary of the targets, then each binary's tables. BENCHMARKS.md keeps the
+# latest figure of each benchmark by hand, from this report and the scripts it names.
 # About 5 minutes on 2 idle cores; --quick about 2 (fewer runs and seeds, smaller figures).
 #   bash scripts/bench.sh [--quick] [SCENE]      (SCENE: the pipeline tables' scene, default venus_11k)
 # Benchmarks, not tests: nothing here fails on a slow machine. Run it on a quiet machine when
@@ -25,7 +26,7 @@ benches=(pipeline saliency facet_stages segment paint serve)
 cargo bench --locked --no-run $(printf -- '--bench %s ' "${benches[@]}") 2>/dev/null ||
     cargo bench --locked --no-run $(printf -- '--bench %s ' "${benches[@]}")
 log=$(mktemp)
-trap 'rm -f "$log" BENCHMARKS.md.tmp' EXIT
+trap 'rm -f "$log"' EXIT
 load_before=$(cut -d' ' -f1-3 /proc/loadavg)
 start=$(date +%s)
 declare -A out
@@ -55,19 +56,17 @@ rustflags=$(grep -m1 'rustflags' .cargo/config.toml 2>/dev/null | sed 's/^ *//' 
 commit=$(git rev-parse --short HEAD 2>/dev/null || echo unknown)
 dirty=$(git diff --quiet HEAD 2>/dev/null || echo " (with uncommitted changes)")
 mode=${quick[0]:-full}
-# The lines `TARGET | issue | what | target | measured | met |` go to the summary; the rest
+# The lines `TARGET | group | what | target | measured | met |` go to the summary; the rest
 # stays in its section.
 body() { grep -v '^TARGET |' <<<"${out[$1]}" || true; }
 targets=$(for b in "${benches[@]}"; do grep '^TARGET |' <<<"${out[$b]}" || true; done | sort -t'|' -k2,2n -s | sed 's/^TARGET //')
-tmp=BENCHMARKS.md.tmp
+report=target/bench-report.md
+mkdir -p target
 {
-    echo "# Benchmarks"
+    echo "# Bench report"
     echo
-    echo "Regenerate with \`bash scripts/bench.sh\` (writes this file; \`--quick\` for a shorter run)."
-    echo "Benchmarks, not tests: each table says what it measures; the bench binaries in \`benches/\`"
-    echo "say how. Issue 8's tables: samples per pixel against PSNR and the whole pipeline's stages"
-    echo "(Issues 2 and 8), mesh saliency exact against clustered (Issue 3), Segment superpixels"
-    echo "against boundary agreement (Issue 5)."
+    echo "Written by \`bash scripts/bench.sh\` (\`--quick\` for a shorter run). Benchmarks, not tests:"
+    echo "each table says what it measures; the bench binaries in \`benches/\` say how."
     echo
     echo "## Machine"
     echo
@@ -80,15 +79,15 @@ tmp=BENCHMARKS.md.tmp
     echo
     echo "## Summary of targets"
     echo
-    echo "| issue | what | target | measured | met |"
+    echo "| group | what | target | measured | met |"
     echo "|---|---|---|---|---|"
     if [ -n "$targets" ]; then echo "$targets"; fi
     echo
-    echo "## Issues 2 and 8: the pipeline (\`benches/pipeline.rs\`)"
+    echo "## The pipeline (\`benches/pipeline.rs\`)"
     echo
     body pipeline
     echo
-    echo "## Issues 3 and 16: mesh saliency (\`benches/saliency.rs --quick\`)"
+    echo "## Mesh saliency (\`benches/saliency.rs --quick\`)"
     echo
     echo "Per mesh class (generated uniform, adaptive, scanned-like, CAD-like meshes; shared models;"
     echo "glTF samples; bunny_full refined by PN triangles) and size up to 2M vertices: the exact"
@@ -98,27 +97,20 @@ tmp=BENCHMARKS.md.tmp
     echo
     body saliency
     echo
-    echo "## Issue 4: facets and spatial imprecision (\`benches/facet_stages.rs\`)"
+    echo "## Facets and spatial imprecision (\`benches/facet_stages.rs\`)"
     echo
     body facet_stages
     echo
-    echo "## Issue 5: Segment faceting (\`benches/segment.rs\`)"
+    echo "## Segment faceting (\`benches/segment.rs\`)"
     echo
     body segment
     echo
-    echo "## Issue 6: painterly effects (\`benches/paint.rs\`)"
+    echo "## Painterly effects (\`benches/paint.rs\`)"
     echo
     body paint
     echo
-    echo "## Issue 14: \`cubist serve\`, requests to a kept session (\`benches/serve.rs\`)"
+    echo "## \`cubist serve\`, requests to a kept session (\`benches/serve.rs\`)"
     echo
     body serve
-    # Kept from the current file: sections written by other scripts (issue 12's table comes
-    # from scripts/bench_addon_export.py --write, which needs headless Blender).
-    if grep -q '^## Issue 12: ' BENCHMARKS.md 2>/dev/null; then
-        echo
-        sed -n '/^## Issue 12: /,$p' BENCHMARKS.md
-    fi
-} >"$tmp"
-mv "$tmp" BENCHMARKS.md
-echo "wrote BENCHMARKS.md ($seconds s)" >&2
+} >"$report"
+echo "wrote $report ($seconds s)" >&2
