@@ -733,11 +733,6 @@ mod round_tests {
         crate::pipeline::params::framing(&Settings { width: 320, height: 240, ..Settings::default() })
     }
 
-    /// Camera, angle and band: what a render would see of a framing.
-    fn key(f: &Framed, world: &World) -> String {
-        format!("{} {:?}", f.describe(world), f.view_height)
-    }
-
     /// The guard refuses a candidate whose fill is mostly one small part just in front of C: a
     /// small ball right before a spherical camera's centre, a big one far beyond it.
     #[test]
