@@ -49,10 +49,13 @@ PRESET_LABELS = {name: (schema.label(name), help) for name, help in schema.PRESE
 
 # Settings keys Blender decides, not the panel: the render size, Film > Transparent, the
 # active camera and its focus, the per-frame layout files (and the follow data saved beside
-# them), the saliency cache folder (beside the layout), and external files (the exported GLB
-# is self-contained). How facets move between frames (`facet_motion`) is the panel's.
+# them), the saliency cache folder (beside the layout), external files (the exported GLB is
+# self-contained) and the frame range (Blender's own: the add-on renders one frame per
+# process, so `frames` is never sent). How facets move between frames (`facet_motion`) is the
+# panel's.
 BLENDER_KEYS = frozenset({"width", "height", "transparent", "camera_position", "camera_target", "camera_up",
-                          "focus_distance", "facets", "save_facets", "saliency_cache", "allow_external_files"})
+                          "focus_distance", "facets", "save_facets", "saliency_cache", "allow_external_files",
+                          "frames"})
 
 # The panel's enum settings (those Blender decides are not on the panel).
 ENUM_KEYS = tuple(k for k in schema.ENUM_KEYS if k not in BLENDER_KEYS)

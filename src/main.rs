@@ -136,8 +136,8 @@ fn progress_for(mode: ProgressMode) -> Progress {
 
 fn run_render(args: RenderArgs) -> anyhow::Result<()> {
     let mut settings = args.settings.resolve(args.config.as_deref())?;
-    if args.frames.frames.is_some() {
-        return run_frames(args, settings);
+    if let Some(range) = settings.frame_range()? {
+        return run_frames(args, settings, range);
     }
     pipeline::params::check_still_passes(&settings)?;
     if pipeline::follows_saved_key(&settings) {
@@ -256,12 +256,11 @@ fn run_followed(args: RenderArgs, settings: cubist::Settings) -> anyhow::Result<
 }
 
 /// `render --frames`: every frame in this process, each written (atomically) as it is done.
-fn run_frames(args: RenderArgs, settings: cubist::Settings) -> anyhow::Result<()> {
-    use cubist::cli::frames::{frame_path, parse_range};
+fn run_frames(args: RenderArgs, settings: cubist::Settings, (first, last): (u32, u32)) -> anyhow::Result<()> {
+    use cubist::cli::frames::frame_path;
     use cubist::pipeline::FramesParams;
     use cubist::scene::animation::Choice;
     let f = &args.frames;
-    let (first, last) = parse_range(f.frames.as_deref().unwrap_or_default())?;
     let mut params = FramesParams {
         first,
         last,

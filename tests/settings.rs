@@ -122,7 +122,7 @@ fn schema_types_are_the_settings_types() {
         Kind::Boolean => v.is_boolean(),
         Kind::Integer => v.is_u64() || v.is_i64(),
         Kind::Number => v.is_number(),
-        Kind::Enum | Kind::Path => v.is_string(),
+        Kind::Enum | Kind::Path | Kind::Text => v.is_string(),
         Kind::Array => v.is_array(),
     };
     for f in FIELDS {
@@ -149,5 +149,55 @@ fn schema_types_are_the_settings_types() {
             }
             assert!(with(f.key, json!("no-such-value")).is_err());
         }
+    }
+}
+
+/// A value of key `f` as a flag writes it: its default, else one of its type's.
+fn flag_value(f: &Field, default: &Value) -> String {
+    match default {
+        Value::Null => match (f.kind, f.length) {
+            (Kind::Array, Some(n)) => vec!["0.5"; n].join(","),
+            (Kind::Number, _) => "0.5".into(),
+            (Kind::Text, _) => "1-2".into(),
+            _ => "x".into(),
+        },
+        Value::String(s) => s.clone(),
+        Value::Array(a) if a.is_empty() => f.choices.map(|c| c()[0].value.clone()).unwrap_or_default(),
+        Value::Array(a) => a.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(","),
+        v => v.to_string(),
+    }
+}
+
+/// Every key of `Settings` (as serde writes it) has a schema entry and a flag, in every command
+/// that takes settings, and the flag sets that key and nothing else: a setting cannot be
+/// declared without reaching the schema and the command line.
+#[test]
+fn every_setting_reaches_the_schema_and_a_flag() {
+    use clap::{CommandFactory, Parser};
+    use cubist::cli::{Cli, Command};
+    let defaults = serde_json::to_value(Settings::default()).unwrap();
+    let defaults = defaults.as_object().unwrap();
+    let mut schema_keys: Vec<&str> = FIELDS.iter().map(|f| f.key).collect();
+    schema_keys.sort_unstable();
+    assert_eq!(schema_keys, defaults.keys().map(String::as_str).collect::<Vec<_>>(), "schema keys = Settings keys");
+    let cli = Cli::command();
+    for command in ["render", "faces", "saliency", "facets", "settings", "look"] {
+        let sub = cli.find_subcommand(command).unwrap();
+        for f in FIELDS {
+            let arg = sub.get_arguments().find(|a| a.get_id().as_str() == f.key);
+            let arg = arg.unwrap_or_else(|| panic!("`{command}` has no flag for {}", f.key));
+            let long = if f.key == "passes" { "pass".to_string() } else { f.key.replace('_', "-") };
+            assert_eq!(arg.get_long(), Some(long.as_str()), "{command}: the flag of {}", f.key);
+            assert!(arg.get_help().is_some_and(|h| !h.to_string().is_empty()), "--{long} has no help");
+            assert!(arg.get_help_heading().is_some(), "--{long} has no heading");
+        }
+    }
+    for f in FIELDS {
+        let long = if f.key == "passes" { "pass".to_string() } else { f.key.replace('_', "-") };
+        let flag = format!("--{long}={}", flag_value(f, &defaults[f.key]));
+        let cli = Cli::try_parse_from(["cubist", "settings", &flag]).unwrap_or_else(|e| panic!("{flag}: {e}"));
+        let Command::Settings(args) = cli.command else { panic!("not settings") };
+        let layer = args.settings.to_layer();
+        assert_eq!(layer.keys().collect::<Vec<_>>(), [f.key], "{flag} sets {:?}", layer);
     }
 }

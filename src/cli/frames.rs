@@ -1,28 +1,8 @@
-//! The frame range of `--frames` and the frame file names of `-o` (Blender's convention: a run
-//! of `#` in the file name becomes the frame number, zero-padded to the run's length).
+//! The frame file names of `-o` with `--frames` (Blender's convention: a run of `#` in the file
+//! name becomes the frame number, zero-padded to the run's length). The range itself is a
+//! setting (`frames`, `Settings::frame_range`).
 
 use std::path::{Path, PathBuf};
-
-use crate::error::{Error, Result};
-
-/// `A-B` (inclusive) or a single frame `N`.
-pub fn parse_range(s: &str) -> Result<(u32, u32)> {
-    let bad = || Error::setting("frames", format!("`{s}` is not a frame range: A-B (e.g. 1-120) or one frame N"));
-    let num = |t: &str| t.trim().parse::<u32>().map_err(|_| bad());
-    match s.split_once('-') {
-        Some((a, b)) => {
-            let (a, b) = (num(a)?, num(b)?);
-            if a > b {
-                return Err(Error::setting("frames", format!("`{s}`: the first frame is after the last")));
-            }
-            Ok((a, b))
-        }
-        None => {
-            let n = num(s)?;
-            Ok((n, n))
-        }
-    }
-}
 
 /// The file of frame `n`: the last run of `#` in the file name replaced by `n` zero-padded to
 /// the run's length (longer numbers are written in full); without `#`, `_` and four digits are
@@ -46,16 +26,6 @@ pub fn frame_path(pattern: &Path, n: u32) -> PathBuf {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn ranges() {
-        assert_eq!(parse_range("1-120").unwrap(), (1, 120));
-        assert_eq!(parse_range("61 - 120").unwrap(), (61, 120));
-        assert_eq!(parse_range("7").unwrap(), (7, 7));
-        for bad in ["", "a-b", "3-1", "-5", "1-", "1-2-3"] {
-            assert!(parse_range(bad).is_err(), "{bad}");
-        }
-    }
 
     #[test]
     fn frame_names() {

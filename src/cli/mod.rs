@@ -131,13 +131,10 @@ pub struct RenderArgs {
     pub settings: SettingsArgs,
 }
 
-/// Animation frames of `render` (README "Animation").
+/// Animation frames of `render` (README "Animation"); the range, `--frames`, is a setting
+/// (`Settings::frames`), and these need it.
 #[derive(Args, Debug, Default)]
 pub struct FramesArgs {
-    /// Render frames A-B of the scene's animation (or one frame N), all in this process; -o
-    /// names each frame with a run of # for its number (frames/cubist_####.png -> frames/cubist_0001.png...)
-    #[arg(long, value_name = "A-B", help_heading = "Animation")]
-    pub frames: Option<String>,
     /// Frames per second: frame f is the animation at (f - 1) / fps seconds
     #[arg(long, default_value_t = 24.0, requires = "frames", help_heading = "Animation", value_parser = settings_args::finite_f64)]
     pub fps: f64,

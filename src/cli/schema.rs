@@ -34,11 +34,6 @@ pub fn schema() -> Value {
     json!({ "version": SCHEMA_VERSION, "settings": settings, "stages": stages, "presets": presets })
 }
 
-/// The flag of a settings key (`passes` is the repeatable `--pass`).
-fn arg_id(key: &str) -> &str {
-    if key == "passes" { "pass" } else { key }
-}
-
 /// Splits a flag's help into its text and the bracket that ends it (`[default: ...]` or
 /// `[analytic: ...]`), which says what the default, or a null, means.
 fn split_help(help: &str) -> (String, Option<String>) {
@@ -62,7 +57,7 @@ fn kind_name(kind: Kind) -> Value {
 }
 
 fn setting(f: &Field, flags: &Command, defaults: &Map<String, Value>) -> Value {
-    let arg = flags.get_arguments().find(|a| a.get_id().as_str() == arg_id(f.key));
+    let arg = flags.get_arguments().find(|a| a.get_id().as_str() == f.key);
     let (help, said) = split_help(&arg.and_then(|a| a.get_help()).map(|h| h.to_string()).unwrap_or_default());
     let mut out = Map::new();
     out.insert("key".into(), json!(f.key));

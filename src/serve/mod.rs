@@ -325,6 +325,9 @@ fn render(session: &mut Session, job: &Job) -> Result<Value> {
     let req = &job.request;
     let format = format_of(&req.output)?;
     let mut settings = Settings::from_layers(Some((Path::new("<request>"), req.settings.clone())), Map::new())?;
+    if settings.frames.is_some() {
+        return Err(Error::setting("frames", "a request renders one frame: leave `frames` out"));
+    }
     if let Some(passes) = &req.passes {
         settings.passes = passes.clone();
         settings.validate()?;

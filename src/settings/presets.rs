@@ -1,10 +1,8 @@
-//! The values before any preset (the bare cubist camera) and what each preset sets. The
-//! defaults of `Settings` are the `analytic` preset's.
+//! What each preset sets: a bundle of values over `Settings::base` (the values before any
+//! preset, the bare cubist camera, declared with each key in `table`). The defaults of
+//! `Settings` are the `analytic` preset's.
 
-use super::{
-    BorderStyle, CameraKind, FacetMotion, FacetProjection, Faceting, Framing, Imprecision, Palette, Preset,
-    SaliencyMethod, Settings,
-};
+use super::{BorderStyle, CameraKind, Faceting, Framing, Palette, Preset, Settings};
 
 impl Default for Settings {
     fn default() -> Self {
@@ -15,82 +13,6 @@ impl Default for Settings {
 }
 
 impl Settings {
-    /// Values before any preset: the bare cubist camera.
-    pub(super) fn base() -> Self {
-        Settings {
-            preset: Preset::Plain,
-            width: 800,
-            height: 600,
-            spp: 4,
-            // 13 of 255 sRGB codes: from 0.02 (5 codes) to 0.05, the PSNR against 64 spp on
-            // every pixel moved by at most 0.2 dB on eight scenes (pixels off by > 8 codes:
-            // +0.01-0.02% of the canvas) while anti-aliasing's rays fell by 25-45%: below 13
-            // codes a neighbour's difference is mostly shading and texture gradient, which
-            // more samples do not change (BENCHMARKS.md).
-            aa_threshold: 0.05,
-            seed: 0,
-            camera: CameraKind::Auto,
-            ambiguity: None,
-            framing: Framing::Fit,
-            focus_distance: None,
-            camera_position: None,
-            camera_target: None,
-            camera_up: None,
-            camera_size: None,
-            fill: None,
-            shadows: true,
-            background: [0.62, 0.56, 0.46],
-            transparent: false,
-            exposure: 1.0,
-            faceting: Faceting::None,
-            facet_map: None,
-            facets: None,
-            save_facets: None,
-            facet_count: 150,
-            grid_cells: 15,
-            patch_count: 80,
-            occlusion: 3.0,
-            segments: vec![5, 30, 120],
-            thresholds: vec![0.0, 0.05, 0.08],
-            superpixels: 0,
-            weight_colour: 1.0,
-            weight_normal: 1.0,
-            weight_depth: 0.5,
-            weight_object: 0.9,
-            weight_saliency: 0.5,
-            planes: 150,
-            plane_detail: 5.0,
-            plane_outlines: true,
-            aim_min_coverage: 0.0,
-            aim_width_share: 0.0,
-            imprecision: Imprecision::Saliency,
-            discontinuity: 0.0,
-            neighborhood: 0.0,
-            facet_projection: FacetProjection::Converging,
-            facet_fov: 0.0,
-            border_width: 0.0,
-            border_strength: 1.0,
-            silhouette_width: 0.0,
-            silhouette_strength: 1.0,
-            palette: Palette::None,
-            palette_image: None,
-            colors: 0,
-            gradients: 0.0,
-            chiaroscuro: 0.0,
-            plane_light: 0.0,
-            border_style: BorderStyle::Symmetric,
-            brushwork: 0.0,
-            stroke_length: 26.0,
-            stroke_width: 7.0,
-            canvas_grain: 0.0,
-            saliency_method: SaliencyMethod::Auto,
-            saliency_cache: None,
-            facet_motion: FacetMotion::Static,
-            passes: Vec::new(),
-            allow_external_files: false,
-        }
-    }
-
     /// The settings of a preset, before any override.
     pub fn preset(preset: Preset) -> Self {
         let mut s = Settings::base();

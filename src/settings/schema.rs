@@ -1,22 +1,19 @@
-//! What each settings key holds: its type, unit and allowed range, in `Settings` order. With
-//! the flags' help (`cli::schema`) this is what `cubist settings --schema` prints, and what
-//! the Blender add-on builds its panel from, so no front end copies a range by hand.
+//! What each settings key holds: its type, unit and allowed range, in `Settings` order. The
+//! entries (`FIELDS`) are declared with the keys, in `table`; this module has their shape and
+//! the builders the table writes them with. With the flags' help (`cli::schema`) this is what
+//! `cubist settings --schema` prints, and what the Blender add-on builds its panel from, so no
+//! front end copies a range by hand.
 //!
-//! `validate` is the authority on what is accepted; a test checks every range here against
-//! it at both ends, so the two cannot drift apart.
+//! A declared range is what validation accepts (`Settings::check_ranges` checks it); a test
+//! checks every range at both ends against `Settings::validate`, cross-field checks included.
 
 use clap::ValueEnum;
 use serde::Serialize;
 
-use super::validate::{
-    MAX_EXPOSURE, MAX_GRID_CELLS, MAX_OCCLUSION, MAX_PIXEL_DISTANCE, MAX_SCENE_VALUE, MAX_SEGMENTS, MAX_SUPERPIXELS,
-    MAX_WEIGHT,
-};
-use super::{
-    BorderStyle, CameraKind, FacetMotion, FacetProjection, Faceting, Framing, Imprecision, Palette, Pass, Preset,
-    SaliencyMethod,
-};
-use super::{MAX_FACETS, MAX_PLANES, MAX_SIDE};
+use super::validate::{MAX_PIXEL_DISTANCE, MAX_SCENE_VALUE, MAX_WEIGHT};
+use super::{MAX_FACETS, MAX_SIDE};
+
+pub use super::table::FIELDS;
 
 /// The JSON type of a key's value.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -31,6 +28,9 @@ pub enum Kind {
     Path,
     /// A list of `items`; `length` when fixed.
     Array,
+    /// Text in a format the key's help gives (`frames`: `A-B`).
+    #[serde(rename = "string")]
+    Text,
 }
 
 /// An interval of numbers: [min, max], either end open when its flag says so, `max` None for
@@ -61,6 +61,31 @@ impl Range {
     }
     pub const fn open_max(self) -> Range {
         Range { max_exclusive: true, ..self }
+    }
+    /// Whether `v` is in the range (NaN never is).
+    pub fn contains(&self, v: f64) -> bool {
+        let above = if self.min_exclusive { v > self.min } else { v >= self.min };
+        let below = match self.max {
+            Some(max) if self.max_exclusive => v < max,
+            Some(max) => v <= max,
+            None => !v.is_nan(),
+        };
+        above && below
+    }
+}
+
+/// The interval as messages write it: `[0, 1]`, `(0, 1000]`, `[1, inf)`.
+impl std::fmt::Display for Range {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let open = if self.min_exclusive { '(' } else { '[' };
+        let min = crate::error::short_num(self.min);
+        match self.max {
+            Some(max) => {
+                let close = if self.max_exclusive { ')' } else { ']' };
+                write!(f, "{open}{min}, {}{close}", crate::error::short_num(max))
+            }
+            None => write!(f, "{open}{min}, inf)"),
+        }
     }
 }
 
@@ -110,109 +135,41 @@ pub fn choices<T: ValueEnum>() -> Vec<Choice> {
         .collect()
 }
 
-const fn field(key: &'static str, kind: Kind) -> Field {
-    Field { key, kind, items: None, length: None, nullable: false, unit: None, range: None, choices: None }
+/// A key's entry of `kind`; the table names it (`Field::key`).
+pub(super) const fn field(kind: Kind) -> Field {
+    Field { key: "", kind, items: None, length: None, nullable: false, unit: None, range: None, choices: None }
 }
 
 impl Field {
-    const fn unit(self, unit: &'static str) -> Field {
+    pub(super) const fn key(self, key: &'static str) -> Field {
+        Field { key, ..self }
+    }
+    pub(super) const fn unit(self, unit: &'static str) -> Field {
         Field { unit: Some(unit), ..self }
     }
-    const fn range(self, range: Range) -> Field {
+    pub(super) const fn range(self, range: Range) -> Field {
         Field { range: Some(range), ..self }
     }
-    const fn nullable(self) -> Field {
+    pub(super) const fn nullable(self) -> Field {
         Field { nullable: true, ..self }
     }
-    const fn of(self, items: Kind) -> Field {
+    pub(super) const fn of(self, items: Kind) -> Field {
         Field { items: Some(items), ..self }
     }
-    const fn length(self, n: usize) -> Field {
+    pub(super) const fn length(self, n: usize) -> Field {
         Field { length: Some(n), ..self }
     }
-    const fn choices(self, choices: fn() -> Vec<Choice>) -> Field {
+    pub(super) const fn choices(self, choices: fn() -> Vec<Choice>) -> Field {
         Field { choices: Some(choices), ..self }
     }
 }
 
-use Kind::{Array, Boolean, Enum, Integer, Number, Path};
-
-const UNIT: Range = Range::closed(0.0, 1.0);
-const NON_NEGATIVE: Range = Range::at_least(0.0);
-const WEIGHT: Range = Range::closed(0.0, MAX_WEIGHT);
-const DISTANCE_PX: Range = Range::closed(0.0, MAX_PIXEL_DISTANCE);
-const SCENE_LENGTH: Range = Range::closed(0.0, MAX_SCENE_VALUE).open_min();
-const SCENE_POINT: Range = Range::closed(-MAX_SCENE_VALUE, MAX_SCENE_VALUE);
-const SIDE: Range = Range::closed(1.0, MAX_SIDE as f64);
-const FACETS: Range = Range::closed(1.0, MAX_FACETS as f64);
-
-/// Every key of `Settings`, in its order.
-pub const FIELDS: &[Field] = &[
-    field("preset", Enum).choices(choices::<Preset>),
-    field("width", Integer).unit(PX).range(SIDE),
-    field("height", Integer).unit(PX).range(SIDE),
-    field("spp", Integer).range(Range::at_least(1.0)),
-    field("seed", Integer).range(NON_NEGATIVE),
-    field("aa_threshold", Number).range(UNIT),
-    field("camera", Enum).choices(choices::<CameraKind>),
-    // Planar cameras: [0, 180); perspective: (0, 180).
-    field("ambiguity", Number).nullable().unit(DEGREES).range(Range::closed(0.0, 360.0)),
-    field("framing", Enum).choices(choices::<Framing>),
-    field("focus_distance", Number).nullable().unit(SCENE_UNITS).range(SCENE_LENGTH),
-    field("camera_position", Array).of(Number).length(3).nullable().unit(SCENE_UNITS).range(SCENE_POINT),
-    field("camera_target", Array).of(Number).length(3).nullable().unit(SCENE_UNITS).range(SCENE_POINT),
-    field("camera_up", Array).of(Number).length(3).nullable().range(SCENE_POINT),
-    field("camera_size", Number).nullable().unit(SCENE_UNITS).range(SCENE_LENGTH),
-    field("fill", Number).nullable().range(UNIT.open_min()),
-    field("shadows", Boolean),
-    field("background", Array).of(Number).length(3).unit(LINEAR_RGB).range(Range::closed(0.0, MAX_EXPOSURE)),
-    field("transparent", Boolean),
-    field("exposure", Number).range(Range::closed(0.0, MAX_EXPOSURE)),
-    field("faceting", Enum).choices(choices::<Faceting>),
-    field("facet_map", Path).nullable(),
-    field("facets", Path).nullable(),
-    field("save_facets", Path).nullable(),
-    field("facet_count", Integer).range(FACETS),
-    field("grid_cells", Integer).range(Range::closed(1.0, MAX_GRID_CELLS as f64)),
-    field("patch_count", Integer).range(FACETS),
-    field("occlusion", Number).range(Range::closed(0.0, MAX_OCCLUSION).open_min()),
-    field("segments", Array).of(Integer).range(Range::closed(1.0, MAX_SEGMENTS as f64)),
-    field("thresholds", Array).of(Number).range(UNIT),
-    field("superpixels", Integer).range(Range::closed(0.0, MAX_SUPERPIXELS as f64)),
-    field("weight_colour", Number).range(WEIGHT),
-    field("weight_normal", Number).range(WEIGHT),
-    field("weight_depth", Number).range(WEIGHT),
-    field("weight_object", Number).range(UNIT),
-    field("weight_saliency", Number).range(WEIGHT),
-    field("planes", Integer).range(Range::closed(1.0, MAX_PLANES as f64)),
-    field("plane_detail", Number).range(Range::closed(1.0, 100.0)),
-    field("plane_outlines", Boolean),
-    field("aim_min_coverage", Number).range(UNIT),
-    field("aim_width_share", Number).range(Range::closed(0.0, 100.0)),
-    field("imprecision", Enum).choices(choices::<Imprecision>),
-    field("discontinuity", Number).unit(PX_AT_1000).range(DISTANCE_PX),
-    field("neighborhood", Number).unit(PX_AT_1000).range(DISTANCE_PX),
-    field("facet_projection", Enum).choices(choices::<FacetProjection>),
-    field("facet_fov", Number).unit(DEGREES).range(Range::closed(0.0, 180.0).open_max()),
-    field("border_width", Number).unit(PX_AT_1000).range(DISTANCE_PX),
-    field("border_strength", Number).range(UNIT),
-    field("silhouette_width", Number).unit(PX_AT_1000).range(DISTANCE_PX),
-    field("silhouette_strength", Number).range(UNIT),
-    field("palette", Enum).choices(choices::<Palette>),
-    field("palette_image", Path).nullable(),
-    // 1 is refused: quantising to one colour leaves no image.
-    field("colors", Integer).range(Range::closed(0.0, 4096.0)),
-    field("gradients", Number).range(UNIT),
-    field("chiaroscuro", Number).range(UNIT),
-    field("plane_light", Number).range(UNIT),
-    field("border_style", Enum).choices(choices::<BorderStyle>),
-    field("brushwork", Number).range(UNIT),
-    field("stroke_length", Number).unit(PX_AT_1000).range(Range::closed(0.0, 1000.0).open_min()),
-    field("stroke_width", Number).unit(PX_AT_1000).range(Range::closed(0.0, 1000.0).open_min()),
-    field("canvas_grain", Number).range(UNIT),
-    field("saliency_method", Enum).choices(choices::<SaliencyMethod>),
-    field("saliency_cache", Path).nullable(),
-    field("facet_motion", Enum).choices(choices::<FacetMotion>),
-    field("passes", Array).of(Enum).choices(choices::<Pass>),
-    field("allow_external_files", Boolean),
-];
+// Ranges several keys share.
+pub(super) const UNIT: Range = Range::closed(0.0, 1.0);
+pub(super) const NON_NEGATIVE: Range = Range::at_least(0.0);
+pub(super) const WEIGHT: Range = Range::closed(0.0, MAX_WEIGHT);
+pub(super) const DISTANCE_PX: Range = Range::closed(0.0, MAX_PIXEL_DISTANCE);
+pub(super) const SCENE_LENGTH: Range = Range::closed(0.0, MAX_SCENE_VALUE).open_min();
+pub(super) const SCENE_POINT: Range = Range::closed(-MAX_SCENE_VALUE, MAX_SCENE_VALUE);
+pub(super) const SIDE: Range = Range::closed(1.0, MAX_SIDE as f64);
+pub(super) const FACETS: Range = Range::closed(1.0, MAX_FACETS as f64);

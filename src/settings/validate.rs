@@ -1,7 +1,88 @@
 //! Every value's range, checked once after the layers are merged; the error names the key.
+//! A key's range is declared with it (`table`) and checked by `in_range`, with the message its
+//! entry gives; the checks here are those of several keys, or of what a range cannot say
+//! (a camera's angle, the Segment levels, the frame range), and the memory bound.
 
+use std::path::PathBuf;
+
+use super::schema::Range;
 use super::{CameraKind, Faceting, Settings};
 use crate::error::{Error, Result, short_num as num, short_path};
+
+/// How a key's declared range is checked.
+#[derive(Clone, Copy, Debug)]
+pub(super) enum Check {
+    /// By `in_range`, with this message for a value outside it: `{v}` is the value, `{range}`
+    /// the interval (`[0, 1]`), `{min}` and `{max}` its ends, `{max:e}` the end in exponent form.
+    Message(&'static str),
+    /// By hand in `Settings::validate`: the range alone does not say what is accepted.
+    ByHand,
+}
+
+/// The message of most keys.
+pub(super) const IN_RANGE: Check = Check::Message("{v} must be a number in {range}");
+
+/// The numbers a settings value holds, for its range check: a number itself, each item of a
+/// list or vector, none of a name, flag or path.
+pub(crate) trait Numbers {
+    fn numbers(&self, _out: &mut Vec<f64>) {}
+}
+
+macro_rules! numbers_as_f64 {
+    ($($t:ty),*) => {$(
+        impl Numbers for $t {
+            fn numbers(&self, out: &mut Vec<f64>) {
+                out.push(*self as f64);
+            }
+        }
+    )*};
+}
+numbers_as_f64!(u32, u64, f32, f64);
+
+impl Numbers for bool {}
+impl Numbers for String {}
+impl Numbers for PathBuf {}
+
+impl<T: Numbers> Numbers for Option<T> {
+    fn numbers(&self, out: &mut Vec<f64>) {
+        if let Some(v) = self {
+            v.numbers(out);
+        }
+    }
+}
+
+impl<T: Numbers, const N: usize> Numbers for [T; N] {
+    fn numbers(&self, out: &mut Vec<f64>) {
+        self.iter().for_each(|v| v.numbers(out));
+    }
+}
+
+impl<T: Numbers> Numbers for Vec<T> {
+    fn numbers(&self, out: &mut Vec<f64>) {
+        self.iter().for_each(|v| v.numbers(out));
+    }
+}
+
+/// Checks every number of `value` against `range` (none: nothing to check); the first one
+/// outside it is an error naming `key`, worded by `check`.
+pub(super) fn in_range(key: &'static str, value: &impl Numbers, range: Option<Range>, check: Check) -> Result<()> {
+    let (Some(range), Check::Message(message)) = (range, check) else { return Ok(()) };
+    let mut numbers = Vec::new();
+    value.numbers(&mut numbers);
+    match numbers.into_iter().find(|&v| !range.contains(v)) {
+        None => Ok(()),
+        Some(v) => {
+            let max = range.max.unwrap_or(f64::INFINITY);
+            let message = message
+                .replace("{v}", &num(v))
+                .replace("{range}", &range.to_string())
+                .replace("{min}", &num(range.min))
+                .replace("{max:e}", &format!("{max:e}"))
+                .replace("{max}", &num(max));
+            Err(Error::setting(key, message))
+        }
+    }
+}
 
 fn length(v: [f64; 3]) -> f64 {
     (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
@@ -73,9 +154,12 @@ impl Settings {
         pixels.saturating_mul(per_pixel).saturating_add(64 << 20)
     }
 
-    /// Checks every value's range; the error names the key.
+    /// Checks every value's range and the values that depend on each other; the error names
+    /// the key. The declared ranges first (`check_ranges`, in `Settings` order), then the
+    /// checks of several keys or of what a range cannot say, then the memory bound.
     pub fn validate(&self) -> Result<()> {
         let s = self;
+        s.check_ranges()?;
         // The side at fault: the width unless only the height is.
         let side = |width_ok: bool| if width_ok { "height" } else { "width" };
         if s.width == 0 || s.height == 0 {
@@ -94,9 +178,6 @@ impl Settings {
                 format!("{}x{} = {pixels} pixels exceeds the memory bound of {MAX_PIXELS} pixels", s.width, s.height),
             ));
         }
-        if s.spp == 0 {
-            return Err(Error::setting("spp", "must be at least 1"));
-        }
         if pixels * s.spp as u64 > MAX_SAMPLES {
             return Err(Error::setting(
                 "spp",
@@ -105,9 +186,6 @@ impl Settings {
                     s.spp
                 ),
             ));
-        }
-        if !(0.0..=1.0).contains(&s.aa_threshold) {
-            return Err(Error::setting("aa_threshold", "must be in [0, 1] (an sRGB difference; 0 = every pixel)"));
         }
         if let Some(a) = s.ambiguity {
             if !a.is_finite() {
@@ -138,31 +216,8 @@ impl Settings {
                 _ => {}
             }
         }
-        // Scene-unit values: positive and finite (NaN or infinity is an error, never "auto").
-        for (key, v) in [("focus_distance", s.focus_distance), ("camera_size", s.camera_size)] {
-            if let Some(v) = v
-                && !(v > 0.0 && v <= MAX_SCENE_VALUE)
-            {
-                return Err(Error::setting(
-                    key,
-                    format!("{} must be a positive distance up to {MAX_SCENE_VALUE:e}", num(v)),
-                ));
-            }
-        }
-        if let Some(f) = s.fill
-            && !(f > 0.0 && f <= 1.0)
-        {
-            return Err(Error::setting("fill", format!("{} must be in (0, 1]", num(f))));
-        }
-        for (key, v) in [("camera_position", s.camera_position), ("camera_target", s.camera_target)] {
-            if let Some(v) = v
-                && v.iter().any(|x| !(x.abs() <= MAX_SCENE_VALUE))
-            {
-                return Err(Error::setting(key, format!("must be three finite numbers within +-{MAX_SCENE_VALUE:e}")));
-            }
-        }
         if let Some(u) = s.camera_up
-            && (u.iter().any(|x| !(x.abs() <= MAX_SCENE_VALUE)) || !(length(u) > 1e-100))
+            && !(length(u) > 1e-100)
         {
             return Err(Error::setting("camera_up", "must be a finite, non-zero vector"));
         }
@@ -172,55 +227,6 @@ impl Settings {
             if !(length(d) > 1e-12 * scale) {
                 return Err(Error::setting("camera_target", "coincides with camera_position: no view direction"));
             }
-        }
-        if s.background.iter().any(|c| !(*c >= 0.0 && *c as f64 <= MAX_EXPOSURE)) {
-            return Err(Error::setting("background", format!("must be three numbers in [0, {MAX_EXPOSURE}]")));
-        }
-        if !(s.exposure >= 0.0 && s.exposure as f64 <= MAX_EXPOSURE) {
-            return Err(Error::setting(
-                "exposure",
-                format!("{} must be a number in [0, {MAX_EXPOSURE}]", num(s.exposure as f64)),
-            ));
-        }
-        let within = |key: &'static str, v: f64, max: f64| -> Result<()> {
-            if v >= 0.0 && v <= max {
-                Ok(())
-            } else {
-                Err(Error::setting(key, format!("{} must be a number in [0, {max}]", num(v))))
-            }
-        };
-        let nonneg = |key: &'static str, v: f64| within(key, v, MAX_WEIGHT);
-        let unit = |key: &'static str, v: f64| within(key, v, 1.0);
-        within("discontinuity", s.discontinuity, MAX_PIXEL_DISTANCE)?;
-        within("neighborhood", s.neighborhood, MAX_PIXEL_DISTANCE)?;
-        within("border_width", s.border_width, MAX_PIXEL_DISTANCE)?;
-        within("silhouette_width", s.silhouette_width, MAX_PIXEL_DISTANCE)?;
-        unit("border_strength", s.border_strength)?;
-        unit("silhouette_strength", s.silhouette_strength)?;
-        unit("gradients", s.gradients)?;
-        unit("chiaroscuro", s.chiaroscuro)?;
-        unit("plane_light", s.plane_light)?;
-        unit("brushwork", s.brushwork)?;
-        unit("canvas_grain", s.canvas_grain)?;
-        for (key, v) in [("stroke_length", s.stroke_length), ("stroke_width", s.stroke_width)] {
-            if !(v.is_finite() && v > 0.0 && v <= 1000.0) {
-                return Err(Error::setting(key, format!("{} must be in (0, 1000] pixels at 1000 px", num(v))));
-            }
-        }
-        if !(s.facet_fov.is_finite() && (0.0..180.0).contains(&s.facet_fov)) {
-            return Err(Error::setting("facet_fov", format!("{} must be in [0, 180) degrees", num(s.facet_fov))));
-        }
-        if s.facet_count == 0 || s.facet_count > MAX_FACETS {
-            return Err(Error::setting("facet_count", format!("must be in 1..={}", MAX_FACETS)));
-        }
-        if s.grid_cells == 0 || s.grid_cells > MAX_GRID_CELLS {
-            return Err(Error::setting("grid_cells", format!("must be in 1..={MAX_GRID_CELLS}")));
-        }
-        if s.patch_count == 0 || s.patch_count > MAX_FACETS {
-            return Err(Error::setting("patch_count", format!("must be in 1..={}", MAX_FACETS)));
-        }
-        if !(s.occlusion > 0.0 && s.occlusion <= MAX_OCCLUSION) {
-            return Err(Error::setting("occlusion", format!("must be a number in (0, {MAX_OCCLUSION}]")));
         }
         if s.segments.is_empty() || s.segments.contains(&0) {
             return Err(Error::setting("segments", "needs one or more levels, each of at least 1 segment"));
@@ -237,31 +243,10 @@ impl Settings {
                 format!("{} thresholds given for {} segment levels", s.thresholds.len(), s.segments.len()),
             ));
         }
-        for t in &s.thresholds {
-            unit("thresholds", *t)?;
-        }
-        if s.superpixels > MAX_SUPERPIXELS {
-            return Err(Error::setting("superpixels", format!("at most {MAX_SUPERPIXELS} (0 = automatic)")));
-        }
-        nonneg("weight_colour", s.weight_colour)?;
-        nonneg("weight_normal", s.weight_normal)?;
-        nonneg("weight_depth", s.weight_depth)?;
-        unit("weight_object", s.weight_object)?;
-        nonneg("weight_saliency", s.weight_saliency)?;
-        if s.planes == 0 || s.planes > MAX_PLANES {
-            return Err(Error::setting("planes", format!("must be in 1..={MAX_PLANES}")));
-        }
-        if !(s.plane_detail.is_finite() && (1.0..=100.0).contains(&s.plane_detail)) {
-            return Err(Error::setting("plane_detail", format!("{} must be in [1, 100]", num(s.plane_detail))));
-        }
-        unit("aim_min_coverage", s.aim_min_coverage)?;
-        within("aim_width_share", s.aim_width_share, 100.0)?;
         if s.colors == 1 {
             return Err(Error::setting("colors", "quantising to 1 colour leaves no image; use 0 (off) or >= 2"));
         }
-        if s.colors > 4096 {
-            return Err(Error::setting("colors", "at most 4096"));
-        }
+        s.frame_range()?;
         if let Some(dir) = &s.saliency_cache
             && dir.exists()
             && !dir.is_dir()

@@ -78,9 +78,10 @@ def test_panel_defaults_cover_every_setting_the_panel_owns():
     # The keys the add-on does not send from the panel: camera frame (no camera here), files
     # it decides per frame (layout), paths left empty, and the focus (none without a camera).
     # `ambiguity`, `fill` and `camera_size` are automatic (0 in the panel, null in the
-    # settings); the engine adds the saliency cache folder.
+    # settings); the engine adds the saliency cache folder. The frame range is Blender's (one
+    # frame a process): never sent.
     not_sent = {"camera_position", "camera_target", "camera_up", "focus_distance", "camera_size", "fill", "facets",
-                "save_facets", "facet_map", "palette_image", "saliency_cache", "ambiguity"}
+                "save_facets", "facet_map", "palette_image", "saliency_cache", "ambiguity", "frames"}
     assert set(s) == runner.SETTINGS_KEYS - not_sent
 
 

@@ -62,6 +62,25 @@ def test_the_panel_owns_every_setting_blender_does_not_decide():
     assert schema.automatic("ambiguity", "perspective") == 60.0
 
 
+def test_every_setting_is_a_panel_property_or_a_key_the_addon_maps():
+    # Each schema key is on the panel (the passes as one toggle each) or in the add-on's own
+    # list of keys it maps from Blender's scene (the saliency cache is both: a folder on the
+    # panel, a path per scene): a new setting cannot go unseen.
+    toggles = set(presets.PASS_TOGGLES)
+    for key, field in schema.SETTINGS.items():
+        if field["type"] == "array" and field.get("items") == "enum":
+            on_panel = bool(toggles) and toggles <= set(presets.DEFAULTS)
+        else:
+            on_panel = key in presets.DEFAULTS
+        assert on_panel or key in presets.BLENDER_KEYS, key
+    assert presets.BLENDER_KEYS <= schema.SETTINGS_KEYS, sorted(presets.BLENDER_KEYS - schema.SETTINGS_KEYS)
+    # The frame range is Blender's (one frame a process): not on the panel, never sent.
+    assert "frames" in presets.BLENDER_KEYS and "frames" not in presets.DEFAULTS
+    for frame in (1, 7):
+        facts = mapping.SceneFacts(width=64, height=48, frame=frame)
+        assert "frames" not in mapping.settings_from_panel(dict(presets.DEFAULTS), facts)
+
+
 def test_passes_are_the_renderers():
     names = [name for _toggle, name, *_ in mapping.PASSES]
     assert names == [v for v, _ in schema.choices("passes") if schema.pass_format(v) != "rgba16"]
