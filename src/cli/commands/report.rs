@@ -46,12 +46,15 @@ pub(super) fn progress_for(mode: ProgressMode) -> Progress {
     }
 }
 
+/// Adds a command's files to the set written all or nothing.
+pub(super) type AddFiles<'o> = Box<dyn FnOnce(&mut Outputs<'o>) -> Result<()> + 'o>;
+
 /// A command's files, for `write_and_report`.
 pub(super) enum Files<'o> {
     /// Added by the closure and written all or nothing, under the `writing` stage.
-    Staged(Box<dyn FnOnce(&mut Outputs<'o>) -> Result<()> + 'o>),
+    Staged(AddFiles<'o>),
     /// Added by the closure and written all or nothing, with no stage of their own.
-    Quiet(Box<dyn FnOnce(&mut Outputs<'o>) -> Result<()> + 'o>),
+    Quiet(AddFiles<'o>),
     /// Nothing left to write: written as each was done (the frames of a sequence).
     Written,
 }
