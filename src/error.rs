@@ -43,6 +43,16 @@ pub enum Error {
     /// The render was cancelled from outside (the add-on's cancel button).
     #[error("cancelled")]
     Cancelled,
+
+    /// The system refused something around the renderer (writing stdout, making the frames'
+    /// folder, writing a JPEG contact sheet): what was being done and the system's message.
+    #[error("{0}")]
+    System(String),
+
+    /// A value inside a command's own argument that does not parse (`faces --view planar:abc`,
+    /// whose number clap leaves to the command). Exits with 1: it is found after parsing.
+    #[error("{0}")]
+    Argument(String),
 }
 
 /// Longest echo of a user-given string (a path, a number, a name) in a message, characters.

@@ -1,13 +1,16 @@
-//! The command line (clap definitions only: raw flags), their conversion into validated
-//! `Settings` (`settings_args`), and the schema of every setting for front ends (`schema`).
+//! The command line (clap definitions: raw flags), their conversion into validated
+//! `Settings` (`settings_args`), the schema of every setting for front ends (`schema`), and
+//! each subcommand's body (`commands`).
 
+pub mod commands;
 pub mod frames;
 mod schema;
 mod settings_args;
 
 use std::path::PathBuf;
 
-use crate::settings::Preset;
+use crate::error::Result;
+use crate::settings::{Preset, Settings};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
 pub use schema::schema;
@@ -80,11 +83,8 @@ pub struct LookArgs {
     /// Renders timed per scene with --time-size.
     #[arg(long, default_value_t = 3)]
     pub time_runs: u32,
-    /// JSON file of settings, as for `render`.
-    #[arg(long, value_name = "FILE")]
-    pub config: Option<PathBuf>,
     #[command(flatten)]
-    pub settings: SettingsArgs,
+    pub settings: SettingsSource,
 }
 
 #[derive(Args, Debug)]
@@ -96,6 +96,37 @@ pub struct ServeArgs {
     /// is no longer its parent (Unix; elsewhere the end of stdin ends it) [default: the parent at start]
     #[arg(long, value_name = "PID")]
     pub parent: Option<u32>,
+}
+
+/// A command's settings: a JSON file of them (`--config`) and every setting's flag, which
+/// overrides the file. The file's help is this one unless a command words it its own way.
+#[derive(Args, Debug)]
+pub struct SettingsSource {
+    /// JSON file of settings, as for `render`.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    #[command(flatten)]
+    pub flags: SettingsArgs,
+}
+
+impl SettingsSource {
+    /// The validated settings: the preset's, then the file's, then the flags'.
+    pub fn resolve(&self) -> Result<Settings> {
+        self.flags.resolve(self.config.as_deref())
+    }
+}
+
+/// What a command that renders reads and how it reports its run: the scene, `--verbose` and
+/// `--progress`. Placed after `SettingsSource`, so `--config` lists before `--verbose`.
+#[derive(Args, Debug)]
+pub struct RunArgs {
+    /// Scene (.gltf or .glb). Without one, the built-in still life.
+    pub scene: Option<PathBuf>,
+    /// Print the camera used and each stage's time.
+    #[arg(short, long)]
+    pub verbose: bool,
+    #[arg(long, value_enum, default_value = "auto")]
+    pub progress: ProgressMode,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -110,25 +141,22 @@ pub enum ProgressMode {
     None,
 }
 
+// The frames' flags come before the settings' so their "Animation" heading lists first.
 #[derive(Args, Debug)]
+#[command(
+    mut_arg("scene", |a| a.help("Scene to render (.gltf or .glb). Without one, the built-in still life")),
+    mut_arg("config", |a| a.help("JSON file of settings (the keys of the options below, in snake_case); flags override it")),
+)]
 pub struct RenderArgs {
-    /// Scene to render (.gltf or .glb). Without one, the built-in still life.
-    pub scene: Option<PathBuf>,
     /// Output image (.png). Passes go beside it as <stem>.<pass>.png.
     #[arg(short, long, default_value = "cubist.png")]
     pub output: PathBuf,
-    /// JSON file of settings (the keys of the options below, in snake_case); flags override it.
-    #[arg(long, value_name = "FILE")]
-    pub config: Option<PathBuf>,
-    /// Print the camera used and each stage's time.
-    #[arg(short, long)]
-    pub verbose: bool,
-    #[arg(long, value_enum, default_value = "auto")]
-    pub progress: ProgressMode,
     #[command(flatten)]
     pub frames: FramesArgs,
     #[command(flatten)]
-    pub settings: SettingsArgs,
+    pub settings: SettingsSource,
+    #[command(flatten)]
+    pub run: RunArgs,
 }
 
 /// Animation frames of `render` (README "Animation"); the range, `--frames`, is a setting
@@ -166,9 +194,8 @@ pub struct FramesArgs {
 }
 
 #[derive(Args, Debug)]
+#[command(mut_arg("config", |a| a.help("JSON settings file, as for `render`")))]
 pub struct SaliencyArgs {
-    /// Scene (.gltf or .glb). Without one, the built-in still life.
-    pub scene: Option<PathBuf>,
     /// Saliency map image (.png, grey, white = most salient) [default: saliency.png, none with --json]
     #[arg(short, long)]
     pub output: Option<PathBuf>,
@@ -176,19 +203,14 @@ pub struct SaliencyArgs {
     /// {"meshes": [{"name": ..., "vertex_saliency": [...]}, ...]}
     #[arg(long)]
     pub json: bool,
-    /// JSON settings file, as for `render`.
-    #[arg(long, value_name = "FILE")]
-    pub config: Option<PathBuf>,
-    /// Print the camera used and each stage's time.
-    #[arg(short, long)]
-    pub verbose: bool,
-    #[arg(long, value_enum, default_value = "auto")]
-    pub progress: ProgressMode,
     #[command(flatten)]
-    pub settings: SettingsArgs,
+    pub settings: SettingsSource,
+    #[command(flatten)]
+    pub run: RunArgs,
 }
 
 #[derive(Args, Debug)]
+#[command(mut_arg("config", |a| a.help("JSON settings file, as for `render`")))]
 pub struct FacesArgs {
     /// Scenes to evaluate (.gltf or .glb); one row per scene and view.
     #[arg(required = true)]
@@ -207,37 +229,27 @@ pub struct FacesArgs {
     /// With --json, also list the visible triangle ids of each view.
     #[arg(long, requires = "json")]
     pub ids: bool,
-    /// JSON settings file, as for `render`.
-    #[arg(long, value_name = "FILE")]
-    pub config: Option<PathBuf>,
     #[command(flatten)]
-    pub settings: SettingsArgs,
+    pub settings: SettingsSource,
 }
 
 #[derive(Args, Debug)]
+#[command(mut_arg("verbose", |a| a.help("Print each step's time and each level's segment count")))]
 pub struct FacetsArgs {
-    /// Scene (.gltf or .glb). Without one, the built-in still life.
-    pub scene: Option<PathBuf>,
     /// Output image (.png): the pre-render; the layout and levels go beside it.
     #[arg(short, long, default_value = "facets.png")]
     pub output: PathBuf,
-    /// JSON file of settings, as for `render`.
-    #[arg(long, value_name = "FILE")]
-    pub config: Option<PathBuf>,
-    /// Print each step's time and each level's segment count.
-    #[arg(short, long)]
-    pub verbose: bool,
-    #[arg(long, value_enum, default_value = "auto")]
-    pub progress: ProgressMode,
     #[command(flatten)]
-    pub settings: SettingsArgs,
+    pub settings: SettingsSource,
+    #[command(flatten)]
+    pub run: RunArgs,
 }
 
 #[derive(Args, Debug)]
+#[command(mut_arg("config", |a| a.help("JSON file of settings, as for `render`; flags override it")))]
 pub struct SettingsCmdArgs {
-    /// JSON file of settings, as for `render`; flags override it.
-    #[arg(long, value_name = "FILE")]
-    pub config: Option<PathBuf>,
+    #[command(flatten)]
+    pub settings: SettingsSource,
     /// Print instead every setting's type, default (the analytic preset's), range or choices,
     /// unit, help and group, the pipeline's stages and the presets, as JSON (README, "The
     /// settings schema"). The other options are ignored.
@@ -247,8 +259,6 @@ pub struct SettingsCmdArgs {
     /// their progress names (`re-trace` runs only if some facet's rays move).
     #[arg(long)]
     pub stages: bool,
-    #[command(flatten)]
-    pub settings: SettingsArgs,
 }
 
 #[cfg(test)]
@@ -271,7 +281,7 @@ mod tests {
         ])
         .unwrap();
         let Command::Faces(args) = cli.command else { panic!("not faces") };
-        let s = args.settings.resolve(None).unwrap();
+        let s = args.settings.resolve().unwrap();
         assert_eq!(s.camera_position, Some([-2.0, 1.0, 2.5]));
         assert_eq!(s.camera_target, Some([-0.5, -1.0, 0.0]));
         assert_eq!(s.camera_up, Some([-1.0, 0.0, 0.0]));
