@@ -12,6 +12,7 @@ use super::palette::{self, ColourTransfer};
 use super::quantise::Quantise;
 use super::silhouettes::Silhouettes;
 use super::*;
+use crate::error::Error;
 use crate::facets::FacetMap;
 use crate::film::{Film, NO_HIT};
 use crate::pipeline::params::paint;
