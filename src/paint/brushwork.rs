@@ -29,7 +29,7 @@ use rayon::prelude::*;
 
 use super::noise::lattice1;
 use super::planes::{Plane, smoothstep};
-use super::{Canvas, Coverage, Effect, PaintContext, luminance};
+use super::{Canvas, Coverage, Effect, EffectParams, PaintContext, luminance};
 use crate::error::Result;
 use crate::strokes::{Grid, SeedSource};
 use crate::util::rng::{splitmix64, sub_seed, unit_f64};
@@ -58,6 +58,32 @@ pub const DARK_KEPT: (f32, f32) = (0.45, 0.8);
 pub const PLANE_FLATTEN: f32 = 0.45;
 /// Strokes narrower than this (pixels) are not painted: the layer would be noise.
 pub const MIN_WIDTH: f32 = 1.5;
+
+/// The brushwork's parameters: the strokes' opacity in [0, 1] (0 = off), the coarse strokes'
+/// length and width in pixels at 1000 px (this image's pixels: times `scale`).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct BrushworkParams {
+    pub opacity: f64,
+    pub length: f64,
+    pub width: f64,
+    pub scale: f64,
+    pub seed: u64,
+}
+
+impl EffectParams for BrushworkParams {
+    fn is_on(&self) -> bool {
+        self.opacity > 0.0
+    }
+
+    fn build(&self) -> Result<Box<dyn Effect>> {
+        Ok(Box::new(Brushwork {
+            opacity: self.opacity as f32,
+            length: (self.length * self.scale) as f32,
+            width: (self.width * self.scale) as f32,
+            seed: self.seed,
+        }))
+    }
+}
 
 /// A stroke layer over the picture.
 pub struct Brushwork {

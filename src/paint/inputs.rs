@@ -101,8 +101,6 @@ impl PaintInputs {
 }
 
 impl<'a> PaintContext<'a> {
-    /// Where the composition's light is centred: the sequence's, else this picture's subject.
-
     /// Each pixel's region: facet id << 32 | object id (0 without a facet map, 0 without
     /// hits), the background counting as one object; `pixels` of them.
     pub fn regions(&self, pixels: usize) -> Arc<Vec<u64>> {

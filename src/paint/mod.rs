@@ -40,10 +40,10 @@ pub mod ranks;
 pub mod silhouettes;
 
 pub use context::{Canvas, Coverage, Lighting, PaintContext, Sequence, darken, darken_background};
-pub use effect::Effect;
+pub use effect::{Effect, EffectParams, Keyed};
 pub use inputs::{Edges, OPEN_MIN_SHARE, PaintInputs};
-pub use painter::{PLANE_HUE_STRENGTH, Painter, Resume, apply_chain};
-pub use palette::Palette;
+pub use painter::{Painter, Resume, apply_chain};
+pub use palette::{PLANE_HUE_STRENGTH, Palette};
 pub use params::PaintParams;
 pub use passage::BorderStyle;
 pub use ranks::{KEY_LEVELS, LuminanceKeys, UNPAINTED, luminance};

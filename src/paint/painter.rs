@@ -4,26 +4,20 @@ use glam::Vec4;
 use rayon::prelude::*;
 
 use super::context::{Canvas, Lighting, PaintContext, Sequence};
-use super::effect::Effect;
+use super::effect::{Effect, key_of};
 use super::inputs::PaintInputs;
-use super::palette::Palette;
-use super::params::{PaintParams, Step};
-use super::passage::BorderStyle;
-use super::{borders, brushwork, canvas, chiaroscuro, gradients, palette, passage, plane_light, quantise, silhouettes};
+use super::palette;
+use super::params::PaintParams;
 use crate::error::{Error, Result};
 use crate::facets::FacetMap;
 use crate::film::Film;
-
-/// How far the ochre palette turns a plane at the canvas's edge towards its grey or green
-/// (`palette::PlaneHues`).
-pub const PLANE_HUE_STRENGTH: f32 = 0.6;
 
 /// The enabled effects of a render, in chain order. Built once per settings (it loads the
 /// palette painting), reusable for every frame of an animation.
 pub struct Painter {
     effects: Vec<Box<dyn Effect>>,
-    /// Each effect's parameters, as text (`PaintParams::keys`); empty when not known.
-    keys: Vec<String>,
+    /// Each effect's key (`Painter::keys`); empty when not known.
+    keys: Vec<u128>,
     background: [f32; 3],
     transparent: bool,
     /// `PaintParams::open_planes`.
@@ -43,67 +37,18 @@ impl Painter {
     /// painting, if any: built once, it serves every frame of an animation.
     pub fn new(params: &PaintParams) -> Result<Painter> {
         let p = params;
-        let mut effects: Vec<Box<dyn Effect>> = Vec::new();
-        for step in p.chain() {
-            effects.push(match step {
-                Step::Chiaroscuro => Box::new(chiaroscuro::Chiaroscuro::new(p.chiaroscuro as f32, p.seed)),
-                Step::Silhouettes => Box::new(silhouettes::Silhouettes {
-                    width: (p.silhouette_width * p.scale) as f32,
-                    strength: p.silhouette_strength as f32,
-                }),
-                Step::Borders => {
-                    let (width, strength) = ((p.border_width * p.scale) as f32, p.border_strength as f32);
-                    match p.border_style {
-                        BorderStyle::Symmetric => Box::new(borders::Borders { width, strength }),
-                        BorderStyle::Passage => Box::new(passage::Passage {
-                            width,
-                            strength,
-                            seed: p.seed,
-                            plane_light: p.plane_light as f32,
-                        }),
-                    }
-                }
-                Step::Gradients => Box::new(gradients::Gradients { fraction: p.gradients, seed: p.seed }),
-                Step::Palette => match (&p.palette_image, palette::ramp(p.palette)) {
-                    (Some(path), _) => Box::new(palette::ColourTransfer::from_image(path)?),
-                    (None, Some(ramp)) => {
-                        let mut t = palette::ColourTransfer::from_ramp(ramp);
-                        // The ochre-grey palette of 1910-11 is not one hue: greys and greens too.
-                        if p.palette == Palette::OchreGrey {
-                            t.hues = Some(palette::PlaneHues { strength: PLANE_HUE_STRENGTH, seed: p.seed });
-                        }
-                        Box::new(t)
-                    }
-                    (None, None) => unreachable!("chain() leaves the palette out without one"),
-                },
-                Step::Quantise => Box::new(quantise::Quantise { colors: p.colors }),
-                Step::PlaneLight => Box::new(plane_light::PlaneLight { amount: p.plane_light as f32, seed: p.seed }),
-                Step::Brushwork => Box::new(brushwork::Brushwork {
-                    opacity: p.brushwork as f32,
-                    length: (p.stroke_length * p.scale) as f32,
-                    width: (p.stroke_width * p.scale) as f32,
-                    seed: p.seed,
-                }),
-                Step::CanvasGrain => Box::new(canvas::CanvasGrain {
-                    amount: p.canvas_grain as f32,
-                    period: (canvas::PERIOD as f64 * p.scale) as f32,
-                    seed: p.seed,
-                }),
-            });
-        }
-        Ok(Painter {
-            effects,
-            keys: p.keys(),
-            background: p.background,
-            transparent: p.transparent,
-            open_planes: p.open_planes,
-        })
+        let chain = p.chain();
+        let effects = chain.iter().map(|e| e.build()).collect::<Result<Vec<_>>>()?;
+        // Each effect's key, with what every effect reads of the canvas.
+        let keys = chain.iter().map(|e| key_of(&(e.key(), p.background, p.transparent))).collect();
+        Ok(Painter { effects, keys, background: p.background, transparent: p.transparent, open_planes: p.open_planes })
     }
 
-    /// Each enabled effect's parameters, as text, in chain order: two painters whose first k
-    /// keys agree leave the same canvas after their first k effects (on the same film, facet
-    /// map and lights; a palette painting's contents are not in its key).
-    pub fn keys(&self) -> &[String] {
+    /// Each enabled effect's key (`EffectParams`, with the canvas's background and
+    /// transparency), in chain order: two painters whose first k keys agree leave the same
+    /// canvas after their first k effects (on the same film, facet map and lights; a palette
+    /// painting's contents are not in its key).
+    pub fn keys(&self) -> &[u128] {
         &self.keys
     }
 

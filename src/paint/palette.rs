@@ -12,12 +12,52 @@ use std::path::Path;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::{Canvas, Effect, KEY_LEVELS, PaintContext, UNPAINTED, luminance};
+use super::effect::path_bytes;
+use super::{Canvas, Effect, EffectParams, KEY_LEVELS, PaintContext, UNPAINTED, luminance};
 use crate::error::{Error, Result};
 use crate::scene::texture::srgb_to_linear;
 
+/// The colour transfer's parameters: a built-in palette mapped onto the luminance ranks, or a
+/// painting whose colours are mapped instead (`image` overrides `palette`); off with neither.
+/// The painting's contents are not in its key (the caller keys them: `file_key`).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct PaletteParams {
+    pub palette: Palette,
+    #[serde(serialize_with = "path_bytes")]
+    pub image: Option<std::path::PathBuf>,
+    /// The ochre-grey palette's plane hues (`PlaneHues`).
+    pub seed: u64,
+}
+
+/// How far the ochre palette turns a plane at the canvas's edge towards its grey or green
+/// (`PlaneHues`).
+pub const PLANE_HUE_STRENGTH: f32 = 0.6;
+
+impl EffectParams for PaletteParams {
+    fn is_on(&self) -> bool {
+        self.image.is_some() || ramp(self.palette).is_some()
+    }
+
+    fn build(&self) -> Result<Box<dyn Effect>> {
+        Ok(match (&self.image, ramp(self.palette)) {
+            (Some(path), _) => Box::new(ColourTransfer::from_image(path)?),
+            (None, Some(ramp)) => {
+                let mut t = ColourTransfer::from_ramp(ramp);
+                // The ochre-grey palette of 1910-11 is not one hue: greys and greens too.
+                if self.palette == Palette::OchreGrey {
+                    t.hues = Some(PlaneHues { strength: PLANE_HUE_STRENGTH, seed: self.seed });
+                }
+                Box::new(t)
+            }
+            (None, None) => {
+                return Err(Error::Internal("the palette effect built without a palette".into()));
+            }
+        })
+    }
+}
+
 /// The built-in palettes: luminance-ordered colour ramps written for this project.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub enum Palette {
     None,
     /// Picasso and Braque, 1910: umber, ochre, lead white.
