@@ -51,8 +51,6 @@ pub use ranks::{KEY_LEVELS, LuminanceKeys, UNPAINTED, luminance};
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
-mod tests_chain;
-#[cfg(test)]
 mod tests_passage;
 #[cfg(test)]
 mod tests_plane;

@@ -2,10 +2,10 @@
 //! deterministic on any thread count, alpha handling), its golden image, the pipeline's
 //! paint, and kept inputs.
 
-use super::palette::ColourTransfer;
-use super::tests::*;
-use super::*;
 use crate::error::Error;
+use crate::paint::palette::ColourTransfer;
+use crate::paint::tests::*;
+use crate::paint::*;
 use crate::pipeline::params::paint;
 use crate::settings::{Palette, Preset, Settings};
 use proptest::prelude::*;
@@ -238,7 +238,7 @@ proptest! {
 fn the_default_chain_is_identical_on_any_thread_count() {
     let (w, h) = (240u32, 180u32);
     let facets = voronoi(w, h, 30, 5);
-    let frame0 = super::tests_plane::textured(w, h);
+    let frame0 = crate::paint::tests_plane::textured(w, h);
     let mut s = Settings::default();
     (s.width, s.height) = (w, h);
     s.chiaroscuro = 0.0; // needs a scene: covered by the pipeline test below
@@ -246,7 +246,7 @@ fn the_default_chain_is_identical_on_any_thread_count() {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
         let mut f = frame0.clone();
         pool.install(|| apply_chain(&mut f, Some(&facets), &paint(&s), None)).unwrap();
-        super::tests_plane::bits(&f)
+        crate::paint::tests_plane::bits(&f)
     };
     assert_eq!(
         Painter::new(&paint(&s)).unwrap().names(),
@@ -279,14 +279,15 @@ fn the_default_render_lights_most_planes_on_their_own() {
     (s.width, s.height, s.spp) = (320, 240, 1);
     let on = render(&prep, &s, &progress).unwrap();
     let facets = &on.facets;
-    let with = super::measure::per_plane_light(&super::measure::luma(&on.image), &facets.ids, s.width);
+    let with = crate::paint::measure::per_plane_light(&crate::paint::measure::luma(&on.image), &facets.ids, s.width);
     s.plane_light = 0.0;
     let off = render(&prep, &s, &progress).unwrap();
-    let without = super::measure::per_plane_light(&super::measure::luma(&off.image), &off.facets.ids, s.width);
+    let without =
+        crate::paint::measure::per_plane_light(&crate::paint::measure::luma(&off.image), &off.facets.ids, s.width);
     assert!(with.facets >= 10, "{with:?}");
     assert!(with.share >= 0.7, "per-plane light {:.2} of {} facets", with.share, with.facets);
     assert!(with.share > without.share, "{} vs {}", with.share, without.share);
-    assert_eq!(super::measure::PLANE_LIGHT_SHARE, 0.15);
+    assert_eq!(crate::paint::measure::PLANE_LIGHT_SHARE, 0.15);
 }
 
 #[test]
@@ -296,7 +297,7 @@ fn kept_paint_inputs_give_the_one_off_chains_pixels_after_a_change_upstream() {
     // the kept inputs must give the bits a one-off chain gives, on any thread count.
     let (w, h) = (240u32, 180u32);
     let facets = voronoi(w, h, 30, 5);
-    let frame0 = super::tests_plane::textured(w, h);
+    let frame0 = crate::paint::tests_plane::textured(w, h);
     let mut s = Settings::default();
     (s.width, s.height) = (w, h);
     s.chiaroscuro = 0.0;
@@ -309,7 +310,7 @@ fn kept_paint_inputs_give_the_one_off_chains_pixels_after_a_change_upstream() {
         pool.install(|| painter.apply_with(&mut kept, Some(&facets), None, &inputs)).unwrap();
         painter.apply(&mut fresh, Some(&facets), None).unwrap();
         assert!(inputs.bytes() > 0);
-        assert_eq!(super::tests_plane::bits(&kept), super::tests_plane::bits(&fresh), "border {border}");
+        assert_eq!(crate::paint::tests_plane::bits(&kept), crate::paint::tests_plane::bits(&fresh), "border {border}");
     }
 }
 

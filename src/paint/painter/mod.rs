@@ -204,3 +204,6 @@ pub fn apply_chain(
 ) -> Result<()> {
     Painter::new(params)?.apply(film, facets, lighting)
 }
+
+#[cfg(test)]
+mod tests;
