@@ -3,10 +3,42 @@
 
 use rayon::prelude::*;
 
-use super::{Canvas, Effect, PaintContext, darken};
+use super::passage::{BorderStyle, Passage};
+use super::{Canvas, Effect, EffectParams, PaintContext, darken};
 use crate::distance::distance_to_features;
 use crate::error::Result;
 use crate::util::grid::Grid;
+
+/// The facet borders' parameters: `width` (md of eq 4.8) in pixels at 1000 px (this image's
+/// pixels: times `scale`), 0 = off; `strength` in [0, 1]; how they are drawn. Passage reads
+/// the `seed` and the per-plane light's amount (`plane_light`); the regions both follow join
+/// the planes left whole across the outline when `open_planes` (`PaintParams::open_planes`).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct BorderParams {
+    pub width: f64,
+    pub strength: f64,
+    pub style: BorderStyle,
+    pub scale: f64,
+    pub seed: u64,
+    pub plane_light: f64,
+    pub open_planes: bool,
+}
+
+impl EffectParams for BorderParams {
+    fn is_on(&self) -> bool {
+        self.width > 0.0 && self.strength > 0.0
+    }
+
+    fn build(&self) -> Result<Box<dyn Effect>> {
+        let (width, strength) = ((self.width * self.scale) as f32, self.strength as f32);
+        Ok(match self.style {
+            BorderStyle::Symmetric => Box::new(Borders { width, strength }),
+            BorderStyle::Passage => {
+                Box::new(Passage { width, strength, seed: self.seed, plane_light: self.plane_light as f32 })
+            }
+        })
+    }
+}
 
 /// Eq 4.8: colour factor (md + 3 sqrt(p_d md)) / (4 md) for p_d in [0, md], 1 beyond:
 /// a quarter of the colour on the border, rising steeply then flattening to 1 at md.

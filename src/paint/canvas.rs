@@ -11,9 +11,29 @@
 use rayon::prelude::*;
 
 use super::noise::{Grid2, lattice1};
-use super::{Canvas, Effect, PaintContext};
+use super::{Canvas, Effect, EffectParams, PaintContext};
 use crate::error::Result;
 use crate::util::rng::sub_seed;
+
+/// The canvas grain's parameters: its amount in [0, 1] (0 = off); the weave's period is
+/// `PERIOD` pixels at 1000 px (this image's pixels: times `scale`).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct CanvasGrainParams {
+    pub amount: f64,
+    pub scale: f64,
+    pub seed: u64,
+}
+
+impl EffectParams for CanvasGrainParams {
+    fn is_on(&self) -> bool {
+        self.amount > 0.0
+    }
+
+    fn build(&self) -> Result<Box<dyn Effect>> {
+        let period = (PERIOD as f64 * self.scale) as f32;
+        Ok(Box::new(CanvasGrain { amount: self.amount as f32, period, seed: self.seed }))
+    }
+}
 
 const SALT: u64 = 0x6361_6e76_6173_3031; // "canvas01"
 /// Value change of the weave at amount 1 (peak to peak).

@@ -19,10 +19,28 @@ use glam::{Quat, Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::planes::{KEY, Plane};
-use super::{Canvas, Effect, PaintContext};
+use super::{Canvas, Effect, EffectParams, PaintContext};
 use crate::error::{Error, Result};
 use crate::shading::RigLight;
 use crate::util::rng::{splitmix64, sub_seed, unit_f64};
+
+/// Chiaroscuro's parameters: the per-facet variation of light direction and intensity, in
+/// [0, 1] (0 = off).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct ChiaroscuroParams {
+    pub amount: f64,
+    pub seed: u64,
+}
+
+impl EffectParams for ChiaroscuroParams {
+    fn is_on(&self) -> bool {
+        self.amount > 0.0
+    }
+
+    fn build(&self) -> Result<Box<dyn Effect>> {
+        Ok(Box::new(Chiaroscuro::new(self.amount as f32, self.seed)))
+    }
+}
 
 const SALT: u64 = 0x6368_6961_726f_7363; // "chiarosc"
 /// Largest relative change of a facet's light intensity at amount 1.

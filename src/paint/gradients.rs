@@ -6,9 +6,26 @@
 use glam::{DVec2, Vec2, Vec3};
 use rayon::prelude::*;
 
-use super::{Canvas, Effect, PaintContext};
+use super::{Canvas, Effect, EffectParams, PaintContext};
 use crate::error::Result;
 use crate::util::rng::{splitmix64, sub_seed, unit_f64};
+
+/// The gradient overlays' parameters: the fraction of facets with one (0 = off).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct GradientParams {
+    pub fraction: f64,
+    pub seed: u64,
+}
+
+impl EffectParams for GradientParams {
+    fn is_on(&self) -> bool {
+        self.fraction > 0.0
+    }
+
+    fn build(&self) -> Result<Box<dyn Effect>> {
+        Ok(Box::new(Gradients { fraction: self.fraction, seed: self.seed }))
+    }
+}
 
 const SALT: u64 = 0x6772_6164_6965_6e74; // "gradient"
 /// Share of the chosen facets that darken (the rest lighten).

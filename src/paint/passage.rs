@@ -45,8 +45,8 @@ pub const LOST_PERIOD: f32 = 0.05;
 /// Largest share of the other side's colour a pixel takes on an edge whose line is lost.
 pub const BLEND: f32 = 0.5;
 
-/// How facet borders are drawn (`PaintParams::border_style`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// How facet borders are drawn (`borders::BorderParams::style`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub enum BorderStyle {
     /// Eq 4.8 on both sides of every facet border (`borders::Borders`), as the thesis prints it.
     Symmetric,

@@ -12,9 +12,26 @@ use glam::Vec2;
 use rayon::prelude::*;
 
 use super::planes::{Plane, smoothstep};
-use super::{Canvas, Effect, PaintContext};
+use super::{Canvas, Effect, EffectParams, PaintContext};
 use crate::error::Result;
 use crate::film::PixelHit;
+
+/// The per-plane light's parameters: its amount in [0, 1] (0 = off).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct PlaneLightParams {
+    pub amount: f64,
+    pub seed: u64,
+}
+
+impl EffectParams for PlaneLightParams {
+    fn is_on(&self) -> bool {
+        self.amount > 0.0
+    }
+
+    fn build(&self) -> Result<Box<dyn Effect>> {
+        Ok(Box::new(PlaneLight { amount: self.amount as f32, seed: self.seed }))
+    }
+}
 
 /// At amount 1, the light end is brightened by this fraction ...
 pub const LIGHT: f32 = 0.25;

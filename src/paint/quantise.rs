@@ -12,8 +12,24 @@
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
-use super::{Canvas, Effect, LuminanceKeys, PaintContext, UNPAINTED};
+use super::{Canvas, Effect, EffectParams, LuminanceKeys, PaintContext, UNPAINTED};
 use crate::error::Result;
+
+/// The quantisation's parameters: the number of colours (0 = off).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct QuantiseParams {
+    pub colors: u32,
+}
+
+impl EffectParams for QuantiseParams {
+    fn is_on(&self) -> bool {
+        self.colors > 0
+    }
+
+    fn build(&self) -> Result<Box<dyn Effect>> {
+        Ok(Box::new(Quantise { colors: self.colors }))
+    }
+}
 
 /// Lloyd iterations at most (1-D k-means converges in a few dozen).
 const MAX_ITERATIONS: usize = 100;

@@ -4,9 +4,28 @@
 use rayon::prelude::*;
 
 use super::borders::darkening;
-use super::{Canvas, Effect, PaintContext, darken_background};
+use super::{Canvas, Effect, EffectParams, PaintContext, darken_background};
 use crate::distance::distance_to_features;
 use crate::error::Result;
+
+/// The silhouettes' parameters: `width` in pixels at 1000 px (this image's pixels: times
+/// `scale`), 0 = off; `strength` in [0, 1].
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct SilhouetteParams {
+    pub width: f64,
+    pub strength: f64,
+    pub scale: f64,
+}
+
+impl EffectParams for SilhouetteParams {
+    fn is_on(&self) -> bool {
+        self.width > 0.0 && self.strength > 0.0
+    }
+
+    fn build(&self) -> Result<Box<dyn Effect>> {
+        Ok(Box::new(Silhouettes { width: (self.width * self.scale) as f32, strength: self.strength as f32 }))
+    }
+}
 
 /// Darkens the background near the foreground.
 pub struct Silhouettes {

@@ -14,6 +14,8 @@ use super::planes::smoothstep;
 use super::tests::voronoi;
 use super::*;
 use crate::distance::NO_FEATURE;
+use crate::error::Result;
+use crate::facets::FacetMap;
 use crate::film::Film;
 use crate::util::rng::{splitmix64, sub_seed, unit_f64};
 

@@ -747,7 +747,7 @@ fn render_frame(
         let axes = ViewAxes { right: view.right.as_vec3(), up: view.up.as_vec3(), forward: view.forward.as_vec3() };
         let lighting = Lighting { world, rig: &rig, view: axes };
         // Strokes on the surfaces, fading over a stroke's width at occlusion edges.
-        let fade_px = ((params.paint.stroke_width * params.paint.scale) as f32).max(2.0);
+        let fade_px = ((params.paint.brushwork.width * params.paint.brushwork.scale) as f32).max(2.0);
         let facets = keep.faceted.then_some(&map);
         let (w, h) = (trace.width as usize, trace.height as usize);
         let hits = film.hits.clone();

@@ -8,6 +8,15 @@ use crate::facets::segment::{SegmentParams, SegmentWeights};
 use crate::facets::{self, FacetMethod, FacetParams};
 use crate::imprecision::{AimMode, AimParams, FacetProjection};
 use crate::output::Pass;
+use crate::paint::borders::BorderParams;
+use crate::paint::brushwork::BrushworkParams;
+use crate::paint::canvas::CanvasGrainParams;
+use crate::paint::chiaroscuro::ChiaroscuroParams;
+use crate::paint::gradients::GradientParams;
+use crate::paint::palette::PaletteParams;
+use crate::paint::plane_light::PlaneLightParams;
+use crate::paint::quantise::QuantiseParams;
+use crate::paint::silhouettes::SilhouetteParams;
 use crate::paint::{BorderStyle, PaintParams, Palette};
 use crate::saliency::{SaliencyMethod, SaliencyParams};
 use crate::settings::{self, Settings};
@@ -193,36 +202,48 @@ pub fn aim(s: &Settings) -> AimParams {
 }
 
 pub fn paint(s: &Settings) -> PaintParams {
+    let (scale, seed) = (s.pixel_scale(), s.seed);
+    // The planes faceting leaves some planes whole across the outline (passage).
+    let open_planes = s.faceting == settings::Faceting::Planes && s.plane_outlines;
     PaintParams {
-        chiaroscuro: s.chiaroscuro,
-        silhouette_width: s.silhouette_width,
-        silhouette_strength: s.silhouette_strength,
-        border_width: s.border_width,
-        border_strength: s.border_strength,
-        gradients: s.gradients,
-        palette: match s.palette {
-            settings::Palette::None => Palette::None,
-            settings::Palette::Ochre => Palette::Ochre,
-            settings::Palette::OchreGrey => Palette::OchreGrey,
-            settings::Palette::Grey => Palette::Grey,
-            settings::Palette::BluePeriod => Palette::BluePeriod,
-            settings::Palette::Olive => Palette::Olive,
+        chiaroscuro: ChiaroscuroParams { amount: s.chiaroscuro, seed },
+        silhouettes: SilhouetteParams { width: s.silhouette_width, strength: s.silhouette_strength, scale },
+        borders: BorderParams {
+            width: s.border_width,
+            strength: s.border_strength,
+            style: match s.border_style {
+                settings::BorderStyle::Symmetric => BorderStyle::Symmetric,
+                settings::BorderStyle::Passage => BorderStyle::Passage,
+            },
+            scale,
+            seed,
+            plane_light: s.plane_light,
+            open_planes,
         },
-        palette_image: s.palette_image.clone(),
-        colors: s.colors,
-        plane_light: s.plane_light,
-        border_style: match s.border_style {
-            settings::BorderStyle::Symmetric => BorderStyle::Symmetric,
-            settings::BorderStyle::Passage => BorderStyle::Passage,
+        gradients: GradientParams { fraction: s.gradients, seed },
+        palette: PaletteParams {
+            palette: match s.palette {
+                settings::Palette::None => Palette::None,
+                settings::Palette::Ochre => Palette::Ochre,
+                settings::Palette::OchreGrey => Palette::OchreGrey,
+                settings::Palette::Grey => Palette::Grey,
+                settings::Palette::BluePeriod => Palette::BluePeriod,
+                settings::Palette::Olive => Palette::Olive,
+            },
+            image: s.palette_image.clone(),
+            seed,
         },
-        brushwork: s.brushwork,
-        stroke_length: s.stroke_length,
-        stroke_width: s.stroke_width,
-        canvas_grain: s.canvas_grain,
-        // The planes faceting leaves some planes whole across the outline (passage).
-        open_planes: s.faceting == settings::Faceting::Planes && s.plane_outlines,
-        scale: s.pixel_scale(),
-        seed: s.seed,
+        quantise: QuantiseParams { colors: s.colors },
+        plane_light: PlaneLightParams { amount: s.plane_light, seed },
+        brushwork: BrushworkParams {
+            opacity: s.brushwork,
+            length: s.stroke_length,
+            width: s.stroke_width,
+            scale,
+            seed,
+        },
+        canvas_grain: CanvasGrainParams { amount: s.canvas_grain, scale, seed },
+        open_planes,
         background: s.background,
         transparent: s.transparent,
     }

@@ -198,7 +198,7 @@ pub(super) fn run(
     let mut run = Run::new(policy, gens, progress);
 
     // The painter first, so a bad palette image fails before the long part.
-    let key = PainterKey { params: params.paint.clone(), palette: file_key(params.paint.palette_image.as_deref()) };
+    let key = PainterKey { params: params.paint.clone(), palette: file_key(params.paint.palette.image.as_deref()) };
     run.step(&mut lane.painter, key, None, |run, _| {
         run.timings.time("paint setup", || Painter::new(&params.paint)).map(Made::New)
     })?;

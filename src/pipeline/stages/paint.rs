@@ -42,14 +42,14 @@ pub struct PrefixKey {
 /// The effect keys of the last chain painted over a `PrefixKey`, and the canvas before the
 /// first effect that changed then (the effects before it agreed with the chain before).
 pub struct Prefix {
-    pub keys: Vec<String>,
+    pub keys: Vec<u128>,
     /// Effects done, and the canvas after them.
     pub snapshot: Option<(usize, Vec<Vec4>)>,
 }
 
 impl Prefix {
     /// How many effects of the chain `keys` agree with the chain this prefix was painted by.
-    pub fn agreement(&self, keys: &[String]) -> usize {
+    pub fn agreement(&self, keys: &[u128]) -> usize {
         self.keys.iter().zip(keys).take_while(|(a, b)| a == b).count()
     }
 

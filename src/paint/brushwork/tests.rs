@@ -1,0 +1,99 @@
+//! The brushwork's own tests: a band's fragments, a row's span.
+
+use super::layer::*;
+use super::plan::*;
+use super::*;
+
+/// A stroke of the given shape at `centre` along `angle` (radians).
+fn stroke(centre: Vec2, angle: f32, half_len: f32, half_wid: f32) -> Stroke {
+    let dir = Vec2::from_angle(angle);
+    Stroke {
+        centre,
+        dir,
+        half_len,
+        half_wid,
+        region: 0,
+        inv_half_len: 1.0 / half_len,
+        inv_half_wid: 1.0 / half_wid,
+        bristles: [1.0; BRISTLES + 1],
+        key: 0,
+        inv_dir: dir.recip(),
+        samples: [u32::MAX; 3],
+        jitter: 1.0,
+        order: 0,
+        opacity: 1.0,
+    }
+}
+
+#[test]
+fn a_band_lists_its_fragments_in_order_in_runs_of_one_stroke() {
+    // Fragments pushed stroke after stroke (a stroke coming back after another starts a
+    // new run) come back in the order pushed, each with its stroke.
+    let pushed: Vec<(u32, u32)> = [(3, 5), (3, 6), (1, 0), (7, 2), (7, 3), (7, 4), (3, 9)].to_vec();
+    let mut band = Band::default();
+    for &(k, i) in &pushed {
+        band.push(k, Fragment { pixel: i, alpha: i as f32, shade: k as f32 });
+    }
+    assert_eq!(band.runs.len(), 4);
+    let back: Vec<(u32, u32)> = band.runs().flat_map(|(k, frags)| frags.iter().map(move |f| (k, f.pixel))).collect();
+    assert_eq!(back, pushed);
+    assert!(band.runs().all(|(k, frags)| frags.iter().all(|f| f.shade == k as f32 && f.alpha == f.pixel as f32)));
+    assert_eq!(size_of::<Fragment>(), 12);
+}
+
+#[test]
+fn span_holds_every_painted_pixel() {
+    // Every pixel `shape` paints (tested on whole rows, far beyond the stroke) lies in its
+    // row's span, at any angle (axis-parallel ones included), size and place; the span
+    // is at most two pixels wider than a row's run of candidates (pixels passing the
+    // rectangle tests), and about as many pixels are visited as there are candidates.
+    let w = 9000usize;
+    let mut visited = 0usize;
+    let mut candidates = 0usize;
+    for k in 0..4000u64 {
+        let r = |j: u64| unit_f64(splitmix64(k * 16 + j)) as f32;
+        let angle = match k % 8 {
+            0 => 0.0,
+            1 => std::f32::consts::FRAC_PI_2,
+            2 => std::f32::consts::PI,
+            3 => 0.004,
+            _ => r(0) * std::f32::consts::TAU,
+        };
+        let centre = Vec2::new(20.0 + r(1) * (w as f32 - 40.0), 20.0 + r(2) * 8000.0);
+        let s = stroke(centre, angle, 0.5 + r(3) * 30.0, 0.5 + r(4) * 8.0);
+        let reach = (s.half_len + s.half_wid + 3.0).ceil() as i64;
+        let cy = centre.y as i64;
+        for y in (cy - reach).max(0)..cy + reach {
+            let py = y as f32 + 0.5;
+            let dy = py - s.centre.y;
+            let dy_dir = (dy * s.dir.y, dy * s.dir.x);
+            let sp = span(&s, py, 0, w);
+            let (x_lo, x_hi) = ((centre.x as i64 - reach).max(0) as usize, (centre.x as i64 + reach) as usize);
+            let mut run = 0;
+            for x in x_lo..x_hi.min(w) {
+                let dx = (x as f32 + 0.5) - s.centre.x;
+                let u = dx * s.dir.x + dy_dir.0;
+                let v = (dx * s.dir.y - dy_dir.1).abs();
+                if u.abs() < s.half_len && v < s.half_wid + 0.5 {
+                    run += 1;
+                }
+                if shape(&s, dx, dy_dir, 0, 1.0).is_some() {
+                    let (a, b) = sp.unwrap_or_else(|| panic!("stroke {k} row {y}: no span, pixel {x} painted"));
+                    assert!((a..b).contains(&x), "stroke {k} row {y}: pixel {x} painted outside {a}..{b}");
+                }
+            }
+            candidates += run;
+            visited += sp.map_or(0, |(a, b)| b - a);
+            // (An axis within 0.01 of the rows does not bound the span: `span`.)
+            if let Some((a, b)) = sp
+                && run > 0
+                && s.dir.x.abs() >= 0.01
+                && s.dir.y.abs() >= 0.01
+            {
+                assert!(b - a <= run + 2, "stroke {k} row {y}: span {a}..{b} for {run} candidates");
+            }
+        }
+    }
+    assert!(candidates > 100_000);
+    assert!((visited as f64) < 1.2 * candidates as f64, "{visited} visits for {candidates} candidates");
+}
