@@ -38,12 +38,13 @@ use super::stages::{
 };
 use super::{Plan, Prepared, Stage, StageParams, Timings};
 use crate::accel::Accel;
-use crate::camera::{Camera, Framed, Moved, frame_camera};
+use crate::camera::{Camera, Moved};
 use crate::error::{Error, Result};
 use crate::facets::motion::file::{self as follow_file, KeyData};
 use crate::facets::motion::{self, FacetMotion, Surface};
 use crate::facets::{self, FacetMap, FacetMethod};
 use crate::film::Film;
+use crate::framing::{Framed, frame_camera};
 use crate::imprecision::carried::{self, KeyAim};
 use crate::imprecision::{self, AimContext, FacetAim};
 use crate::output::{Gray16, Pass};

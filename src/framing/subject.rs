@@ -11,8 +11,8 @@
 
 use glam::{DVec2, DVec3};
 
-use super::{Camera, CameraFrame, Orthographic, Perspective, screen_point};
 use crate::accel::Accel;
+use crate::camera::{Camera, CameraFrame, Orthographic, Perspective, screen_point};
 use crate::scene::{Projection, SceneCamera, World};
 
 /// Share by which a point may lie outside the scene camera's view and still count as seen
