@@ -23,7 +23,7 @@ mod view;
 use glam::DVec3;
 
 pub use probe::probe_image;
-use subject::{Subject, View as SceneView};
+use subject::{SceneView, Subject};
 use view::{Search, View, frame_view};
 
 use crate::accel::Accel;
