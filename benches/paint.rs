@@ -68,7 +68,7 @@ fn main() {
     let rendered = render(&prep, &unpainted, &Progress::silent()).expect("render");
     let facets = rendered.facets;
     let film: Film = rendered.film;
-    let framed = cubist::camera::frame_camera(&params::framing(&unpainted), &prep.world, &prep.accel).expect("camera");
+    let framed = cubist::framing::frame_camera(&params::framing(&unpainted), &prep.world, &prep.accel).expect("camera");
     let rig = LightRig::new(&prep.world, &framed.frame, unpainted.shadows, unpainted.exposure);
     let f = &framed.frame;
     let view = ViewAxes { right: f.right.as_vec3(), up: f.up.as_vec3(), forward: f.forward.as_vec3() };

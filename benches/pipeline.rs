@@ -25,8 +25,8 @@ mod common;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use cubist::camera::frame_camera;
 use cubist::film::Film;
+use cubist::framing::frame_camera;
 use cubist::pipeline::{Prepared, Rendered, params, render};
 use cubist::progress::Progress;
 use cubist::scene::Scene;

@@ -3,8 +3,9 @@
 
 use serde::Serialize;
 
-use crate::camera::{CameraKind, Framed};
+use crate::camera::CameraKind;
 use crate::film::Film;
+use crate::framing::Framed;
 use crate::scene::World;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]

@@ -2,8 +2,8 @@
 //! Ozguc, "Perceptual 3D rendering based on principles of analytical cubism" (2012).
 //!
 //! Data flows one way: `cli` (flags) -> `settings` (validated) -> `pipeline` (each stage's
-//! parameters, the stages in order) -> the stages: `camera` (cubist cameras) and `trace` (the
-//! trace into `film` buffers, `shading`), `saliency` (mesh saliency), `facets` (layouts),
+//! parameters, the stages in order) -> the stages: `framing` (placing the cameras), `camera`
+//! (cubist cameras) and `trace` (the trace into `film` buffers, `shading`), `saliency` (mesh saliency), `facets` (layouts),
 //! `imprecision` (per-facet re-aim), `paint` (painterly effects), `output` (images, files),
 //! `eval` (visible faces). Below them: `scene` (glTF loading), `accel` (BVH), `distance`,
 //! `util`, `progress`, `error`. `serve` is the other front: a long-running renderer keeping a
@@ -17,6 +17,7 @@ pub mod error;
 pub mod eval;
 pub mod facets;
 pub mod film;
+pub mod framing;
 pub mod imprecision;
 pub mod look;
 pub mod motion;

@@ -5,9 +5,9 @@
 
 use std::path::Path;
 
-use cubist::camera::frame_camera;
 use cubist::facets::{FacetLayout, FacetPolygon, LabelImage};
 use cubist::film::Film;
+use cubist::framing::frame_camera;
 use cubist::imprecision::AimContext;
 use cubist::pipeline::{Prepared, Rendered, render_with};
 use cubist::progress::Progress;

@@ -241,34 +241,6 @@ impl Blas {
         Some(Blas { bvh, pairs, tris: ordered, bounds, key })
     }
 
-    /// New corners from the geometry (same triangles), leaf boxes recomputed and the tree
-    /// refitted bottom-up. False (nothing changed) when the set of hittable triangles changed:
-    /// then only a rebuild is right.
-    pub(super) fn refit(&mut self, g: &Geometry) -> bool {
-        let hittable_now = (0..g.triangles.len() as u32).filter(|&i| hittable(g.corners(i))).count();
-        if hittable_now != self.tris.len() || self.tris.iter().any(|t| !hittable(g.corners(t.id))) {
-            return false;
-        }
-        for t in &mut self.tris {
-            t.p = g.corners(t.id);
-        }
-        for node in &mut self.bvh.nodes {
-            if node.is_leaf() {
-                let mut b = Aabb::empty();
-                for t in &self.tris[node.first_index as usize..(node.first_index + node.prim_count) as usize] {
-                    for p in t.p {
-                        b.extend(p.into());
-                    }
-                }
-                node.set_aabb(b);
-            }
-        }
-        self.bvh.refit_all();
-        self.pairs = Pairs::new(&self.bvh);
-        self.bounds = *self.bvh.nodes[0].aabb();
-        true
-    }
-
     /// The closest hit in this BLAS better than `best` (nearer, or as near with a lower
     /// triangle id), for the ray `o + t d` (base space) with `tmin <= t <= tmax`, reported as
     /// `owner`'s.

@@ -44,9 +44,8 @@ pub struct Hit {
 /// `scene::world`) has a bottom-level BVH (BLAS) over its triangles, built once per distinct
 /// content; a top-level BVH (TLAS) over the objects' boxes places them. An instanced mesh
 /// costs one BLAS however many objects place it; an object that moves costs a TLAS rebuild
-/// (`update_instances`); a mesh whose vertices changed costs a refit or rebuild of its BLAS
-/// alone (`refit_mesh`, `rebuild_mesh`); a changed scene reuses every BLAS whose content is
-/// unchanged (`update`).
+/// (`update_instances`); a changed scene reuses every BLAS whose content is unchanged
+/// (`update`).
 ///
 /// Queries answer exactly as one BVH over the flattened triangles would: the closest hit,
 /// ties to the lowest triangle id, whatever the traversal order. An object whose geometry is

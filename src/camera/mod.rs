@@ -1,28 +1,23 @@
 //! Cameras turn a screen point into a ray and, for animation, a scene point back into the
 //! screen point whose ray passes through it (`Camera::project`, the exact inverse of `ray`);
-//! they never see the sampler, the film or the scene. One file per camera model;
-//! `framing.rs` chooses their parameters from the settings and the scene; `moved.rs` moves a
-//! camera rigidly (animation frames: orbits, animated glTF cameras); `warp.rs` remaps the canvas
-//! in front of a camera so a thin subject fills it.
+//! they never see the sampler, the film or the scene. One file per camera model; `moved.rs`
+//! moves a camera rigidly (animation frames: orbits, animated glTF cameras); `warp.rs` remaps
+//! the canvas in front of a camera so a thin subject fills it. `crate::framing` chooses their
+//! parameters from the settings and the scene.
 //!
 //! Screen points are (x, y) in [-0.5, 0.5]^2 with (0.5, 0.5) the top-right corner.
 
-pub mod compose;
 mod cylindrical;
-mod fit;
-pub mod framing;
 mod moved;
 mod orthographic;
 mod perspective;
 mod planar;
 mod spherical;
-pub mod subject;
 pub mod warp;
 
 use glam::{DVec2, DVec3, Vec3};
 
 pub use cylindrical::Cylindrical;
-pub use framing::{Framed, Framing, FramingParams, frame_camera};
 pub use moved::Moved;
 pub use orthographic::Orthographic;
 pub use perspective::Perspective;
@@ -34,7 +29,7 @@ pub use warp::Warped;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum CameraKind {
-    /// Spherical for compact scenes, cylindrical for tall ones (`framing::TALL_RATIO`).
+    /// Spherical for compact scenes, cylindrical for tall ones (`crate::framing::TALL_RATIO`).
     Auto,
     /// Rays start on a sphere and converge on the focal centre (eq 4.2).
     Spherical,

@@ -2,14 +2,14 @@
 //! controls (the Blender add-on generates its panel from it). Types, units and ranges come from
 //! `settings::schema`, defaults from `Settings::default()` (the analytic preset), help and
 //! groups from the flags' own help, stage names from `pipeline::Stage`, the automatic angle
-//! from `camera::framing` and the passes' image formats from `output::Pass`: nothing here is a
+//! from `framing` and the passes' image formats from `output::Pass`: nothing here is a
 //! copy. The format is documented in README ("The settings schema").
 
 use clap::{Args, Command, ValueEnum};
 use serde_json::{Map, Value, json};
 
 use super::SettingsArgs;
-use crate::camera::framing::DEFAULT_FOV;
+use crate::framing::DEFAULT_FOV;
 use crate::pipeline::{Stage, params};
 use crate::settings::schema::{FIELDS, Field, Kind, choices};
 use crate::settings::{Pass, Preset, Settings};

@@ -7,9 +7,9 @@
 
 use crate::accel::Accel;
 use crate::camera::CameraKind;
-use crate::camera::framing::{self, Framing, FramingParams};
 use crate::error::Result;
 use crate::facets::FacetMap;
+use crate::framing::{self, Framing, FramingParams};
 use crate::scene::World;
 
 /// Columns of the probes the stretch is measured on (rows follow the canvas's aspect).

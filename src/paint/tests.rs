@@ -449,7 +449,7 @@ fn chiaroscuro_relights_facets_and_leaves_the_background() {
     s.height = 72;
     s.spp = 1;
     let rendered = render(&prep, &s, &crate::progress::Progress::silent()).unwrap();
-    let framed = crate::camera::frame_camera(&crate::pipeline::params::framing(&s), &prep.world, &prep.accel).unwrap();
+    let framed = crate::framing::frame_camera(&crate::pipeline::params::framing(&s), &prep.world, &prep.accel).unwrap();
     let rig = crate::shading::LightRig::new(&prep.world, &framed.frame, s.shadows, s.exposure);
     let f = &framed.frame;
     let view = ViewAxes { right: f.right.as_vec3(), up: f.up.as_vec3(), forward: f.forward.as_vec3() };

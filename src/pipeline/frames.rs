@@ -38,12 +38,13 @@ use super::stages::{
 };
 use super::{Plan, Prepared, Stage, StageParams, Timings};
 use crate::accel::Accel;
-use crate::camera::{Camera, Framed, Moved, frame_camera};
+use crate::camera::{Camera, Moved};
 use crate::error::{Error, Result};
 use crate::facets::motion::file::{self as follow_file, KeyData};
-use crate::facets::motion::{self, FacetMotion, Surface};
+use crate::facets::motion::{self, FacetMotion, FrameSurface};
 use crate::facets::{self, FacetMap, FacetMethod};
 use crate::film::Film;
+use crate::framing::{Framed, frame_camera};
 use crate::imprecision::carried::{self, KeyAim};
 use crate::imprecision::{self, AimContext, FacetAim};
 use crate::output::{Gray16, Pass};
@@ -145,7 +146,7 @@ pub struct FrameOutput {
     /// (their facets grown from their neighbours').
     pub revealed: Option<f64>,
     /// What the frame shows, per pixel (with `FramesParams::measure`).
-    pub surface: Option<Surface>,
+    pub surface: Option<FrameSurface>,
     /// The `motion` pass, when asked for (`motion::motion_pass`).
     pub motion: Option<crate::motion::Rgba16>,
 }
@@ -558,7 +559,7 @@ fn key_frame(
         tracer.render(&mut film, &|_, p| camera.ray(p), None, None, &Progress::silent());
         if plan.saliency {
             let sal = saliency::for_film(&prep.scene, world, &prep.saliency, &film, &params.saliency)?;
-            film.saliency = Some(saliency::saliency_map(world, &sal, &film));
+            film.saliency = Some(saliency::pixel_saliency(world, &sal, &film));
         }
         film
     } else {
@@ -664,7 +665,7 @@ pub fn check_key(key: &KeyData, trace: &TraceParams, world: &World) -> Result<()
 /// The saliency map of a frame off its pre-pass (mesh saliency once per mesh content).
 fn frame_saliency(prep: &Prepared, world: &World, pre: &Film, params: &StageParams) -> Result<Vec<f32>> {
     let sal = saliency::for_film(&prep.scene, world, &prep.saliency, pre, &params.saliency)?;
-    Ok(saliency::saliency_map(world, &sal, pre))
+    Ok(saliency::pixel_saliency(world, &sal, pre))
 }
 
 /// A frame's camera as the imprecision stage sees it.
@@ -779,7 +780,7 @@ fn render_frame(
         })
     });
     let Encoded { image, passes, passes16 } = encode_stage(&film, &map, &aims, params, &mut timings);
-    let surface = measure.then(|| Surface::new(key_of(&pre, world, camera, trace), &pre));
+    let surface = measure.then(|| FrameSurface::new(key_of(&pre, world, camera, trace), &pre));
     Ok(FrameOutput { frame, image, passes, passes16, facets: map, timings, revealed, surface, motion })
 }
 

@@ -2,10 +2,11 @@
 //! parameters, in its own types, and nothing else (so a stage can be run, tested and, later,
 //! cached on exactly what it depends on). A new setting is read here and nowhere else.
 
-use crate::camera::{self, FramingParams};
+use crate::camera;
 use crate::facets::motion::FacetMotion;
 use crate::facets::segment::{SegmentParams, SegmentWeights};
 use crate::facets::{self, FacetMethod, FacetParams};
+use crate::framing::{self, FramingParams};
 use crate::imprecision::{AimMode, AimParams, FacetProjection};
 use crate::output::Pass;
 use crate::paint::borders::BorderParams;
@@ -76,9 +77,9 @@ pub fn framing(s: &Settings) -> FramingParams {
         kind: camera_kind(s.camera),
         ambiguity: s.ambiguity,
         framing: match s.framing {
-            settings::Framing::Fit => camera::Framing::Fit,
-            settings::Framing::Centre => camera::Framing::Centre,
-            settings::Framing::Compose => camera::Framing::Compose,
+            settings::Framing::Fit => framing::Framing::Fit,
+            settings::Framing::Centre => framing::Framing::Centre,
+            settings::Framing::Compose => framing::Framing::Compose,
         },
         focus_distance: s.focus_distance,
         position: s.camera_position,

@@ -49,7 +49,7 @@ pub(super) struct Lane {
     pre: Slot<prerender::Key, PreRender>,
     saliency: Slot<saliency::Key, Vec<f32>>,
     /// What the planes faceting reads of the pre-render whatever its plane count and detail.
-    planes: Slot<PlanesKey, facets::planes::Prepared>,
+    planes: Slot<PlanesKey, facets::planes::Guides>,
     layout: Slot<layout::Key, Layout>,
     aims: Slot<stages::aims::Key, Vec<FacetAim>>,
     retrace: Slot<Gen, Delta>,
@@ -422,7 +422,7 @@ fn later_stages(
 fn layout_step(
     run: &mut Run,
     slot: &mut Slot<layout::Key, Layout>,
-    planes: &mut Slot<PlanesKey, facets::planes::Prepared>,
+    planes: &mut Slot<PlanesKey, facets::planes::Guides>,
     film: &Film,
     pre: Gen,
     saliency: Option<Gen>,
@@ -440,9 +440,9 @@ fn layout_step(
             run.timings.time(Stage::Faceting.name(), || {
                 let input = layout::planes_input(film);
                 if fresh {
-                    planes.put(Entry { key, id, value: facets::planes::prepare(&input, key.2) });
+                    planes.put(Entry { key, id, value: facets::planes::guides(&input, key.2) });
                 }
-                facets::planes::layout_prepared(&input, &params.facets.planes, planes.made())
+                facets::planes::layout_guided(&input, &params.facets.planes, planes.made())
             })
         } else {
             stages::layout_stage(&params.facets, film, run.progress, &mut run.timings, &mut warnings)?

@@ -10,7 +10,7 @@ use crate::film::Film;
 use crate::scene::World;
 
 /// Per-pixel saliency in [0, 1]: the mean over ALL samples of the pixel, misses counting 0.
-pub fn saliency_map(world: &World, sal: &MeshSaliency, film: &Film) -> Vec<f32> {
+pub fn pixel_saliency(world: &World, sal: &MeshSaliency, film: &Film) -> Vec<f32> {
     let spp = film.spp.max(1) as usize;
     film.samples
         .par_chunks(spp)
@@ -82,7 +82,7 @@ mod tests {
             SampleHit { tri: 1, u: 0.0, v: 0.0 },
             SampleHit { tri: 1, u: 0.0, v: 0.0 },
         ];
-        let map = saliency_map(&world, &sal, &film);
+        let map = pixel_saliency(&world, &sal, &film);
         assert!((map[0] - 0.3125).abs() < 1e-6, "{map:?}");
         assert!((map[1] - 1.0).abs() < 1e-6);
         let img = saliency_image(&map, 2, 1);
@@ -97,6 +97,6 @@ mod tests {
         let sal = MeshSaliency::new(&scene, vec![None]);
         let mut film = Film::new(1, 1, 1);
         film.samples = vec![SampleHit { tri: 0, u: 0.2, v: 0.2 }];
-        assert_eq!(saliency_map(&world, &sal, &film), vec![0.0]);
+        assert_eq!(pixel_saliency(&world, &sal, &film), vec![0.0]);
     }
 }

@@ -34,7 +34,7 @@ use std::sync::{Arc, Mutex};
 use glam::Vec3;
 use rayon::prelude::*;
 
-pub use map::{saliency_image, saliency_map};
+pub use map::{pixel_saliency, saliency_image};
 
 use crate::error::Result;
 use crate::film::Film;

@@ -1,7 +1,7 @@
 //! Backdrops: a floor, a wall or a shadow-catcher plane much larger than everything else in
 //! the scene, as most scenes made in Blender stand their objects on one, and the
 //! subject, not the floor, should fill the canvas. A backdrop is rendered, shaded and faceted like anything else, but:
-//! - the cameras are framed around the scene without it (`camera::subject`): with it, objects
+//! - the cameras are framed around the scene without it (`framing::subject`): with it, objects
 //!   on a 20 m floor were a few pixels tall on a kite of floor;
 //! - it has one side, the subject's: a ray that starts behind its plane passes through it
 //!   (`Accel`). A converging camera wraps around its subject, so the rays of the lower rows

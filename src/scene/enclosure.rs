@@ -4,7 +4,7 @@
 //! they hit the room's outer walls, and the picture was the closed box seen from outside with
 //! everything the user put in it hidden. An enclosure is rendered, shaded and faceted like
 //! anything else, but:
-//! - the cameras are framed around the scene without it (`camera::subject`), as a backdrop;
+//! - the cameras are framed around the scene without it (`framing::subject`), as a backdrop;
 //! - it has its inner side only: a ray entering it through a wall passes that wall (`Accel`),
 //!   and sees the contents and the far walls from inside, as a cutaway; a ray from inside sees
 //!   the walls as the scene's camera does;
@@ -145,11 +145,11 @@ mod tests {
         assert_eq!(w.enclosures, vec![Enclosure { object: 0, outward: false }]);
     }
 
-    /// The cameras are framed around the contents, not the walls (`camera::subject`).
+    /// The cameras are framed around the contents, not the walls (`framing::subject`).
     #[test]
     fn the_subject_is_the_rooms_contents() {
         let w = scene(vec![room(), ball(DVec3::new(0.0, 0.5, -2.0))], Some(DVec3::new(0.0, 1.6, 4.0)));
-        let subject = crate::camera::subject::Subject::new(&w, 5000, 500, None);
+        let subject = crate::framing::subject::Subject::new(&w, 5000, 500, None);
         let ball_centre = w.to_render.point_f64(DVec3::new(0.0, 0.5, -2.0));
         // The ball's radius, 0.5, in render units; the room's half-diagonal is 1.
         let r = 0.5 * w.to_render.scale;

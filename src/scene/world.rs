@@ -535,36 +535,6 @@ impl World {
         self.refresh_bounds(Some(&moved));
         Ok(added)
     }
-
-    /// New mesh-local vertices for scene mesh `mesh` (a deformation: same vertex count and
-    /// triangles; normals recomputed when None). Every geometry baked from it is re-baked;
-    /// returns their indices: then call `Accel::refit_mesh` (small deformation) or
-    /// `Accel::rebuild_mesh` on each. Bounds and radius follow.
-    pub fn set_vertices(&mut self, mesh: usize, positions: &[Vec3], normals: Option<&[Vec3]>) -> Result<Vec<usize>> {
-        let changed: Vec<usize> = (0..self.geometries.len()).filter(|&g| self.geometries[g].source == mesh).collect();
-        let Some(&g0) = changed.first() else {
-            return Ok(changed);
-        };
-        let n = self.geometries[g0].positions.len();
-        if positions.len() != n || normals.is_some_and(|v| v.len() != n) {
-            return Err(Error::Internal(format!("mesh {mesh} has {n} vertices: {} positions given", positions.len())));
-        }
-        let computed;
-        let normals = match normals {
-            Some(v) => v,
-            None => {
-                computed = compute_normals(positions, &self.geometries[g0].triangles);
-                &computed
-            }
-        };
-        for &g in &changed {
-            self.geometries[g].set_vertices(positions, normals, self.to_render);
-        }
-        let objects: Vec<usize> =
-            (0..self.objects.len()).filter(|&o| changed.contains(&self.objects[o].geometry)).collect();
-        self.refresh_bounds(Some(&objects));
-        Ok(changed)
-    }
 }
 
 #[cfg(test)]
@@ -656,16 +626,5 @@ mod tests {
         let added = w.set_transforms(&s, &[(1, DMat4::from_scale(DVec3::new(0.0, 1.0, 1.0)))]).unwrap();
         assert_eq!(added, vec![1]);
         assert_eq!(w.objects[1].geometry, 1);
-    }
-
-    #[test]
-    fn deforming_a_mesh_rebakes_it() {
-        let s = scene(&[DMat4::IDENTITY]);
-        let mut w = World::new(&s);
-        let mut p = s.meshes[0].positions.clone();
-        p[3].z = 2.0;
-        assert_eq!(w.set_vertices(0, &p, None).unwrap(), vec![0]);
-        assert_eq!(w.geometries[0].positions[3], w.to_render.point(p[3].as_dvec3()));
-        assert!(w.set_vertices(0, &p[..2], None).is_err());
     }
 }

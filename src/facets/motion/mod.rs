@@ -183,16 +183,16 @@ fn grow(ids: &mut [u32], width: u32, height: u32, fallback: u32) {
 
 /// What a frame's picture shows, for measuring coherence between frames: its key data (per
 /// pixel triangle and depth, the frame's geometry and camera) and each pixel's barycentrics.
-pub struct Surface {
+pub struct FrameSurface {
     pub key: file::KeyData,
     /// Barycentrics (u, v) of each pixel's centre-ray hit (meaningless where `key.tri` is `NO_HIT`).
     pub uv: Vec<(f32, f32)>,
 }
 
-impl Surface {
+impl FrameSurface {
     /// From a pre-pass film and its key data.
-    pub fn new(key: file::KeyData, film: &Film) -> Surface {
-        Surface { key, uv: film.hits.iter().map(|h| (h.u, h.v)).collect() }
+    pub fn new(key: file::KeyData, film: &Film) -> FrameSurface {
+        FrameSurface { key, uv: film.hits.iter().map(|h| (h.u, h.v)).collect() }
     }
 }
 
@@ -213,10 +213,10 @@ pub struct Coherence {
 /// showing the same point (as facets follow: `a`'s geometry and camera, `Camera::project`).
 /// `image_*` are RGBA8 pictures at the frames' size.
 pub fn coherence(
-    a: &Surface,
+    a: &FrameSurface,
     map_a: &FacetMap,
     image_a: &[u8],
-    b: &Surface,
+    b: &FrameSurface,
     map_b: &FacetMap,
     image_b: &[u8],
 ) -> Coherence {

@@ -99,7 +99,7 @@ pub const SPLIT_WIDTH: f64 = 0.02;
 
 /// The planes layout of a pre-render.
 pub fn layout(input: &PlanesInput, params: &PlanesParams) -> FacetLayout {
-    layout_prepared(input, params, &prepare(input, params.outlines)).0
+    layout_guided(input, params, &guides(input, params.outlines)).0
 }
 
 /// What the planes read of the pre-render whatever their count, detail and seed: the
@@ -107,7 +107,7 @@ pub fn layout(input: &PlanesInput, params: &PlanesParams) -> FacetLayout {
 /// the pre-render is the same (`pipeline::Session`), so another plane count or detail only
 /// splits, cuts and merges again.
 #[derive(Clone, Debug)]
-pub struct Prepared {
+pub struct Guides {
     pub cues: density::Cues,
     /// The outline layers; empty when made without outlines.
     pub layers: Vec<outlines::Layer>,
@@ -115,7 +115,7 @@ pub struct Prepared {
     pub outlines: bool,
 }
 
-impl Prepared {
+impl Guides {
     /// Bytes held (for a cache's budget).
     pub fn bytes(&self) -> u64 {
         let rings: usize = self.layers.iter().flat_map(|l| l.rings.iter()).map(|r| r.len()).sum();
@@ -123,8 +123,8 @@ impl Prepared {
     }
 }
 
-/// Steps 1 and 2 of a pre-render (`Prepared`); the outlines only when `outlines`.
-pub fn prepare(input: &PlanesInput, outlines: bool) -> Prepared {
+/// Steps 1 and 2 of a pre-render (`Guides`); the outlines only when `outlines`.
+pub fn guides(input: &PlanesInput, outlines: bool) -> Guides {
     let (w, h) = (input.width as usize, input.height as usize);
     let (wf, hf) = (w as f64, h as f64);
     let n = w * h;
@@ -155,19 +155,19 @@ pub fn prepare(input: &PlanesInput, outlines: bool) -> Prepared {
             )
         },
     );
-    Prepared { cues, layers, outlines }
+    Guides { cues, layers, outlines }
 }
 
-/// The planes layout of a pre-render from its `prepare` (made with `params.outlines`), and
+/// The planes layout of a pre-render from its `guides` (made with `params.outlines`), and
 /// its facet map at the pre-render's size (the layout rasterised, as `FacetLayout::rasterize`
 /// gives it: the merge's map renumbered, not drawn a second time).
-pub fn layout_prepared(input: &PlanesInput, params: &PlanesParams, prep: &Prepared) -> (FacetLayout, FacetMap) {
-    debug_assert_eq!(prep.outlines, params.outlines, "prepared with another outlines setting");
+pub fn layout_guided(input: &PlanesInput, params: &PlanesParams, guides: &Guides) -> (FacetLayout, FacetMap) {
+    debug_assert_eq!(guides.outlines, params.outlines, "guides made with another outlines setting");
     let (w, h) = (input.width as usize, input.height as usize);
     let (wf, hf) = (w as f64, h as f64);
     let diag = (wf * wf + hf * hf).sqrt();
-    let density = prep.cues.density(params.detail);
-    let layers: &[outlines::Layer] = if params.outlines { &prep.layers } else { &[] };
+    let density = guides.cues.density(params.detail);
+    let layers: &[outlines::Layer] = if params.outlines { &guides.layers } else { &[] };
     let runs: Vec<split::Run> = layers
         .iter()
         .flat_map(|l| l.rings.iter())
@@ -180,7 +180,7 @@ pub fn layout_prepared(input: &PlanesInput, params: &PlanesParams, prep: &Prepar
         columns: density.columns,
         rows: density.rows,
         values: &density.values,
-        protect: &prep.cues.protect,
+        protect: &guides.cues.protect,
         width: wf,
         height: hf,
     };
@@ -493,8 +493,8 @@ mod tests {
         (hits, sal)
     }
 
-    /// The map `layout_prepared` gives is the layout rasterised again, bit for bit; one
-    /// `prepare` serves every plane count, detail and seed as a fresh one would.
+    /// The map `layout_guided` gives is the layout rasterised again, bit for bit; one
+    /// `guides` serve every plane count, detail and seed as a fresh one would.
     #[test]
     fn a_prepared_layout_is_the_fresh_one_and_its_map_the_rasterised_one() {
         for (w, h) in [(320u32, 240u32), (211, 307)] {
@@ -502,10 +502,10 @@ mod tests {
             for saliency in [Some(sal.as_slice()), None] {
                 let input = PlanesInput { width: w, height: h, hits: &hits, saliency };
                 for outlines in [true, false] {
-                    let prep = prepare(&input, outlines);
+                    let prep = guides(&input, outlines);
                     for (planes, detail, seed) in [(150, 5.0, 0), (151, 5.5, 0), (40, 1.0, 3), (400, 8.0, 1)] {
                         let params = PlanesParams { planes, detail, outlines, seed };
-                        let (layout, map) = layout_prepared(&input, &params, &prep);
+                        let (layout, map) = layout_guided(&input, &params, &prep);
                         assert_eq!(layout, super::layout(&input, &params), "{w}x{h} {params:?}");
                         let drawn = layout.rasterize(w, h);
                         assert_eq!(map.ids, drawn.ids, "{w}x{h} {params:?}");

@@ -97,7 +97,7 @@ pub fn layout_stage(
 }
 
 /// Whether the planes faceting can start from inputs kept for this pre-render
-/// (`facets::planes::prepare`): planes made here, at the pre-render's size.
+/// (`facets::planes::guides`): planes made here, at the pre-render's size.
 pub fn planes_reuse_inputs(params: &FacetParams, film: &Film) -> bool {
     params.method == FacetMethod::Planes
         && params.layout_file.is_none()

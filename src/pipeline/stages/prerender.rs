@@ -4,9 +4,9 @@
 
 use glam::Vec3;
 
-use crate::camera::{Framed, FramingParams, frame_camera};
 use crate::error::Result;
 use crate::film::Film;
+use crate::framing::{Framed, FramingParams, frame_camera};
 use crate::pipeline::cache::Gen;
 use crate::pipeline::{Prepared, Stage, Timings};
 use crate::progress::Progress;

@@ -26,7 +26,7 @@ pub fn saliency_stage(
     progress.begin(Stage::Saliency.name(), 1);
     let out = timings.time(Stage::Saliency.name(), || {
         crate::saliency::for_film(&prep.scene, &prep.world, &prep.saliency, film, params).map(|sal| {
-            let map = crate::saliency::saliency_map(&prep.world, &sal, film);
+            let map = crate::saliency::pixel_saliency(&prep.world, &sal, film);
             (sal, map)
         })
     })?;

@@ -5,14 +5,14 @@
 //!   else; it only does not set the extent, the centre and the radius the cameras are composed
 //!   around; nor its enclosures (`scene::enclosure`: a closed room around the camera and the
 //!   furniture), which the framing would otherwise fit around the walls;
-//! - of that, what the scene's own camera sees (`View`), when it does not see everything: a
+//! - of that, what the scene's own camera sees (`SceneView`), when it does not see everything: a
 //!   user who framed one head in a room of statues meant the head, and the cubist camera
 //!   composed around the whole room drew it a few pixels tall among the others.
 
 use glam::{DVec2, DVec3};
 
-use super::{Camera, CameraFrame, Orthographic, Perspective, screen_point};
 use crate::accel::Accel;
+use crate::camera::{Camera, CameraFrame, Orthographic, Perspective, screen_point};
 use crate::scene::{Projection, SceneCamera, World};
 
 /// Share by which a point may lie outside the scene camera's view and still count as seen
@@ -21,7 +21,7 @@ pub const VIEW_MARGIN: f64 = 0.05;
 
 /// The scene camera's view, to keep the part of the subject it sees (render space): its
 /// frustum, and the objects a coarse trace of its own (pinhole) picture shows.
-pub struct View {
+pub struct SceneView {
     frame: CameraFrame,
     /// Perspective: the half-extents' tangents (x, y); orthographic: the half-extents.
     half: (f64, f64),
@@ -33,10 +33,10 @@ pub struct View {
 /// Columns of the trace that finds what the scene camera shows (rows follow the aspect).
 const VIEW_PROBE_COLUMNS: u32 = 48;
 
-impl View {
+impl SceneView {
     /// The view of `camera` on a canvas of `aspect` (width / height); None when it shows
     /// nothing of the scene.
-    pub fn of(camera: &SceneCamera, aspect: f64, world: &World, accel: &Accel) -> Option<View> {
+    pub fn of(camera: &SceneCamera, aspect: f64, world: &World, accel: &Accel) -> Option<SceneView> {
         let (frame, _) = CameraFrame::new(camera.position, camera.forward, camera.up)?;
         let clip_radius = (world.radius as f64).max(1e-9) * 1.001;
         let (half, perspective, pinhole): ((f64, f64), bool, Box<dyn Camera>) = match camera.projection {
@@ -64,7 +64,7 @@ impl View {
         shown.sort_unstable();
         shown.dedup();
         let grow = 1.0 + VIEW_MARGIN;
-        (!shown.is_empty()).then_some(View { frame, half: (half.0 * grow, half.1 * grow), perspective, shown })
+        (!shown.is_empty()).then_some(SceneView { frame, half: (half.0 * grow, half.1 * grow), perspective, shown })
     }
 
     /// Whether `p`, a point of object `object`, is in view: in front of the camera, within
@@ -98,7 +98,7 @@ impl Subject {
     /// the whole scene takes), kept to what `view` sees when it sees some of them but not all.
     /// With no backdrop or enclosure and everything in view, the scene's centre (the origin) and
     /// radius.
-    pub fn new(world: &World, full: usize, coarse: usize, view: Option<&View>) -> Subject {
+    pub fn new(world: &World, full: usize, coarse: usize, view: Option<&SceneView>) -> Subject {
         let keep: Vec<usize> = (0..world.objects.len()).filter(|&o| !world.is_setting(o)).collect();
         let (mut full, mut coarse) = (sample(world, &keep, full), sample(world, &keep, coarse));
         let mut whole = keep.len() == world.objects.len();
@@ -192,8 +192,8 @@ mod tests {
         Prepared::new(s)
     }
 
-    fn view(p: &Prepared) -> View {
-        View::of(p.world.camera.as_ref().unwrap(), 4.0 / 3.0, &p.world, &p.accel).expect("a view")
+    fn view(p: &Prepared) -> SceneView {
+        SceneView::of(p.world.camera.as_ref().unwrap(), 4.0 / 3.0, &p.world, &p.accel).expect("a view")
     }
 
     #[test]
@@ -220,6 +220,6 @@ mod tests {
         assert!(s.radius <= 1.001 * r && s.radius > 0.5 * r, "{} against {r}", s.radius);
         // Nothing shown: no view.
         let away = balls(&[DVec3::ZERO], DVec3::new(0.0, 0.0, -3.0));
-        assert!(View::of(away.world.camera.as_ref().unwrap(), 4.0 / 3.0, &away.world, &away.accel).is_none());
+        assert!(SceneView::of(away.world.camera.as_ref().unwrap(), 4.0 / 3.0, &away.world, &away.accel).is_none());
     }
 }

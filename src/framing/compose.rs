@@ -25,9 +25,9 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::CameraFrame;
-use super::CameraKind;
 use super::fit::fit_depth;
+use crate::camera::CameraFrame;
+use crate::camera::CameraKind;
 
 /// Largest half-angle a vertex may reach from the view axis: spans stay within the thesis's
 /// best ambiguity range (120-150 deg, section 5).

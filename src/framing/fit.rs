@@ -4,7 +4,7 @@
 
 use glam::DVec3;
 
-use super::{CameraFrame, CameraKind};
+use crate::camera::{CameraFrame, CameraKind};
 
 /// Angles (horizontal, vertical) from the view axis at which a camera with focal centre `c`
 /// sees `p`, for `p` in front of `c`. Spherical: the inverse of `Spherical::outward`;
