@@ -197,7 +197,7 @@ fn every_setting_reaches_the_schema_and_a_flag() {
         let flag = format!("--{long}={}", flag_value(f, &defaults[f.key]));
         let cli = Cli::try_parse_from(["cubist", "settings", &flag]).unwrap_or_else(|e| panic!("{flag}: {e}"));
         let Command::Settings(args) = cli.command else { panic!("not settings") };
-        let layer = args.settings.to_layer();
+        let layer = args.settings.flags.to_layer();
         assert_eq!(layer.keys().collect::<Vec<_>>(), [f.key], "{flag} sets {:?}", layer);
     }
 }

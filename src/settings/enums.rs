@@ -30,7 +30,7 @@ kebab_enum!(
         /// At the centre of the scene's bounding box (the thesis's literal default).
         Centre = "centre",
         /// Per scene: C as close behind the scene as the cameras allow, the horizontal and
-        /// vertical spans fitted to it, so the subject fills the canvas (`camera::compose`).
+        /// vertical spans fitted to it, so the subject fills the canvas (`framing::compose`).
         Compose = "compose",
     }
 );
