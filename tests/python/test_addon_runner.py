@@ -37,17 +37,11 @@ def test_runner_mapping_presets_import_without_bpy():
 # The settings contract
 
 
-def settings_rs_keys():
-    text = (ROOT / "src" / "settings.rs").read_text()
-    body = text[text.index("pub struct Settings {"):]
-    body = body[:body.index("\n}\n")]
-    return set(re.findall(r"^\s*pub (\w+):", body, re.M))
-
-
-def test_settings_keys_match_settings_rs():
+def test_settings_keys_match_the_renderer(cubist_binary):
     """Every key the renderer accepts is known to the add-on and vice versa (a renamed or
-    added setting must reach the panel): the schema the add-on reads lists the struct's fields."""
-    assert runner.SETTINGS_KEYS == settings_rs_keys()
+    added setting must reach the panel): the schema the add-on reads lists the keys of the
+    renderer's settings, as `cubist settings` prints them."""
+    assert runner.SETTINGS_KEYS == set(binary_settings(cubist_binary))
 
 
 def settings_rs_presets():
