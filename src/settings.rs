@@ -16,6 +16,7 @@
 //! - `layers`: preset, then JSON file, then flags;
 //! - `validate`: the declared ranges' checks and those of several keys, with the key at fault;
 //! - `schema`: the shape of each key's type, unit and range, for `cubist settings --schema`;
+//! - `range`: an interval a number may take, as messages and the schema write it;
 //! - `frames`: the frame range of `frames`.
 
 use serde::{Deserialize, Serialize};
@@ -44,6 +45,7 @@ mod enums;
 mod frames;
 mod layers;
 mod presets;
+mod range;
 pub mod schema;
 mod table;
 mod validate;

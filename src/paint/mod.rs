@@ -19,6 +19,7 @@
 //! colour stays in the form `output::encode` expects: colour = foreground premultiplied +
 //! (1 - alpha) x background.
 
+pub mod border_profile;
 pub mod borders;
 pub mod brushwork;
 pub mod canvas;

@@ -24,7 +24,7 @@
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
-use super::borders::border_factor;
+use super::border_profile::border_factor;
 use super::noise::Grid2;
 use super::plane_light::PlaneLight;
 use super::planes::smoothstep;

@@ -3,7 +3,7 @@
 
 use rayon::prelude::*;
 
-use super::borders::darkening;
+use super::border_profile::darkening;
 use super::{Canvas, Effect, EffectParams, PaintContext, darken_background};
 use crate::distance::distance_to_features;
 use crate::error::Result;

@@ -4,7 +4,8 @@
 use glam::{Vec3, Vec4};
 use proptest::prelude::*;
 
-use super::borders::{Borders, border_factor};
+use super::border_profile::border_factor;
+use super::borders::Borders;
 use super::chiaroscuro::{Chiaroscuro, MAX_GAIN, ViewAxes};
 use super::gradients::Gradients;
 use super::palette::{self, ColourTransfer};

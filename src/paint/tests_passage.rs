@@ -6,7 +6,7 @@ use glam::{Vec2, Vec3};
 use proptest::prelude::*;
 use rayon::prelude::*;
 
-use super::borders::border_factor;
+use super::border_profile::border_factor;
 use super::noise::Grid2;
 use super::passage::{BLEND, LOST_PERIOD, Passage, SALT, neighbours_rdlu};
 use super::plane_light::PlaneLight;

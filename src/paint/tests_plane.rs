@@ -4,7 +4,8 @@
 
 use glam::{Vec2, Vec3, Vec4};
 
-use super::borders::{Borders, border_factor};
+use super::border_profile::border_factor;
+use super::borders::Borders;
 use super::brushwork::Brushwork;
 use super::canvas::CanvasGrain;
 use super::measure::{luma, per_plane_light};

@@ -5,7 +5,7 @@
 
 use std::path::PathBuf;
 
-use super::schema::Range;
+use super::range::Range;
 use super::{CameraKind, Faceting, Settings};
 use crate::error::{Error, Result, short_num as num, short_path};
 
