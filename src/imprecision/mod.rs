@@ -17,10 +17,10 @@
 //! `centres` decides where each facet is aimed (pixel positions), `rays` turns that into the
 //! facet's rays; `aim_facets` runs both for every facet.
 
-pub mod backdrop;
 pub mod carried;
 mod centres;
 pub mod cues;
+pub mod guard;
 mod rays;
 #[cfg(test)]
 mod tests;
@@ -72,10 +72,10 @@ pub struct AimParams {
     pub scale: f64,
     pub seed: u64,
     /// A facet is re-aimed only when at least this share of its pixels showed geometry in the
-    /// pre-render; 0 = every facet (the thesis). See `backdrop`.
+    /// pre-render; 0 = every facet (the thesis). See `guard`.
     pub min_coverage: f64,
     /// A re-aimed facet's view shift is kept within this share of its mean width; 0 = no
-    /// limit but the discontinuity. See `backdrop`.
+    /// limit but the discontinuity. See `guard`.
     pub width_share: f64,
 }
 
@@ -147,7 +147,7 @@ pub fn aim_facets(ctx: &AimContext, map: &FacetMap, saliency: Option<&[f32]>, pa
 
 /// `aim_facets` with the facets' pixels (`FacetMap::facet_pixels`) made already: the
 /// imprecision stage makes them once for the centres, the linear facets and the rules of
-/// `backdrop::apply`.
+/// `guard::apply`.
 pub fn aim_facets_with(
     ctx: &AimContext,
     map: &FacetMap,

@@ -7,9 +7,6 @@
 //!   (`Accel`). A converging camera wraps around its subject, so the rays of the lower rows
 //!   start below the floor, and the floor's unlit underside covered the lower half of the
 //!   canvas; through it they see the subject from below, another of its sides.
-//!
-//! (Objects of the scene; not `imprecision::backdrop`, which holds the canvas's background
-//! facets still.)
 
 use glam::{DVec3, Vec3};
 

@@ -138,7 +138,7 @@ impl Preset {
 /// The facet, camera and imprecision values of our presets (every preset but
 /// `plain` and `thesis`): planes faceting, the `compose` framing with the angles chosen per
 /// scene, background facets not re-aimed and view shifts within a share of each facet's width
-/// (`imprecision::backdrop`).
+/// (`imprecision::guard`).
 fn planes_look(s: &mut Settings) {
     s.camera = CameraKind::Auto;
     s.ambiguity = None;

@@ -296,7 +296,7 @@ macro_rules! settings_table {
                 flag "Segment: weight of saliency differences [default: 0.5]"
                     #[arg(long, help_heading = "Facets", allow_negative_numbers = true, value_parser = finite_f64)] Option<f64>;
 
-            // ---- planes faceting and what facets show (`facets::planes`, `imprecision::backdrop`)
+            // ---- planes faceting and what facets show (`facets::planes`, `imprecision::guard`)
             /// Planes: how many planes the canvas is split into before the subject's outlines cut them.
             planes: u32 = 150,
                 schema field(Integer).range(Range::closed(1.0, MAX_PLANES as f64)),

@@ -61,7 +61,7 @@ pub fn aims_stage(
         let cues = mesh
             .zip(saliency.as_ref())
             .and_then(|((prep, _), s)| imprecision::cues::CueVertices::new(&prep.scene, &prep.world, &s.per_mesh));
-        let hits = imprecision::backdrop::apply(&mut aims, ctx, map, &by_facet, film, cues.as_ref(), params);
+        let hits = imprecision::guard::apply(&mut aims, ctx, map, &by_facet, film, cues.as_ref(), params);
         (aims, hits)
     })
 }

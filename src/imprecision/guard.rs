@@ -1,4 +1,4 @@
-//! What a facet may show: background facets keep the backdrop (no ghosts),
+//! The guard on what a facet may show: background facets keep the backdrop (no ghosts),
 //! and a re-aimed facet's view shift stays within its own width (cues kept).
 //!
 //! The thesis re-aims every facet at its saliency centre. A facet that shows mostly backdrop
