@@ -41,18 +41,36 @@ def alive(pid: int) -> bool:
 
 @pytest.fixture(scope="module")
 def ui(cubist_binary, tmp_path_factory):
+    """The driver's run. Blender 3.4 can get its process-wide 'no writes to datablocks' flag
+    stuck after a render (host_driver.WRITE_LOCK, a Blender bug no add-on can reset): the driver
+    then stops and the steps left, the stuck one first, run in a new Blender (at most 3 reruns)."""
     require_windowed_blender(TOOLS, "windowed Blender host test", "apt-get install blender xvfb xauth xdotool")
     base = tmp_path_factory.mktemp("blender_host")
     tiny = base / "tiny"
     tiny.mkdir()
     mounted = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=1m", "tmpfs", str(tiny)],
                              capture_output=True, text=True).returncode == 0
+    steps, locks, logs, remaining, run = {}, [], [], "", None
     try:
-        run = run_windowed_blender(DRIVER, base, cubist_binary, " (host)", extra_args=(str(tiny) if mounted else "-",))
+        for attempt in range(4):
+            (base / f"run{attempt}").mkdir()
+            run = run_windowed_blender(DRIVER, base / f"run{attempt}", cubist_binary, " (host)",
+                                       extra_args=(str(tiny) if mounted else "-", remaining))
+            steps.update(run["results"]["steps"])
+            logs.append(run["log"])
+            lock = run["results"].get("write_lock")
+            if lock is None:
+                break
+            locks.append(lock)
+            remaining = ",".join(run["results"]["remaining"])
     finally:
         if mounted:
             subprocess.run(["umount", "-l", str(tiny)], capture_output=True)
+    run["results"]["steps"] = steps
+    run["log"] = "\n".join(logs)
     run["mounted"] = mounted
+    if locks:
+        print(f"\nBlender 3.4's write flag got stuck {len(locks)} time(s): {locks}", file=sys.stderr)
     return run
 
 
