@@ -163,7 +163,7 @@ fn settings_prints_every_resolved_key_as_json() {
     assert!(keys.keys().eq(all.as_object().unwrap().keys()), "{out}");
     let back: Settings = serde_json::from_value(json.clone()).unwrap();
     assert_eq!(back, Settings::default());
-    assert_eq!(json["background"], serde_json::json!([0.34, 0.3, 0.24]));
+    assert_eq!(json["background"], serde_json::json!([0.21, 0.18, 0.14]));
     for key in ["preset", "fill", "superpixels", "weight_object", "saliency_method", "saliency_cache", "passes"] {
         assert!(keys.contains_key(key), "no `{key}` in {out}");
     }
@@ -221,7 +221,7 @@ fn settings_schema_describes_every_key_the_stages_and_the_presets() {
     let (_, out, _) = run(dir.path(), &["settings"]);
     let defaults: serde_json::Value = serde_json::from_str(&out).unwrap();
     assert_eq!(settings.len(), defaults.as_object().unwrap().len());
-    assert_eq!(field("background")["default"], serde_json::json!([0.34, 0.3, 0.24]));
+    assert_eq!(field("background")["default"], serde_json::json!([0.21, 0.18, 0.14]));
     for f in settings {
         assert_eq!(f["default"], defaults[f["key"].as_str().unwrap()], "{f}");
     }

@@ -100,17 +100,17 @@ pub const OCHRE: Ramp = Ramp {
     ],
 };
 
-/// The ochre of 1910-11 with its lights held lower (a narrower value range, no cream), under
-/// the `OchreGrey` palette's cool edges.
+/// The ochre of 1910-11 held low and narrow (umber to a muted ochre, no cream: the lights of
+/// the 1910 canvases are few), under the `OchreGrey` palette's cool edges.
 pub const OCHRE_GREY: Ramp = Ramp {
     name: "ochre-grey",
     stops: &[
-        (0.00, [0x1c, 0x14, 0x0d]),
-        (0.12, [0x3d, 0x2c, 0x1c]),
-        (0.35, [0x7a, 0x5a, 0x36]),
-        (0.60, [0xa0, 0x7e, 0x4c]),
-        (0.82, [0xbd, 0xa2, 0x70]),
-        (1.00, [0xdc, 0xcb, 0xa0]),
+        (0.00, [0x18, 0x11, 0x0b]),
+        (0.15, [0x33, 0x25, 0x18]),
+        (0.40, [0x5c, 0x44, 0x29]),
+        (0.65, [0x82, 0x66, 0x3e]),
+        (0.86, [0xa8, 0x8c, 0x5e]),
+        (1.00, [0xcc, 0xb8, 0x8a]),
     ],
 };
 

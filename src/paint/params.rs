@@ -40,7 +40,8 @@ macro_rules! chain {
     };
 }
 
-// The chain, in its fixed order: a new effect is one line here.
+// The chain, in its fixed order (the module doc of `paint` says why): a new effect is one
+// line here.
 chain! {
     chiaroscuro: ChiaroscuroParams,
     silhouettes: SilhouetteParams,
@@ -48,8 +49,8 @@ chain! {
     gradients: GradientParams,
     palette: PaletteParams,
     quantise: QuantiseParams,
-    plane_light: PlaneLightParams,
     brushwork: BrushworkParams,
+    plane_light: PlaneLightParams,
     canvas_grain: CanvasGrainParams,
 }
 

@@ -54,9 +54,9 @@ impl Preset {
                 // less, so the subject keeps its cues; firm, narrow joins.
                 s.planes = 90;
                 s.plane_detail = 12.0;
-                // A mid-dark ground: the palette's ranks put the lit subject over browns and
+                // A dark ground: the palette's ranks put the lit subject over umbers and
                 // greys, as the 1910 canvases' central light over a darker ground.
-                s.background = [0.34, 0.3, 0.24];
+                s.background = [0.21, 0.18, 0.14];
                 s.discontinuity = 110.0;
                 s.border_width = 7.0;
                 s.border_strength = 0.95;

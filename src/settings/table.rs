@@ -178,7 +178,7 @@ macro_rules! settings_table {
             background: [f32; 3] = [0.62, 0.56, 0.46],
                 schema field(Array).of(Number).length(3).unit(LINEAR_RGB).range(Range::closed(0.0, MAX_EXPOSURE)),
                 check Message("must be three numbers in {range}"),
-                flag "Background colour R,G,B, linear, 0..1 [default: 0.34,0.3,0.24]"
+                flag "Background colour R,G,B, linear, 0..1 [default: 0.21,0.18,0.14]"
                     #[arg(long, value_delimiter = ',', num_args = 1, value_name = "R,G,B", help_heading = "Shading", value_parser = finite_f32)] Option<Vec<f32>>;
 
             /// Background alpha 0 in the output PNG.

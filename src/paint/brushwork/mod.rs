@@ -45,9 +45,9 @@ pub const PLANE_TURN_DEG: f32 = 20.0;
 /// Largest turn of one stroke off its plane's direction, degrees.
 pub const STROKE_TURN_DEG: f32 = 6.0;
 /// Largest relative change of a stroke's value.
-pub const VALUE_JITTER: f32 = 0.16;
+pub const VALUE_JITTER: f32 = 0.35;
 /// Value change across the bristle streaks (peak to peak).
-pub const BRISTLE_VALUE: f32 = 0.08;
+pub const BRISTLE_VALUE: f32 = 0.2;
 /// Bristle streaks across a stroke (lattice cells of the 1-D noise).
 pub const BRISTLES: usize = 3;
 /// The fine layer paints where the coarse layer strays from the picture by more than this
@@ -58,7 +58,7 @@ pub const FINE_THRESHOLD: f32 = 0.025;
 pub const DARK_KEPT: (f32, f32) = (0.45, 0.8);
 /// How far a stroke's colour goes from the picture under it towards its plane's mean colour:
 /// the plane is repainted as a plane, not as the render's smooth shading under glass.
-pub const PLANE_FLATTEN: f32 = 0.45;
+pub const PLANE_FLATTEN: f32 = 0.7;
 /// Strokes narrower than this (pixels) are not painted: the layer would be noise.
 pub const MIN_WIDTH: f32 = 1.5;
 
