@@ -12,12 +12,14 @@
 //! thesis does for standing figures, and the spherical camera otherwise; under `compose` a tall
 //! scene is composed with both and the spherical camera is kept when it composes it better
 //! (`compose` step 5). When the renderer chooses the view and the front fills under
-//! `FILL_FLOOR`, `frame_camera` also tries the subject's broad side.
+//! `FILL_FLOOR`, `frame_camera` also tries the subject's broad side; a subject standing along
+//! the front view's axis (a z-up model) is seen from its front, upright (`upright`).
 
 pub mod compose;
 mod fit;
 mod probe;
 pub mod subject;
+pub mod upright;
 mod view;
 
 use glam::DVec3;
@@ -170,8 +172,11 @@ pub fn frame_camera(params: &FramingParams, world: &World, accel: &Accel) -> Res
         .as_ref()
         .filter(|_| own)
         .and_then(|c| SceneView::of(c, params.width as f64 / params.height.max(1) as f64, world, accel));
-    let subject = Subject::new(world, FIT_SAMPLES, COARSE_SAMPLES, view.as_ref());
+    let mut subject = Subject::new(world, FIT_SAMPLES, COARSE_SAMPLES, view.as_ref());
     let own_view = own && world.camera.is_none();
+    if own_view && params.up.is_none() {
+        subject.upright = upright::Upright::of(subject.points(false));
+    }
     let (framed, fill) = first_round(params, world, accel, &subject, own_view)?;
     let _ = fill;
     Ok(framed)
@@ -195,8 +200,10 @@ fn first_round(
         None => return Ok((front, None)),
     };
     let mut views = Vec::new();
-    let up = params.up.map(DVec3::from).and_then(|u| u.try_normalize()).unwrap_or(DVec3::Y);
-    let broad = broad_side_yaw(subject.points(true), up);
+    let up = params.up.map(DVec3::from).and_then(|u| u.try_normalize()).or(subject.upright.map(|u| u.up));
+    let up = up.unwrap_or(DVec3::Y);
+    let ahead = subject.upright.map_or(DVec3::NEG_Z, |u| u.forward);
+    let broad = broad_side_yaw(subject.points(true), ahead, up);
     if let Some(yaw) = broad {
         // Both faces of the broad side: a converging camera magnifies the parts nearest its
         // focal centre, behind the subject, so an arm reaching out fills less from behind.
@@ -272,10 +279,10 @@ const CENTROID_OFFSET: f64 = 0.05;
 
 /// The turn about `up` (radians, within -90..90 deg, counter-clockwise seen from above) that
 /// faces the subject's broad side: the widest horizontal extent of `points` across the view,
-/// searched in `BROAD_SIDE_STEP_DEG` steps from the front view (looking down -Z, level). None
-/// when the front is already within `BROAD_SIDE_RATIO` of the widest.
-fn broad_side_yaw(points: &[DVec3], up: DVec3) -> Option<f64> {
-    let level = DVec3::NEG_Z.reject_from(up).try_normalize()?;
+/// searched in `BROAD_SIDE_STEP_DEG` steps from the front view (looking along `front`, level).
+/// None when the front is already within `BROAD_SIDE_RATIO` of the widest.
+fn broad_side_yaw(points: &[DVec3], front: DVec3, up: DVec3) -> Option<f64> {
+    let level = front.reject_from(up).try_normalize()?;
     let width = |yaw: f64| {
         let forward = level * yaw.cos() + up.cross(level) * yaw.sin();
         let right = forward.cross(up);

@@ -88,6 +88,9 @@ pub struct Subject {
     pub centre: DVec3,
     /// The subject's bounding radius about `centre`: the scene's when there is no backdrop.
     pub radius: f64,
+    /// The renderer's own view frame when the subject stands along the front view's axis
+    /// (`frame_camera` sets it; None: looking down -Z, Y up).
+    pub upright: Option<super::upright::Upright>,
     full: Vec<DVec3>,
     coarse: Vec<DVec3>,
 }
@@ -124,7 +127,7 @@ impl Subject {
             let radius = full.iter().map(|p| (*p - centre).length()).fold(0.0, f64::max);
             (centre, radius.max(1e-9))
         };
-        Subject { full, coarse, centre, radius }
+        Subject { full, coarse, centre, radius, upright: None }
     }
 
     /// The sample points: `coarse` or full.

@@ -20,29 +20,33 @@ fn the_broad_side_faces_the_widest_extent() {
     // A board seen edge-on (thin along X, long along Z): turned a quarter turn, either way
     // gives the same width, the first searched (-90 deg) is taken.
     let board = boxed(DVec3::new(0.05, 1.0, 1.6), DVec3::ZERO);
-    let yaw = broad_side_yaw(&board, DVec3::Y).expect("a board seen edge-on turns");
+    let yaw = broad_side_yaw(&board, DVec3::NEG_Z, DVec3::Y).expect("a board seen edge-on turns");
     assert!((yaw.abs() - std::f64::consts::FRAC_PI_2).abs() < 1e-9, "{yaw}");
     // Turned by 45 deg about Y, the board's broad side is found 45 deg from the front.
     let r = glam::DQuat::from_rotation_y(std::f64::consts::FRAC_PI_4);
     let turned: Vec<DVec3> = board.iter().map(|p| r * *p).collect();
-    let yaw = broad_side_yaw(&turned, DVec3::Y).expect("turns");
+    let yaw = broad_side_yaw(&turned, DVec3::NEG_Z, DVec3::Y).expect("turns");
     assert!((yaw.abs() - std::f64::consts::FRAC_PI_4).abs() < 1e-9, "{yaw}");
     // Already broad from the front, or as wide from every side (a round column): no turn.
-    assert_eq!(broad_side_yaw(&boxed(DVec3::new(1.6, 1.0, 0.05), DVec3::ZERO), DVec3::Y), None);
+    assert_eq!(broad_side_yaw(&boxed(DVec3::new(1.6, 1.0, 0.05), DVec3::ZERO), DVec3::NEG_Z, DVec3::Y), None);
     let column: Vec<DVec3> = (0..72)
         .flat_map(|i| {
             let a = i as f64 * std::f64::consts::TAU / 72.0;
             [DVec3::new(a.cos(), -1.5, a.sin()), DVec3::new(a.cos(), 1.5, a.sin())]
         })
         .collect();
-    assert_eq!(broad_side_yaw(&column, DVec3::Y), None);
+    assert_eq!(broad_side_yaw(&column, DVec3::NEG_Z, DVec3::Y), None);
     // A square pillar is widest across its diagonal: turned 45 deg, two faces in view.
-    let pillar = broad_side_yaw(&boxed(DVec3::new(1.0, 3.0, 1.0), DVec3::ZERO), DVec3::Y).expect("turns");
+    let pillar = broad_side_yaw(&boxed(DVec3::new(1.0, 3.0, 1.0), DVec3::ZERO), DVec3::NEG_Z, DVec3::Y).expect("turns");
     assert!((pillar.abs() - std::f64::consts::FRAC_PI_4).abs() < 1e-9, "{pillar}");
     // The up axis decides what "horizontal" is: the same board modelled z-up.
     let zup: Vec<DVec3> = board.iter().map(|p| DVec3::new(p.x, -p.z, p.y)).collect();
-    assert_eq!(broad_side_yaw(&zup, DVec3::Z), None, "seen from above (-Z is the up axis): no level front");
-    assert!(broad_side_yaw(&[], DVec3::Y).is_none());
+    assert_eq!(
+        broad_side_yaw(&zup, DVec3::NEG_Z, DVec3::Z),
+        None,
+        "seen from above (-Z is the up axis): no level front"
+    );
+    assert!(broad_side_yaw(&[], DVec3::NEG_Z, DVec3::Y).is_none());
 }
 
 fn params() -> FramingParams {

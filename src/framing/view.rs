@@ -67,7 +67,7 @@ pub(super) fn frame_view(
         (Some(p), None) => (-p, None),
         (None, _) => match scene_cam {
             Some(c) => (c.forward, Some(c.up)),
-            None => (DVec3::NEG_Z, None),
+            None => subject.upright.map_or((DVec3::NEG_Z, None), |u| (u.forward, Some(u.up))),
         },
     };
     let up = params.up.map(DVec3::from).or(up).unwrap_or(DVec3::Y);
