@@ -1,7 +1,8 @@
 """Render ahead: F12's picture prepared while the scene is still, so that F12 finds it done.
 
-Once the scene has had no depsgraph update for IDLE seconds (a `bpy.app.timers` timer on the
-main thread, armed by each update), F12's job is sent to the session's renderer (server.py): the
+Once the scene has had no depsgraph update for IDLE seconds (IDLE_SETTINGS when only the
+scene's own settings changed: a panel value; a `bpy.app.timers` timer on the main thread, armed
+by each update), F12's job is sent to the session's renderer (server.py): the
 scene as it is now, with the settings F12 would send (frame_job.py), at F12's size. The renderer
 keeps every stage's output, so F12 then re-runs nothing, and when the scene and the panel are
 still the same it hands the finished picture back at once (the engine skips its coarse preview:
@@ -39,8 +40,12 @@ import bpy
 from . import export, frame_job, picture, preferences, runner, serve_render, server
 from .serve_client import Pending, ServeClient, read_rgba
 
-# Seconds without a depsgraph update before F12's job is prepared.
+# Seconds without a depsgraph update before F12's job is prepared; after a change of the
+# scene's own settings alone (a panel value, the resolution: the job's settings, not its
+# scene), without any update for IDLE_SETTINGS seconds, so that the picture of a value typed in
+# the panel is under way before F12 is pressed.
 IDLE = 1.0
+IDLE_SETTINGS = 0.3
 # The longest the main thread may spend reading the scene for a prepare; a scene that takes
 # longer is left to F12 (tried again after its geometry changes).
 READ_BUDGET = 0.1
@@ -82,6 +87,7 @@ class Claim:
 _lock = threading.Lock()
 _edits = 0  # depsgraph updates seen
 _last_edit = 0.0
+_last_content_edit = 0.0  # the last update that reached more than the scene's own settings
 _geometry_dirty = True  # a mesh's data changed since the last read: read every mesh again
 _meshes_read: dict = {}  # the last read's meshes' arrays (export.read_scene's mesh_cache)
 _too_large = False  # the last read went over READ_BUDGET (and no geometry changed since)
@@ -170,10 +176,12 @@ def _skip(why: str) -> None:
 
 @bpy.app.handlers.persistent
 def _depsgraph_updated(scene, depsgraph=None):
-    global _edits, _last_edit, _geometry_dirty, _too_large
+    global _edits, _last_edit, _last_content_edit, _geometry_dirty, _too_large
     _edits += 1
     _last_edit = time.monotonic()
-    updates = getattr(depsgraph, "updates", ()) if depsgraph is not None else ()
+    updates = list(getattr(depsgraph, "updates", ())) if depsgraph is not None else []
+    if not updates or any(not isinstance(u.id, bpy.types.Scene) for u in updates):
+        _last_content_edit = _last_edit
     if any(u.is_updated_geometry for u in updates):
         _geometry_dirty, _too_large = True, False
     cancel()
@@ -196,12 +204,12 @@ def arm() -> None:
     """The next still moment prepares F12's job (main thread). Not without an interface
     (`blender -b`, bpy as a module): no one presses F12 there."""
     if not bpy.app.background and not bpy.app.timers.is_registered(_tick):
-        bpy.app.timers.register(_tick, first_interval=IDLE, persistent=True)
+        bpy.app.timers.register(_tick, first_interval=IDLE_SETTINGS, persistent=True)
 
 
 def _tick():
-    """The timer: waits until the scene has been still for IDLE seconds, then prepares."""
-    wait = _last_edit + IDLE - time.monotonic()
+    """The timer: waits until the scene has been still (IDLE, IDLE_SETTINGS), then prepares."""
+    wait = max(_last_edit + IDLE_SETTINGS, _last_content_edit + IDLE) - time.monotonic()
     if wait > 0.0:
         return wait
     if bpy.app.is_job_running("RENDER"):
@@ -420,5 +428,5 @@ def unregister():
     shutdown()
 
 
-__all__ = ["Claim", "IDLE", "Prepare", "READ_BUDGET", "arm", "cancel", "claim", "counts", "current", "enabled",
+__all__ = ["Claim", "IDLE", "IDLE_SETTINGS", "Prepare", "READ_BUDGET", "arm", "cancel", "claim", "counts", "current", "enabled",
            "forget", "job_key", "prepare", "release", "shutdown"]

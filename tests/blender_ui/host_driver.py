@@ -211,9 +211,10 @@ def wait_prepared(timeout=300):
 
 
 def step_speed():
-    """The first F12 of the session once render ahead has prepared it; F12 again with one panel
-    change (render ahead off: the repeat alone); the first F12 again without render ahead, on a
-    new renderer that keeps nothing (the same picture, its preview first); Render Animation."""
+    """The first F12 of the session once render ahead has prepared it; F12 again a second after
+    one panel change, with render ahead off (the repeat alone), then on; the first F12 again
+    without render ahead, on a new renderer that keeps nothing (the same picture, its preview
+    first); Render Animation."""
     scene = bpy.context.scene
     prepared = yield from wait_prepared()
     engine().keep_exports = OUT / "exports"  # the scene and settings F12 sent (frame_0001.*)
@@ -225,8 +226,14 @@ def step_speed():
     scene.cubist.border_width += 2.0
     yield 1.0
     again = yield from f12()
+    # The same with render ahead: the changed value's picture is under way when F12 comes.
+    prefs().render_ahead = True
+    scene.cubist.border_width += 2.0
+    yield 1.0
+    again_ahead = yield from f12()
+    prefs().render_ahead = False
     # The same first F12 without render ahead: a new renderer, the layout computed again.
-    scene.cubist.border_width -= 2.0
+    scene.cubist.border_width -= 4.0
     server().shutdown()
     for f in Path(engine().layout_folder(scene.cubist)).glob("*.facets.json*"):
         f.unlink()
@@ -257,9 +264,10 @@ def step_speed():
     anim["written"] = sorted(p.name for p in (OUT / "anim").glob("*.png"))
     cam.animation_data_clear()
     scene.frame_set(1)
-    results["steps"]["speed"] = {"first": first, "again": again, "cold": cold, "animation": anim}
-    log(f"speed: first (rendered ahead) {first['seconds']} s, again {again['seconds']} s, without render ahead "
-        f"{cold['seconds']} s (preview {cold['preview_seconds']})")
+    results["steps"]["speed"] = {"first": first, "again": again, "again_ahead": again_ahead, "cold": cold,
+                                 "animation": anim}
+    log(f"speed: first (rendered ahead) {first['seconds']} s, again {again['seconds']} s (with render ahead "
+        f"{again_ahead['seconds']} s), without render ahead {cold['seconds']} s (preview {cold['preview_seconds']})")
     yield from responsive("speed")
 
 

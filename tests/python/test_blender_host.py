@@ -145,10 +145,13 @@ def test_f12_shows_a_preview_then_the_picture_on_the_sessions_renderer(ui):
     assert 0.0 < cold["chosen"]["ambiguity"] <= 160.0, cold["chosen"]
     # One panel value changed: what it does not reach is reused.
     assert {"pre-render", "saliency"} <= set(again["reused"]), again["reused"]
+    # With render ahead, F12 a second after the change finds that picture under way or done.
+    again_ahead = s["again_ahead"]
+    assert ok(again_ahead) and again_ahead["ahead"] in ("ready", "running"), again_ahead
     print(f"\nF12 without render ahead at 1920x1080: {cold['seconds']} s from the key (preview "
           f"{cold['preview_seconds']:.2f} s after render() began; {cold['timeline']}); again after one change "
-          f"(render ahead off): {again['seconds']} s ({again['timeline']}, preview {again['preview']})",
-          file=sys.stderr)
+          f"(render ahead off): {again['seconds']} s ({again['timeline']}, preview {again['preview']}); with render "
+          f"ahead: {again_ahead['seconds']} s ({again_ahead['ahead']}, {again_ahead['timeline']})", file=sys.stderr)
 
 
 def test_render_animation_frames_reuse_what_did_not_change(ui):
