@@ -9,6 +9,9 @@ still the same it hands the finished picture back at once (the engine skips its 
 `claim`). Any edit cancels the prepare in flight (the renderer keeps the stages it finished),
 and the next still moment sends the new job: the last edit wins, nothing queues.
 
+The renderer runs a prepare on its lower-priority threads (`background`, docs/serve.md), so the
+interface keeps the cores first.
+
 What it never does: start a renderer for a scene whose engine is not Cubist; run while a render
 job runs or a 3D view renders in Rendered shading (the view has the renderer); write anything
 beside the .blend (no layout saved, the saliency cache only into a folder F12 made already);
@@ -348,8 +351,9 @@ def _send_and_wait(p: Prepare, previous: Optional[Prepare], exporter, inputs: fr
         if p.cancelled.is_set():
             return
         p.client = client
+        # On the renderer's lower-priority threads: the interface keeps the cores first.
         p.pending = client.render_request(settings, out, scene=glb, passes=list(settings.get("passes", [])),
-                                          progress=True)
+                                          progress=True, background=True)
         counts["sent"] += 1
     # Wait without reading the progress (an F12 that claims this prepare reads it) and without
     # a hang check (F12's own request has one): until the reply, a cancel, or the end.
