@@ -105,8 +105,9 @@ last_skip: Optional[str] = None
 
 def job_key(digest: str, settings: dict) -> str:
     """What makes two jobs the same picture on the same kept outputs: the scene file's content
-    and the settings (the layout file F12 saves is an output, not an input)."""
-    s = {k: v for k, v in settings.items() if k != "save_facets"}
+    and the settings, but for where files go (frame_job.FILE_KEYS: F12 saves the layout, a
+    prepare may leave the saliency cache out)."""
+    s = {k: v for k, v in settings.items() if k not in frame_job.FILE_KEYS}
     return digest + "\n" + json.dumps(s, sort_keys=True, default=str)
 
 

@@ -16,6 +16,11 @@ from typing import Optional
 from . import mapping, runner
 
 
+# Settings that say where files go (the layout F12 saves, the mesh saliency cache), not what is
+# painted: two jobs that differ only in them are the same picture from the same kept outputs.
+FILE_KEYS = frozenset({"save_facets", "saliency_cache"})
+
+
 @dataclass
 class FrameInputs:
     """What the settings of one frame depend on, read from Blender beforehand."""
@@ -88,4 +93,5 @@ def renders_on_server(settings: dict) -> bool:
     return not (settings.get("facet_motion") == "follow" and ("facets" in settings or "save_facets" in settings))
 
 
-__all__ = ["FrameInputs", "FrameSettings", "LayoutState", "frame_settings", "layout_state", "renders_on_server"]
+__all__ = ["FILE_KEYS", "FrameInputs", "FrameSettings", "LayoutState", "frame_settings", "layout_state",
+           "renders_on_server"]

@@ -25,6 +25,7 @@ from typing import Callable, Optional
 import numpy as np
 
 from . import server
+from .frame_job import FILE_KEYS
 from .schema import SETTINGS
 from .runner.errors import Cancelled, RendererError
 from .serve_client import ServeClient, ServerError, ServerGone, ServerHung, read_rgba
@@ -75,11 +76,11 @@ def scene_digest(path: Path) -> str:
 # The pipeline's steps in order, as the replies' `timings` name them (docs/serve.md), and the
 # first one a change of each settings group reaches ("What a change re-runs"); any other group
 # (camera, image, shading, saliency, the preset) re-runs from the pre-render. Keys that only say
-# where outputs and caches go reach none.
+# where files go (frame_job.FILE_KEYS) reach none.
 STEPS = ("pre-render", "saliency", "faceting", "imprecision", "re-trace", "anti-aliasing", "paint", "encode")
 _GROUP_STEP = {"Painterly effects": "paint", "Spatial imprecision": "imprecision", "Facets": "faceting",
                "Outputs": "encode"}
-_NO_STEP = frozenset({"save_facets", "saliency_cache"})
+_NO_STEP = FILE_KEYS
 
 
 @dataclass

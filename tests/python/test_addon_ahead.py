@@ -179,3 +179,17 @@ def test_f12_waits_for_its_job_under_way_and_esc_stops_both(bpy, ahead, tmp_path
     assert p.cancelled.is_set() and p.pending.wait(30)["cancelled"] is True
     stats = server().current().stats()
     assert stats["running"] is None and stats["queued"] == 0, stats
+
+
+def test_a_saved_files_folder_is_made_by_f12_not_by_the_prepare(bpy, ahead, tmp_path):
+    scene = new_scene(bpy, 96, 72)
+    blend = tmp_path / "shot.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    scene = bpy.context.scene
+    p = wait_done(ahead.prepare(scene))
+    # Nothing beside the .blend (the prepare leaves the saliency cache out there), yet F12,
+    # which caches into a folder it makes, finds its job.
+    assert p.ok and not (tmp_path / "cubist").exists(), p.skipped
+    ready = f12(bpy, scene, tmp_path / "saved.png")
+    assert ready["ahead"] == "ready" and not set(STAGES) & set(ready["timings"]), ready
+    assert (tmp_path / "cubist").is_dir() and len(layouts(scene)) == 1
