@@ -17,9 +17,9 @@ bl_info = {
 
 
 def _modules():
-    from . import colour, engine, preferences, properties, turns, ui, viewport
+    from . import ahead, colour, engine, preferences, properties, turns, ui, viewport
 
-    return (preferences, properties, colour, turns, engine, viewport, ui)
+    return (preferences, properties, colour, turns, engine, viewport, ahead, ui)
 
 
 def register():

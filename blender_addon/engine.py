@@ -29,8 +29,8 @@ import numpy as np
 
 import bpy
 
-from . import (chosen, export, mapping, picture, pngio, preferences, runner, serve_client, serve_render, server, turns,
-               viewport)
+from . import (ahead, chosen, export, frame_job, mapping, picture, pngio, preferences, runner, serve_client, serve_render,
+               server, turns, viewport)
 from .preferences import addon_preferences
 from .preferences import panel as _panel
 
@@ -150,6 +150,7 @@ class CubistRenderEngine(bpy.types.RenderEngine):
         self._t0 = time.monotonic()
         self._result = None  # begun by the preview, ended with the picture (or cancelled)
         self._image = None  # the server's outcome (serve_render.Outcome), else the PNG `out`
+        self._claim = None  # what was rendered ahead of this render (ahead.claim)
         last_run["timeline"] = []
         unsaved_closed = _unsaved_closed
         try:
@@ -222,6 +223,9 @@ class CubistRenderEngine(bpy.types.RenderEngine):
         turns.yield_turn()
         if bool(self.test_break()) or (cancel_hook is not None and bool(cancel_hook())):
             last_run.setdefault("cancel_seen", time.monotonic())  # when (diagnostics, UI test)
+            claim = getattr(self, "_claim", None)
+            if claim is not None and claim.status == "running":
+                ahead.release(claim.prepare)  # this render waited behind it: it stops too
             return True
         return False
 
@@ -249,12 +253,20 @@ class CubistRenderEngine(bpy.types.RenderEngine):
 
         # The session's renderer (server.py), which keeps what it computed between renders; a
         # frame whose facets follow a saved key frame is the binary's alone (its frames route).
-        follow_key = settings.get("facet_motion") == "follow" and ("facets" in settings or "save_facets" in settings)
-        if not follow_key:
+        if frame_job.renders_on_server(settings):
+            digest = serve_render.scene_digest(glb)
+            # What was rendered ahead (ahead.py): this job, finished or under way, needs no
+            # preview; another one under way is cancelled, not waited for.
+            self._claim = ahead.claim(digest, settings)
+            last_run["ahead"] = self._claim.status if self._claim is not None else None
+            if preview:
+                preview = self._claim is None and serve_render.wants_preview(digest, settings)
+                last_run["preview"] = preview
+            self._mark("sent")
             try:
                 outcome = serve_render.render(binary, glb, out.parent, settings, progress, self._cancelled,
                                               on_preview=self._show_preview if preview else None,
-                                              on_start=lambda c: last_run.update(server=c.pid))
+                                              on_start=lambda c: last_run.update(server=c.pid), digest=digest)
             except serve_render.NoServe:
                 pass  # an older binary: it runs on its own below
             except runner.RendererError as e:
@@ -330,25 +342,15 @@ class CubistRenderEngine(bpy.types.RenderEngine):
             facts = self._export(depsgraph, glb, frame, warnings)
             self._mark("exported")
             self._size, self._scene_render, self._layer_name = (facts.width, facts.height), scene.render, view_layer.name
-            settings = mapping.settings_from_panel(panel, facts)
             warnings += facts.warnings
             if self._cancelled():
                 raise runner.Cancelled()
 
-            # Facets that follow the scene carry every frame's facets from the layout frame's:
-            # its layout and follow data are always shared (Static Facets or not).
-            follow = runner.follows_scene(settings)
-            layout = None
-            if (props.static_facets or follow) and runner.uses_layout(settings):
-                # The panel's seed, not the animated one: one layout for every frame.
-                layout = runner.layout_path(folder, scene.name, {**settings, "seed": panel["seed"]},
-                                            props.layout_frame)
-            cache = Path(panel["saliency_cache"]) if panel["saliency_cache"] else folder / "saliency"
-            # The renderer uses (and creates) the cache only when it computes mesh saliency.
-            if props.use_saliency_cache:
-                settings["saliency_cache"] = str(cache)
-            # A binary set in the preferences may be older than the add-on.
-            settings = runner.settings_for_binary(binary, settings)
+            fs = frame_job.frame_settings(frame_job.FrameInputs(
+                panel=panel, facts=facts, scene_name=scene.name, frame=frame, layout_frame=props.layout_frame,
+                static_facets=props.static_facets, use_saliency_cache=props.use_saliency_cache, folder=folder,
+                binary=binary))
+            settings, layout, follow, cache = fs.settings, fs.layout, fs.follow, fs.cache
             try:
                 if layout is not None:
                     folder.mkdir(parents=True, exist_ok=True)
@@ -361,7 +363,7 @@ class CubistRenderEngine(bpy.types.RenderEngine):
             # (runner.layout_source), so a moved camera or object gives new facets.
             source = None
             pre_glb = pre_settings = None
-            if layout is not None and (runner.follows_picture(settings) or follow):
+            if fs.needs_source:
                 if frame == props.layout_frame:
                     source = runner.layout_source(glb, settings)
                     _job_sources[(scene.name, frame, str(layout))] = source
@@ -369,11 +371,10 @@ class CubistRenderEngine(bpy.types.RenderEngine):
                     source, pre_glb, pre_settings = self._layout_frame_source(depsgraph, scene, panel,
                                                                               props.layout_frame, layout, tmp,
                                                                               warnings)
-            broken = runner.layout_unreadable(layout) if layout is not None else None
+            state = frame_job.layout_state(fs, source, frame, props.layout_frame)
+            broken, current, plan = state.broken, state.current, state.plan
             if broken is not None:
                 warnings.append(f"the facet layout {layout.name} could not be read ({broken}): computed again")
-            current = runner.layout_is_current(layout, source, follow) and broken is None if layout is not None else None
-            plan = runner.plan_layout(settings, layout, frame, props.layout_frame, current)
             if layout is not None and not current:
                 runner.forget_source(layout)
             span = (0.0, 1.0)
@@ -461,17 +462,25 @@ class CubistRenderEngine(bpy.types.RenderEngine):
             px = px.reshape(h, w, channels)[y0:y0 + rh, x0:x0 + rw].reshape(rw * rh, channels)
             passes[bname] = px.copy()
         pixels = None
+        rect = None
         if self._image is not None:  # the server's raw pixels
             try:
                 pixels = serve_client.read_rgba(self._image.image, w, h)
             except (OSError, runner.CubistError) as e:
                 raise runner.CubistError(f"cannot read the renderer's picture: {e}") from None
+            prepared = self._claim.prepare if self._claim is not None else None
+            if prepared is not None and prepared.rect is not None and np.array_equal(prepared.pixels, pixels):
+                # Rendered ahead, and converted then: the same picture needs no converting.
+                rect = prepared.rect[y0:y0 + rh, x0:x0 + rw].reshape(rw * rh, 4)
+                last_run["ahead_picture"] = True
         result, self._result = self._result, None
         if result is None:
             result = self.begin_result(0, 0, rw, rh, layer=view_layer.name)
         try:
             layer = result.layers[0]
-            if pixels is not None:
+            if rect is not None:
+                _set_rect(_combined(layer), rect)
+            elif pixels is not None:
                 self._put_picture(layer, pixels, (x0, y0, rw, rh))
             else:
                 layer.load_from_file(str(out), x=x0, y=y0)
@@ -567,7 +576,9 @@ def get_panels():
 
 def _end() -> None:
     """Blender quits or the add-on is disabled: the session's renderer ends first (it may be
-    writing a saliency cache into the unsaved file's folder), then that folder goes."""
+    writing a saliency cache into the unsaved file's folder), then that folder goes. Render
+    ahead stops before the renderer ends."""
+    ahead.shutdown()
     server.shutdown()
     remove_unsaved_folder()
 

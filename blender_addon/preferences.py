@@ -31,6 +31,12 @@ def draw_wrapped(layout, text: str, icon: str = "NONE", context=None) -> None:
         col.label(text=line, icon=icon if i == 0 else "BLANK1")
 
 
+def _render_ahead_changed(prefs, context) -> None:
+    from . import ahead  # which reads these preferences
+
+    ahead.preference_changed(prefs, context)
+
+
 class CubistPreferences(bpy.types.AddonPreferences):
     bl_idname = _package()
 
@@ -43,9 +49,20 @@ class CubistPreferences(bpy.types.AddonPreferences):
         default="",
     )
 
+    render_ahead: bpy.props.BoolProperty(
+        name="Render Ahead",
+        description="While the scene is still (a second without edits), render the F12 picture in the "
+                    "background on the session's renderer, so that F12 shows it at once. Uses the CPU while "
+                    "you do not edit; any edit stops it. Only for scenes whose render engine is Cubist, and "
+                    "not while a 3D view renders in Rendered shading",
+        default=True,
+        update=lambda self, context: _render_ahead_changed(self, context),
+    )
+
     def draw(self, context):
         layout = self.layout
         layout.prop(self, "binary_path")
+        layout.prop(self, "render_ahead")
         pref = bpy.path.abspath(self.binary_path) if self.binary_path else ""
         try:
             source, found = runner.locate_binary(pref)

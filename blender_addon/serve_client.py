@@ -234,13 +234,16 @@ class ServeClient:
                 cb(stage, fraction)
 
     def render_request(self, settings: dict, output: Path, scene: Optional[Path] = None,
-                       passes: Optional[list] = None, progress: bool = False) -> Pending:
+                       passes: Optional[list] = None, progress: bool = False, background: bool = False) -> Pending:
+        """`background`: on the server's lower-priority threads (a render ahead of the user)."""
         fields: dict = {"scene": str(scene) if scene is not None else None, "settings": settings,
                         "output": str(output)}
         if passes is not None:
             fields["passes"] = list(passes)
         if progress:
             fields["progress"] = True
+        if background:
+            fields["background"] = True
         return self.request("render", **fields)
 
     def render(self, settings: dict, output: Path, scene: Optional[Path] = None, passes: Optional[list] = None,

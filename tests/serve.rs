@@ -453,6 +453,22 @@ fn the_parents_death_ends_the_server() {
 /// Every field of every reply the server gives (nested objects too) and every request field
 /// is named in docs/serve.md, as `field`, and so is every timing step.
 #[test]
+fn a_background_render_gives_a_fresh_renders_pixels_and_keeps_its_stages() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut server = Server::start();
+    let settings = json!({"width": 64, "height": 48, "spp": 2});
+    let mut request = render(1, None, settings.clone(), &dir.path().join("background.png"));
+    request["background"] = json!(true);
+    let r = server.ask(request);
+    assert_eq!(r["ok"], json!(true), "{r}");
+    assert_eq!(png(&dir.path().join("background.png")), fresh(dir.path(), None, &settings, "background"));
+    // What it kept serves the same render asked in the foreground.
+    let r = server.ask(render(2, None, settings, &dir.path().join("foreground.png")));
+    assert!(reused(&r).contains(&"paint".to_string()), "{r}");
+    assert_eq!(png(&dir.path().join("foreground.png")), png(&dir.path().join("background.png")));
+}
+
+#[test]
 fn docs_serve_md_names_every_request_and_reply_field() {
     let doc = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/serve.md")).unwrap();
     let dir = tempfile::tempdir().unwrap();
@@ -462,6 +478,7 @@ fn docs_serve_md_names_every_request_and_reply_field() {
     let mut request = render(1, None, settings.clone(), &dir.path().join("a.png"));
     request["passes"] = json!(["depth"]);
     request["progress"] = json!(true);
+    request["background"] = json!(false);
     let requests = [
         request,
         json!({"id": 2, "cmd": "cancel", "target": 99}),

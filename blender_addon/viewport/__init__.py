@@ -27,7 +27,7 @@ from typing import Optional
 
 import bpy
 
-from .. import preferences, runner, server
+from .. import ahead, preferences, runner, server
 from . import drawing, timer
 from .drawing import gpu_pixels
 from .session import Job, SceneExport, ViewportSession, ending, passes_for, scaled, sessions, sessions_lock
@@ -65,6 +65,7 @@ def session_of(engine, create: bool) -> Optional[ViewportSession]:
 
 def view_update(engine, context, depsgraph) -> None:
     t0 = time.perf_counter()
+    ahead.cancel()  # the view has the renderer now (render ahead waits while views render)
     session = session_of(engine, create=True)
     if session is None:
         return

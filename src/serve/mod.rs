@@ -9,8 +9,10 @@
 //! the signal, as it is on Unix when the parent closes its end). `shutdown` and EOF on stdin
 //! end the server once the renders asked before are done (`cancel` first to drop them); the
 //! parent's death cancels them. The server writes only the outputs it is asked for (atomically: a temporary
-//! file beside each, renamed once complete, removed on failure) and no other file.
+//! file beside each, renamed once complete, removed on failure) and no other file. A
+//! background render runs on threads of a lower CPU priority (`background`).
 
+mod background;
 mod protocol;
 
 use std::collections::VecDeque;
@@ -269,7 +271,12 @@ fn work(shared: &Shared, mut session: Session) {
                 st = shared.wake.wait(st).unwrap_or_else(|e| e.into_inner());
             }
         };
-        let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| render(&mut session, &job)));
+        // A background render runs on the lowered pool (background.rs), the rest on the global one.
+        let pool = if job.request.background { background::pool() } else { None };
+        let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| match pool {
+            Some(pool) => pool.install(|| render(&mut session, &job)),
+            None => render(&mut session, &job),
+        }));
         let reply = match outcome {
             Ok(Ok(reply)) => reply,
             Ok(Err(Error::Cancelled)) => protocol::error_reply(&job.id, "cancelled", true),

@@ -46,6 +46,10 @@ pub struct RenderRequest {
     /// Write `PROGRESS <fraction> <stage>` lines on stderr while rendering.
     #[serde(default)]
     pub progress: bool,
+    /// Render on threads of a lower CPU priority (a render ahead of the client's user): the
+    /// same pixels, the cores left to the client's interface first.
+    #[serde(default)]
+    pub background: bool,
 }
 
 fn empty_object() -> Value {

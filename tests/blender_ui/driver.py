@@ -18,19 +18,18 @@ renders the exported files with the CLI). Blender quits at the end, also after a
 """
 
 import json
-import os
 import random
 import sys
 import tempfile
 import time
-import traceback
 from pathlib import Path
 
 import addon_utils
 import bpy
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-import user_input  # noqa: E402 - beside this script, which Blender runs by path
+import stepper  # noqa: E402 - beside this script, which Blender runs by path
+import user_input  # noqa: E402
 
 ARGS = sys.argv[sys.argv.index("--") + 1:]
 ROOT, OUT, BINARY = Path(ARGS[0]), Path(ARGS[1]), ARGS[2]
@@ -392,30 +391,4 @@ def write_results():
     (OUT / "results.json").write_text(json.dumps(results, indent=1, default=str))
 
 
-_steps = None
-
-
-def tick():
-    global _steps
-    try:
-        if _steps is None:
-            _steps = main()
-        return next(_steps)
-    except StopIteration:
-        pass
-    except BaseException:
-        results["failure"] = traceback.format_exc()
-        log(results["failure"])
-    write_results()
-    try:
-        with bpy.context.temp_override(**window_context()):
-            bpy.ops.wm.quit_blender()
-    except RuntimeError:
-        # Blender refuses the operator when its write guard is stuck (turns.py): leave anyway,
-        # with the results written, rather than wait for the test's timeout.
-        log(traceback.format_exc())
-        os._exit(3)
-    return None
-
-
-bpy.app.timers.register(tick, first_interval=2.0)
+stepper.run(main, results, write_results, log, stepper.quit_by_operator(window_context, log, exit_code=3))

@@ -10,8 +10,10 @@ Suzanne and a sphere instead of the cube and a sun, at the factory 1920 x 1080, 
 file (its layouts in the unsaved file's temporary folder). From a `bpy.app.timers` callback
 (the main thread), as a user would, with F12 pressed as a key (user_input.py):
 
-1. speed: the first F12 of the session (where its time goes: the engine's timeline), F12
-   again with one panel value changed, Render Animation of three frames with a moving camera;
+1. speed: the first F12 of the session once render ahead has prepared it (where its time goes:
+   the engine's timeline), F12 again with one panel value changed, the first F12 again on a new
+   renderer without render ahead (the same picture), Render Animation of three frames with a
+   moving camera (render ahead is then off until the last step);
 2. the renderer killed (SIGKILL) during F12, then during the viewport's render, each followed
    by a working F12;
 3. fifty panel edits in five seconds while the viewport renders;
@@ -19,7 +21,7 @@ file (its layouts in the unsaved file's temporary folder). From a `bpy.app.timer
    platform, one that is not executable;
 5. the temporary folder full, then read-only;
 6. the .blend saved, its facet layout truncated, then replaced by garbage;
-7. File > New during F12, then Ctrl+Q during F12.
+7. File > New during F12, then Ctrl+Q during F12 (render ahead on again).
 
 A 20 ms heartbeat timer runs all along: the gaps between its ticks are how long the interface
 went without handling events. Everything goes to OUT/results.json; the test checks it and,
@@ -33,14 +35,14 @@ import subprocess
 import sys
 import tempfile
 import time
-import traceback
 from pathlib import Path
 
 import addon_utils
 import bpy
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-import user_input  # noqa: E402 - beside this script, which Blender runs by path
+import stepper  # noqa: E402 - beside this script, which Blender runs by path
+import user_input  # noqa: E402
 
 ARGS = sys.argv[sys.argv.index("--") + 1:]
 ROOT, OUT, BINARY, TINY = Path(ARGS[0]), Path(ARGS[1]), ARGS[2], ARGS[3]
@@ -73,6 +75,10 @@ def server():
 
 def vp():
     return sys.modules["blender_addon.viewport"]
+
+
+def ahead():
+    return sys.modules["blender_addon.ahead"]
 
 
 def prefs():
@@ -118,7 +124,10 @@ def f12(animation=False, timeout=300):
             "cancelled": run.get("cancelled"), "server": run.get("server"), "timeline": run.get("timeline"),
             "preview_seconds": run.get("preview_seconds"), "timings": run.get("timings"),
             "preview_timings": run.get("preview_timings"), "reused": run.get("reused"),
-            "scene_load": run.get("scene_load"), "warnings": run.get("warnings"), "chosen": run.get("chosen"), "gap": longest_gap(t0)}
+            "scene_load": run.get("scene_load"), "warnings": run.get("warnings"), "chosen": run.get("chosen"),
+            "ahead": run.get("ahead"), "ahead_picture": run.get("ahead_picture"), "preview": run.get("preview"),
+            "job_started": next((round(t - t0, 3) for t in user_input._jobs_started if t >= t0), None),
+            "gap": longest_gap(t0)}
 
 
 def responsive(step):
@@ -187,14 +196,50 @@ def setup():
     yield 3.0  # the user looks at the panel
 
 
+def wait_prepared(timeout=300):
+    """Yields until render ahead has prepared F12's job for the scene as it is (the scene left
+    still: the add-on's idle timer sends it); returns what the prepare did."""
+    t0 = time.monotonic()
+    mod = ahead()
+    while time.monotonic() - t0 < timeout:
+        p = mod.current()
+        if p is not None and p.done.is_set() and p.edits == mod._edits:
+            return {"ok": p.ok, "skipped": p.skipped, "seconds": p.seconds, "waited": round(time.monotonic() - t0, 2),
+                    "timings": (p.reply or {}).get("timings"), "counts": dict(mod.counts), "last_skip": mod.last_skip}
+        yield 0.1
+    raise TimeoutError(f"render ahead prepared nothing within {timeout} s: {mod.counts}, {mod.last_skip}")
+
+
 def step_speed():
-    """The first F12 of the session, F12 again with one panel change, then Render Animation."""
+    """The first F12 of the session once render ahead has prepared it; F12 again a second after
+    one panel change, with render ahead off (the repeat alone), then on; the first F12 again
+    without render ahead, on a new renderer that keeps nothing (the same picture, its preview
+    first); Render Animation."""
     scene = bpy.context.scene
+    prepared = yield from wait_prepared()
+    engine().keep_exports = OUT / "exports"  # the scene and settings F12 sent (frame_0001.*)
     first = yield from f12()
+    engine().keep_exports = None
+    first["prepared"] = prepared
     bpy.data.images["Render Result"].save_render(str(OUT / "first.png"), scene=scene)
+    prefs().render_ahead = False
     scene.cubist.border_width += 2.0
     yield 1.0
     again = yield from f12()
+    # The same with render ahead: the changed value's picture is under way when F12 comes.
+    prefs().render_ahead = True
+    scene.cubist.border_width += 2.0
+    yield 1.0
+    again_ahead = yield from f12()
+    prefs().render_ahead = False
+    # The same first F12 without render ahead: a new renderer, the layout computed again.
+    scene.cubist.border_width -= 4.0
+    server().shutdown()
+    for f in Path(engine().layout_folder(scene.cubist)).glob("*.facets.json*"):
+        f.unlink()
+    yield 1.0
+    cold = yield from f12()
+    bpy.data.images["Render Result"].save_render(str(OUT / "cold.png"), scene=scene)
     cam = scene.camera
     for frame, x in ((1, cam.location.x), (3, cam.location.x + 1.0)):
         cam.location.x = x
@@ -219,8 +264,10 @@ def step_speed():
     anim["written"] = sorted(p.name for p in (OUT / "anim").glob("*.png"))
     cam.animation_data_clear()
     scene.frame_set(1)
-    results["steps"]["speed"] = {"first": first, "again": again, "animation": anim}
-    log(f"speed: first {first['seconds']} s (preview {first['preview_seconds']}), again {again['seconds']} s")
+    results["steps"]["speed"] = {"first": first, "again": again, "again_ahead": again_ahead, "cold": cold,
+                                 "animation": anim}
+    log(f"speed: first (rendered ahead) {first['seconds']} s, again {again['seconds']} s (with render ahead "
+        f"{again_ahead['seconds']} s), without render ahead {cold['seconds']} s (preview {cold['preview_seconds']})")
     yield from responsive("speed")
 
 
@@ -438,7 +485,8 @@ def step_quit_during_render():
     Blender has exited, that the renderer and every folder are gone)."""
     scene = bpy.context.scene
     scene.render.engine = "CUBIST"
-    yield 1.0
+    prefs().render_ahead = True  # (off since step_speed): quitting ends it too
+    yield from wait_prepared()
     long_render(scene)
     client = yield from press_start()
     results["steps"]["quit"] = {"server_pid": client.pid, "server_workspace": str(client.workspace),
@@ -487,32 +535,11 @@ def write_results():
     (OUT / "results.json").write_text(json.dumps(results, indent=1, default=str))
 
 
-_steps = None
-
-
-def tick():
-    global _steps
-    try:
-        if _steps is None:
-            _steps = main()
-        return next(_steps)
-    except StopIteration:
-        pass
-    except BaseException:
-        results["failure"] = traceback.format_exc()
-        log(results["failure"])
-    write_results()
-    # A render may still run (the last step): Ctrl+Q, as a user quits (user_input.py).
-    user_input.quit_blender()
-    bpy.app.timers.register(quit_by_operator, first_interval=30.0)
-    return None
-
-
-def quit_by_operator():
-    log("Ctrl+Q did not quit Blender: quitting with the operator")
+def override():
     window, area, region = view3d()
-    with bpy.context.temp_override(window=window, screen=window.screen, area=area, region=region):
-        bpy.ops.wm.quit_blender()
+    return {"window": window, "screen": window.screen, "area": area, "region": region}
 
 
-bpy.app.timers.register(tick, first_interval=2.0, persistent=True)
+# A render may still run at the end (the last step): Ctrl+Q, as a user quits (user_input.py).
+stepper.run(main, results, write_results, log, stepper.quit_by_keys(override, log, fallback_after=30.0),
+            persistent=True)

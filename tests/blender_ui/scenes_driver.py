@@ -27,7 +27,6 @@ checks them. Blender quits at the end, also after a failure.
 
 import json
 import math
-import os
 import sys
 import time
 import traceback
@@ -38,7 +37,8 @@ import bmesh
 import bpy
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-import user_input  # noqa: E402 - beside this script, which Blender runs by path
+import stepper  # noqa: E402 - beside this script, which Blender runs by path
+import user_input  # noqa: E402
 
 ARGS = sys.argv[sys.argv.index("--") + 1:]
 ROOT, OUT, BINARY = Path(ARGS[0]), Path(ARGS[1]), ARGS[2]
@@ -606,29 +606,4 @@ def write_results():
     (OUT / "results.json").write_text(json.dumps(results, indent=1, default=str))
 
 
-_steps = None
-
-
-def tick():
-    global _steps
-    try:
-        if _steps is None:
-            _steps = main()
-        return next(_steps)
-    except StopIteration:
-        pass
-    except BaseException:
-        results["failure"] = traceback.format_exc()
-        log(results["failure"])
-    write_results()
-    try:
-        with bpy.context.temp_override(**window_context()):
-            bpy.ops.wm.quit_blender()
-    except Exception as e:  # noqa: BLE001 - operators refuse to run once the write flag is stuck
-        log(f"quit_blender failed ({e}): exiting")
-        sys.stdout.flush()
-        os._exit(0)
-    return None
-
-
-bpy.app.timers.register(tick, first_interval=2.0)
+stepper.run(main, results, write_results, log, stepper.quit_by_operator(window_context, log, exit_code=0))

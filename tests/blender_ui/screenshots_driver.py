@@ -13,7 +13,6 @@ import json
 import subprocess
 import sys
 import time
-import traceback
 from pathlib import Path
 
 import bpy
@@ -22,6 +21,7 @@ ARGS = sys.argv[sys.argv.index("--") + 1:]
 ROOT, OUT, BINARY = Path(ARGS[0]), Path(ARGS[1]), ARGS[2]
 OUT.mkdir(parents=True, exist_ok=True)
 sys.path.insert(0, str(ROOT / "tests" / "blender_ui"))
+import stepper  # noqa: E402
 import user_input  # noqa: E402
 
 shots: dict = {}
@@ -113,23 +113,5 @@ def main():
     snap("f12", area_of("IMAGE_EDITOR"))
 
 
-_steps = None
-
-
-def tick():
-    global _steps
-    try:
-        if _steps is None:
-            _steps = main()
-        return next(_steps)
-    except StopIteration:
-        pass
-    except BaseException:
-        shots["failure"] = traceback.format_exc()
-        log(shots["failure"])
-    (OUT / "shots.json").write_text(json.dumps(shots, indent=1))
-    user_input.quit_blender()
-    return None
-
-
-bpy.app.timers.register(tick, first_interval=2.0)
+stepper.run(main, shots, lambda: (OUT / "shots.json").write_text(json.dumps(shots, indent=1)), log,
+            user_input.quit_blender)

@@ -25,7 +25,6 @@ import os
 import sys
 import tempfile
 import time
-import traceback
 from pathlib import Path
 
 import addon_utils
@@ -33,7 +32,8 @@ import bpy
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-import user_input  # noqa: E402 - beside this script, which Blender runs by path
+import stepper  # noqa: E402 - beside this script, which Blender runs by path
+import user_input  # noqa: E402
 
 ARGS = sys.argv[sys.argv.index("--") + 1:]
 ROOT, OUT, BINARY = Path(ARGS[0]), Path(ARGS[1]), ARGS[2]
@@ -395,32 +395,5 @@ def write_results():
     (OUT / "results.json").write_text(json.dumps(results, indent=1, default=str))
 
 
-_steps = None
-
-
-def tick():
-    global _steps
-    try:
-        if _steps is None:
-            _steps = main()
-        return next(_steps)
-    except StopIteration:
-        pass
-    except BaseException:
-        results["failure"] = traceback.format_exc()
-        log(results["failure"])
-    write_results()
-    # The viewport's threads may still run: Ctrl+Q rather than the operator (user_input.py).
-    user_input.quit_blender()
-    bpy.app.timers.register(quit_by_operator, first_interval=20.0)
-    return None
-
-
-def quit_by_operator():
-    """If Ctrl+Q did not reach Blender in 20 s: the operator, so the test does not hang."""
-    log("Ctrl+Q did not quit Blender: quitting with the operator")
-    with bpy.context.temp_override(**override()):
-        bpy.ops.wm.quit_blender()
-
-
-bpy.app.timers.register(tick, first_interval=2.0)
+# The viewport's threads may still run at the end: Ctrl+Q rather than the operator (user_input.py).
+stepper.run(main, results, write_results, log, stepper.quit_by_keys(override, log, fallback_after=20.0))

@@ -443,8 +443,13 @@ def test_the_render_path_uses_no_operator_context_or_scene_frame(engine, export)
     pngio, runner, mapping, turns = (sys.modules[f"blender_addon.{m}"] for m in ("pngio", "runner", "mapping", "turns"))
     # turns.py's handlers run on the render thread too (render_pre, render_post).
     # The session's renderer and the picture's hand-back run there too (F12 on `cubist serve`).
-    served = [sys.modules[f"blender_addon.{m}"] for m in ("serve_render", "server", "serve_client", "picture")]
+    served = [sys.modules[f"blender_addon.{m}"] for m in ("serve_render", "server", "serve_client", "picture",
+                                                          "frame_job")]
     sources = [inspect.getsource(m) for m in (export, pngio, runner, mapping, *served)]
+    # What was rendered ahead is claimed from the render thread, and prepared on a worker thread.
+    ahead = sys.modules["blender_addon.ahead"]
+    sources += [inspect.getsource(f) for f in (ahead.claim, ahead.cancel, ahead.release, ahead.job_key, ahead._work,
+                                               ahead._send_and_wait, ahead._remove_older)]
     sources += [inspect.getsource(f) for f in (turns._long_turns, turns._short_turns, turns.yield_turn)]
     cls = engine.CubistRenderEngine
     sources += [inspect.getsource(cls.__dict__[name]) for name in ("render", *RENDER_PATH)]

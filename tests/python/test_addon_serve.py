@@ -231,6 +231,39 @@ def test_f12_on_the_sessions_renderer_shows_a_preview_first(cubist_binary, tmp_p
     assert server.current() is None
 
 
+def test_the_preview_is_left_out_when_the_picture_is_expected_soon(cubist_binary, tmp_path, monkeypatch):
+    """serve_render.wants_preview: after a picture, the steps a change reaches at what they cost
+    then decide; another scene or a new renderer (nothing kept) is unknown: a preview."""
+    from blender_addon import serve_render, server
+
+    monkeypatch.setattr(serve_render, "PREVIEW_WORTH", 0.5)
+    settings = {"width": 320, "height": 240, "spp": 2}
+    digest = "scene-a"
+    try:
+        assert serve_render.wants_preview(digest, settings)  # nothing known yet
+        serve_render.render(cubist_binary, None, tmp_path, settings, lambda s, f: None, lambda: False, digest=digest)
+        seconds = serve_render._costs[(320, 240)].seconds
+        assert set(seconds) == set(serve_render.STEPS) and seconds["pre-render"] > 0.0, seconds
+        # Nothing changed: nothing to run (the encoding at most).
+        assert serve_render.expected_seconds(digest, settings) <= seconds["encode"] + 1e-9
+        # A painterly change reaches paint and encode; a camera change everything.
+        paint = {**settings, "border_width": 9.0}
+        assert serve_render.expected_seconds(digest, paint) == pytest.approx(seconds["paint"] + seconds["encode"])
+        camera = {**settings, "ambiguity": 120.0}
+        assert serve_render.expected_seconds(digest, camera) == pytest.approx(sum(seconds.values()))
+        # Where the layout goes is no change.
+        assert serve_render.expected_seconds(digest, {**settings, "save_facets": str(tmp_path / "l.json")}) == \
+            serve_render.expected_seconds(digest, settings)
+        monkeypatch.setattr(serve_render, "PREVIEW_WORTH", seconds["paint"] + seconds["encode"] + 1.0)
+        assert not serve_render.wants_preview(digest, paint)
+        assert serve_render.wants_preview("scene-b", paint)
+        # A new renderer keeps nothing: not known.
+        server.shutdown()
+        assert serve_render.expected_seconds(digest, settings) is None
+    finally:
+        server.shutdown()
+
+
 def test_picture_conversion_is_blenders_png_decoding():
     """picture.result_rect: sRGB to linear, premultiplied, bottom-up, the region cut out."""
     from blender_addon import picture

@@ -1,7 +1,8 @@
 """F12 on the session's renderer, and Blender surviving whatever the renderer does, in the
 interactive UI: a windowed Blender (Debian's 3.4.1) under Xvfb driven by
 tests/blender_ui/host_driver.py through one session of steps (its docstring lists them): the
-first F12 at 1920 x 1080 with its coarse preview, F12 again after one panel change, Render
+first F12 at 1920 x 1080 once render ahead prepared it (the same picture as without render
+ahead), F12 again after one panel change, F12 on a new renderer with its coarse preview, Render
 Animation reusing what did not change; the renderer killed during F12 and during the viewport's
 render; fifty panel edits in five seconds; a renderer that stops answering, a binary for
 another platform, one that is not executable; the temporary folder full and read-only; a
@@ -20,6 +21,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from addon_support import ROOT, cubist_binary, require_windowed_blender, run_windowed_blender  # noqa: F401
@@ -100,24 +102,56 @@ def test_host_blender_runs_every_step_and_quits(ui):
     print(f"\nhost steps (s): {r['step_seconds']}", file=sys.stderr)
 
 
+STAGES = {"pre-render", "saliency", "faceting", "imprecision", "re-trace", "anti-aliasing", "paint"}
+
+
+def png_pixels(path):
+    sys.path.insert(0, str(ROOT / "blender_addon"))
+    import pngio
+
+    return pngio.read(path)
+
+
+def test_f12_after_an_idle_wait_hands_back_the_picture_rendered_ahead(ui):
+    s = step(ui, "speed")
+    first, cold = s["first"], s["cold"]
+    assert ui["results"]["size"] == [1920, 1080, 100]
+    assert ok(first) and ok(cold), (first, cold)
+    assert first["prepared"]["ok"], first["prepared"]
+    # F12 used the prepared job: no preview, every stage kept, the picture converted ahead.
+    assert first["ahead"] == "ready" and first["preview"] is False and first["ahead_picture"], first
+    assert not STAGES & set(first["timings"]), first["timings"]
+    # The same picture as F12 without render ahead, on a renderer that kept nothing.
+    assert cold["ahead"] is None and cold["reused"] == [] and cold["server"] != first["server"], cold
+    assert np.array_equal(png_pixels(ui["out"] / "first.png"), png_pixels(ui["out"] / "cold.png"))
+    marks = dict(first["timeline"])
+    print(f"\nfirst F12 at 1920x1080, rendered ahead: {first['seconds']} s from the key (render() began "
+          f"{first['job_started']} s after it; {first['timeline']}); the prepare: {first['prepared']}", file=sys.stderr)
+    assert marks["exported"] < marks["reply"] < marks["delivered"], first["timeline"]
+
+
 def test_f12_shows_a_preview_then_the_picture_on_the_sessions_renderer(ui):
     s = step(ui, "speed")
-    first, again = s["first"], s["again"]
-    assert ui["results"]["size"] == [1920, 1080, 100]
-    assert ok(first) and ok(again), (first, again)
-    assert first["server"] and again["server"] == first["server"]
-    marks = dict(first["timeline"])
+    cold, again = s["cold"], s["again"]
+    assert ok(again), again
+    assert again["server"] == s["first"]["server"]
+    marks = dict(cold["timeline"])
     # The coarse preview reached the Render Result before the picture did.
-    assert marks["exported"] < marks["preview shown"] < marks["reply"] < marks["delivered"], first["timeline"]
-    assert first["preview_timings"] is not None and first["reused"] == []
+    assert cold["preview"] is True, cold
+    assert marks["exported"] < marks["preview shown"] < marks["reply"] < marks["delivered"], cold["timeline"]
+    assert cold["preview_timings"] is not None
     # What the renderer chose for the panel's Auto values, for the panel to show (compose keeps
     # the subject within a narrow cone of the focal centre, at most 160 deg).
-    assert 0.0 < first["chosen"]["ambiguity"] <= 160.0, first["chosen"]
+    assert 0.0 < cold["chosen"]["ambiguity"] <= 160.0, cold["chosen"]
     # One panel value changed: what it does not reach is reused.
     assert {"pre-render", "saliency"} <= set(again["reused"]), again["reused"]
-    print(f"\nfirst F12 at 1920x1080: {first['seconds']} s from the key (preview {first['preview_seconds']:.2f} s "
-          f"after render() began; {first['timeline']}); again after one change: {again['seconds']} s",
-          file=sys.stderr)
+    # With render ahead, F12 a second after the change finds that picture under way or done.
+    again_ahead = s["again_ahead"]
+    assert ok(again_ahead) and again_ahead["ahead"] in ("ready", "running"), again_ahead
+    print(f"\nF12 without render ahead at 1920x1080: {cold['seconds']} s from the key (preview "
+          f"{cold['preview_seconds']:.2f} s after render() began; {cold['timeline']}); again after one change "
+          f"(render ahead off): {again['seconds']} s ({again['timeline']}, preview {again['preview']}); with render "
+          f"ahead: {again_ahead['seconds']} s ({again_ahead['ahead']}, {again_ahead['timeline']})", file=sys.stderr)
 
 
 def test_render_animation_frames_reuse_what_did_not_change(ui):
