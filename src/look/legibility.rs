@@ -235,7 +235,7 @@ mod tests {
         let m = map(10, 10, |x, _| (x >= 5) as u32, 2);
         let inside: Vec<usize> = (0..10).flat_map(|y| (1..4).map(move |x| y * 10 + x)).collect();
         let across: Vec<usize> = (0..10).flat_map(|y| (3..7).map(move |x| y * 10 + x)).collect();
-        assert_eq!(features_whole(&m, &[inside.clone()]), 1.0);
+        assert_eq!(features_whole(&m, std::slice::from_ref(&inside)), 1.0);
         assert_eq!(features_whole(&m, &[inside, across]), 0.5);
     }
 

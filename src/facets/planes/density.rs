@@ -216,7 +216,7 @@ mod tests {
         assert!(at(150, 60) > at(159, 0));
         // The features kept whole: salient cells of the subject only.
         let cov = Cues::new(w, h, &|i| (i % w as usize) < 100, Some(&sal));
-        assert!(cov.protect.iter().any(|&p| p == 1.0));
+        assert!(cov.protect.contains(&1.0));
         assert!(
             cov.protect.iter().enumerate().all(|(k, &p)| p == 0.0 || k % cov.columns < 90),
             "features off the subject"
