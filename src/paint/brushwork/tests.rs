@@ -22,6 +22,7 @@ fn stroke(centre: Vec2, angle: f32, half_len: f32, half_wid: f32) -> Stroke {
         jitter: 1.0,
         order: 0,
         opacity: 1.0,
+        smooth: false,
     }
 }
 
