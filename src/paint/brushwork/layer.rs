@@ -90,7 +90,7 @@ pub(super) const SAMPLES_AT: [f32; 3] = [-0.6, 0.0, 0.6];
 
 /// The picture at point `q` (pixels) interpolated between the centres of the (up to) four
 /// pixels around it that are painted and of `region`; None where none is.
-fn bilinear(source: &[Vec4], surface: &Surface, region: Region, q: Vec2) -> Option<Vec3> {
+pub(super) fn bilinear(source: &[Vec4], surface: &Surface, region: Region, q: Vec2) -> Option<Vec3> {
     let (fx, fy) = ((q.x - 0.5).floor(), (q.y - 0.5).floor());
     let (tx, ty) = (q.x - 0.5 - fx, q.y - 0.5 - fy);
     let (mut sum, mut weight) = (Vec3::ZERO, 0.0f32);
