@@ -8,7 +8,8 @@ motion`), and reports per pair of consecutive frames, then their mean:
 - flicker: mean change (0-255, mean of R, G, B) of the pixels whose surface point and lighting
   did not change: background in both frames, or the same object with no motion either way
   (under 0.05 px) and the same normal; `bg_flicker` and `bg_changed` (the share of those
-  background pixels that changed at all) for the background alone;
+  background pixels that changed at all) for the background alone, and `far_bg_changed` for
+  the background farther than 20 px from the subject (in both frames);
 - coherence: over the pixels of frame t+1 showing a surface that moved (at least 0.5 px) and
   was visible at frame t (the motion pass's two halves agree within a pixel, same object), the
   mean change after warping frame t onto t+1 along the motion, divided by the mean change
@@ -35,6 +36,7 @@ STILL_PX = 0.05
 MOVING_PX = 0.5
 POP_LEVEL = 40.0
 PLANE_SHARE = 0.0005
+FAR_PX = 20
 
 
 def frame_path(pattern, f, pass_name=None):
@@ -82,10 +84,22 @@ def bilinear(img, x, y):
             + img[y1, x1] * fx * fy)
 
 
+def near(mask, r):
+    """Pixels within r (a square of side 2r + 1) of a pixel of mask."""
+    h, w = mask.shape
+    s = np.zeros((h + 1, w + 1), np.int64)
+    s[1:, 1:] = mask.astype(np.int64).cumsum(0).cumsum(1)
+    ys, xs = np.mgrid[0:h, 0:w]
+    y0, y1 = np.clip(ys - r, 0, h), np.clip(ys + r + 1, 0, h)
+    x0, x1 = np.clip(xs - r, 0, w), np.clip(xs + r + 1, 0, w)
+    return (s[y1, x1] - s[y0, x1] - s[y1, x0] + s[y0, x0]) > 0
+
+
 def pair(a, b):
     h, w = a["obj"].shape
     diff = np.abs(b["img"] - a["img"]).mean(-1)
     bg = (a["obj"] == 0) & (b["obj"] == 0)
+    far_bg = bg & ~near((a["obj"] != 0) | (b["obj"] != 0), FAR_PX)
     still_surface = ((a["obj"] == b["obj"]) & (a["obj"] != 0)
                      & (np.hypot(a["mot"][..., 2], a["mot"][..., 3]) < STILL_PX)
                      & (np.hypot(b["mot"][..., 0], b["mot"][..., 1]) < STILL_PX)
@@ -123,6 +137,7 @@ def pair(a, b):
         "flicker": float(diff[still].mean()) if still.any() else 0.0,
         "bg_flicker": float(diff[bg].mean()) if bg.any() else 0.0,
         "bg_changed": float((diff[bg] > 0).mean()) if bg.any() else 0.0,
+        "far_bg_changed": float((diff[far_bg] > 0).mean()) if far_bg.any() else 0.0,
         "coherence": float(coherence),
         "pops": float(pops),
         "plane_pops": plane_pops,
@@ -138,7 +153,7 @@ def main(argv):
     pattern, first, last = argv[1], int(argv[2]), int(argv[3])
     frames = [load(pattern, f) for f in range(first, last + 1)]
     rows = [dict(frame=first + k, **pair(frames[k], frames[k + 1])) for k in range(len(frames) - 1)]
-    keys = ["flicker", "bg_flicker", "bg_changed", "coherence", "pops", "plane_pops", "changed"]
+    keys = ["flicker", "bg_flicker", "bg_changed", "far_bg_changed", "coherence", "pops", "plane_pops", "changed"]
     mean = {k: float(np.nanmean([r[k] for r in rows])) for k in keys}
     if "--json" in argv:
         print(json.dumps({"pairs": rows, "mean": mean}, indent=1))

@@ -5,6 +5,7 @@ use glam::{Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 
 use super::inputs::PaintInputs;
+use super::sequence::{Held, Sequence};
 use super::{chiaroscuro, palette, plane_light};
 use crate::facets::FacetMap;
 use crate::film::PixelHit;
@@ -135,25 +136,6 @@ pub struct Lighting<'a> {
     pub view: chiaroscuro::ViewAxes,
 }
 
-/// What animation frames hold still across a sequence, so that what does not move in the
-/// scene does not change in the picture (`Painter::apply_sequence`).
-#[derive(Default)]
-pub struct Sequence<'a> {
-    /// The palette's luminance mapping, decided once (`Painter::palette_key`) instead of from
-    /// each frame's own pixels (a moving subject would shift every pixel's rank).
-    pub palette: Option<&'a palette::PaletteKey>,
-    /// The facet map the planes are read from (the layout's), instead of the frame's own.
-    pub planes_from: Option<&'a FacetMap>,
-    /// Per facet id, how far its plane moved since `planes_from` (pixels; facets that follow
-    /// the scene: `facets::motion::Carried::shift`).
-    pub plane_shift: Option<&'a [Vec2]>,
-    /// Where strokes go (`strokes::surface`), instead of the still's grid.
-    pub seeds: Option<&'a dyn crate::strokes::SeedSource>,
-    /// The composition's light centre (the layout frame's subject), instead of the frame's own
-    /// subject: a moving subject would relight the still background.
-    pub oval: Option<plane_light::Oval>,
-}
-
 /// What the effects read besides the canvas.
 pub struct PaintContext<'a> {
     /// The representative hit of every pixel (normals for chiaroscuro).
@@ -175,14 +157,38 @@ impl<'a> PaintContext<'a> {
         self.sequence.and_then(|s| s.oval).unwrap_or_else(|| plane_light::Oval::of(width, height, self.hits))
     }
 
+    /// Animation frames: what the layout frame's picture fixed for the sequence.
+    pub fn held(&self) -> Option<&Held> {
+        self.sequence.and_then(|s| s.held)
+    }
+
     /// Animation frames: the palette's mapping decided for the sequence.
     pub fn palette_key(&self) -> Option<&palette::PaletteKey> {
-        self.sequence.and_then(|s| s.palette)
+        self.held().and_then(|h| h.palette.as_ref())
+    }
+
+    /// Whether this is a frame of a sequence (`Sequence`).
+    pub fn in_sequence(&self) -> bool {
+        self.sequence.is_some()
     }
 
     /// Animation frames: where strokes go.
     pub fn seeds(&self) -> Option<&dyn crate::strokes::SeedSource> {
         self.sequence.and_then(|s| s.seeds)
+    }
+
+    /// Where pixel `i` of a `width`-wide picture reads its plane (the ramp, the composition's
+    /// light, the line's lost and found): its centre, or, with facets that follow, where its
+    /// surface point was on the key frame's picture moved by its plane's shift (the plane is
+    /// the key frame's moved so: `PaintContext::planes`), so what is laid on the plane moves
+    /// with the surface, not only with the plane's mean move.
+    pub fn plane_point(&self, i: usize, width: usize) -> Vec2 {
+        let centre = Vec2::new((i % width) as f32 + 0.5, (i / width) as f32 + 0.5);
+        let Some(s) = self.sequence else { return centre };
+        match s.at_key.and_then(|k| k.get(i)).filter(|q| q.is_finite()) {
+            Some(q) => *q + s.plane_shift.and_then(|d| d.get(self.facet(i) as usize)).copied().unwrap_or(Vec2::ZERO),
+            None => centre,
+        }
     }
 
     /// The facet id of pixel `i` (0 without a facet map).

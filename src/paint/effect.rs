@@ -5,7 +5,7 @@ use serde::Serialize;
 use xxhash_rust::xxh3::Xxh3;
 
 use super::context::{Canvas, PaintContext};
-use super::palette;
+use super::{palette, sequence};
 use crate::error::Result;
 
 /// One painterly effect. `apply` must be deterministic (no thread-dependent order) and must
@@ -18,8 +18,13 @@ pub trait Effect: Send + Sync {
     }
     fn apply(&self, canvas: &mut Canvas<'_>, ctx: &PaintContext) -> Result<()>;
     /// A colour transfer's luminance mapping for this canvas, to hold for a sequence
-    /// (`Painter::palette_key`); None for every other effect.
+    /// (`Painter::hold`); None for every other effect.
     fn palette_key(&self, _canvas: &Canvas<'_>) -> Option<palette::PaletteKey> {
+        None
+    }
+    /// The region means this effect reads of this canvas that a sequence holds
+    /// (`sequence::Held::means`, `Painter::hold`); None for every effect that reads none.
+    fn region_means(&self, _canvas: &Canvas<'_>, _ctx: &PaintContext) -> Option<sequence::RegionMeans> {
         None
     }
 }

@@ -110,9 +110,16 @@ impl<'a> PaintContext<'a> {
         let n = pixels;
         let ids = self.facets.map(|f| &f.ids[..]).filter(|d| d.len() == n);
         let hits = (self.hits.len() == n).then_some(self.hits);
-        let open = match (ids, hits) {
-            (Some(ids), Some(hits)) if self.open_planes => open_planes(ids, hits, self.facet_count()),
-            _ => Vec::new(),
+        // A sequence's frames read which planes are open off the layout frame (`Held::open`).
+        let held = self.held().and_then(|h| h.open.as_ref()).filter(|_| self.open_planes && ids.is_some());
+        let made;
+        let open: &[bool] = match (held, ids, hits) {
+            (Some(open), _, _) => open,
+            (None, Some(ids), Some(hits)) if self.open_planes => {
+                made = open_planes(ids, hits, self.facet_count());
+                &made
+            }
+            _ => &[],
         };
         let r: Arc<Vec<u64>> = Arc::new(
             (0..n)
@@ -166,6 +173,13 @@ impl<'a> PaintContext<'a> {
                 plane.centre += *d;
                 let along = d.dot(plane.dark);
                 plane.span = (plane.span.0 + along, plane.span.1 + along);
+            }
+        }
+        if let Some((layout, still)) = self.sequence.and_then(|s| s.still_planes).filter(|(f, _)| f.ids.len() == pixels)
+        {
+            let held = planes::planes(width, &layout.ids, p.len().max(layout.facet_count as usize), seed);
+            for ((plane, held), _) in p.iter_mut().zip(held).zip(still).filter(|(_, still)| **still) {
+                *plane = held;
             }
         }
         let p = Arc::new(p);
@@ -263,7 +277,13 @@ impl<'a> PaintContext<'a> {
 }
 
 /// The object part of the region of a plane that spans figure and ground (`open_planes`).
-const OPEN_REGION: u32 = u32::MAX - 1;
+pub(super) const OPEN_REGION: u32 = u32::MAX - 1;
+/// Whether region `r` (`PaintContext::regions`) is part of one object's surface: neither the
+/// background nor a plane open across the outline.
+pub(super) fn is_subject(r: u64) -> bool {
+    ((r & 0xffff_ffff) as u32) < OPEN_REGION
+}
+
 /// A plane spans figure and ground when each has at least this share of its pixels.
 pub const OPEN_MIN_SHARE: f64 = 0.15;
 
@@ -271,7 +291,7 @@ pub const OPEN_MIN_SHARE: f64 = 0.15;
 /// across the outline): each side holds at least `OPEN_MIN_SHARE` of the plane. Their pixels
 /// are one region, so strokes, light and joins treat the plane as one and the outline opens
 /// inside it.
-fn open_planes(ids: &[u32], hits: &[PixelHit], count: usize) -> Vec<bool> {
+pub(super) fn open_planes(ids: &[u32], hits: &[PixelHit], count: usize) -> Vec<bool> {
     let mut on = vec![(0u64, 0u64); count];
     for (&f, h) in ids.iter().zip(hits) {
         if let Some(c) = on.get_mut(f as usize) {

@@ -40,9 +40,10 @@ pub mod plane_light;
 pub mod planes;
 pub mod quantise;
 pub mod ranks;
+pub mod sequence;
 pub mod silhouettes;
 
-pub use context::{Canvas, Coverage, Lighting, PaintContext, Sequence, darken, darken_background};
+pub use context::{Canvas, Coverage, Lighting, PaintContext, darken, darken_background};
 pub use effect::{Effect, EffectParams, Keyed};
 pub use inputs::{Edges, OPEN_MIN_SHARE, PaintInputs};
 pub use painter::{Painter, Resume, apply_chain};
@@ -50,6 +51,7 @@ pub use palette::{PLANE_HUE_STRENGTH, Palette};
 pub use params::PaintParams;
 pub use passage::BorderStyle;
 pub use ranks::{KEY_LEVELS, LuminanceKeys, UNPAINTED, luminance};
+pub use sequence::{Held, Sequence};
 
 #[cfg(test)]
 mod tests;

@@ -310,6 +310,13 @@ impl Effect for ColourTransfer {
         let hues = self.hues.filter(|_| ctx.facets.is_some());
         // Each plane's distance from the composition's centre, at the plane's own centre.
         let plane_r: Vec<f32> = match hues {
+            // A sequence's planes (the layout's, moved with facets that follow): a plane the
+            // subject covers part of keeps its centre, hence its hue.
+            Some(h) if ctx.in_sequence() => {
+                let (w, h_px) = (canvas.width as usize, canvas.height as usize);
+                let oval = ctx.oval(w, h_px);
+                ctx.planes(canvas.width, w * h_px, h.seed).iter().map(|p| oval.r(p.centre)).collect()
+            }
             Some(_) => {
                 let (w, h) = (canvas.width as usize, canvas.height as usize);
                 let oval = ctx.oval(w, h);

@@ -21,7 +21,7 @@
 //! The side decision counts the ramp the per-plane light will lay on each side (it runs after
 //! the palette), so a plane's dark end takes the line against its neighbour's light end.
 
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use rayon::prelude::*;
 
 use super::border_profile::border_factor;
@@ -272,16 +272,17 @@ impl Effect for Passage {
             (PlaneLight { amount: self.plane_light, seed: self.seed }, ctx.planes(w as u32, w * h, self.seed))
         });
         let ramp = |i: usize| match (&ramps, ids) {
-            (Some((light, planes)), Some(ids)) => {
-                light.at(&planes[ids[i] as usize], Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5))
-            }
+            (Some((light, planes)), Some(ids)) => light.at(&planes[ids[i] as usize], ctx.plane_point(i, w)),
             _ => 1.0,
         };
         let seed = sub_seed(self.seed, SALT);
         let period = (LOST_PERIOD * ((w * h) as f32).sqrt()).max(4.0);
         let grid = Grid2::new(seed, (0.0, w as f32 / period), (0.0, h as f32 / period));
-        let lost_found =
-            |q: usize| smoothstep(0.25, 0.75, grid.value2(seed, (q % w) as f32 / period, (q / w) as f32 / period));
+        // Read where the plane is (`plane_point`): with facets that follow, it moves with them.
+        let lost_found = |q: usize| {
+            let at = ctx.plane_point(q, w) - 0.5;
+            smoothstep(0.25, 0.75, grid.value2(seed, at.x / period, at.y / period))
+        };
         let (coverage, px) = canvas.coverage_and_pixels();
         // The colours before (what the other side blends in; alpha is not read) and their
         // values, read before any pixel changes.

@@ -126,7 +126,7 @@ impl Effect for PlaneLight {
         let planes = ctx.planes(canvas.width, canvas.pixel_count(), self.seed);
         let oval = ctx.oval(w, canvas.height as usize);
         let factor = |x: usize, y: usize| {
-            let p = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
+            let p = ctx.plane_point(y * w + x, w);
             self.composed(&planes[facets.ids[y * w + x] as usize], p, oval.r(p))
         };
         if ctx.kept_across_chains() {

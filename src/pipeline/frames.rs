@@ -49,9 +49,8 @@ use crate::imprecision::carried::{self, KeyAim};
 use crate::imprecision::{self, AimContext, FacetAim};
 use crate::output::{Gray16, Pass};
 use crate::paint::chiaroscuro::ViewAxes;
-use crate::paint::palette::PaletteKey;
 use crate::paint::plane_light::Oval;
-use crate::paint::{Lighting, Painter, Sequence};
+use crate::paint::{Held, Lighting, Painter, Sequence};
 use crate::progress::Progress;
 use crate::saliency;
 use crate::scene::animation::{self, Choice, Clip};
@@ -497,11 +496,15 @@ struct Keep {
     /// With facets that follow and re-aimed: the layout frame's aims, anchored to the surface
     /// points they show (`imprecision::carried` carries them to every frame).
     aims: Option<Vec<KeyAim>>,
-    /// The palette's luminance mapping, from the layout frame's picture: every frame maps
-    /// luminance to colour alike, so a moving subject does not shift the still background's.
-    palette: Option<PaletteKey>,
+    /// What the layout frame's picture decides for every frame (`paint::Held`: the palette's
+    /// luminance mapping, the planes open across the outline, the background planes' means),
+    /// so a moving subject does not change the still background's colours.
+    held: Option<Held>,
     /// The composition's light centre, from the layout frame's subject.
     oval: Option<Oval>,
+    /// With facets that follow: per facet id, whether it is one of the still background's
+    /// (`facets::motion::still_facets`), whose planes every key frame reads off the layout.
+    still: Vec<bool>,
 }
 
 /// One centre ray per pixel, hits only: what the saliency map, the facets' motion and the key
@@ -613,9 +616,9 @@ fn key_frame(
         let hits = &pre.as_ref().or(made.as_ref()).expect("one of the two is traced").hits;
         Oval::of(trace.width as usize, trace.height as usize, hits)
     });
-    // The palette's mapping from the layout frame's picture (traced lit here when the layout
-    // did not need it), painted by the effects before the palette.
-    let palette = if plan.paint && painter.names().contains(&"palette") {
+    // What the frames hold from the layout frame's picture (traced lit here when the layout
+    // did not need it), painted by the effects before the palette and the brushwork.
+    let held = if plan.paint {
         let view = camera.frame(&cameras.base.frame);
         let rig = LightRig::new(world, &view, trace.shadows, trace.exposure);
         let lit = if film.width == trace.width && film.height == trace.height {
@@ -631,11 +634,12 @@ fn key_frame(
         let axes = ViewAxes { right: view.right.as_vec3(), up: view.up.as_vec3(), forward: view.forward.as_vec3() };
         let lighting = Lighting { world, rig: &rig, view: axes };
         let sequence = Sequence { planes_from: faceted.then_some(&map), oval, ..Sequence::default() };
-        painter.palette_key(&lit, faceted.then_some(&map), Some(&lighting), &sequence)?
+        Some(painter.hold(&lit, faceted.then_some(&map), Some(&lighting), &sequence)?)
     } else {
         None
     };
-    Ok(Keep { faceted, map, key, aims, palette, oval })
+    let still = key.as_ref().map_or_else(Vec::new, |k| motion::still_facets(&k.key(&map)));
+    Ok(Keep { faceted, map, key, aims, held, oval, still })
 }
 
 /// A key frame must match the frames it is carried to: same picture size, same triangles.
@@ -709,12 +713,12 @@ fn render_frame(
         pre.saliency = Some(map);
     }
 
-    let (map, revealed, plane_shift) = match key {
+    let (map, revealed, plane_shift, at_key) = match key {
         Some((key, key_map)) => {
             let carried = timings.time("facet motion", || motion::carry(&key.key(key_map), &pre));
-            (carried.map, Some(carried.revealed), Some(carried.shift))
+            (carried.map, Some(carried.revealed), Some(carried.shift), Some(carried.at_key))
         }
-        None => (keep.map.clone(), None, None),
+        None => (keep.map.clone(), None, None, None),
     };
     // The planes (their light ramps, the strokes' directions): the key frame's, moved with
     // their facets when facets follow; the layout's, still, when they do not.
@@ -754,9 +758,13 @@ fn render_frame(
         let hits = film.hits.clone();
         let seeds = timings.time("stroke seeds", || SurfaceSeeds::new(&hits, w, h, world, camera, facets, fade_px));
         let sequence = Sequence {
-            palette: keep.palette.as_ref(),
+            held: keep.held.as_ref(),
             planes_from: keep.faceted.then_some(planes_from),
             plane_shift: plane_shift.as_deref(),
+            at_key: at_key.as_deref(),
+            still_planes: key
+                .filter(|(_, key_map)| !std::ptr::eq(*key_map, &keep.map))
+                .map(|_| (&keep.map, &keep.still[..])),
             seeds: Some(&seeds),
             oval: keep.oval,
         };

@@ -36,6 +36,11 @@ pub struct StrokeSeed {
 /// `seed` is the brushwork's own (salted): a source keys its ids on it.
 pub trait SeedSource: Sync {
     fn seeds(&self, seed: u64, layer: u64, cell: f32, width: usize, height: usize) -> Vec<StrokeSeed>;
+    /// Whether the seeds move with the surfaces from frame to frame (by fractions of a
+    /// pixel: the brushwork then reads the picture between pixels).
+    fn carried(&self) -> bool {
+        false
+    }
 }
 
 /// The jittered grid of a still (`grid_seeds`).

@@ -166,8 +166,15 @@ impl<'a> SurfaceSeeds<'a> {
             return None;
         }
         let (x, y) = ((i % w) as f64, (i / w) as f64);
-        // The projected place when it lies in the pixel found, else that pixel's centre.
-        let pos = if at.x.floor() == x && at.y.floor() == y { at } else { DVec2::new(x + 0.5, y + 0.5) };
+        // The projected place when its pixel shows the same surface as the pixel found (that
+        // pixel, or a neighbouring triangle at the same depth), so a seed moves by fractions
+        // of a pixel; else the found pixel's centre.
+        let (ax, ay) = (at.x.floor(), at.y.floor());
+        let same_surface = ax >= 0.0 && ay >= 0.0 && ax < w as f64 && ay < h as f64 && {
+            let (a, b) = (&self.hits[ay as usize * w + ax as usize], &self.hits[i]);
+            a.object == b.object && (a.tri == b.tri || (a.t - b.t).abs() <= DEPTH_JUMP * a.t.min(b.t))
+        };
+        let pos = if same_surface { at } else { DVec2::new(x + 0.5, y + 0.5) };
         Some(pos.as_vec2())
     }
 }
@@ -188,6 +195,10 @@ fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
 }
 
 impl SeedSource for SurfaceSeeds<'_> {
+    fn carried(&self) -> bool {
+        true
+    }
+
     fn seeds(&self, seed: u64, layer: u64, cell: f32, width: usize, height: usize) -> Vec<StrokeSeed> {
         debug_assert_eq!((width, height), (self.width, self.height));
         let (w, h) = (self.width as u32, self.height as u32);

@@ -67,6 +67,11 @@ pub struct Carried {
     /// to this one, over the pixels whose point the key frame saw; zero for the background's
     /// facets (`background_facets`), which stay where they are.
     pub shift: Vec<Vec2>,
+    /// Per pixel: where its surface point was on the key frame's picture (pixels, x right, y
+    /// down; NaN where the key frame did not see it, and on the background), so what is laid
+    /// on a plane can be read where the point was and move with the surface
+    /// (`paint::Sequence::at_key`).
+    pub at_key: Vec<Vec2>,
 }
 
 /// Per-pixel triangle and depth from the camera surface, read off a pre-pass film (one sample
@@ -79,8 +84,9 @@ pub fn key_buffers(film: &Film, skipped: impl Fn(usize) -> f32) -> (Vec<u32>, Ve
         .unzip()
 }
 
-/// The key frame's pixel a point of the key geometry falls on, if the key frame saw it there.
-fn seen_at_key(key: &Key, tri: u32, u: f32, v: f32) -> Option<usize> {
+/// The key frame's pixel a point of the key geometry falls on, if the key frame saw it there,
+/// and where on the key picture it falls (pixels, x right, y down).
+fn seen_at_key(key: &Key, tri: u32, u: f32, v: f32) -> Option<(usize, DVec2)> {
     let corners = key.positions.get(tri as usize)?;
     let p = corners[0] * (1.0 - u - v) + corners[1] * u + corners[2] * v;
     let seen = key.camera.project(p.as_dvec3())?;
@@ -92,7 +98,7 @@ fn seen_at_key(key: &Key, tri: u32, u: f32, v: f32) -> Option<usize> {
     let (x, y) = ((px.x.floor() as usize).min(w - 1), (px.y.floor() as usize).min(h - 1));
     let i = y * w + x;
     if key.tri[i] == tri {
-        return Some(i);
+        return Some((i, px));
     }
     // A neighbouring triangle, or the pixel's centre ray landing elsewhere on the same surface:
     // the same surface if some pixel around agrees in depth.
@@ -100,7 +106,7 @@ fn seen_at_key(key: &Key, tri: u32, u: f32, v: f32) -> Option<usize> {
     let near = (y.saturating_sub(1)..=(y + 1).min(h - 1))
         .flat_map(|yy| (x.saturating_sub(1)..=(x + 1).min(w - 1)).map(move |xx| yy * w + xx))
         .any(|j| key.tri[j] == tri || (key.depth[j] - depth).abs() <= DEPTH_TOLERANCE);
-    near.then_some(i)
+    near.then_some((i, px))
 }
 
 /// Frame N's facets from the key frame: `hits` are frame N's pixel hits (triangle ids of the
@@ -115,14 +121,16 @@ pub fn carry(key: &Key, film: &Film) -> Carried {
     let background = background_facets(key);
     let facets = key.map.facet_count as usize;
     let mut moves = vec![(DVec2::ZERO, 0u64); facets];
+    let mut at_key = vec![Vec2::NAN; n];
     let at = |i: usize| DVec2::new((i % w as usize) as f64, (i / w as usize) as f64);
     for (i, hit) in film.hits.iter().enumerate() {
         if hit.is_hit() {
             surface += 1;
             match seen_at_key(key, hit.tri, hit.u, hit.v) {
-                Some(k) => {
+                Some((k, p)) => {
                     let id = key.map.ids[k];
                     ids[i] = id;
+                    at_key[i] = p.as_vec2();
                     if let Some(m) = moves.get_mut(id as usize) {
                         m.0 += at(i) - at(k);
                         m.1 += 1;
@@ -145,6 +153,7 @@ pub fn carry(key: &Key, film: &Film) -> Carried {
         map: FacetMap { width: w, height: h, ids, facet_count: key.map.facet_count },
         revealed: if surface == 0 { 0.0 } else { revealed as f64 / surface as f64 },
         shift,
+        at_key,
     }
 }
 
@@ -159,6 +168,20 @@ fn background_facets(key: &Key) -> Vec<u32> {
         key.tri.iter().zip(&key.map.ids).map(|(&t, &id)| if t == NO_HIT { id } else { UNSET }).collect();
     grow(&mut ids, key.map.width, key.map.height, key.map.ids[0]);
     ids
+}
+
+/// Per facet id: whether it is one of the background's facets of `key`
+/// (`background_facets`: its background, grown over what its surfaces covered). A key frame
+/// carried from this one gives its background pixels these facets, so every later key
+/// frame's background facets are among them.
+pub fn still_facets(key: &Key) -> Vec<bool> {
+    let mut still = vec![false; key.map.facet_count as usize];
+    for id in background_facets(key) {
+        if let Some(s) = still.get_mut(id as usize) {
+            *s = true;
+        }
+    }
+    still
 }
 
 /// Gives every unset pixel the facet of the nearest set one (breadth-first over 4-neighbours
@@ -227,7 +250,7 @@ pub fn coherence(
             continue;
         }
         let (u, v) = b.uv[i];
-        let Some(k) = seen_at_key(&key, tri, u, v) else { continue };
+        let Some((k, _)) = seen_at_key(&key, tri, u, v) else { continue };
         points += 1;
         same += (map_a.ids[k] == map_b.ids[i]) as usize;
         change +=

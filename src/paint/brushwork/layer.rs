@@ -6,6 +6,7 @@ use rayon::prelude::*;
 
 use super::{BRISTLE_VALUE, BRISTLES, DARK_KEPT, PLANE_FLATTEN};
 use crate::paint::planes::smoothstep;
+use crate::paint::sequence::RegionMeans;
 use crate::paint::{Coverage, luminance};
 
 /// One stroke's place and shape: a dab `2 half_len` long along `dir`, `2 half_wid` wide, and
@@ -35,6 +36,10 @@ pub(super) struct Stroke {
     pub(super) order: u32,
     /// Its seed's opacity (fading in or out: `strokes::StrokeSeed`).
     pub(super) opacity: f32,
+    /// Its samples read the picture between pixels (animation frames: a stroke carried by a
+    /// fraction of a pixel changes its colour by a fraction), not the pixel under each point
+    /// (a still's).
+    pub(super) smooth: bool,
 }
 
 /// A stroke's flat colour: the mean of the picture at its samples, value jittered.
@@ -56,15 +61,20 @@ pub(super) struct Anchor {
     pub(super) jitter: f32,
     /// The region the stroke paints.
     pub(super) region: Region,
+    /// Where along the stroke its samples are: `centre + SAMPLES_AT[k] reach`.
+    pub(super) reach: Vec2,
+    /// Whether the samples read the picture between pixels (`Stroke::smooth`).
+    pub(super) smooth: bool,
 }
 
 impl Anchor {
     /// The stroke's colour: the picture at its samples, drawn `PLANE_FLATTEN` of the way to
     /// its region's mean colour (`means`), value jittered.
-    pub(super) fn tint(&self, source: &[Vec4], means: &RegionMeans) -> Tint {
+    pub(super) fn tint(&self, source: &[Vec4], means: &RegionMeans, surface: &Surface) -> Tint {
         let (mut sum, mut n) = (Vec3::ZERO, 0.0f32);
-        for &j in self.samples.iter().filter(|&&j| j != u32::MAX) {
-            sum += source[j as usize].truncate();
+        for (&j, k) in self.samples.iter().zip(SAMPLES_AT).filter(|(j, _)| **j != u32::MAX) {
+            let between = || bilinear(source, surface, self.region, self.centre + self.reach * k);
+            sum += self.smooth.then(between).flatten().unwrap_or_else(|| source[j as usize].truncate());
             n += 1.0;
         }
         let local = sum / n.max(1.0);
@@ -73,6 +83,31 @@ impl Anchor {
         let value = luminance(colour);
         Tint { colour, inv_value: if value > 0.0 { 1.0 / value } else { 0.0 }, value }
     }
+}
+
+/// Where along a stroke its colour is sampled, in half lengths from its centre.
+pub(super) const SAMPLES_AT: [f32; 3] = [-0.6, 0.0, 0.6];
+
+/// The picture at point `q` (pixels) interpolated between the centres of the (up to) four
+/// pixels around it that are painted and of `region`; None where none is.
+pub(super) fn bilinear(source: &[Vec4], surface: &Surface, region: Region, q: Vec2) -> Option<Vec3> {
+    let (fx, fy) = ((q.x - 0.5).floor(), (q.y - 0.5).floor());
+    let (tx, ty) = (q.x - 0.5 - fx, q.y - 0.5 - fy);
+    let (mut sum, mut weight) = (Vec3::ZERO, 0.0f32);
+    for (dx, dy, wgt) in
+        [(0, 0, (1.0 - tx) * (1.0 - ty)), (1, 0, tx * (1.0 - ty)), (0, 1, (1.0 - tx) * ty), (1, 1, tx * ty)]
+    {
+        let (x, y) = (fx as i64 + dx, fy as i64 + dy);
+        if x < 0 || y < 0 || x >= surface.w as i64 || y >= surface.h as i64 || wgt <= 0.0 {
+            continue;
+        }
+        let j = y as usize * surface.w + x as usize;
+        if surface.region(j) == region && surface.coverage.is_painted(j) {
+            sum += source[j].truncate() * wgt;
+            weight += wgt;
+        }
+    }
+    (weight > 1e-6).then(|| sum / weight)
 }
 
 /// What a stroke may paint: one facet of one object (the background counting as one), as
@@ -107,7 +142,14 @@ impl StrokeLayer {
         }
         let cells = strokes
             .iter()
-            .map(|s| Anchor { centre: s.centre, samples: s.samples, jitter: s.jitter, region: s.region })
+            .map(|s| Anchor {
+                centre: s.centre,
+                samples: s.samples,
+                jitter: s.jitter,
+                region: s.region,
+                reach: s.dir * s.half_len,
+                smooth: s.smooth,
+            })
             .collect();
         strokes.sort_unstable_by_key(|s| s.key);
         let cell_of = strokes.iter().map(|s| s.order).collect();
@@ -159,8 +201,8 @@ impl StrokeLayer {
     }
 
     /// Every stroke's tint from `source`, read in cell order, listed in key order.
-    pub(super) fn tints(&self, source: &[Vec4], means: &RegionMeans) -> Vec<Tint> {
-        self.to_key_order(&self.in_cell_order(|s| s.tint(source, means)))
+    pub(super) fn tints(&self, source: &[Vec4], means: &RegionMeans, surface: &Surface) -> Vec<Tint> {
+        self.to_key_order(&self.in_cell_order(|s| s.tint(source, means, surface)))
     }
 }
 
@@ -338,9 +380,6 @@ pub(super) fn span(s: &Stroke, py: f32, x0: usize, x1: usize) -> Option<(usize, 
     let b = if b.is_finite() { (b.max(0.0) as usize).min(x1) } else { x1 };
     (a < b).then_some((a, b))
 }
-
-/// Each region's mean colour (linear RGB) over its painted pixels.
-pub(super) type RegionMeans = std::collections::HashMap<Region, Vec3>;
 
 /// Each region's mean colour over its painted pixels (`regions`: facet << 32 | object),
 /// summed in pixel order (the same sums on any thread count).

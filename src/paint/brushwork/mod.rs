@@ -27,13 +27,15 @@
 use glam::{Vec2, Vec4};
 use rayon::prelude::*;
 
+use super::inputs::is_subject;
 use super::noise::lattice1;
 use super::planes::Plane;
-use super::{Canvas, Effect, EffectParams, PaintContext, luminance};
+use super::sequence::RegionMeans;
+use super::{Canvas, Coverage, Effect, EffectParams, PaintContext, luminance};
 use crate::error::Result;
 use crate::strokes::{Grid, SeedSource};
 use crate::util::rng::{splitmix64, sub_seed, unit_f64};
-use layer::{Stroke, StrokeLayer, Surface, Tint, composite, plane_means};
+use layer::{SAMPLES_AT, Stroke, StrokeLayer, Surface, Tint, composite, plane_means};
 use plan::Fragments;
 pub use plan::StrokePlan;
 
@@ -131,6 +133,9 @@ impl Brushwork {
     ) -> Vec<Stroke> {
         let (w, h) = (surface.w, surface.h);
         let cell = width * SPACING;
+        // Strokes carried with the surfaces (animation frames) read the picture between
+        // pixels (`Stroke::smooth`).
+        let smooth = seeds.carried();
         let seeds = seeds.seeds(sub_seed(self.seed, SALT), layer, cell, w, h);
         seeds
             .par_iter()
@@ -154,7 +159,7 @@ impl Brushwork {
                     let dir = Vec2::from_angle(turn).rotate(angle[(region >> 32) as usize]);
                     let half_len = 0.5 * length * (0.8 + 0.4 * r(4));
                     // Its colour is the mean along it, within its region (`Stroke::tint`).
-                    let samples = [-0.6f32, 0.0, 0.6].map(|k| {
+                    let samples = SAMPLES_AT.map(|k| {
                         let q = centre + dir * (k * half_len);
                         if q.x < 0.0 || q.y < 0.0 || q.x >= w as f32 || q.y >= h as f32 {
                             return u32::MAX;
@@ -178,6 +183,7 @@ impl Brushwork {
                         jitter: 1.0 + VALUE_JITTER * (2.0 * r(5) - 1.0),
                         order: 0,
                         opacity: seed.opacity,
+                        smooth,
                     })
                 }
             })
@@ -201,6 +207,14 @@ enum Fine<'p> {
 impl Effect for Brushwork {
     fn name(&self) -> &'static str {
         "brushwork"
+    }
+
+    /// The means of the background's regions and of the open planes' (what a sequence holds:
+    /// `sequence::Held::means`).
+    fn region_means(&self, canvas: &Canvas<'_>, ctx: &PaintContext) -> Option<RegionMeans> {
+        let regions = ctx.regions(canvas.pixel_count());
+        let means = plane_means(canvas.px, &regions, &Coverage(canvas.coverage.as_deref()));
+        Some(means.into_iter().filter(|(r, _)| !is_subject(*r)).collect())
     }
 
     fn apply(&self, canvas: &mut Canvas<'_>, ctx: &PaintContext) -> Result<()> {
@@ -241,8 +255,16 @@ impl Effect for Brushwork {
             (None, None) => unreachable!("a layer is made when no plan is kept"),
         };
         let source: &[Vec4] = px;
-        let means = plane_means(source, &regions, &surface.coverage);
-        let coarse_tints = coarse_layer.tints(source, &means);
+        let mut means = plane_means(source, &regions, &surface.coverage);
+        // A sequence's background and open planes take the layout frame's means
+        // (`sequence::Held::means`): the subject covering part of one does not change it. One
+        // the layout frame did not show keeps none (its strokes take the picture under them):
+        // its mean on this frame would change as the subject moves.
+        if let Some(held) = ctx.held().and_then(|h| h.means.as_ref()) {
+            means.retain(|r, _| is_subject(*r));
+            means.extend(held.iter().map(|(r, m)| (*r, *m)));
+        }
+        let coarse_tints = coarse_layer.tints(source, &means, &surface);
         // The fine layer (Hertzmann's next brush): half the size, where the coarse layer
         // strays from the picture. Its candidates: a stroke in every cell (a kept plan's or
         // a recorded one's, all of them; traced, those the test keeps).
@@ -265,7 +287,8 @@ impl Effect for Brushwork {
         // ... in the picture before the layers.
         let before = |p: Vec2| probes_in(source, p);
         // The fine layer with its tints (key order) and probes (cell order).
-        let tints_and_probes = |l: &StrokeLayer| (l.tints(source, &means), l.in_cell_order(|s| before(s.centre)));
+        let tints_and_probes =
+            |l: &StrokeLayer| (l.tints(source, &means, &surface), l.in_cell_order(|s| before(s.centre)));
         let fine: Option<(Fine, Vec<Tint>, Vec<Probes>)> = match (old.as_deref(), fine_size) {
             (_, None) | (Some(StrokePlan { fine: None, .. }), _) => None,
             (Some(StrokePlan { fine: Some(frags), .. }), _) => {
@@ -323,7 +346,7 @@ impl Effect for Brushwork {
                     let keep_at = |p: Vec2| keep(&probes_in(&source, p));
                     let layer = StrokeLayer::new(self.strokes(1, size, &surface, &angle, seeds, Some(&keep_at)), h);
                     if !layer.strokes.is_empty() {
-                        let tints = layer.tints(&source, &means);
+                        let tints = layer.tints(&source, &means, &surface);
                         composite(&layer, &tints, None, px, &surface, opacity);
                     }
                 }

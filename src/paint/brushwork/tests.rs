@@ -22,6 +22,7 @@ fn stroke(centre: Vec2, angle: f32, half_len: f32, half_wid: f32) -> Stroke {
         jitter: 1.0,
         order: 0,
         opacity: 1.0,
+        smooth: false,
     }
 }
 
@@ -96,4 +97,24 @@ fn span_holds_every_painted_pixel() {
     }
     assert!(candidates > 100_000);
     assert!((visited as f64) < 1.2 * candidates as f64, "{visited} visits for {candidates} candidates");
+}
+
+/// A carried stroke's sample between pixel centres: the pixel's colour at its centre, the
+/// mean halfway to its neighbour, and only the pixels of the stroke's region.
+#[test]
+fn a_sample_between_pixels_blends_the_pixels_of_its_region() {
+    let source: Vec<Vec4> = (0..8).map(|i| Vec4::new(i as f32, 0.0, 0.0, 1.0)).collect();
+    // Two rows of four: region 0 on the left half, region 1 on the right.
+    let regions: Vec<Region> = (0..8).map(|i| ((i % 4) / 2) as Region).collect();
+    let surface = Surface { w: 4, h: 2, regions: &regions, coverage: crate::paint::Coverage(None) };
+    let at = |x: f32, y: f32, r: Region| bilinear(&source, &surface, r, Vec2::new(x, y)).map(|c| c.x);
+    assert_eq!(at(0.5, 0.5, 0), Some(0.0));
+    assert_eq!(at(1.0, 0.5, 0), Some(0.5));
+    assert_eq!(at(1.0, 1.0, 0), Some(2.5));
+    // Across the regions' edge: region 0's pixel alone, region 1's alone.
+    assert_eq!(at(2.0, 0.5, 0), Some(1.0));
+    assert_eq!(at(2.0, 0.5, 1), Some(2.0));
+    // Past the picture's corner: the corner pixel; no pixel of the region: none.
+    assert_eq!(at(0.1, 0.1, 0), Some(0.0));
+    assert_eq!(at(0.5, 0.5, 7), None);
 }

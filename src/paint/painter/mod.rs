@@ -3,11 +3,11 @@
 use glam::Vec4;
 use rayon::prelude::*;
 
-use super::context::{Canvas, Lighting, PaintContext, Sequence};
+use super::context::{Canvas, Lighting, PaintContext};
 use super::effect::{Effect, key_of};
-use super::inputs::PaintInputs;
-use super::palette;
+use super::inputs::{PaintInputs, open_planes};
 use super::params::PaintParams;
+use super::sequence::{Held, Sequence};
 use crate::error::{Error, Result};
 use crate::facets::FacetMap;
 use crate::film::Film;
@@ -116,33 +116,55 @@ impl Painter {
         self.run(film, facets, lighting, &PaintInputs::default(), None, None, Some(sequence)).map(|_| ())
     }
 
-    /// The palette's luminance mapping of `film` painted by the effects before the palette
-    /// (None without a palette): what `Sequence::palette` holds for a sequence.
-    pub fn palette_key(
+    /// What a sequence holds from `film` (its layout frame's picture: `sequence::Held`):
+    /// which planes are open across the outline, from its hits; the palette's luminance
+    /// mapping of it painted by the effects before the palette; the brushwork's background
+    /// and open regions' means of it painted by the effects before the brushwork, each
+    /// effect reading what is held so far (as a frame of the sequence paints).
+    pub fn hold(
         &self,
         film: &Film,
         facets: Option<&FacetMap>,
         lighting: Option<&Lighting>,
         sequence: &Sequence,
-    ) -> Result<Option<palette::PaletteKey>> {
+    ) -> Result<Held> {
+        let open = match facets {
+            Some(f) if self.open_planes && f.ids.len() == film.hits.len() => {
+                let count = (f.facet_count as usize).max(f.ids.iter().copied().max().map_or(0, |m| m as usize + 1));
+                Some(open_planes(&f.ids, &film.hits, count))
+            }
+            _ => None,
+        };
+        let mut held = Held { open, ..Held::default() };
         let mut color = film.color.clone();
         let mut canvas = Canvas::new(film.width, film.height, &mut color, self.background, self.transparent);
         let inputs = PaintInputs::default();
-        let ctx = PaintContext {
-            hits: &film.hits,
-            facets,
-            lighting,
-            inputs: &inputs,
-            open_planes: self.open_planes,
-            sequence: Some(sequence),
-        };
         for e in &self.effects {
+            let now = held.clone();
+            let sequence = Sequence { held: Some(&now), ..*sequence };
+            let ctx = PaintContext {
+                hits: &film.hits,
+                facets,
+                lighting,
+                inputs: &inputs,
+                open_planes: self.open_planes,
+                sequence: Some(&sequence),
+            };
             if let Some(key) = e.palette_key(&canvas) {
-                return Ok(Some(key));
+                held.palette = Some(key);
+                // The palette paints this picture as the frames will, through the key.
+                let now = held.clone();
+                let sequence = Sequence { held: Some(&now), ..sequence };
+                e.apply(&mut canvas, &PaintContext { sequence: Some(&sequence), ..ctx })?;
+                continue;
+            }
+            if let Some(means) = e.region_means(&canvas, &ctx) {
+                held.means = Some(means);
+                break;
             }
             e.apply(&mut canvas, &ctx)?;
         }
-        Ok(None)
+        Ok(held)
     }
 
     #[allow(clippy::too_many_arguments)]
