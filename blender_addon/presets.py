@@ -170,7 +170,7 @@ DEFAULTS = _ordered_defaults()
 # Panel values a preset does not touch: sampling and seed (quality, not look), the scene's own
 # choices (camera lens and focus, whether the world's colour is the ground), files, animation
 # (facet motion included), passes, the saliency method (accuracy, not look). The ground colour
-# is a look's: the analytic preset's is mid-dark, the others' lighter.
+# is a look's: the analytic preset's is dark, the others' lighter.
 NOT_IN_PRESETS = frozenset({"spp", "seed", "animate_seed", "use_camera_lens", "use_camera_focus",
                             "use_world_background", "facet_map", "static_facets", "facet_motion",
                             "layout_folder", "layout_frame", "layout_file", "saliency_method",
