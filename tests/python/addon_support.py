@@ -102,6 +102,12 @@ def addon(bpy_module, cubist_binary):
     yield sys.modules["blender_addon"]
 
 
+@pytest.fixture
+def bpy(addon, bpy_module):
+    """bpy, with the add-on enabled (what the add-on's tests take)."""
+    return bpy_module
+
+
 def new_scene(bpy, width=64, height=48, engine="CUBIST"):
     """An empty factory scene with a camera looking at a monkey and a cube, a sun, a grey
     world, and colour management that round-trips 8-bit sRGB exactly (Standard view transform)."""

@@ -14,14 +14,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from addon_support import addon, bpy_module, cubist_binary, new_scene, read_png  # noqa: F401
+from addon_support import addon, bpy, bpy_module, cubist_binary, new_scene, read_png  # noqa: F401
 
 STAGES = ["pre-render", "saliency", "faceting", "imprecision", "re-trace", "anti-aliasing", "paint"]
-
-
-@pytest.fixture
-def bpy(addon, bpy_module):
-    return bpy_module
 
 
 @pytest.fixture

@@ -17,13 +17,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from addon_support import BINARY, ROOT, addon, bpy_module, cubist_binary, new_scene, read_png  # noqa: F401
+from addon_support import BINARY, ROOT, addon, bpy, bpy_module, cubist_binary, new_scene, read_png  # noqa: F401
 from exr_support import exr_channels, use_multilayer_exr
-
-
-@pytest.fixture
-def bpy(addon, bpy_module):
-    return bpy_module
 
 
 @pytest.fixture

@@ -8,13 +8,8 @@ import sys
 import numpy as np
 import pytest
 
-from addon_support import BINARY, addon, bpy_module, cubist_binary  # noqa: F401
+from addon_support import BINARY, addon, bpy, bpy_module, cubist_binary  # noqa: F401
 from test_addon_blender import FakeLayout, exr_channels, use_multilayer_exr
-
-
-@pytest.fixture
-def bpy(addon, bpy_module):
-    return bpy_module
 
 
 @pytest.fixture

@@ -17,13 +17,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from addon_support import BINARY, addon, bpy_module, cubist_binary, new_scene  # noqa: F401
+from addon_support import BINARY, addon, bpy, bpy_module, cubist_binary, new_scene  # noqa: F401
 from glb_support import Glb
-
-
-@pytest.fixture
-def bpy(addon, bpy_module):
-    return bpy_module
 
 
 @pytest.fixture

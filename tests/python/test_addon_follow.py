@@ -13,15 +13,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from addon_support import ROOT, addon, bpy_module, cubist_binary, new_scene, read_png  # noqa: F401
+from addon_support import ROOT, addon, bpy, bpy_module, cubist_binary, new_scene, read_png  # noqa: F401
 
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
-
-
-@pytest.fixture
-def bpy(addon, bpy_module):
-    return bpy_module
 
 
 @pytest.fixture

@@ -8,7 +8,7 @@ import sys
 
 import pytest
 
-from addon_support import ROOT, addon, bpy_module, cubist_binary, new_scene  # noqa: F401 (fixtures)
+from addon_support import ROOT, addon, bpy, bpy_module, cubist_binary, new_scene  # noqa: F401 (fixtures)
 
 from blender_addon import mapping, presets, runner, schema
 
@@ -124,11 +124,6 @@ def test_the_renderer_says_which_stages_run(cubist_binary, tmp_path):
 
 # ---------------------------------------------------------------------------------------------
 # In Blender
-
-
-@pytest.fixture
-def bpy(addon, bpy_module):
-    return bpy_module
 
 
 def test_properties_are_built_from_the_schema(bpy):

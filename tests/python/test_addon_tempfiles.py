@@ -9,12 +9,7 @@ import textwrap
 
 import pytest
 
-from addon_support import ROOT, addon, bpy_module, cubist_binary, new_scene  # noqa: F401
-
-
-@pytest.fixture
-def bpy(addon, bpy_module):
-    return bpy_module
+from addon_support import ROOT, addon, bpy, bpy_module, cubist_binary, new_scene  # noqa: F401
 
 
 @pytest.fixture

@@ -20,12 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from addon_support import BINARY, addon, bpy_module, cubist_binary, new_scene, read_png  # noqa: F401
-
-
-@pytest.fixture
-def bpy(addon, bpy_module):
-    return bpy_module
+from addon_support import BINARY, addon, bpy, bpy_module, cubist_binary, new_scene, read_png  # noqa: F401
 
 
 @pytest.fixture
