@@ -178,12 +178,13 @@ def test_the_main_thread_is_held_briefly_and_keeps_running_while_the_server_rend
     main = r["panel_change"]["main_thread"]  # the longest of the whole session so far
     # The export (view_update) and the texture upload (view_draw) are the main thread's part.
     assert main["longest_view_update"] < 1.0 and main["longest_view_draw"] < 1.0, main
-    # The main loop ran several times between Rendered shading starting and the full image
-    # (a heartbeat every 20 ms; a main thread held by the render would give one or two). How
-    # many depends on how long the server takes, so only a few are required (8 on a loaded
-    # 2-core machine, 17 on a quiet one).
+    # The main loop ran between Rendered shading starting and the full image (a heartbeat every
+    # 20 ms; a main thread held by the render would give one or two ticks, one gap spanning it).
+    # How many depends on how long the server takes: 4 on a loaded 2-core machine when the
+    # server answers in about a second, 17 on a quiet one with a slower render. So: at least
+    # three ticks here; how long a stall may be is the next test's question.
     longest_gap, ticks = r["rendered"]["gap"]
-    assert ticks >= 5, r["rendered"]["gap"]
+    assert ticks >= 3, r["rendered"]["gap"]
 
 
 def test_blender_stays_responsive_in_rendered_shading_panel_changes_and_f12(ui):
