@@ -8,9 +8,10 @@
 //! more than a threshold (so detail and the legible cues get small strokes, calm areas keep
 //! the large ones). Unlike his curved strokes, ours are straight dabs aligned per plane:
 //! every stroke takes its plane's direction (across the plane's light ramp, `planes`, plus a
-//! seeded turn per plane and a small one per stroke) and paints only the pixels of its own
-//! plane and object, so facet borders and silhouettes stay crisp and each plane reads as
-//! hatched on its own.
+//! seeded turn per plane) and paints only the pixels of its own plane and object, so facet
+//! borders and silhouettes stay crisp and each plane reads as hatched on its own. A still's
+//! strokes lie side by side in parallel rows, in dabs of a shared value (`Hatching`); strokes
+//! carried with the surfaces (animation frames) keep their place and a small turn each.
 //!
 //! Speed and determinism (Lu, Sander and Finkelstein 2010 splat 60,000 strokes on a GPU): the
 //! strokes sit one per cell of a jittered grid (seeded per cell), sorted once by a seeded
@@ -46,6 +47,13 @@ pub const SPACING: f32 = 1.8;
 pub const PLANE_TURN_DEG: f32 = 20.0;
 /// Largest turn of one stroke off its plane's direction, degrees.
 pub const STROKE_TURN_DEG: f32 = 6.0;
+/// Distance between a plane's hatching rows (a still's strokes), in stroke widths.
+pub const HATCH_ROW: f32 = 1.05;
+/// Share of a hatched stroke's value change that it shares with the other strokes of its dab
+/// (a stroke-long stretch of its row).
+pub const DAB_SHARE: f32 = 0.85;
+/// Largest relative change of a hatched stroke's value.
+pub const HATCH_JITTER: f32 = 0.5;
 /// Largest relative change of a stroke's value.
 pub const VALUE_JITTER: f32 = 0.35;
 /// Value change across the bristle streaks (peak to peak).
@@ -136,6 +144,9 @@ impl Brushwork {
         // Strokes carried with the surfaces (animation frames) read the picture between
         // pixels (`Stroke::smooth`).
         let smooth = seeds.carried();
+        // Hatching rows: a still's strokes only (seeds carried with the surfaces would jump
+        // from row to row between frames).
+        let hatch = (!smooth).then(|| Hatching { row: width * HATCH_ROW, length, seed: sub_seed(self.seed, SALT ^ 1) });
         let seeds = seeds.seeds(sub_seed(self.seed, SALT), layer, cell, w, h);
         seeds
             .par_iter()
@@ -155,8 +166,25 @@ impl Brushwork {
                         Some(f) => ((f as u64) << 32) | (surface.region(i) & 0xffff_ffff),
                         None => surface.region(i),
                     };
-                    let turn = (2.0 * r(3) - 1.0) * STROKE_TURN_DEG.to_radians();
-                    let dir = Vec2::from_angle(turn).rotate(angle[(region >> 32) as usize]);
+                    let plane = (region >> 32) as usize;
+                    let own = 2.0 * r(5) - 1.0;
+                    let (centre, dir, jitter) = match &hatch {
+                        Some(hatch) => {
+                            let (moved, shade) = hatch.place(centre, angle[plane], plane as u64, own);
+                            // Kept where it was if its row leaves its plane there.
+                            let inside = |q: Vec2| {
+                                q.x >= 0.0 && q.y >= 0.0 && (q.x as usize) < w && (q.y as usize) < h && {
+                                    let j = q.y as usize * w + q.x as usize;
+                                    surface.region(j) == region && surface.coverage.is_painted(j)
+                                }
+                            };
+                            (if inside(moved) { moved } else { centre }, angle[plane], 1.0 + HATCH_JITTER * shade)
+                        }
+                        None => {
+                            let turn = (2.0 * r(3) - 1.0) * STROKE_TURN_DEG.to_radians();
+                            (centre, Vec2::from_angle(turn).rotate(angle[plane]), 1.0 + VALUE_JITTER * own)
+                        }
+                    };
                     let half_len = 0.5 * length * (0.8 + 0.4 * r(4));
                     // Its colour is the mean along it, within its region (`Stroke::tint`).
                     let samples = SAMPLES_AT.map(|k| {
@@ -180,7 +208,7 @@ impl Brushwork {
                         key: splitmix64(hsh ^ 7),
                         inv_dir: dir.recip(),
                         samples,
-                        jitter: 1.0 + VALUE_JITTER * (2.0 * r(5) - 1.0),
+                        jitter,
                         order: 0,
                         opacity: seed.opacity,
                         smooth,
@@ -188,6 +216,32 @@ impl Brushwork {
                 }
             })
             .collect()
+    }
+}
+
+/// A plane's hatching (a still's strokes): its strokes lie side by side in parallel rows
+/// `row` pixels apart, exactly along the plane's direction, and each row is cut into dabs a
+/// stroke long (staggered from row to row) whose strokes share most of their value change, so
+/// the plane reads as short parallel strokes of paint, as Cezanne's constructive strokes.
+struct Hatching {
+    row: f32,
+    length: f32,
+    seed: u64,
+}
+
+impl Hatching {
+    /// Where the stroke anchored at `centre` on plane `plane` (direction `dir`) goes: onto the
+    /// plane's nearest row (rows at a seeded phase per plane); and its value change in [-1, 1]
+    /// from its dab's and its own (`own`).
+    fn place(&self, centre: Vec2, dir: Vec2, plane: u64, own: f32) -> (Vec2, f32) {
+        let across = dir.perp();
+        let phase = unit_f64(splitmix64(self.seed ^ plane)) as f32;
+        let a = centre.dot(across) / self.row - phase;
+        let row = a.round();
+        let dab = (centre.dot(dir) / self.length + 0.5 * row).floor();
+        let h = splitmix64(self.seed ^ splitmix64(plane) ^ splitmix64(row as i64 as u64 ^ (dab as i64 as u64) << 32));
+        let shade = 2.0 * unit_f64(h) as f32 - 1.0;
+        (centre + across * (self.row * (row - a)), DAB_SHARE * shade + (1.0 - DAB_SHARE) * own)
     }
 }
 

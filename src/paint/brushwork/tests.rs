@@ -118,3 +118,33 @@ fn a_sample_between_pixels_blends_the_pixels_of_its_region() {
     assert_eq!(at(0.1, 0.1, 0), Some(0.0));
     assert_eq!(at(0.5, 0.5, 7), None);
 }
+
+#[test]
+fn hatching_puts_strokes_on_parallel_rows_and_shares_a_dabs_value() {
+    // A still's strokes move across their plane's direction, by at most half a row, onto
+    // rows a fixed distance apart; strokes of one dab (same row, a stroke-long stretch) differ
+    // in value only by their own share.
+    let hatch = Hatching { row: 8.4, length: 30.0, seed: 11 };
+    let dir = Vec2::from_angle(0.6);
+    let across = dir.perp();
+    let mut rows = Vec::new();
+    for k in 0..500u64 {
+        let r = |j: u64| unit_f64(splitmix64(k * 8 + j)) as f32;
+        let centre = Vec2::new(400.0 * r(1), 300.0 * r(2));
+        let own = 2.0 * r(3) - 1.0;
+        let (moved, shade) = hatch.place(centre, dir, 3, own);
+        assert!((moved - centre).dot(dir).abs() < 1e-3, "moved along its direction");
+        assert!((moved - centre).length() <= 0.5 * hatch.row + 1e-3);
+        assert!((-1.0..=1.0).contains(&shade));
+        assert_eq!(hatch.place(centre, dir, 3, own), (moved, shade));
+        rows.push(moved.dot(across) / hatch.row);
+    }
+    // Every moved stroke lies on a row: the rows' offsets agree to a small fraction of a row.
+    let phase = rows[0] - rows[0].round();
+    assert!(rows.iter().all(|a| ((a - a.round()) - phase).abs() < 1e-3), "{rows:?}");
+    // Two strokes of the same dab share their dab's value: only their own parts differ.
+    let c = Vec2::new(200.0, 150.0);
+    let (p, a) = hatch.place(c, dir, 3, 1.0);
+    let (_, b) = hatch.place(p + dir * 0.01, dir, 3, -1.0);
+    assert!(((a - b) - 2.0 * (1.0 - DAB_SHARE)).abs() < 1e-4, "{a} {b}");
+}
