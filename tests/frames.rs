@@ -134,6 +134,24 @@ fn frames(scene: &Path, settings: &Settings, params: &FramesParams) -> Vec<Frame
     out
 }
 
+/// Without `--animation`: the first animation, and every later one of other nodes with it.
+#[test]
+#[ignore = "needs ../shared"]
+fn without_a_choice_the_animations_of_other_nodes_play_together() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("f_#.png").to_string_lossy().into_owned();
+    let played = |name: &str| {
+        let scene = shared(&format!("gltf-samples/{name}.glb")).to_string_lossy().into_owned();
+        let stderr = cubist(&[&scene, "--frames", "1", "--width", "32", "--height", "24", "--verbose", "-o", &out], 1);
+        stderr.lines().find_map(|l| l.strip_prefix("animation: ")).map(str::to_string).unwrap_or_default()
+    };
+    // InterpolationTest's cubes each have their own animation, as Blender's exporter writes
+    // one per object (a figure's and the camera's): all nine play.
+    assert_eq!(played("InterpolationTest").split(", ").count(), 9, "{}", played("InterpolationTest"));
+    // Fox's Survey, Walk and Run drive the same rig: alternatives, the first plays.
+    assert_eq!(played("Fox"), "Survey");
+}
+
 fn params(first: u32, last: u32, fps: f64, animation: Option<Choice>, orbit_deg: f64) -> FramesParams {
     FramesParams { first, last, fps, animation, orbit_deg, layout_frame: first, measure: true, rekey: 0 }
 }

@@ -166,7 +166,8 @@ pub struct FramesArgs {
     /// Frames per second: frame f is the animation at (f - 1) / fps seconds
     #[arg(long, default_value_t = 24.0, requires = "frames", help_heading = "Animation", value_parser = settings_args::finite_f64)]
     pub fps: f64,
-    /// The glTF animation played, by name or index, or `all` of them at once [default: the first, if any]
+    /// The glTF animation played, by name or index, or `all` of them at once [default: the first,
+    /// with every later one of other nodes (Blender exports one per object), if any]
     #[arg(long, value_name = "NAME|INDEX|all", requires = "frames", help_heading = "Animation")]
     pub animation: Option<String>,
     /// Turntable: the camera turns this many degrees per frame about the scene's vertical axis

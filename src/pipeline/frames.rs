@@ -106,7 +106,8 @@ impl FramesParams {
         (REKEY_TURN_DEG / turn).floor().clamp(1.0, MAX_FRAMES as f64) as u32
     }
 
-    /// Seconds into the animation at frame `f` (frame 1 is time 0, as in Blender).
+    /// Seconds into the animation at frame `f` (frame 1 is time 0, the first frame of Blender's
+    /// timeline).
     pub fn time(&self, f: u32) -> f64 {
         (f as f64 - 1.0) / self.fps
     }
@@ -155,6 +156,8 @@ pub struct FramesSummary {
     pub warnings: Vec<String>,
     /// The layout frame's camera, in a line.
     pub camera: String,
+    /// The names of the animations played, in file order.
+    pub animations: Vec<String>,
     /// Steps done once, before the first frame (the layout frame's pre-render and layout).
     pub setup: Timings,
 }
@@ -181,6 +184,7 @@ pub fn render_frames(
         warnings.push("nothing moves: the scene has no animation played and --orbit is 0".into());
     }
     let painter = setup.time("paint setup", || Painter::new(&params.paint))?;
+    let animations = clips.iter().map(|c| c.name.clone()).collect();
     let mut poser = Poser::new(prep, clips, frames.fps);
     let key_geometry = setup.time("layout frame pose", || poser.geometry(frames, frames.layout_frame, None))?;
     let base = frame_camera(&params.framing, key_geometry.world(), key_geometry.accel())?;
@@ -242,7 +246,7 @@ pub fn render_frames(
         emit(out)?;
     }
     progress.finish();
-    Ok(FramesSummary { warnings, camera: camera_line, setup })
+    Ok(FramesSummary { warnings, camera: camera_line, animations, setup })
 }
 
 /// A frame's scene in render space and its BVH.

@@ -39,9 +39,10 @@ pub(super) fn frames(args: &RenderArgs, settings: &Settings, range: (u32, u32)) 
     let progress = progress_for(args.run.progress);
     progress.begin(Stage::Loading.name(), 1);
     let prep = Prepared::load_with(args.run.scene.as_deref(), pipeline::params::load_options(settings))?;
-    // The first animation by default, when the file has any.
+    // By default the first animation and those of other nodes (`Choice::Default`), when the
+    // file has any.
     if params.animation.is_none() && prep.scene.rig.as_ref().is_some_and(|r| !r.clips.is_empty()) {
-        params.animation = Some(Choice::Index(0));
+        params.animation = Some(Choice::Default);
     }
     let mut per_frame: Vec<(u32, Timings, Option<f64>)> = Vec::new();
     let summary = pipeline::render_frames(&prep, settings, &params, &progress, &mut |out| {
@@ -65,6 +66,10 @@ pub(super) fn frames(args: &RenderArgs, settings: &Settings, range: (u32, u32)) 
                 prep.world.objects.len()
             ),
             format!("camera: {}", summary.camera),
+            format!(
+                "animation: {}",
+                if summary.animations.is_empty() { "none".to_string() } else { summary.animations.join(", ") }
+            ),
             format!("kernels: {}", crate::util::cpu::describe()),
             format!("{:>18}: {:>9.1} ms", "load+bvh", ms(prep.build_time)),
         ];

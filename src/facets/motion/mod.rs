@@ -12,7 +12,7 @@
 //!
 //! A point may have had no facet at the key frame: it was hidden there (behind another
 //! surface, or turned away) or out of the picture. Such pixels take the facet of the nearest
-//! pixel that has one (breadth-first, so facets grow over what the motion reveals).
+//! pixel that has one (Euclidean, so facets grow over what the motion reveals).
 //! Background pixels (no surface) keep the key frame's background facets, grown over what its
 //! surfaces covered from the background's own (`background_facets`): the backdrop does not
 //! move, and its facets do not change as the surfaces move in front of it. `Carried::revealed` says how much
@@ -21,14 +21,12 @@
 
 pub mod file;
 
-use std::collections::VecDeque;
-
 use glam::{DVec2, Vec2, Vec3};
 
 use super::FacetMap;
 use crate::camera::Camera;
+use crate::distance::nearest_features;
 use crate::film::{Film, NO_HIT};
-use crate::util::grid::Grid;
 
 /// How facets move over the frames of an animation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -184,24 +182,22 @@ pub fn still_facets(key: &Key) -> Vec<bool> {
     still
 }
 
-/// Gives every unset pixel the facet of the nearest set one (breadth-first over 4-neighbours
-/// in a fixed order: deterministic); all unset: `fallback`.
+/// Gives every unset pixel the facet of the nearest set one, in Euclidean distance between
+/// pixel centres (`distance::nearest_features`: ties go the same way on any thread count), so
+/// a grown region splits between its neighbours along straight bisectors, not the steps and
+/// boxes of a breadth-first growth over 4-neighbours; all unset: `fallback`.
 fn grow(ids: &mut [u32], width: u32, height: u32, fallback: u32) {
     const UNSET: u32 = u32::MAX;
-    let grid = Grid::new(width, height);
-    let mut queue: VecDeque<usize> = (0..ids.len()).filter(|&i| ids[i] != UNSET).collect();
-    if queue.is_empty() {
+    if ids.iter().all(|&id| id == UNSET) {
         ids.fill(fallback);
         return;
     }
-    while let Some(i) = queue.pop_front() {
-        for j in grid.neighbours4(i) {
-            if ids[j] == UNSET {
-                ids[j] = ids[i];
-                queue.push_back(j);
-            }
-        }
+    if !ids.contains(&UNSET) {
+        return;
     }
+    let (_, nearest) = nearest_features(width, height, f32::INFINITY, |i| ids[i] != UNSET);
+    let grown: Vec<u32> = nearest.iter().map(|&j| ids.get(j as usize).copied().unwrap_or(fallback)).collect();
+    ids.copy_from_slice(&grown);
 }
 
 /// What a frame's picture shows, for measuring coherence between frames: its key data (per
@@ -258,4 +254,43 @@ pub fn coherence(
     }
     let n = points.max(1) as f64;
     Coherence { points, stickiness: same as f64 / n, flicker: change / n }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every grown pixel takes a facet of a set pixel at the least Euclidean distance (brute
+    /// force), set pixels keep theirs, and nothing stays unset.
+    #[test]
+    fn grown_pixels_take_the_facet_of_the_nearest_set_pixel() {
+        const UNSET: u32 = u32::MAX;
+        let (w, h) = (23usize, 17usize);
+        // A few seeds of four facets, placed where a 4-neighbour growth and the nearest
+        // differ (breadth-first counts steps: a diagonal neighbour is two away).
+        let seeds = [(1usize, 1usize, 0u32), (20, 3, 1), (6, 15, 2), (14, 9, 3), (15, 9, 3), (2, 12, 1)];
+        let mut ids = vec![UNSET; w * h];
+        for &(x, y, id) in &seeds {
+            ids[y * w + x] = id;
+        }
+        let before = ids.clone();
+        grow(&mut ids, w as u32, h as u32, 7);
+        for i in 0..w * h {
+            if before[i] != UNSET {
+                assert_eq!(ids[i], before[i]);
+                continue;
+            }
+            let (x, y) = ((i % w) as i64, (i / w) as i64);
+            let d2 = |&(sx, sy, _): &(usize, usize, u32)| (sx as i64 - x).pow(2) + (sy as i64 - y).pow(2);
+            let best = seeds.iter().map(d2).min().unwrap();
+            assert!(
+                seeds.iter().any(|s| d2(s) == best && s.2 == ids[i]),
+                "pixel ({x}, {y}) took facet {} not among the nearest seeds'",
+                ids[i]
+            );
+        }
+        let mut none = vec![UNSET; 6];
+        grow(&mut none, 3, 2, 7);
+        assert_eq!(none, vec![7; 6]);
+    }
 }

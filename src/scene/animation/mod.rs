@@ -4,7 +4,9 @@
 //!
 //! The loader (`scene::gltf`) fills a `Rig` when the file has animations; everything here is
 //! plain data and maths, so it is tested without files. Frame f of an animation played at
-//! `fps` is time (f - 1) / fps seconds: frame 1 is the clips' time 0, as in Blender.
+//! `fps` is time (f - 1) / fps seconds: frame 1 is the clips' time 0, the first frame of
+//! Blender's timeline (its glTF exporter writes frame f at f / fps unless its animations are
+//! set to start at 0).
 //!
 //! Bounds: a sample costs a binary search per channel, a pose one matrix per node and the
 //! vertices of the instances it deforms, all bounded by the file's size (its accessors are
@@ -20,6 +22,8 @@ pub use rig::{
 };
 pub use sampler::{Interpolation, Sampler};
 
+use std::collections::HashSet;
+
 use crate::error::{Error, Result};
 use crate::scene::Scene;
 
@@ -32,6 +36,12 @@ pub enum Choice {
     Name(String),
     /// Every animation at once, in file order (InterpolationTest's cubes each have their own).
     All,
+    /// What plays without `--animation`: the first animation, with every later one that drives
+    /// none of the nodes the ones before it drive. Animations of the same nodes are
+    /// alternatives (Fox's Survey, Walk and Run: the first plays); animations of different
+    /// nodes are parts of one scene's motion (Blender's exporter writes one per object by
+    /// default, the camera's apart from the figure's: all of them play).
+    Default,
 }
 
 impl Choice {
@@ -67,6 +77,18 @@ pub fn select<'a>(scene: &'a Scene, choice: &Choice) -> Result<Vec<&'a Clip>> {
     };
     match choice {
         Choice::All => clips.iter().enumerate().map(|(i, _)| checked(i)).collect(),
+        Choice::Default => {
+            let mut chosen = vec![checked(0)?];
+            let mut driven: HashSet<u32> = chosen[0].channels.iter().map(|c| c.node).collect();
+            // A later animation that does not load is left out, as it was before it was read.
+            for clip in clips[1..].iter().filter_map(|c| c.as_ref().ok()) {
+                if clip.channels.iter().all(|c| !driven.contains(&c.node)) {
+                    driven.extend(clip.channels.iter().map(|c| c.node));
+                    chosen.push(clip);
+                }
+            }
+            Ok(chosen)
+        }
         Choice::Index(i) if *i < clips.len() => Ok(vec![checked(*i)?]),
         Choice::Index(i) => {
             Err(bad(format!("animation {i} does not exist: the scene has {} ({})", clips.len(), names())))

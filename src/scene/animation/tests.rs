@@ -212,3 +212,27 @@ fn choices_parse_and_name_what_the_scene_offers() {
     let e = select(&Scene::default(), &Choice::All).unwrap_err().to_string();
     assert!(e.contains("has no animation"), "{e}");
 }
+
+#[test]
+fn the_default_plays_the_first_animation_and_those_of_other_nodes() {
+    let on = |name: &str, nodes: &[u32]| Clip {
+        name: name.into(),
+        channels: nodes.iter().map(|&node| Channel { node, property: Property::Translation, sampler: 0 }).collect(),
+        samplers: vec![linear(&[0.0], &[0.0; 3], 3)],
+    };
+    let names = |clips: Vec<std::result::Result<Clip, String>>| {
+        let rig = Rig { clips, ..Rig::default() };
+        let scene = Scene { rig: Some(Arc::new(rig)), source: "s.glb".into(), ..Scene::default() };
+        select(&scene, &Choice::Default).map(|c| c.iter().map(|c| c.name.clone()).collect::<Vec<_>>())
+    };
+    // Blender's export, one animation per object: the figure's and the camera's both play.
+    assert_eq!(names(vec![Ok(on("figure", &[0, 1])), Ok(on("camera", &[5]))]).unwrap(), ["figure", "camera"]);
+    // Alternatives for one rig (Fox's Survey, Walk, Run): the first; a later one sharing a
+    // node with any chosen one is left out, one of other nodes joins.
+    let fox = vec![Ok(on("Survey", &[0, 1])), Ok(on("Walk", &[1, 2])), Ok(on("cam", &[7])), Ok(on("Run", &[7, 8]))];
+    assert_eq!(names(fox).unwrap(), ["Survey", "cam"]);
+    // A later animation that does not load is left out; a first one that does not is an error.
+    assert_eq!(names(vec![Ok(on("a", &[0])), Err("bad".into()), Ok(on("b", &[1]))]).unwrap(), ["a", "b"]);
+    let e = names(vec![Err("channel 0: bad".into()), Ok(on("b", &[1]))]).unwrap_err().to_string();
+    assert!(e.contains("animation 0: channel 0: bad"), "{e}");
+}
