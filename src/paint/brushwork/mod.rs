@@ -159,7 +159,7 @@ impl Brushwork {
                         return None;
                     }
                     let i = y * w + x;
-                    if !surface.coverage.is_painted(i) || keep.is_some_and(|keep| !keep(centre)) {
+                    if !surface.coverage.is_painted(i) {
                         return None;
                     }
                     let region = match seed.plane {
@@ -185,6 +185,11 @@ impl Brushwork {
                             (centre, Vec2::from_angle(turn).rotate(angle[plane]), 1.0 + VALUE_JITTER * own)
                         }
                     };
+                    // The fine layer's test, where the stroke is (a recorded layer tests every
+                    // stroke at its centre afterwards: the same answer).
+                    if keep.is_some_and(|keep| !keep(centre)) {
+                        return None;
+                    }
                     let half_len = 0.5 * length * (0.8 + 0.4 * r(4));
                     // Its colour is the mean along it, within its region (`Stroke::tint`).
                     let samples = SAMPLES_AT.map(|k| {
