@@ -272,6 +272,9 @@ class CubistRenderEngine(bpy.types.RenderEngine):
             except runner.RendererError as e:
                 raise runner.RendererError(str(e).replace(str(glb), "the exported scene"), e.returncode) from None
             else:
+                # The reply says the picture is done; its last progress line comes on another
+                # pipe and may not have been read yet.
+                progress("done", 1.0)
                 last_run["server"] = outcome.pid
                 last_run["timings"] = outcome.reply.get("timings")
                 last_run["reused"] = outcome.reply.get("reused")
