@@ -271,6 +271,16 @@ impl Surface<'_> {
     pub(super) fn region(&self, i: usize) -> Region {
         self.regions[i]
     }
+
+    /// The pixel under point `q` (pixels) when it lies in the image, is of `region` and is
+    /// painted.
+    pub(super) fn painted_in(&self, q: Vec2, region: Region) -> Option<usize> {
+        if !(q.x >= 0.0 && q.y >= 0.0 && q.x < self.w as f32 && q.y < self.h as f32) {
+            return None;
+        }
+        let j = q.y as usize * self.w + q.x as usize;
+        (self.region(j) == region && self.coverage.is_painted(j)).then_some(j)
+    }
 }
 
 /// Visits, band by band (in parallel) and in compositing order, every (pixel, stroke) that

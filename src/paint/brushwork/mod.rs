@@ -172,13 +172,8 @@ impl Brushwork {
                         Some(hatch) => {
                             let (moved, shade) = hatch.place(centre, angle[plane], plane as u64, own);
                             // Kept where it was if its row leaves its plane there.
-                            let inside = |q: Vec2| {
-                                q.x >= 0.0 && q.y >= 0.0 && (q.x as usize) < w && (q.y as usize) < h && {
-                                    let j = q.y as usize * w + q.x as usize;
-                                    surface.region(j) == region && surface.coverage.is_painted(j)
-                                }
-                            };
-                            (if inside(moved) { moved } else { centre }, angle[plane], 1.0 + HATCH_JITTER * shade)
+                            let inside = surface.painted_in(moved, region).is_some();
+                            (if inside { moved } else { centre }, angle[plane], 1.0 + HATCH_JITTER * shade)
                         }
                         None => {
                             let turn = (2.0 * r(3) - 1.0) * STROKE_TURN_DEG.to_radians();
@@ -193,12 +188,7 @@ impl Brushwork {
                     let half_len = 0.5 * length * (0.8 + 0.4 * r(4));
                     // Its colour is the mean along it, within its region (`Stroke::tint`).
                     let samples = SAMPLES_AT.map(|k| {
-                        let q = centre + dir * (k * half_len);
-                        if q.x < 0.0 || q.y < 0.0 || q.x >= w as f32 || q.y >= h as f32 {
-                            return u32::MAX;
-                        }
-                        let j = q.y as usize * w + q.x as usize;
-                        if surface.region(j) == region && surface.coverage.is_painted(j) { j as u32 } else { u32::MAX }
+                        surface.painted_in(centre + dir * (k * half_len), region).map_or(u32::MAX, |j| j as u32)
                     });
                     let bristle_seed = splitmix64(hsh ^ 6);
                     Some(Stroke {
