@@ -2,8 +2,8 @@
 //! brushwork that paints them (`paint::brushwork`). A seed is a screen position in this frame,
 //! a stable id (everything random about its stroke, its length, turn, value jitter, bristles
 //! and compositing order, comes from the id, so the same seed paints the same stroke in every
-//! frame), the plane it belongs to (None: the facet under its position) and an opacity (seeds
-//! fade in and out rather than appear or vanish).
+//! frame), the plane it belongs to (None: the facet under its position), an opacity (seeds
+//! fade in and out rather than appear or vanish) and whether it is carried with a surface.
 //!
 //! Two sources:
 //! - `grid_seeds`: one seed per cell of a seeded jittered grid over the picture, fixed on the
@@ -28,6 +28,10 @@ pub struct StrokeSeed {
     pub plane: Option<u32>,
     /// In [0, 1]: fading in or out.
     pub opacity: f32,
+    /// Whether the seed moves with a surface from frame to frame (by fractions of a pixel: its
+    /// stroke reads the picture between pixels and keeps its place, off the hatching's rows,
+    /// between which it would jump). A seed fixed on the canvas is hatched like a still's.
+    pub carried: bool,
 }
 
 /// The seeds of one layer of strokes (`layer` 0 the coarse one, 1 the fine one) whose strokes
@@ -36,11 +40,6 @@ pub struct StrokeSeed {
 /// `seed` is the brushwork's own (salted): a source keys its ids on it.
 pub trait SeedSource: Sync {
     fn seeds(&self, seed: u64, layer: u64, cell: f32, width: usize, height: usize) -> Vec<StrokeSeed>;
-    /// Whether the seeds move with the surfaces from frame to frame (by fractions of a
-    /// pixel: the brushwork then reads the picture between pixels).
-    fn carried(&self) -> bool {
-        false
-    }
 }
 
 /// The jittered grid of a still (`grid_seeds`).
@@ -72,7 +71,7 @@ pub fn grid_seeds(
             let r = |k: u64| unit_f64(splitmix64(id ^ k)) as f32;
             let pos = Vec2::new((cx as f32 + r(1)) * cell, (cy as f32 + r(2)) * cell);
             if (pos.x as usize) < width && (pos.y as usize) < height && keep(pos) {
-                out.push(StrokeSeed { pos, id, plane: None, opacity: 1.0 });
+                out.push(StrokeSeed { pos, id, plane: None, opacity: 1.0, carried: false });
             }
         }
     }
@@ -88,7 +87,7 @@ mod tests {
         let a = grid_seeds(7, 0, 10.0, 100, 50, |_| true);
         assert_eq!(a.len(), 50);
         for s in &a {
-            assert!(s.pos.x < 100.0 && s.pos.y < 50.0 && s.opacity == 1.0 && s.plane.is_none());
+            assert!(s.pos.x < 100.0 && s.pos.y < 50.0 && s.opacity == 1.0 && s.plane.is_none() && !s.carried);
         }
         assert_eq!(grid_seeds(7, 0, 10.0, 100, 50, |_| true), a);
         assert_ne!(grid_seeds(7, 1, 10.0, 100, 50, |_| true)[0].id, a[0].id);

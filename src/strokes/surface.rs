@@ -19,7 +19,8 @@
 //! pixels, so a stroke fades in as its surface comes out from behind another and fades out as
 //! it goes behind.
 //!
-//! Background pixels (no hit) keep the still's grid seeds (`grid_seeds`): fixed on the canvas.
+//! Background pixels (no hit) keep the still's grid seeds (`grid_seeds`): fixed on the canvas,
+//! and hatched as a still's.
 //!
 //! Deterministic: every seed is a function of the frame's hits, scene and camera alone, listed
 //! in triangle order; no frame before it is read, so a frame rendered alone has the same
@@ -195,10 +196,6 @@ fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
 }
 
 impl SeedSource for SurfaceSeeds<'_> {
-    fn carried(&self) -> bool {
-        true
-    }
-
     fn seeds(&self, seed: u64, layer: u64, cell: f32, width: usize, height: usize) -> Vec<StrokeSeed> {
         debug_assert_eq!((width, height), (self.width, self.height));
         let (w, h) = (self.width as u32, self.height as u32);
@@ -236,7 +233,7 @@ impl SeedSource for SurfaceSeeds<'_> {
                     let opacity = density * fade;
                     if opacity > 0.0 {
                         let plane = self.facets.map(|f| f.ids[i]);
-                        out.push(StrokeSeed { pos, id, plane, opacity });
+                        out.push(StrokeSeed { pos, id, plane, opacity, carried: true });
                     }
                 }
                 out

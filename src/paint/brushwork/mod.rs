@@ -10,8 +10,9 @@
 //! every stroke takes its plane's direction (across the plane's light ramp, `planes`, plus a
 //! seeded turn per plane) and paints only the pixels of its own plane and object, so facet
 //! borders and silhouettes stay crisp and each plane reads as hatched on its own. A still's
-//! strokes lie side by side in parallel rows, in dabs of a shared value (`Hatching`); strokes
-//! carried with the surfaces (animation frames) keep their place and a small turn each.
+//! strokes, and an animation frame's strokes fixed on the canvas, lie side by side in parallel
+//! rows, in dabs of a shared value (`Hatching`); strokes carried with the surfaces (animation
+//! frames) keep their place and a small turn each.
 //!
 //! Speed and determinism (Lu, Sander and Finkelstein 2010 splat 60,000 strokes on a GPU): the
 //! strokes sit one per cell of a jittered grid (seeded per cell), sorted once by a seeded
@@ -141,12 +142,7 @@ impl Brushwork {
     ) -> Vec<Stroke> {
         let (w, h) = (surface.w, surface.h);
         let cell = width * SPACING;
-        // Strokes carried with the surfaces (animation frames) read the picture between
-        // pixels (`Stroke::smooth`).
-        let smooth = seeds.carried();
-        // Hatching rows: a still's strokes only (seeds carried with the surfaces would jump
-        // from row to row between frames).
-        let hatch = (!smooth).then(|| Hatching { row: width * HATCH_ROW, length, seed: sub_seed(self.seed, SALT ^ 1) });
+        let hatch = Hatching { row: width * HATCH_ROW, length, seed: sub_seed(self.seed, SALT ^ 1) };
         let seeds = seeds.seeds(sub_seed(self.seed, SALT), layer, cell, w, h);
         seeds
             .par_iter()
@@ -168,17 +164,16 @@ impl Brushwork {
                     };
                     let plane = (region >> 32) as usize;
                     let own = 2.0 * r(5) - 1.0;
-                    let (centre, dir, jitter) = match &hatch {
-                        Some(hatch) => {
-                            let (moved, shade) = hatch.place(centre, angle[plane], plane as u64, own);
-                            // Kept where it was if its row leaves its plane there.
-                            let inside = surface.painted_in(moved, region).is_some();
-                            (if inside { moved } else { centre }, angle[plane], 1.0 + HATCH_JITTER * shade)
-                        }
-                        None => {
-                            let turn = (2.0 * r(3) - 1.0) * STROKE_TURN_DEG.to_radians();
-                            (centre, Vec2::from_angle(turn).rotate(angle[plane]), 1.0 + VALUE_JITTER * own)
-                        }
+                    // A seed carried with a surface keeps its place (it reads the picture between
+                    // pixels: `Stroke::smooth`); one fixed on the canvas goes onto its plane's
+                    // hatching row, or stays where it was if the row leaves its plane there.
+                    let (centre, dir, jitter) = if seed.carried {
+                        let turn = (2.0 * r(3) - 1.0) * STROKE_TURN_DEG.to_radians();
+                        (centre, Vec2::from_angle(turn).rotate(angle[plane]), 1.0 + VALUE_JITTER * own)
+                    } else {
+                        let (moved, shade) = hatch.place(centre, angle[plane], plane as u64, own);
+                        let inside = surface.painted_in(moved, region).is_some();
+                        (if inside { moved } else { centre }, angle[plane], 1.0 + HATCH_JITTER * shade)
                     };
                     // The fine layer's test, where the stroke is (a recorded layer tests every
                     // stroke at its centre afterwards: the same answer).
@@ -206,7 +201,7 @@ impl Brushwork {
                         jitter,
                         order: 0,
                         opacity: seed.opacity,
-                        smooth,
+                        smooth: seed.carried,
                     })
                 }
             })

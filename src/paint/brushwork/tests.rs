@@ -148,3 +148,37 @@ fn hatching_puts_strokes_on_parallel_rows_and_shares_a_dabs_value() {
     let (_, b) = hatch.place(p + dir * 0.01, dir, 3, -1.0);
     assert!(((a - b) - 2.0 * (1.0 - DAB_SHARE)).abs() < 1e-4, "{a} {b}");
 }
+
+/// A source mixing the two kinds of seeds, as an animation frame's (`strokes::surface`).
+struct Mixed(Vec<crate::strokes::StrokeSeed>);
+
+impl SeedSource for Mixed {
+    fn seeds(&self, _: u64, _: u64, _: f32, _: usize, _: usize) -> Vec<crate::strokes::StrokeSeed> {
+        self.0.clone()
+    }
+}
+
+#[test]
+fn seeds_fixed_on_the_canvas_are_hatched_and_carried_ones_keep_their_place() {
+    // One plane over the whole picture: a fixed seed goes onto its row, exactly along the
+    // plane's direction; a carried seed at the same place stays there and reads between pixels.
+    let (w, h) = (64, 64);
+    let regions: Vec<Region> = vec![0; w * h];
+    let surface = Surface { w, h, regions: &regions, coverage: crate::paint::Coverage(None) };
+    let brush = Brushwork { opacity: 1.0, length: 12.0, width: 4.0, seed: 5 };
+    let angle = [Vec2::from_angle(0.4)];
+    let seed = |carried: bool| crate::strokes::StrokeSeed {
+        pos: Vec2::new(31.3, 30.2),
+        id: 77,
+        plane: None,
+        opacity: 1.0,
+        carried,
+    };
+    let strokes = brush.strokes(0, (12.0, 4.0), &surface, &angle, &Mixed(vec![seed(false), seed(true)]), None);
+    let (fixed, carried) = (&strokes[0], &strokes[1]);
+    let hatch = Hatching { row: 4.0 * HATCH_ROW, length: 12.0, seed: sub_seed(5, SALT ^ 1) };
+    assert_eq!(fixed.centre, hatch.place(seed(false).pos, angle[0], 0, 0.0).0);
+    assert_ne!(fixed.centre, seed(false).pos, "the fixed seed stayed off its row");
+    assert_eq!((fixed.dir, fixed.smooth), (angle[0], false));
+    assert_eq!((carried.centre, carried.smooth), (seed(true).pos, true));
+}
