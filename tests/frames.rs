@@ -83,7 +83,14 @@ fn a_following_turntable_rekeys_every_thirty_degrees_by_default() {
 
 #[test]
 fn bad_frame_flags_are_usage_errors() {
-    for args in [&["--frames", "5-2"][..], &["--frames", "x"], &["--fps", "24"], &["--frames", "1-2", "--fps", "0"]] {
+    for args in [
+        &["--frames", "5-2"][..],
+        &["--frames", "x"],
+        &["--fps", "24"],
+        &["--frame-at-zero", "0"],
+        &["--frames", "1-2", "--fps", "0"],
+        &["--frames", "1-2", "--frame-at-zero", "-1"],
+    ] {
         let out = Command::new(env!("CARGO_BIN_EXE_cubist"))
             .args(["render", "-o", "/nonexistent-dir-for-cubist/x.png"])
             .args(args)
@@ -153,7 +160,17 @@ fn without_a_choice_the_animations_of_other_nodes_play_together() {
 }
 
 fn params(first: u32, last: u32, fps: f64, animation: Option<Choice>, orbit_deg: f64) -> FramesParams {
-    FramesParams { first, last, fps, animation, orbit_deg, layout_frame: first, measure: true, rekey: 0 }
+    FramesParams {
+        first,
+        last,
+        fps,
+        frame_at_zero: 1,
+        animation,
+        orbit_deg,
+        layout_frame: first,
+        measure: true,
+        rekey: 0,
+    }
 }
 
 fn small(side: u32) -> Settings {
@@ -173,6 +190,21 @@ fn the_animated_samples_render_moving() {
         assert_ne!(a.key.positions, b.key.positions, "{name}: no triangle moved between 0 s and 0.5 s");
         assert_ne!(out[0].image, out[1].image, "{name}: the same picture at 0 s and 0.5 s");
     }
+}
+
+/// `frame_at_zero` 0 (a file Blender exported with its defaults) shows at frame f what frame
+/// f + 1 shows by default: the same time, the same picture.
+#[test]
+#[ignore = "needs ../shared"]
+fn frame_at_zero_shifts_the_frames_by_their_time() {
+    let scene = shared("gltf-samples/InterpolationTest.glb");
+    let at = |f: u32, frame_at_zero: u32| {
+        let p = FramesParams { frame_at_zero, ..params(f, f, 2.0, Some(Choice::All), 0.0) };
+        frames(&scene, &small(48), &p).remove(0)
+    };
+    let (shifted, default) = (at(1, 0), at(2, 1));
+    assert_eq!(shifted.image, default.image, "frame 1 at zero 0 differs from frame 2 at zero 1");
+    assert_ne!(at(1, 1).image, default.image, "frames 1 and 2 are the same picture: nothing moved");
 }
 
 /// Mean coherence over consecutive frames.

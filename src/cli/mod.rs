@@ -163,9 +163,14 @@ pub struct RenderArgs {
 /// (`Settings::frames`), and these need it.
 #[derive(Args, Debug, Default)]
 pub struct FramesArgs {
-    /// Frames per second: frame f is the animation at (f - 1) / fps seconds
+    /// Frames per second: frame f is the animation at (f - N) / fps seconds, N from --frame-at-zero
     #[arg(long, default_value_t = 24.0, requires = "frames", help_heading = "Animation", value_parser = settings_args::finite_f64)]
     pub fps: f64,
+    /// The frame shown at the animation's time 0: 1, Blender's first frame; 0 for a file
+    /// Blender exported with its defaults (it writes its frame f at f / fps seconds unless "Set
+    /// All glTF Animation Starting at 0" is on), so frame numbers match Blender's timeline
+    #[arg(long, value_name = "N", default_value_t = 1, requires = "frames", help_heading = "Animation")]
+    pub frame_at_zero: u32,
     /// The glTF animation played, by name or index, or `all` of them at once [default: the first,
     /// with every later one of other nodes (Blender exports one per object), if any]
     #[arg(long, value_name = "NAME|INDEX|all", requires = "frames", help_heading = "Animation")]

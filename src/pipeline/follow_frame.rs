@@ -56,6 +56,7 @@ pub fn render_followed_frame(
         first: 1,
         last: 1,
         fps: 1.0,
+        frame_at_zero: 1,
         animation: None,
         orbit_deg: 0.0,
         layout_frame: 1,

@@ -2,8 +2,8 @@
 //! one process, each a pure function of its frame number, so any range rendered alone (a farm
 //! chunk) gives the same pictures, byte for byte, as the same frames of a longer run.
 //!
-//! Frame f is the scene at time (f - 1) / fps of its glTF animation (`scene::animation`), seen
-//! through the layout frame's camera moved rigidly (`camera::Moved`): turned about the scene's
+//! Frame f is the scene at time (f - frame_at_zero) / fps of its glTF animation
+//! (`scene::animation`), seen through the layout frame's camera moved rigidly (`camera::Moved`): turned about the scene's
 //! vertical axis by `orbit` degrees per frame (a turntable), and carried along with the glTF
 //! camera when the file animates it. The layout frame fixes what frames share: the render space,
 //! the camera's framing, and the facet layout (computed from its full pre-render, or loaded).
@@ -76,6 +76,10 @@ pub struct FramesParams {
     pub first: u32,
     pub last: u32,
     pub fps: f64,
+    /// The frame shown at the animation's time 0: 1 (Blender's first frame, and a file whose
+    /// animations start at 0), or 0 for a file Blender exported with its defaults (its frame f
+    /// at f / fps seconds), so frame numbers match Blender's timeline.
+    pub frame_at_zero: u32,
     /// The glTF animation(s) played; None: the scene stays as loaded.
     pub animation: Option<Choice>,
     /// Turntable: the camera turns by this many degrees per frame about the scene's vertical
@@ -106,10 +110,10 @@ impl FramesParams {
         (REKEY_TURN_DEG / turn).floor().clamp(1.0, MAX_FRAMES as f64) as u32
     }
 
-    /// Seconds into the animation at frame `f` (frame 1 is time 0, the first frame of Blender's
-    /// timeline).
+    /// Seconds into the animation at frame `f`: (f - `frame_at_zero`) / fps (before time 0, the
+    /// animation's first keys hold).
     pub fn time(&self, f: u32) -> f64 {
-        (f as f64 - 1.0) / self.fps
+        (f as f64 - self.frame_at_zero as f64) / self.fps
     }
 
     pub fn validate(&self) -> Result<()> {

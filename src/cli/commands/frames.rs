@@ -16,6 +16,7 @@ fn params(f: &FramesArgs, (first, last): (u32, u32)) -> Result<FramesParams> {
         first,
         last,
         fps: f.fps,
+        frame_at_zero: f.frame_at_zero,
         animation: f.animation.as_deref().map(Choice::parse),
         orbit_deg: f.orbit,
         layout_frame: f.layout_frame,

@@ -3,10 +3,8 @@
 //! morph targets re-evaluated per frame (`rig`), applied to a loaded scene (`apply`).
 //!
 //! The loader (`scene::gltf`) fills a `Rig` when the file has animations; everything here is
-//! plain data and maths, so it is tested without files. Frame f of an animation played at
-//! `fps` is time (f - 1) / fps seconds: frame 1 is the clips' time 0, the first frame of
-//! Blender's timeline (its glTF exporter writes frame f at f / fps unless its animations are
-//! set to start at 0).
+//! plain data and maths, so it is tested without files. Which time a frame shows is the
+//! sequence's (`pipeline::FramesParams::time`): by default frame 1 is the clips' time 0.
 //!
 //! Bounds: a sample costs a binary search per channel, a pose one matrix per node and the
 //! vertices of the instances it deforms, all bounded by the file's size (its accessors are
