@@ -39,6 +39,7 @@ from pathlib import Path
 
 import addon_utils
 import bpy
+import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import stepper  # noqa: E402 - beside this script, which Blender runs by path
@@ -210,11 +211,36 @@ def wait_prepared(timeout=300):
     raise TimeoutError(f"render ahead prepared nothing within {timeout} s: {mod.counts}, {mod.last_skip}")
 
 
+class FloorEngine(bpy.types.RenderEngine):
+    """A render engine whose render() only fills its result with one colour, as the add-on
+    delivers a picture: what F12 costs with any Python engine."""
+
+    bl_idname = "CUBIST_TEST_FLOOR"
+    bl_label = "Floor (test)"
+
+    seconds: list = []  # how long each render() took
+
+    def render(self, depsgraph):
+        t0 = time.monotonic()
+        r = depsgraph.scene.render
+        w, h = int(r.resolution_x * r.resolution_percentage / 100), int(r.resolution_y * r.resolution_percentage / 100)
+        result = self.begin_result(0, 0, w, h)
+        rect = np.full(w * h * 4, 0.5, dtype=np.float32)
+        p = result.layers[0].passes["Combined"]
+        try:
+            p.rect.foreach_set(rect)
+        except TypeError:
+            p.rect.foreach_set(rect.reshape(w * h, 4))
+        self.end_result(result)
+        FloorEngine.seconds.append(round(time.monotonic() - t0, 3))
+
+
 def step_speed():
     """The first F12 of the session once render ahead has prepared it; F12 again a second after
     one panel change, with render ahead off (the repeat alone), then on; the first F12 again
     without render ahead, on a new renderer that keeps nothing (the same picture, its preview
-    first); Render Animation."""
+    first); Render Animation; F12 with Blender's Workbench engine and with `FloorEngine` (Blender's
+    own time)."""
     scene = bpy.context.scene
     prepared = yield from wait_prepared()
     engine().keep_exports = OUT / "exports"  # the scene and settings F12 sent (frame_0001.*)
@@ -264,10 +290,26 @@ def step_speed():
     anim["written"] = sorted(p.name for p in (OUT / "anim").glob("*.png"))
     cam.animation_data_clear()
     scene.frame_set(1)
+    # Blender's own time on this scene and size: F12 with its Workbench engine, and with an
+    # engine whose render() only fills the result with one colour (any Python engine's floor).
+    own = {}
+    bpy.utils.register_class(FloorEngine)
+    try:
+        for name in ("BLENDER_WORKBENCH", FloorEngine.bl_idname):
+            scene.render.engine = name
+            own[name] = []
+            for _ in range(2):
+                own[name].append((yield from f12())["seconds"])
+    finally:
+        scene.render.engine = "CUBIST"
+        bpy.utils.unregister_class(FloorEngine)
+    workbench, floor = own["BLENDER_WORKBENCH"], own[FloorEngine.bl_idname]
     results["steps"]["speed"] = {"first": first, "again": again, "again_ahead": again_ahead, "cold": cold,
-                                 "animation": anim}
+                                 "animation": anim, "workbench": workbench, "floor": floor,
+                                 "floor_render": FloorEngine.seconds}
     log(f"speed: first (rendered ahead) {first['seconds']} s, again {again['seconds']} s (with render ahead "
-        f"{again_ahead['seconds']} s), without render ahead {cold['seconds']} s (preview {cold['preview_seconds']})")
+        f"{again_ahead['seconds']} s), without render ahead {cold['seconds']} s (preview {cold['preview_seconds']}), "
+        f"Workbench {workbench} s, an engine that only fills its result {floor} s")
     yield from responsive("speed")
 
 
