@@ -188,6 +188,7 @@ class CubistRenderEngine(bpy.types.RenderEngine):
                                                   "warnings")}
             history.append(entry)
             del history[:-HISTORY_LIMIT]
+            self._mark("returned")
 
     # -----------------------------------------------------------------------------------------
 
