@@ -284,6 +284,34 @@ pub(super) fn is_subject(r: u64) -> bool {
     ((r & 0xffff_ffff) as u32) < OPEN_REGION
 }
 
+/// Each plane's share of ground: the share of its pixels showing no geometry (0 for an id no
+/// pixel has, or without hits). The per-plane light models the ground's planes more deeply
+/// (`plane_light::GROUND`).
+pub(super) fn ground_shares(ids: &[u32], hits: &[PixelHit], count: usize) -> Vec<f32> {
+    let mut on = vec![(0u64, 0u64); count];
+    for (&f, h) in ids.iter().zip(hits) {
+        if let Some(c) = on.get_mut(f as usize) {
+            c.0 += !h.is_hit() as u64;
+            c.1 += 1;
+        }
+    }
+    on.iter().map(|&(g, t)| if t > 0 { g as f32 / t as f32 } else { 0.0 }).collect()
+}
+
+impl PaintContext<'_> {
+    /// Each plane's share of ground (`ground_shares`), per facet id: a sequence's frames read
+    /// the layout frame's (`Held::ground`); empty without a facet map or hits.
+    pub fn ground_shares(&self, pixels: usize) -> std::borrow::Cow<'_, [f32]> {
+        if let Some(held) = self.held().and_then(|h| h.ground.as_deref()) {
+            return std::borrow::Cow::Borrowed(held);
+        }
+        match self.facets.map(|f| &f.ids[..]).filter(|d| d.len() == pixels && self.hits.len() == pixels) {
+            Some(ids) => std::borrow::Cow::Owned(ground_shares(ids, self.hits, self.facet_count())),
+            None => std::borrow::Cow::Borrowed(&[]),
+        }
+    }
+}
+
 /// A plane spans figure and ground when each has at least this share of its pixels.
 pub const OPEN_MIN_SHARE: f64 = 0.15;
 

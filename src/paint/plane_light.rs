@@ -6,7 +6,8 @@
 //! away from the key light on a round one, turned and sometimes flipped per facet) from its
 //! light end to its dark end, and multiplies the value already there: the render's own
 //! shading, textures and cues stay legible inside the ramp, so form reads through the planes.
-//! Background facets get their ramps too: the backdrop becomes lit planes, not a flat ground.
+//! Background facets get their ramps too, deeper than the subject's (`GROUND`): the backdrop
+//! becomes modelled planes, each ending in a dark seam, that the lit subject stands in.
 
 use glam::Vec2;
 use rayon::prelude::*;
@@ -45,6 +46,10 @@ pub const CENTRE_LIGHT: f32 = 0.16;
 /// (`CALM`: the share of the ramp's amount lost there).
 pub const EDGE_DARK: f32 = 0.22;
 pub const CALM: f32 = 0.6;
+/// A plane all ground has its ramp this share deeper than a plane on the subject (in
+/// proportion to its share of ground pixels): the ground's planes modelled more deeply, the
+/// subject's cues untouched (judged blind: docs/look/README.md, round 12).
+pub const GROUND: f32 = 0.4;
 
 /// A light-to-dark ramp across every facet.
 pub struct PlaneLight {
@@ -66,11 +71,13 @@ impl PlaneLight {
     }
 
     /// The factor at `p` of `plane` within the composition: `r` = the distance from the
-    /// subject's centre over the canvas's half diagonal (`Oval::r`). The ramp calms towards
-    /// the edges and the value follows the central light.
-    pub fn composed(&self, plane: &Plane, p: Vec2, r: f32) -> f32 {
+    /// subject's centre over the canvas's half diagonal (`Oval::r`), `ground` the plane's
+    /// share of ground pixels. The ramp calms towards the edges, deepens on the ground, and
+    /// the value follows the central light.
+    pub fn composed(&self, plane: &Plane, p: Vec2, r: f32, ground: f32) -> f32 {
         let edge = smoothstep(0.35, 1.1, r);
-        let ramp = 1.0 + self.amount * (1.0 - CALM * edge) * (LIGHT * (1.0 - plane.ramp(p)) - DARK * plane.ramp(p));
+        let depth = (1.0 - CALM * edge) * (1.0 + GROUND * ground);
+        let ramp = 1.0 + self.amount * depth * (LIGHT * (1.0 - plane.ramp(p)) - DARK * plane.ramp(p));
         ramp * (1.0 + self.amount * (CENTRE_LIGHT * (1.0 - smoothstep(0.0, 0.7, r)) - EDGE_DARK * edge))
     }
 }
@@ -125,9 +132,11 @@ impl Effect for PlaneLight {
         let w = canvas.width as usize;
         let planes = ctx.planes(canvas.width, canvas.pixel_count(), self.seed);
         let oval = ctx.oval(w, canvas.height as usize);
+        let ground = ctx.ground_shares(canvas.pixel_count());
         let factor = |x: usize, y: usize| {
             let p = ctx.plane_point(y * w + x, w);
-            self.composed(&planes[facets.ids[y * w + x] as usize], p, oval.r(p))
+            let f = facets.ids[y * w + x] as usize;
+            self.composed(&planes[f], p, oval.r(p), ground.get(f).copied().unwrap_or(0.0))
         };
         if ctx.kept_across_chains() {
             // A session keeps each pixel's factor (it reads the planes and the facet map):

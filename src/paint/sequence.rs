@@ -48,6 +48,8 @@ pub type RegionMeans = HashMap<u64, Vec3>;
 /// - which planes are open across the subject's outline (`PaintContext::regions`): decided
 ///   on each frame, a plane the subject walks into or out of would flip, and its strokes and
 ///   edges with it;
+/// - each plane's share of ground, which deepens its light (`plane_light::GROUND`): a
+///   background plane the subject walks into would change its light over all its pixels;
 /// - the mean colour the brushwork draws a stroke towards, for the regions of the background
 ///   and of the open planes: a background plane the subject walks into loses the pixels the
 ///   subject covers, and its mean, hence every stroke of the plane, would change.
@@ -58,6 +60,8 @@ pub struct Held {
     pub palette: Option<palette::PaletteKey>,
     /// Per facet id: whether the plane is open (one region across the outline).
     pub open: Option<Vec<bool>>,
+    /// Per facet id: the plane's share of ground (`PaintContext::ground_shares`).
+    pub ground: Option<Vec<f32>>,
     /// The brushwork's region means for the background's and the open planes' regions.
     pub means: Option<RegionMeans>,
 }

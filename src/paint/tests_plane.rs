@@ -10,7 +10,7 @@ use super::brushwork::Brushwork;
 use super::canvas::CanvasGrain;
 use super::measure::{luma, per_plane_light};
 use super::passage::Passage;
-use super::plane_light::{DARK, LIGHT, PlaneLight};
+use super::plane_light::{DARK, GROUND, LIGHT, PlaneLight};
 use super::planes::planes;
 use super::tests::voronoi;
 use super::*;
@@ -55,7 +55,7 @@ fn every_plane_gets_a_ramp_from_its_light_end_to_its_dark_end() {
     let planes = planes(w, &facets.ids, 20, 5);
     for (i, c) in frame.color.iter().enumerate() {
         let p = Vec2::new((i as u32 % w) as f32 + 0.5, (i as u32 / w) as f32 + 0.5);
-        let want = 0.4 * light.composed(&planes[facets.ids[i] as usize], p, oval.r(p));
+        let want = 0.4 * light.composed(&planes[facets.ids[i] as usize], p, oval.r(p), 0.0);
         assert!((c.x - want).abs() < 1e-6, "pixel {i}");
     }
     // The ends: 1 + amount LIGHT and 1 - amount DARK.
@@ -65,6 +65,38 @@ fn every_plane_gets_a_ramp_from_its_light_end_to_its_dark_end() {
     let img = crate::output::encode(&frame, [0.0; 3], false);
     let m = per_plane_light(&luma(&img), &facets.ids, w);
     assert!(m.facets >= 15 && m.share == 1.0, "{m:?}");
+}
+
+#[test]
+fn the_grounds_planes_are_modelled_more_deeply_than_the_subjects() {
+    // Two planes, the left one on the subject, the right one on the ground: each pixel is lit
+    // as `composed` says with its plane's share of ground, and at the composition's centre
+    // a ground plane's ramp is 1 + GROUND times the subject plane's.
+    let (w, h) = (120u32, 60u32);
+    let facets = halves(w, h, 60);
+    let mut frame = flat(w, h, Vec3::splat(0.4));
+    for (i, hit) in frame.hits.iter_mut().enumerate() {
+        if i as u32 % w >= 60 {
+            *hit = crate::film::PixelHit::MISS;
+        }
+    }
+    assert!(!frame.hits[w as usize - 1].is_hit() && frame.hits[0].is_hit());
+    let light = PlaneLight { amount: 0.7, seed: 5 };
+    let oval = super::plane_light::Oval::of(w as usize, h as usize, &frame.hits);
+    run(Box::new(PlaneLight { amount: 0.7, seed: 5 }), &mut frame, Some(&facets));
+    let planes = planes(w, &facets.ids, 2, 5);
+    for (i, c) in frame.color.iter().enumerate() {
+        let p = Vec2::new((i as u32 % w) as f32 + 0.5, (i as u32 / w) as f32 + 0.5);
+        let f = facets.ids[i] as usize;
+        let want = 0.4 * light.composed(&planes[f], p, oval.r(p), f as f32);
+        assert!((c.x - want).abs() < 1e-6, "pixel {i}: {} against {want}", c.x);
+    }
+    let centre = 1.0 + 0.7 * super::plane_light::CENTRE_LIGHT;
+    for p in [Vec2::new(3.5, 2.5), Vec2::new(30.5, 40.5)] {
+        let subject = light.composed(&planes[0], p, 0.0, 0.0) / centre - 1.0;
+        let ground = light.composed(&planes[0], p, 0.0, 1.0) / centre - 1.0;
+        assert!(subject.abs() > 1e-3 && (ground - (1.0 + GROUND) * subject).abs() < 1e-5, "{subject} {ground}");
+    }
 }
 
 #[test]

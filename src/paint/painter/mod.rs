@@ -5,7 +5,7 @@ use rayon::prelude::*;
 
 use super::context::{Canvas, Lighting, PaintContext};
 use super::effect::{Effect, key_of};
-use super::inputs::{PaintInputs, open_planes};
+use super::inputs::{PaintInputs, ground_shares, open_planes};
 use super::params::PaintParams;
 use super::sequence::{Held, Sequence};
 use crate::error::{Error, Result};
@@ -128,14 +128,17 @@ impl Painter {
         lighting: Option<&Lighting>,
         sequence: &Sequence,
     ) -> Result<Held> {
+        let count =
+            |f: &FacetMap| (f.facet_count as usize).max(f.ids.iter().copied().max().map_or(0, |m| m as usize + 1));
         let open = match facets {
             Some(f) if self.open_planes && f.ids.len() == film.hits.len() => {
-                let count = (f.facet_count as usize).max(f.ids.iter().copied().max().map_or(0, |m| m as usize + 1));
-                Some(open_planes(&f.ids, &film.hits, count))
+                Some(open_planes(&f.ids, &film.hits, count(f)))
             }
             _ => None,
         };
-        let mut held = Held { open, ..Held::default() };
+        let ground =
+            facets.filter(|f| f.ids.len() == film.hits.len()).map(|f| ground_shares(&f.ids, &film.hits, count(f)));
+        let mut held = Held { open, ground, ..Held::default() };
         let mut color = film.color.clone();
         let mut canvas = Canvas::new(film.width, film.height, &mut color, self.background, self.transparent);
         let inputs = PaintInputs::default();
