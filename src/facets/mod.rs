@@ -270,6 +270,12 @@ impl FacetPixels {
 }
 
 impl FacetMap {
+    /// How many ids a per-facet table needs: at least `facet_count` and one more than any id
+    /// (a map made elsewhere may hold ids beyond its count).
+    pub fn id_bound(&self) -> usize {
+        (self.facet_count as usize).max(self.ids.iter().copied().max().map_or(0, |m| m as usize + 1))
+    }
+
     /// Pixel indices of every facet, facet-major and ascending within a facet (a counting
     /// sort: `offsets[f]..offsets[f + 1]` indexes `pixels`). Bands of the image are sorted
     /// side by side, then each facet's pixels are gathered band after band (so still

@@ -198,7 +198,6 @@ impl<'a> PaintContext<'a> {
 
     /// Number of facets (1 without a facet map), at least one more than any id.
     pub fn facet_count(&self) -> usize {
-        self.facets
-            .map_or(1, |f| (f.facet_count as usize).max(f.ids.iter().copied().max().map_or(0, |m| m as usize + 1)))
+        self.facets.map_or(1, |f| f.id_bound())
     }
 }

@@ -116,7 +116,7 @@ impl<'a> PaintContext<'a> {
         let open: &[bool] = match (held, ids, hits) {
             (Some(open), _, _) => open,
             (None, Some(ids), Some(hits)) if self.open_planes => {
-                made = open_planes(ids, hits, self.facet_count());
+                made = open_planes(&figure_ground(ids, hits, self.facet_count()));
                 &made
             }
             _ => &[],
@@ -284,18 +284,26 @@ pub(super) fn is_subject(r: u64) -> bool {
     ((r & 0xffff_ffff) as u32) < OPEN_REGION
 }
 
-/// Each plane's share of ground: the share of its pixels showing no geometry (0 for an id no
-/// pixel has, or without hits). The per-plane light models the ground's planes more deeply
-/// (`plane_light::GROUND`).
-pub(super) fn ground_shares(ids: &[u32], hits: &[PixelHit], count: usize) -> Vec<f32> {
+/// Each plane's pixels showing geometry (figure) and not (ground), per facet id below
+/// `count`: what open planes and the ground's deeper light are decided from, one pass.
+pub(super) fn figure_ground(ids: &[u32], hits: &[PixelHit], count: usize) -> Vec<(u64, u64)> {
     let mut on = vec![(0u64, 0u64); count];
     for (&f, h) in ids.iter().zip(hits) {
         if let Some(c) = on.get_mut(f as usize) {
-            c.0 += !h.is_hit() as u64;
-            c.1 += 1;
+            if h.is_hit() {
+                c.0 += 1;
+            } else {
+                c.1 += 1;
+            }
         }
     }
-    on.iter().map(|&(g, t)| if t > 0 { g as f32 / t as f32 } else { 0.0 }).collect()
+    on
+}
+
+/// Each plane's share of ground (`figure_ground`): 0 for an id no pixel has. The per-plane
+/// light models the ground's planes more deeply (`plane_light::GROUND`).
+pub(super) fn ground_shares(counts: &[(u64, u64)]) -> Vec<f32> {
+    counts.iter().map(|&(a, b)| if a + b > 0 { b as f32 / (a + b) as f32 } else { 0.0 }).collect()
 }
 
 impl PaintContext<'_> {
@@ -306,7 +314,7 @@ impl PaintContext<'_> {
             return std::borrow::Cow::Borrowed(held);
         }
         match self.facets.map(|f| &f.ids[..]).filter(|d| d.len() == pixels && self.hits.len() == pixels) {
-            Some(ids) => std::borrow::Cow::Owned(ground_shares(ids, self.hits, self.facet_count())),
+            Some(ids) => std::borrow::Cow::Owned(ground_shares(&figure_ground(ids, self.hits, self.facet_count()))),
             None => std::borrow::Cow::Borrowed(&[]),
         }
     }
@@ -319,18 +327,9 @@ pub const OPEN_MIN_SHARE: f64 = 0.15;
 /// across the outline): each side holds at least `OPEN_MIN_SHARE` of the plane. Their pixels
 /// are one region, so strokes, light and joins treat the plane as one and the outline opens
 /// inside it.
-pub(super) fn open_planes(ids: &[u32], hits: &[PixelHit], count: usize) -> Vec<bool> {
-    let mut on = vec![(0u64, 0u64); count];
-    for (&f, h) in ids.iter().zip(hits) {
-        if let Some(c) = on.get_mut(f as usize) {
-            if h.is_hit() {
-                c.0 += 1;
-            } else {
-                c.1 += 1;
-            }
-        }
-    }
-    on.iter()
+pub(super) fn open_planes(counts: &[(u64, u64)]) -> Vec<bool> {
+    counts
+        .iter()
         .map(|&(a, b)| {
             let t = (a + b) as f64;
             t > 0.0 && a as f64 >= OPEN_MIN_SHARE * t && b as f64 >= OPEN_MIN_SHARE * t

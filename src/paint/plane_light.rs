@@ -132,23 +132,27 @@ impl Effect for PlaneLight {
         let w = canvas.width as usize;
         let planes = ctx.planes(canvas.width, canvas.pixel_count(), self.seed);
         let oval = ctx.oval(w, canvas.height as usize);
-        let ground = ctx.ground_shares(canvas.pixel_count());
-        let factor = |x: usize, y: usize| {
+        // The factor at a pixel given each plane's share of ground, which is counted only when
+        // the factors are made (a session keeps them).
+        let factor = |ground: &[f32], x: usize, y: usize| {
             let p = ctx.plane_point(y * w + x, w);
             let f = facets.ids[y * w + x] as usize;
             self.composed(&planes[f], p, oval.r(p), ground.get(f).copied().unwrap_or(0.0))
         };
+        let n = canvas.pixel_count();
         if ctx.kept_across_chains() {
             // A session keeps each pixel's factor (it reads the planes and the facet map):
             // a paint-only change multiplies by it.
-            let n = canvas.pixel_count();
             let centre = ((oval.centre.x.to_bits() as u64) << 32) | oval.centre.y.to_bits() as u64;
             let key = [self.amount.to_bits() as u64, self.seed ^ centre, w as u64, n as u64];
-            let f =
-                ctx.factors(self.name(), key, false, || (0..n).into_par_iter().map(|i| factor(i % w, i / w)).collect());
+            let f = ctx.factors(self.name(), key, false, || {
+                let ground = ctx.ground_shares(n);
+                (0..n).into_par_iter().map(|i| factor(&ground, i % w, i / w)).collect()
+            });
             canvas.scale_painted(|x, y| f[y * w + x]);
         } else {
-            canvas.scale_painted(factor);
+            let ground = ctx.ground_shares(n);
+            canvas.scale_painted(|x, y| factor(&ground, x, y));
         }
         Ok(())
     }

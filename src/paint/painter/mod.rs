@@ -5,7 +5,7 @@ use rayon::prelude::*;
 
 use super::context::{Canvas, Lighting, PaintContext};
 use super::effect::{Effect, key_of};
-use super::inputs::{PaintInputs, ground_shares, open_planes};
+use super::inputs::{PaintInputs, figure_ground, ground_shares, open_planes};
 use super::params::PaintParams;
 use super::sequence::{Held, Sequence};
 use crate::error::{Error, Result};
@@ -128,16 +128,11 @@ impl Painter {
         lighting: Option<&Lighting>,
         sequence: &Sequence,
     ) -> Result<Held> {
-        let count =
-            |f: &FacetMap| (f.facet_count as usize).max(f.ids.iter().copied().max().map_or(0, |m| m as usize + 1));
-        let open = match facets {
-            Some(f) if self.open_planes && f.ids.len() == film.hits.len() => {
-                Some(open_planes(&f.ids, &film.hits, count(f)))
-            }
-            _ => None,
-        };
-        let ground =
-            facets.filter(|f| f.ids.len() == film.hits.len()).map(|f| ground_shares(&f.ids, &film.hits, count(f)));
+        // Each plane's figure and ground pixels, counted once for both.
+        let counts =
+            facets.filter(|f| f.ids.len() == film.hits.len()).map(|f| figure_ground(&f.ids, &film.hits, f.id_bound()));
+        let open = counts.as_deref().filter(|_| self.open_planes).map(open_planes);
+        let ground = counts.as_deref().map(ground_shares);
         let mut held = Held { open, ground, ..Held::default() };
         let mut color = film.color.clone();
         let mut canvas = Canvas::new(film.width, film.height, &mut color, self.background, self.transparent);
