@@ -160,17 +160,7 @@ fn without_a_choice_the_animations_of_other_nodes_play_together() {
 }
 
 fn params(first: u32, last: u32, fps: f64, animation: Option<Choice>, orbit_deg: f64) -> FramesParams {
-    FramesParams {
-        first,
-        last,
-        fps,
-        frame_at_zero: 1,
-        animation,
-        orbit_deg,
-        layout_frame: first,
-        measure: true,
-        rekey: 0,
-    }
+    FramesParams { fps, animation, orbit_deg, measure: true, ..FramesParams::new(first, last) }
 }
 
 fn small(side: u32) -> Settings {

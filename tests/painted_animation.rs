@@ -32,17 +32,7 @@ fn frames(scene: Option<&Path>, settings: &Settings, params: &FramesParams) -> V
 }
 
 fn params(first: u32, last: u32, animation: Option<Choice>, orbit_deg: f64) -> FramesParams {
-    FramesParams {
-        first,
-        last,
-        fps: 24.0,
-        frame_at_zero: 1,
-        animation,
-        orbit_deg,
-        layout_frame: first,
-        measure: true,
-        rekey: 0,
-    }
+    FramesParams { animation, orbit_deg, measure: true, ..FramesParams::new(first, last) }
 }
 
 fn with_motion(w: u32, h: u32) -> Settings {

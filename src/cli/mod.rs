@@ -164,7 +164,7 @@ pub struct RenderArgs {
 #[derive(Args, Debug, Default)]
 pub struct FramesArgs {
     /// Frames per second: frame f is the animation at (f - N) / fps seconds, N from --frame-at-zero
-    #[arg(long, default_value_t = 24.0, requires = "frames", help_heading = "Animation", value_parser = settings_args::finite_f64)]
+    #[arg(long, default_value_t = crate::pipeline::DEFAULT_FPS, requires = "frames", help_heading = "Animation", value_parser = settings_args::finite_f64)]
     pub fps: f64,
     /// The frame shown at the animation's time 0: 1, Blender's first frame; 0 for a file
     /// Blender exported with its defaults (it writes its frame f at f / fps seconds unless "Set

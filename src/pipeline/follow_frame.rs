@@ -52,17 +52,7 @@ pub fn render_followed_frame(
             ));
         }
     }
-    let frames = FramesParams {
-        first: 1,
-        last: 1,
-        fps: 1.0,
-        frame_at_zero: 1,
-        animation: None,
-        orbit_deg: 0.0,
-        layout_frame: 1,
-        measure: false,
-        rekey: 0,
-    };
+    let frames = FramesParams { fps: 1.0, ..FramesParams::new(1, 1) };
     let mut frame = None;
     let summary = render_frames(prep, settings, &frames, progress, &mut |out| {
         frame = Some(out);

@@ -3,9 +3,9 @@
 //! chunk) gives the same pictures, byte for byte, as the same frames of a longer run.
 //!
 //! Frame f is the scene at time (f - frame_at_zero) / fps of its glTF animation
-//! (`scene::animation`), seen through the layout frame's camera moved rigidly (`camera::Moved`): turned about the scene's
-//! vertical axis by `orbit` degrees per frame (a turntable), and carried along with the glTF
-//! camera when the file animates it. The layout frame fixes what frames share: the render space,
+//! (`scene::animation`), seen through the layout frame's camera moved rigidly
+//! (`camera::Moved`): turned about the scene's vertical axis by `orbit` degrees per frame (a
+//! turntable), and carried along with the glTF camera when the file animates it. The layout frame fixes what frames share: the render space,
 //! the camera's framing, and the facet layout (computed from its full pre-render, or loaded).
 //!
 //! Each frame then runs:
@@ -65,6 +65,8 @@ use crate::trace::{TraceParams, Tracer, screen_point};
 pub const MAX_FRAMES: u32 = 1_000_000;
 /// Highest frame rate accepted.
 pub const MAX_FPS: f64 = 10_000.0;
+/// Frame rate when none is given (`--fps`).
+pub const DEFAULT_FPS: f64 = 24.0;
 /// A turntable's default key-frame spacing, in degrees of turn: facets that follow are carried
 /// from a key frame at most this far round, so the view they were made for has not changed
 /// too much (the surface a key frame saw is mostly still in view, the revealed share small).
@@ -99,6 +101,22 @@ pub struct FramesParams {
 }
 
 impl FramesParams {
+    /// Frames `first`-`last` at `DEFAULT_FPS`, frame 1 at time 0, the layout made at the first
+    /// frame, nothing playing or turning, no key frame but the layout frame, nothing measured.
+    pub fn new(first: u32, last: u32) -> FramesParams {
+        FramesParams {
+            first,
+            last,
+            fps: DEFAULT_FPS,
+            frame_at_zero: 1,
+            animation: None,
+            orbit_deg: 0.0,
+            layout_frame: first,
+            measure: false,
+            rekey: 0,
+        }
+    }
+
     /// The default `rekey` of a turntable turning `orbit_deg` per frame: a key frame every
     /// `REKEY_TURN_DEG` of turn (every frame when one frame turns further); 0 (the layout
     /// frame only) without an orbit. A function of the flags alone, so farm chunks agree.

@@ -34,7 +34,7 @@ use crate::settings::Settings;
 
 pub use faces::{evaluate, visible_faces};
 pub use follow_frame::{follows_saved_key, render_followed_frame};
-pub use frames::{FrameOutput, FramesParams, FramesSummary, render_frames};
+pub use frames::{DEFAULT_FPS, FrameOutput, FramesParams, FramesSummary, render_frames};
 pub use inspect::{Inspection, faceting_input, inspect_facets};
 pub use look::{Look, look};
 pub use params::StageParams;
