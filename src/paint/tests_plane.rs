@@ -44,20 +44,35 @@ fn halves(w: u32, h: u32, split: u32) -> FacetMap {
 
 // ---- per-plane light
 
+/// Runs `light` over `frame` (a flat value of 0.4) on `facets` (`count` of them) and asserts
+/// every pixel is lit as `PlaneLight::composed` says, with `ground(facet)` its plane's share of
+/// ground.
+fn lit_as_composed(
+    light: &PlaneLight,
+    frame: &mut Film,
+    facets: &FacetMap,
+    count: usize,
+    ground: impl Fn(usize) -> f32,
+) {
+    let w = frame.width;
+    let oval = super::plane_light::Oval::of(w as usize, frame.height as usize, &frame.hits);
+    run(Box::new(PlaneLight { amount: light.amount, seed: light.seed }), frame, Some(facets));
+    let planes = planes(w, &facets.ids, count, light.seed);
+    for (i, c) in frame.color.iter().enumerate() {
+        let p = Vec2::new((i as u32 % w) as f32 + 0.5, (i as u32 / w) as f32 + 0.5);
+        let f = facets.ids[i] as usize;
+        let want = 0.4 * light.composed(&planes[f], p, oval.r(p), ground(f));
+        assert!((c.x - want).abs() < 1e-6, "pixel {i}: {} against {want}", c.x);
+    }
+}
+
 #[test]
 fn every_plane_gets_a_ramp_from_its_light_end_to_its_dark_end() {
     let (w, h) = (240u32, 180u32);
     let facets = voronoi(w, h, 20, 3);
     let mut frame = flat(w, h, Vec3::splat(0.4));
     let light = PlaneLight { amount: 0.7, seed: 5 };
-    let oval = super::plane_light::Oval::of(w as usize, h as usize, &frame.hits);
-    run(Box::new(PlaneLight { amount: 0.7, seed: 5 }), &mut frame, Some(&facets));
-    let planes = planes(w, &facets.ids, 20, 5);
-    for (i, c) in frame.color.iter().enumerate() {
-        let p = Vec2::new((i as u32 % w) as f32 + 0.5, (i as u32 / w) as f32 + 0.5);
-        let want = 0.4 * light.composed(&planes[facets.ids[i] as usize], p, oval.r(p), 0.0);
-        assert!((c.x - want).abs() < 1e-6, "pixel {i}");
-    }
+    lit_as_composed(&light, &mut frame, &facets, 20, |_| 0.0);
     // The ends: 1 + amount LIGHT and 1 - amount DARK.
     assert!((light.factor(0.0) - (1.0 + 0.7 * LIGHT)).abs() < 1e-6);
     assert!((light.factor(1.0) - (1.0 - 0.7 * DARK)).abs() < 1e-6);
@@ -82,15 +97,8 @@ fn the_grounds_planes_are_modelled_more_deeply_than_the_subjects() {
     }
     assert!(!frame.hits[w as usize - 1].is_hit() && frame.hits[0].is_hit());
     let light = PlaneLight { amount: 0.7, seed: 5 };
-    let oval = super::plane_light::Oval::of(w as usize, h as usize, &frame.hits);
-    run(Box::new(PlaneLight { amount: 0.7, seed: 5 }), &mut frame, Some(&facets));
+    lit_as_composed(&light, &mut frame, &facets, 2, |f| f as f32);
     let planes = planes(w, &facets.ids, 2, 5);
-    for (i, c) in frame.color.iter().enumerate() {
-        let p = Vec2::new((i as u32 % w) as f32 + 0.5, (i as u32 / w) as f32 + 0.5);
-        let f = facets.ids[i] as usize;
-        let want = 0.4 * light.composed(&planes[f], p, oval.r(p), f as f32);
-        assert!((c.x - want).abs() < 1e-6, "pixel {i}: {} against {want}", c.x);
-    }
     let centre = 1.0 + 0.7 * super::plane_light::CENTRE_LIGHT;
     for p in [Vec2::new(3.5, 2.5), Vec2::new(30.5, 40.5)] {
         let subject = light.composed(&planes[0], p, 0.0, 0.0) / centre - 1.0;
