@@ -14,6 +14,9 @@ motion`), and reports per pair of consecutive frames, then their mean:
   was visible at frame t (the motion pass's two halves agree within a pixel, same object), the
   mean change after warping frame t onto t+1 along the motion, divided by the mean change
   without warping: 1 = the paint does not follow the surface, 0 = it moves with it exactly;
+  `coherence_floor` is the same measure of frame t carried exactly along the motion (each such
+  pixel copied from the pixel of frame t its point came from): the warp blends pixels, so a
+  painting that moves exactly with its surfaces reads this much, not 0 (crisp strokes: ~0.2);
 - pops: the share of tracked pixels (still background and surface points seen in both frames)
   whose colour changes by more than 40/255 after warping (strokes or planes appearing or
   vanishing away from disocclusions), and `plane_pops`: facets of at least 0.05% of the canvas
@@ -120,6 +123,13 @@ def pair(a, b):
     moving = seen & (np.hypot(p[..., 0], p[..., 1]) >= MOVING_PX)
     warped = np.abs(b["img"] - bilinear(a["img"], sx, sy)).mean(-1)
     coherence = (warped[moving].mean() / max(diff[moving].mean(), 1e-9)) if moving.any() else float("nan")
+    # The measure's own floor: frame t carried exactly to t+1, measured the same way.
+    carried = b["img"].copy()
+    carried[moving] = a["img"][ry, rx][moving]
+    floor = float("nan")
+    if moving.any():
+        still_diff = np.abs(carried - a["img"]).mean(-1)[moving].mean()
+        floor = np.abs(carried - bilinear(a["img"], sx, sy)).mean(-1)[moving].mean() / max(still_diff, 1e-9)
     tracked = still | seen
     change = np.where(seen, warped, diff)
     pops = (change[tracked] > POP_LEVEL).mean() if tracked.any() else 0.0
@@ -139,6 +149,7 @@ def pair(a, b):
         "bg_changed": float((diff[bg] > 0).mean()) if bg.any() else 0.0,
         "far_bg_changed": float((diff[far_bg] > 0).mean()) if far_bg.any() else 0.0,
         "coherence": float(coherence),
+        "coherence_floor": float(floor),
         "pops": float(pops),
         "plane_pops": plane_pops,
         "changed": float((diff > 0).mean()),
@@ -153,15 +164,17 @@ def main(argv):
     pattern, first, last = argv[1], int(argv[2]), int(argv[3])
     frames = [load(pattern, f) for f in range(first, last + 1)]
     rows = [dict(frame=first + k, **pair(frames[k], frames[k + 1])) for k in range(len(frames) - 1)]
-    keys = ["flicker", "bg_flicker", "bg_changed", "far_bg_changed", "coherence", "pops", "plane_pops", "changed"]
+    keys = ["flicker", "bg_flicker", "bg_changed", "far_bg_changed", "coherence", "coherence_floor", "pops",
+            "plane_pops", "changed"]
     mean = {k: float(np.nanmean([r[k] for r in rows])) for k in keys}
     if "--json" in argv:
         print(json.dumps({"pairs": rows, "mean": mean}, indent=1))
         return 0
-    print("frame " + " ".join(f"{k:>10}" for k in keys))
+    width = {k: max(10, len(k)) for k in keys}
+    print("frame " + " ".join(f"{k:>{width[k]}}" for k in keys))
     for r in rows:
-        print(f"{r['frame']:>5} " + " ".join(f"{r[k]:>10.4f}" for k in keys))
-    print(" mean " + " ".join(f"{mean[k]:>10.4f}" for k in keys))
+        print(f"{r['frame']:>5} " + " ".join(f"{r[k]:>{width[k]}.4f}" for k in keys))
+    print(" mean " + " ".join(f"{mean[k]:>{width[k]}.4f}" for k in keys))
     return 0
 
 
