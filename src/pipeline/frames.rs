@@ -38,7 +38,7 @@ use super::stages::{
 };
 use super::{Plan, Prepared, Stage, StageParams, Timings};
 use crate::accel::Accel;
-use crate::camera::{Camera, Moved};
+use crate::camera::{Camera, CameraModel, Moved};
 use crate::error::{Error, Result};
 use crate::facets::motion::file::{self as follow_file, KeyData};
 use crate::facets::motion::{self, FacetMotion, FrameSurface};
@@ -50,7 +50,7 @@ use crate::imprecision::{self, AimContext, FacetAim};
 use crate::output::{Gray16, Pass};
 use crate::paint::chiaroscuro::ViewAxes;
 use crate::paint::plane_light::Oval;
-use crate::paint::{Held, Lighting, Painter, Sequence};
+use crate::paint::{EffectParams, Held, Lighting, Painter, Sequence};
 use crate::progress::Progress;
 use crate::saliency;
 use crate::scene::animation::{self, Choice, Clip};
@@ -58,7 +58,7 @@ use crate::scene::world::Similarity;
 use crate::scene::{Scene, SceneCamera, World};
 use crate::settings::Settings;
 use crate::shading::LightRig;
-use crate::strokes::surface::SurfaceSeeds;
+use crate::strokes::surface::{LaidOn, SurfaceSeeds};
 use crate::trace::{TraceParams, Tracer, screen_point};
 
 /// Most frames one run renders (a range is validated before anything is loaded or traced).
@@ -531,6 +531,10 @@ struct Keep {
     /// With facets that follow: per facet id, whether it is one of the still background's
     /// (`facets::motion::still_facets`), whose planes every key frame reads off the layout.
     still: Vec<bool>,
+    /// Static facets with brushwork: the layout frame's triangle corners and camera, where the
+    /// strokes carried with the surfaces are hatched (`strokes::surface::LaidOn`); facets that
+    /// follow hatch them on their key frame.
+    laid: Option<(Vec<[Vec3; 3]>, CameraModel)>,
 }
 
 /// One centre ray per pixel, hits only: what the saliency map, the facets' motion and the key
@@ -665,7 +669,9 @@ fn key_frame(
         None
     };
     let still = key.as_ref().map_or_else(Vec::new, |k| motion::still_facets(&k.key(&map)));
-    Ok(Keep { faceted, map, key, aims, held, oval, still })
+    let laid = (key.is_none() && plan.paint && params.paint.brushwork.is_on())
+        .then(|| ((0..world.triangle_count()).map(|t| world.triangle(t as u32)).collect(), camera.model()));
+    Ok(Keep { faceted, map, key, aims, held, oval, still, laid })
 }
 
 /// A key frame must match the frames it is carried to: same picture size, same triangles.
@@ -782,7 +788,13 @@ fn render_frame(
         let facets = keep.faceted.then_some(&map);
         let (w, h) = (trace.width as usize, trace.height as usize);
         let hits = film.hits.clone();
-        let seeds = timings.time("stroke seeds", || SurfaceSeeds::new(&hits, w, h, world, camera, facets, fade_px));
+        // Hatched on the key frame's picture (facets that follow), else on the layout frame's.
+        let laid_on = match key {
+            Some((k, _)) => Some(LaidOn { positions: &k.positions, camera: &k.camera }),
+            None => keep.laid.as_ref().map(|(positions, camera)| LaidOn { positions, camera }),
+        };
+        let seeds =
+            timings.time("stroke seeds", || SurfaceSeeds::new(&hits, w, h, world, camera, facets, fade_px, laid_on));
         let sequence = Sequence {
             held: keep.held.as_ref(),
             planes_from: keep.faceted.then_some(planes_from),

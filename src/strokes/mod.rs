@@ -9,11 +9,12 @@
 //! - `grid_seeds`: one seed per cell of a seeded jittered grid over the picture, fixed on the
 //!   canvas (a still's strokes, and the background's in animation frames);
 //! - `surface::SurfaceSeeds`: seeds anchored to the geometry (triangle and barycentrics), so
-//!   they move with the surfaces from frame to frame (Meier 1996's particles).
+//!   they move with the surfaces from frame to frame (Meier 1996's particles), each with
+//!   where it was on the key frame's picture, where its hatching is laid (`Laid`).
 
 pub mod surface;
 
-use glam::Vec2;
+use glam::{Mat2, Vec2};
 
 use crate::util::rng::{splitmix64, unit_f64};
 
@@ -29,9 +30,23 @@ pub struct StrokeSeed {
     /// In [0, 1]: fading in or out.
     pub opacity: f32,
     /// Whether the seed moves with a surface from frame to frame (by fractions of a pixel: its
-    /// stroke reads the picture between pixels and keeps its place, off the hatching's rows,
-    /// between which it would jump). A seed fixed on the canvas is hatched like a still's.
+    /// stroke reads the picture between pixels). It is hatched on the picture its `laid` names,
+    /// else keeps its place (on this frame's rows it would jump from row to row). A seed fixed
+    /// on the canvas is hatched like a still's.
     pub carried: bool,
+    /// A carried seed: where its point was on the picture its hatching is laid on (`Laid`),
+    /// so it is hatched there and its rows move with the surface.
+    pub laid: Option<Laid>,
+}
+
+/// Where a carried seed's surface point was on the picture the hatching of a sequence is laid
+/// on (the key frame's: pixels, x right, y down), and the surface's local map from that
+/// picture to this frame's (the triangle's, affine): a stroke placed on a row there is placed
+/// at `pos + to_frame * (row place - at)` here, so rows move and turn with the surface.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Laid {
+    pub at: Vec2,
+    pub to_frame: Mat2,
 }
 
 /// The seeds of one layer of strokes (`layer` 0 the coarse one, 1 the fine one) whose strokes
@@ -71,7 +86,7 @@ pub fn grid_seeds(
             let r = |k: u64| unit_f64(splitmix64(id ^ k)) as f32;
             let pos = Vec2::new((cx as f32 + r(1)) * cell, (cy as f32 + r(2)) * cell);
             if (pos.x as usize) < width && (pos.y as usize) < height && keep(pos) {
-                out.push(StrokeSeed { pos, id, plane: None, opacity: 1.0, carried: false });
+                out.push(StrokeSeed { pos, id, plane: None, opacity: 1.0, carried: false, laid: None });
             }
         }
     }

@@ -19,6 +19,11 @@
 //! pixels, so a stroke fades in as its surface comes out from behind another and fades out as
 //! it goes behind.
 //!
+//! Given the picture the sequence's hatching is laid on (`LaidOn`: the key frame's geometry and
+//! camera), each seed also says where its point was there and the triangle's map from there
+//! to this frame (`Laid`): the brushwork hatches it there, so the rows are the key frame's,
+//! carried with the surface.
+//!
 //! Background pixels (no hit) keep the still's grid seeds (`grid_seeds`): fixed on the canvas,
 //! and hatched as a still's.
 //!
@@ -26,10 +31,10 @@
 //! in triangle order; no frame before it is read, so a frame rendered alone has the same
 //! seeds as in a sequence, on any thread count.
 
-use glam::{DVec2, DVec3, Vec2, Vec3};
+use glam::{DMat2, DVec2, DVec3, Vec2, Vec3};
 use rayon::prelude::*;
 
-use super::{SeedSource, StrokeSeed, grid_seeds};
+use super::{Laid, SeedSource, StrokeSeed, grid_seeds};
 use crate::camera::Camera;
 use crate::facets::FacetMap;
 use crate::film::{NO_HIT, PixelHit};
@@ -49,6 +54,14 @@ const SALT: u64 = 0x7375_7266_6163_6573; // "surfaces"
 /// The plastic constant's low-discrepancy steps (Roberts' R2 sequence).
 const R2: (f64, f64) = (0.754_877_666_246_692_8, 0.569_840_290_998_053_3);
 
+/// The picture a sequence's hatching is laid on: the key frame's triangle corners (render
+/// space, by triangle id) and camera, at the frames' size.
+#[derive(Clone, Copy)]
+pub struct LaidOn<'a> {
+    pub positions: &'a [[Vec3; 3]],
+    pub camera: &'a dyn Camera,
+}
+
 /// One frame's seeds: what they are read from.
 pub struct SurfaceSeeds<'a> {
     hits: &'a [PixelHit],
@@ -58,6 +71,7 @@ pub struct SurfaceSeeds<'a> {
     camera: &'a dyn Camera,
     facets: Option<&'a FacetMap>,
     fade_px: f32,
+    laid_on: Option<LaidOn<'a>>,
     /// The triangles shown, each with the mean offset (pixels) of its pixels from their hits'
     /// projections, sorted by triangle.
     shown: Vec<(u32, DVec2)>,
@@ -67,7 +81,9 @@ pub struct SurfaceSeeds<'a> {
 
 impl<'a> SurfaceSeeds<'a> {
     /// The seeds of a frame of `width x height` pixels whose hits are `hits`, of `world` seen
-    /// through `camera`; `fade_px`: how far from an occlusion edge a seed is shown fully.
+    /// through `camera`; `fade_px`: how far from an occlusion edge a seed is shown fully;
+    /// `laid_on`: where the hatching is laid, if anywhere.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         hits: &'a [PixelHit],
         width: usize,
@@ -76,6 +92,7 @@ impl<'a> SurfaceSeeds<'a> {
         camera: &'a dyn Camera,
         facets: Option<&'a FacetMap>,
         fade_px: f32,
+        laid_on: Option<LaidOn<'a>>,
     ) -> SurfaceSeeds<'a> {
         debug_assert_eq!(hits.len(), width * height);
         let (w, h) = (width as u32, height as u32);
@@ -122,7 +139,7 @@ impl<'a> SurfaceSeeds<'a> {
                 || (y + 1 < height && edge(i, i + width))
         };
         let (edge_dist, _) = crate::distance::nearest_features(w, h, fade_px.max(1.0), is_edge);
-        SurfaceSeeds { hits, width, height, world, camera, facets, fade_px, shown, edge_dist }
+        SurfaceSeeds { hits, width, height, world, camera, facets, fade_px, laid_on, shown, edge_dist }
     }
 
     /// Seed `k` of triangle `tri`'s sequence: its barycentrics and its threshold.
@@ -190,6 +207,24 @@ fn point(world: &World, tri: u32, u: f64, v: f64) -> Option<DVec3> {
     Some(c[0] * (1.0 - u - v) + c[1] * u + c[2] * v)
 }
 
+/// Triangle `tri` on the picture the hatching is laid on (its corners, pixels) and the affine
+/// map from there to this frame's picture, where its corners are `q`; None where it is not
+/// seen there or is degenerate (edge-on).
+fn laid_map(laid_on: LaidOn, tri: u32, q: &[DVec2], w: u32, h: u32) -> Option<([DVec2; 3], DMat2)> {
+    let corners = laid_on.positions.get(tri as usize)?;
+    let mut k = [DVec2::ZERO; 3];
+    for (out, p) in k.iter_mut().zip(corners) {
+        *out = crate::motion::screen_to_pixel(laid_on.camera.project(p.as_dvec3())?.screen, w, h);
+    }
+    let from = DMat2::from_cols(k[1] - k[0], k[2] - k[0]);
+    let det = from.determinant();
+    // Edge-on there (under a hundredth of a square pixel): no map.
+    if !(det.abs() > 1e-2) {
+        return None;
+    }
+    Some((k, DMat2::from_cols(q[1] - q[0], q[2] - q[0]) * from.inverse()))
+}
+
 fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
     let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
     t * t * (3.0 - 2.0 * t)
@@ -218,6 +253,7 @@ impl SeedSource for SurfaceSeeds<'_> {
                     return Vec::new();
                 }
                 let pixel_size = (world_area / area).sqrt();
+                let laid = self.laid_on.and_then(|l| laid_map(l, tri, &q, w, h));
                 let strokes = (area / cell2).min(most);
                 let mut out = Vec::new();
                 for k in 0..strokes.ceil() as u64 {
@@ -233,7 +269,11 @@ impl SeedSource for SurfaceSeeds<'_> {
                     let opacity = density * fade;
                     if opacity > 0.0 {
                         let plane = self.facets.map(|f| f.ids[i]);
-                        out.push(StrokeSeed { pos, id, plane, opacity, carried: true });
+                        let laid = laid.map(|(corners, to_frame)| Laid {
+                            at: (corners[0] * (1.0 - a - b) + corners[1] * a + corners[2] * b).as_vec2(),
+                            to_frame: to_frame.as_mat2(),
+                        });
+                        out.push(StrokeSeed { pos, id, plane, opacity, carried: true, laid });
                     }
                 }
                 out

@@ -12,7 +12,8 @@
 //! borders and silhouettes stay crisp and each plane reads as hatched on its own. A still's
 //! strokes, and an animation frame's strokes fixed on the canvas, lie side by side in parallel
 //! rows, in dabs of a shared value (`Hatching`); strokes carried with the surfaces (animation
-//! frames) keep their place and a small turn each.
+//! frames) are hatched on the key frame's picture and carried from there with their surface
+//! (`strokes::Laid`), or, without one, keep their place and a small turn each.
 //!
 //! Speed and determinism (Lu, Sander and Finkelstein 2010 splat 60,000 strokes on a GPU): the
 //! strokes sit one per cell of a jittered grid (seeded per cell), sorted once by a seeded
@@ -48,6 +49,9 @@ pub const SPACING: f32 = 1.8;
 pub const PLANE_TURN_DEG: f32 = 20.0;
 /// Largest turn of one stroke off its plane's direction, degrees.
 pub const STROKE_TURN_DEG: f32 = 6.0;
+/// A carried stroke goes fully onto the row it was laid on while its surface's scale on
+/// screen is within the first factor of the key frame's, not at all from the second.
+pub const LAID_SCALE: (f32, f32) = (1.5, 2.0);
 /// Distance between a plane's hatching rows (a still's strokes), in stroke widths.
 pub const HATCH_ROW: f32 = 1.05;
 /// Share of a hatched stroke's value change that it shares with the other strokes of its dab
@@ -164,10 +168,18 @@ impl Brushwork {
                     };
                     let plane = (region >> 32) as usize;
                     let own = 2.0 * r(5) - 1.0;
-                    // A seed carried with a surface keeps its place (it reads the picture between
-                    // pixels: `Stroke::smooth`); one fixed on the canvas goes onto its plane's
-                    // hatching row, or stays where it was if the row leaves its plane there.
-                    let (centre, dir, jitter) = if seed.carried {
+                    // A seed carried with a surface (it reads the picture between pixels:
+                    // `Stroke::smooth`) goes onto its plane's row on the picture its hatching is
+                    // laid on, carried here by its surface's map, or else keeps its place; one
+                    // fixed on the canvas goes onto its plane's row here. Either stays where it
+                    // was if its row leaves its plane.
+                    let (centre, dir, jitter) = if let (true, Some(laid)) = (seed.carried, seed.laid) {
+                        let (moved, shade) = hatch.place(laid.at, angle[plane], plane as u64, own);
+                        let moved = centre + laid_weight(laid.to_frame) * (laid.to_frame * (moved - laid.at));
+                        let dir = (laid.to_frame * angle[plane]).try_normalize().unwrap_or(angle[plane]);
+                        let inside = surface.painted_in(moved, region).is_some();
+                        (if inside { moved } else { centre }, dir, 1.0 + HATCH_JITTER * shade)
+                    } else if seed.carried {
                         let turn = (2.0 * r(3) - 1.0) * STROKE_TURN_DEG.to_radians();
                         (centre, Vec2::from_angle(turn).rotate(angle[plane]), 1.0 + VALUE_JITTER * own)
                     } else {
@@ -207,6 +219,16 @@ impl Brushwork {
             })
             .collect()
     }
+}
+
+/// How much of its move onto its row a carried stroke makes, by how much its surface has grown
+/// or shrunk on screen since its rows were laid (`map`): all of it up to `LAID_SCALE.0` times,
+/// none from `LAID_SCALE.1`, where rows laid a stroke width apart would be far apart or
+/// crowded here; between, the stroke slides towards its seed as the surface keeps scaling.
+fn laid_weight(map: glam::Mat2) -> f32 {
+    let s = map.determinant().abs().sqrt();
+    let grown = if s > 1.0 { s } else { 1.0 / s.max(1e-6) };
+    1.0 - super::planes::smoothstep(LAID_SCALE.0, LAID_SCALE.1, grown)
 }
 
 /// A plane's hatching (a still's strokes): its strokes lie side by side in parallel rows

@@ -173,6 +173,7 @@ fn seeds_fixed_on_the_canvas_are_hatched_and_carried_ones_keep_their_place() {
         plane: None,
         opacity: 1.0,
         carried,
+        laid: None,
     };
     let strokes = brush.strokes(0, (12.0, 4.0), &surface, &angle, &Mixed(vec![seed(false), seed(true)]), None);
     let (fixed, carried) = (&strokes[0], &strokes[1]);
@@ -181,4 +182,47 @@ fn seeds_fixed_on_the_canvas_are_hatched_and_carried_ones_keep_their_place() {
     assert_ne!(fixed.centre, seed(false).pos, "the fixed seed stayed off its row");
     assert_eq!((fixed.dir, fixed.smooth), (angle[0], false));
     assert_eq!((carried.centre, carried.smooth), (seed(true).pos, true));
+}
+
+#[test]
+fn carried_seeds_are_hatched_where_laid_and_move_with_their_surface() {
+    // A carried seed laid at the fixed seed's place with the identity map is hatched as the
+    // fixed one is; moved by a surface's translation it keeps its row and value, moved by the
+    // same amount; turned with the surface, its stroke turns too; grown far beyond the rows'
+    // scale, it keeps its place.
+    let (w, h) = (64, 64);
+    let regions: Vec<Region> = vec![0; w * h];
+    let surface = Surface { w, h, regions: &regions, coverage: crate::paint::Coverage(None) };
+    let brush = Brushwork { opacity: 1.0, length: 12.0, width: 4.0, seed: 5 };
+    let angle = [Vec2::from_angle(0.4)];
+    let at = Vec2::new(31.3, 30.2);
+    let seed = |pos: Vec2, laid: Option<crate::strokes::Laid>| crate::strokes::StrokeSeed {
+        pos,
+        id: 77,
+        plane: None,
+        opacity: 1.0,
+        carried: laid.is_some(),
+        laid,
+    };
+    let laid = |to_frame: glam::Mat2| Some(crate::strokes::Laid { at, to_frame });
+    let shift = Vec2::new(3.7, -2.2);
+    let turn = glam::Mat2::from_angle(0.3);
+    let seeds = vec![
+        seed(at, None),
+        seed(at, laid(glam::Mat2::IDENTITY)),
+        seed(at + shift, laid(glam::Mat2::IDENTITY)),
+        seed(at, laid(turn)),
+        seed(at, laid(glam::Mat2::from_diagonal(Vec2::splat(3.0)))),
+    ];
+    let strokes = brush.strokes(0, (12.0, 4.0), &surface, &angle, &Mixed(seeds), None);
+    let (fixed, here, moved, turned) = (&strokes[0], &strokes[1], &strokes[2], &strokes[3]);
+    // A surface three times as large as where its rows were laid: the stroke stays at its seed.
+    assert_eq!(strokes[4].centre, at);
+    assert_ne!(fixed.centre, at, "the fixed seed stayed off its row");
+    assert!((here.centre - fixed.centre).length() < 1e-5, "{:?} {:?}", here.centre, fixed.centre);
+    assert!((here.dir - fixed.dir).length() < 1e-6 && here.jitter == fixed.jitter);
+    assert!((moved.centre - (fixed.centre + shift)).length() < 1e-4, "{:?}", moved.centre);
+    assert!(moved.jitter == fixed.jitter && moved.smooth && !fixed.smooth);
+    assert!((turned.dir - turn * angle[0]).length() < 1e-5, "{:?}", turned.dir);
+    assert!((turned.centre - (at + turn * (fixed.centre - at))).length() < 1e-4);
 }
