@@ -208,6 +208,23 @@ fn the_still_background_keeps_its_bytes_across_new_key_frames() {
     assert_still_background("still life turntable, a key frame every 2", &out, &s);
 }
 
+/// The same on a cow turning under the camera: a new key frame re-plans the subject's planes,
+/// and the still background's strokes keep their size (sized against the layout frame's median
+/// plane, `paint::Held::plane_median`, not the new key frame's).
+#[test]
+#[ignore = "needs ../shared"]
+fn the_still_background_keeps_its_stroke_sizes_across_new_key_frames() {
+    let spot = shared("models/spot.glb");
+    let s = Settings {
+        width: 240,
+        height: 180,
+        facet_motion: cubist::settings::FacetMotion::Follow,
+        ..Settings::default()
+    };
+    let out = frames(Some(&spot), &s, &FramesParams { rekey: 2, ..params(1, 5, None, 8.0) });
+    assert_still_background("spot turntable, a key frame every 2", &out, &s);
+}
+
 /// The pass reads back as written (`Rgba16`, 16 bits a channel).
 #[test]
 fn the_motion_pass_is_sixteen_bit_rgba() {

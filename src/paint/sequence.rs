@@ -52,7 +52,9 @@ pub type RegionMeans = HashMap<u64, Vec3>;
 ///   background plane the subject walks into would change its light over all its pixels;
 /// - the mean colour the brushwork draws a stroke towards, for the regions of the background
 ///   and of the open planes: a background plane the subject walks into loses the pixels the
-///   subject covers, and its mean, hence every stroke of the plane, would change.
+///   subject covers, and its mean, hence every stroke of the plane, would change;
+/// - the median plane's size, against which the brushwork sizes each plane's strokes: a new
+///   key frame re-plans the subject's planes, which would move it, and every stroke with it.
 ///
 /// The subject's own regions keep their frame's means: they move with the subject.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -64,4 +66,7 @@ pub struct Held {
     pub ground: Option<Vec<f32>>,
     /// The brushwork's region means for the background's and the open planes' regions.
     pub means: Option<RegionMeans>,
+    /// The median plane's pixels, which the brushwork sizes each plane's strokes against
+    /// (`brushwork::plane_scales`).
+    pub plane_median: Option<f32>,
 }

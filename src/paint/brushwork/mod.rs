@@ -9,7 +9,8 @@
 //! the large ones). Unlike his curved strokes, ours are straight dabs aligned per plane:
 //! every stroke takes its plane's direction (across the plane's light ramp, `planes`, plus a
 //! seeded turn per plane) and paints only the pixels of its own plane and object, so facet
-//! borders and silhouettes stay crisp and each plane reads as hatched on its own. A still's
+//! borders and silhouettes stay crisp and each plane reads as hatched on its own, in strokes
+//! sized by the plane (larger on the large calm planes, finer at the cues). A still's
 //! strokes, and an animation frame's strokes fixed on the canvas, lie side by side in parallel
 //! rows, in dabs of a shared value (`Hatching`); strokes carried with the surfaces (animation
 //! frames) are hatched on the key frame's picture and carried from there with their surface
@@ -49,6 +50,10 @@ pub const SPACING: f32 = 1.8;
 pub const PLANE_TURN_DEG: f32 = 20.0;
 /// Largest turn of one stroke off its plane's direction, degrees.
 pub const STROKE_TURN_DEG: f32 = 6.0;
+/// A plane's stroke size grows as its size over the median plane's to this power, within
+/// this range (judged blind: docs/look/README.md, round 14).
+pub const PLANE_SIZE_POWER: f32 = 0.4;
+pub const PLANE_SIZE_RANGE: (f32, f32) = (0.75, 1.4);
 /// A carried stroke goes fully onto the row it was laid on while its surface's scale on
 /// screen is within the first factor of the key frame's, not at all from the second.
 pub const LAID_SCALE: (f32, f32) = (1.5, 2.0);
@@ -141,6 +146,7 @@ impl Brushwork {
         (length, width): (f32, f32),
         surface: &Surface,
         angle: &[Vec2],
+        scale: &[f32],
         seeds: &dyn SeedSource,
         keep: Option<&(dyn Fn(Vec2) -> bool + Sync)>,
     ) -> Vec<Stroke> {
@@ -168,6 +174,9 @@ impl Brushwork {
                     };
                     let plane = (region >> 32) as usize;
                     let own = 2.0 * r(5) - 1.0;
+                    let k = scale.get(plane).copied().unwrap_or(1.0);
+                    let (length, width) = (length * k, width * k);
+                    let hatch = Hatching { row: width * HATCH_ROW, length, ..hatch };
                     // A seed carried with a surface (it reads the picture between pixels:
                     // `Stroke::smooth`) goes onto its plane's row on the picture its hatching is
                     // laid on, carried here by its surface's map, or else keeps its place; one
@@ -219,6 +228,30 @@ impl Brushwork {
             })
             .collect()
     }
+}
+
+/// Each plane's stroke size over the brushwork's: (its pixels over the median plane's) to the
+/// power `PLANE_SIZE_POWER`, within `PLANE_SIZE_RANGE`: longer, wider strokes on the large
+/// planes towards the corners, finer ones on the small planes of the subject's cues. Read off
+/// the planes a sequence holds (the layout's or key frame's), against the layout frame's median
+/// (`Held::plane_median`), so a size does not change as a facet that follows grows or shrinks
+/// or a new key frame re-plans the subject.
+fn plane_scales(planes: &[Plane], median: Option<f32>) -> Vec<f32> {
+    let Some(median) = median.or_else(|| median_size(planes.iter().map(|p| p.pixels))) else {
+        return vec![1.0; planes.len()];
+    };
+    let (lo, hi) = PLANE_SIZE_RANGE;
+    planes
+        .iter()
+        .map(|p| if p.pixels == 0 { 1.0 } else { (p.pixels as f32 / median).powf(PLANE_SIZE_POWER).clamp(lo, hi) })
+        .collect()
+}
+
+/// The median of the planes' sizes (pixels) that are not 0; None without one.
+pub fn median_size(sizes: impl Iterator<Item = u64>) -> Option<f32> {
+    let mut sizes: Vec<u64> = sizes.filter(|&n| n > 0).collect();
+    let mid = sizes.len() / 2;
+    (!sizes.is_empty()).then(|| *sizes.select_nth_unstable(mid).1 as f32)
 }
 
 /// How much of its move onto its row a carried stroke makes, by how much its surface has grown
@@ -292,6 +325,8 @@ impl Effect for Brushwork {
         let length = self.length.max(width);
         let planes = ctx.planes(canvas.width, w * h, self.seed);
         let angle = self.directions(&planes);
+        // A sequence sizes them against the layout frame's median plane.
+        let scale = plane_scales(&planes, ctx.held().and_then(|h| h.plane_median));
         let seeds: &dyn SeedSource = ctx.seeds().unwrap_or(&Grid);
         let opacity = self.opacity.min(1.0);
         // A session keeps the strokes and their fragments (opaque canvases: a transparent
@@ -313,8 +348,9 @@ impl Effect for Brushwork {
         // Everything the layers read of the picture before them is read first, in cell order
         // (no copy of the picture): the tints (every stroke's colour comes from the picture
         // under the layers), and the fine layer's test's values of that picture.
-        let coarse_new =
-            old.is_none().then(|| StrokeLayer::new(self.strokes(0, (length, width), &surface, &angle, seeds, None), h));
+        let coarse_new = old
+            .is_none()
+            .then(|| StrokeLayer::new(self.strokes(0, (length, width), &surface, &angle, &scale, seeds, None), h));
         let coarse_layer = match (&old, &coarse_new) {
             (Some(plan), _) => &plan.coarse.layer,
             (None, Some(layer)) => layer,
@@ -362,7 +398,7 @@ impl Effect for Brushwork {
                 Some((Fine::Kept(frags), t, b))
             }
             (None, Some(size)) if record => {
-                let l = StrokeLayer::new(self.strokes(1, size, &surface, &angle, seeds, None), h);
+                let l = StrokeLayer::new(self.strokes(1, size, &surface, &angle, &scale, seeds, None), h);
                 let (t, b) = tints_and_probes(&l);
                 Some((Fine::Recorded(l), t, b))
             }
@@ -410,7 +446,8 @@ impl Effect for Brushwork {
                 Fine::Traced(size, source) => {
                     // The test at an anchor, its probes read from the copy of the picture.
                     let keep_at = |p: Vec2| keep(&probes_in(&source, p));
-                    let layer = StrokeLayer::new(self.strokes(1, size, &surface, &angle, seeds, Some(&keep_at)), h);
+                    let layer =
+                        StrokeLayer::new(self.strokes(1, size, &surface, &angle, &scale, seeds, Some(&keep_at)), h);
                     if !layer.strokes.is_empty() {
                         let tints = layer.tints(&source, &means, &surface);
                         composite(&layer, &tints, None, px, &surface, opacity);

@@ -175,7 +175,7 @@ fn seeds_fixed_on_the_canvas_are_hatched_and_carried_ones_keep_their_place() {
         carried,
         laid: None,
     };
-    let strokes = brush.strokes(0, (12.0, 4.0), &surface, &angle, &Mixed(vec![seed(false), seed(true)]), None);
+    let strokes = brush.strokes(0, (12.0, 4.0), &surface, &angle, &[], &Mixed(vec![seed(false), seed(true)]), None);
     let (fixed, carried) = (&strokes[0], &strokes[1]);
     let hatch = Hatching { row: 4.0 * HATCH_ROW, length: 12.0, seed: sub_seed(5, SALT ^ 1) };
     assert_eq!(fixed.centre, hatch.place(seed(false).pos, angle[0], 0, 0.0).0);
@@ -214,7 +214,7 @@ fn carried_seeds_are_hatched_where_laid_and_move_with_their_surface() {
         seed(at, laid(turn)),
         seed(at, laid(glam::Mat2::from_diagonal(Vec2::splat(3.0)))),
     ];
-    let strokes = brush.strokes(0, (12.0, 4.0), &surface, &angle, &Mixed(seeds), None);
+    let strokes = brush.strokes(0, (12.0, 4.0), &surface, &angle, &[], &Mixed(seeds), None);
     let (fixed, here, moved, turned) = (&strokes[0], &strokes[1], &strokes[2], &strokes[3]);
     // A surface three times as large as where its rows were laid: the stroke stays at its seed.
     assert_eq!(strokes[4].centre, at);

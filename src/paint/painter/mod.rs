@@ -3,6 +3,7 @@
 use glam::Vec4;
 use rayon::prelude::*;
 
+use super::brushwork::median_size;
 use super::context::{Canvas, Lighting, PaintContext};
 use super::effect::{Effect, key_of};
 use super::inputs::{PaintInputs, figure_ground, ground_shares, open_planes};
@@ -133,7 +134,8 @@ impl Painter {
             facets.filter(|f| f.ids.len() == film.hits.len()).map(|f| figure_ground(&f.ids, &film.hits, f.id_bound()));
         let open = counts.as_deref().filter(|_| self.open_planes).map(open_planes);
         let ground = counts.as_deref().map(ground_shares);
-        let mut held = Held { open, ground, ..Held::default() };
+        let plane_median = counts.as_deref().and_then(|c| median_size(c.iter().map(|&(a, b)| a + b)));
+        let mut held = Held { open, ground, plane_median, ..Held::default() };
         let mut color = film.color.clone();
         let mut canvas = Canvas::new(film.width, film.height, &mut color, self.background, self.transparent);
         let inputs = PaintInputs::default();
