@@ -138,15 +138,15 @@ impl Brushwork {
 
     /// The strokes of layer `layer` (0 coarse, 1 fine), in the seeds' order: one per seed of
     /// `seeds` (`strokes::SeedSource`: a still's jittered grid, or seeds on the surfaces) on a
-    /// painted pixel; `keep(anchor)`, when given, says whether a seed gets its stroke. All
-    /// that is random about a stroke comes from its seed's id.
+    /// painted pixel, sized and turned by its plane (each plane's direction and size over
+    /// (length, width), by facet id; a missing size is 1); `keep(anchor)`, when given, says
+    /// whether a seed gets its stroke. All that is random about a stroke comes from its seed's id.
     fn strokes(
         &self,
         layer: u64,
         (length, width): (f32, f32),
         surface: &Surface,
-        angle: &[Vec2],
-        scale: &[f32],
+        (angle, scale): (&[Vec2], &[f32]),
         seeds: &dyn SeedSource,
         keep: Option<&(dyn Fn(Vec2) -> bool + Sync)>,
     ) -> Vec<Stroke> {
@@ -350,7 +350,7 @@ impl Effect for Brushwork {
         // under the layers), and the fine layer's test's values of that picture.
         let coarse_new = old
             .is_none()
-            .then(|| StrokeLayer::new(self.strokes(0, (length, width), &surface, &angle, &scale, seeds, None), h));
+            .then(|| StrokeLayer::new(self.strokes(0, (length, width), &surface, (&angle, &scale), seeds, None), h));
         let coarse_layer = match (&old, &coarse_new) {
             (Some(plan), _) => &plan.coarse.layer,
             (None, Some(layer)) => layer,
@@ -398,7 +398,7 @@ impl Effect for Brushwork {
                 Some((Fine::Kept(frags), t, b))
             }
             (None, Some(size)) if record => {
-                let l = StrokeLayer::new(self.strokes(1, size, &surface, &angle, &scale, seeds, None), h);
+                let l = StrokeLayer::new(self.strokes(1, size, &surface, (&angle, &scale), seeds, None), h);
                 let (t, b) = tints_and_probes(&l);
                 Some((Fine::Recorded(l), t, b))
             }
@@ -447,7 +447,7 @@ impl Effect for Brushwork {
                     // The test at an anchor, its probes read from the copy of the picture.
                     let keep_at = |p: Vec2| keep(&probes_in(&source, p));
                     let layer =
-                        StrokeLayer::new(self.strokes(1, size, &surface, &angle, &scale, seeds, Some(&keep_at)), h);
+                        StrokeLayer::new(self.strokes(1, size, &surface, (&angle, &scale), seeds, Some(&keep_at)), h);
                     if !layer.strokes.is_empty() {
                         let tints = layer.tints(&source, &means, &surface);
                         composite(&layer, &tints, None, px, &surface, opacity);

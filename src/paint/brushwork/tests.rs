@@ -175,7 +175,7 @@ fn seeds_fixed_on_the_canvas_are_hatched_and_carried_ones_keep_their_place() {
         carried,
         laid: None,
     };
-    let strokes = brush.strokes(0, (12.0, 4.0), &surface, &angle, &[], &Mixed(vec![seed(false), seed(true)]), None);
+    let strokes = brush.strokes(0, (12.0, 4.0), &surface, (&angle, &[]), &Mixed(vec![seed(false), seed(true)]), None);
     let (fixed, carried) = (&strokes[0], &strokes[1]);
     let hatch = Hatching { row: 4.0 * HATCH_ROW, length: 12.0, seed: sub_seed(5, SALT ^ 1) };
     assert_eq!(fixed.centre, hatch.place(seed(false).pos, angle[0], 0, 0.0).0);
@@ -214,7 +214,7 @@ fn carried_seeds_are_hatched_where_laid_and_move_with_their_surface() {
         seed(at, laid(turn)),
         seed(at, laid(glam::Mat2::from_diagonal(Vec2::splat(3.0)))),
     ];
-    let strokes = brush.strokes(0, (12.0, 4.0), &surface, &angle, &[], &Mixed(seeds), None);
+    let strokes = brush.strokes(0, (12.0, 4.0), &surface, (&angle, &[]), &Mixed(seeds), None);
     let (fixed, here, moved, turned) = (&strokes[0], &strokes[1], &strokes[2], &strokes[3]);
     // A surface three times as large as where its rows were laid: the stroke stays at its seed.
     assert_eq!(strokes[4].centre, at);
@@ -225,4 +225,26 @@ fn carried_seeds_are_hatched_where_laid_and_move_with_their_surface() {
     assert!(moved.jitter == fixed.jitter && moved.smooth && !fixed.smooth);
     assert!((turned.dir - turn * angle[0]).length() < 1e-5, "{:?}", turned.dir);
     assert!((turned.centre - (at + turn * (fixed.centre - at))).length() < 1e-4);
+}
+
+#[test]
+fn a_planes_strokes_are_sized_by_the_plane_against_the_median() {
+    let plane = |pixels: u64| Plane {
+        pixels,
+        centre: Vec2::ZERO,
+        long_axis: Vec2::X,
+        elongation: 0.0,
+        dark: Vec2::Y,
+        span: (0.0, 1.0),
+    };
+    let planes: Vec<Plane> = [0, 100, 100, 400, 25, 150].into_iter().map(plane).collect();
+    // The median of the sizes that are not 0 (25, 100, 100, 150, 400) is 100.
+    let (lo, hi) = PLANE_SIZE_RANGE;
+    let s = plane_scales(&planes, None);
+    assert_eq!(&s[..5], &[1.0, 1.0, 1.0, hi, lo]);
+    assert!((s[5] - 1.5f32.powf(PLANE_SIZE_POWER)).abs() < 1e-6);
+    // A sequence's median (the layout frame's) is used as given.
+    let held = plane_scales(&planes, Some(150.0));
+    assert!((held[1] - (100.0f32 / 150.0).powf(PLANE_SIZE_POWER)).abs() < 1e-6 && held[5] == 1.0);
+    assert_eq!(median_size([0u64, 0].into_iter()), None);
 }
