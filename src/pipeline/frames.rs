@@ -531,9 +531,9 @@ struct Keep {
     /// With facets that follow: per facet id, whether it is one of the still background's
     /// (`facets::motion::still_facets`), whose planes every key frame reads off the layout.
     still: Vec<bool>,
-    /// Static facets with brushwork: the layout frame's triangle corners and camera, where the
-    /// strokes carried with the surfaces are hatched (`strokes::surface::LaidOn`); facets that
-    /// follow hatch them on their key frame.
+    /// Brushwork without a key frame (static facets, or none): the layout frame's triangle
+    /// corners and camera, where the strokes carried with the surfaces are hatched
+    /// (`strokes::surface::LaidOn`); facets that follow hatch them on their key frame.
     laid: Option<(Vec<[Vec3; 3]>, CameraModel)>,
 }
 
@@ -554,14 +554,7 @@ fn key_of(film: &Film, world: &World, camera: &dyn Camera, trace: &TraceParams) 
         camera.ray(screen_point(x, y, DVec2::splat(0.5), w, h)).skipped
     };
     let (tri, depth) = motion::key_buffers(film, skipped);
-    KeyData {
-        width: w,
-        height: h,
-        tri,
-        depth,
-        positions: (0..world.triangle_count()).map(|t| world.triangle(t as u32)).collect(),
-        camera: camera.model(),
-    }
+    KeyData { width: w, height: h, tri, depth, positions: world.positions(), camera: camera.model() }
 }
 
 /// The layout (loaded, or made from the layout frame's full pre-render) and, for facets that
@@ -669,8 +662,8 @@ fn key_frame(
         None
     };
     let still = key.as_ref().map_or_else(Vec::new, |k| motion::still_facets(&k.key(&map)));
-    let laid = (key.is_none() && plan.paint && params.paint.brushwork.is_on())
-        .then(|| ((0..world.triangle_count()).map(|t| world.triangle(t as u32)).collect(), camera.model()));
+    let laid =
+        (key.is_none() && plan.paint && params.paint.brushwork.is_on()).then(|| (world.positions(), camera.model()));
     Ok(Keep { faceted, map, key, aims, held, oval, still, laid })
 }
 

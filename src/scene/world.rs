@@ -501,6 +501,12 @@ impl World {
         self.geometries[o.geometry].corners(local).map(|p| o.point(p))
     }
 
+    /// Corners of every triangle, by triangle id, render space: a frame's geometry kept for
+    /// later frames (a key frame's, the picture strokes are hatched on).
+    pub fn positions(&self) -> Vec<[Vec3; 3]> {
+        (0..self.triangle_count()).map(|t| self.triangle(t as u32)).collect()
+    }
+
     /// Corner `k` of the placed triangle list (triangle k / 3, corner k % 3), render space:
     /// bounded samples of the scene's vertices in a fixed order.
     pub fn corner(&self, k: usize) -> Vec3 {

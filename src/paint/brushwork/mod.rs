@@ -182,7 +182,7 @@ impl Brushwork {
                     // laid on, carried here by its surface's map, or else keeps its place; one
                     // fixed on the canvas goes onto its plane's row here. Either stays where it
                     // was if its row leaves its plane.
-                    let (centre, dir, jitter) = if let (true, Some(laid)) = (seed.carried, seed.laid) {
+                    let (centre, dir, jitter) = if let Some(laid) = seed.laid {
                         let (moved, shade) = hatch.place(laid.at, angle[plane], plane as u64, own);
                         let moved = centre + laid_weight(laid.to_frame) * (laid.to_frame * (moved - laid.at));
                         let dir = (laid.to_frame * angle[plane]).try_normalize().unwrap_or(angle[plane]);
