@@ -17,6 +17,9 @@ motion`), and reports per pair of consecutive frames, then their mean:
   `coherence_floor` is the same measure of frame t carried exactly along the motion (each such
   pixel copied from the pixel of frame t its point came from): the warp blends pixels, so a
   painting that moves exactly with its surfaces reads this much, not 0 (crisp strokes: ~0.2);
+  `coherence_outline`, `coherence_edges` and `coherence_inside` split it by where the residual
+  is (they add up to it): within 4 px of the subject's outline, within 2 px of a plane edge
+  (elsewhere), and inside the planes;
 - pops: the share of tracked pixels (still background and surface points seen in both frames)
   whose colour changes by more than 40/255 after warping (strokes or planes appearing or
   vanishing away from disocclusions), and `plane_pops`: facets of at least 0.05% of the canvas
@@ -40,6 +43,8 @@ MOVING_PX = 0.5
 POP_LEVEL = 40.0
 PLANE_SHARE = 0.0005
 FAR_PX = 20
+OUTLINE_PX = 4
+EDGE_PX = 2
 
 
 def frame_path(pattern, f, pass_name=None):
@@ -98,6 +103,17 @@ def near(mask, r):
     return (s[y1, x1] - s[y0, x1] - s[y1, x0] + s[y0, x0]) > 0
 
 
+def borders(labels):
+    """Pixels whose right or lower neighbour has another label, and those neighbours."""
+    e = np.zeros(labels.shape, bool)
+    dx, dy = labels[:, 1:] != labels[:, :-1], labels[1:] != labels[:-1]
+    e[:, 1:] |= dx
+    e[:, :-1] |= dx
+    e[1:] |= dy
+    e[:-1] |= dy
+    return e
+
+
 def pair(a, b):
     h, w = a["obj"].shape
     diff = np.abs(b["img"] - a["img"]).mean(-1)
@@ -123,6 +139,13 @@ def pair(a, b):
     moving = seen & (np.hypot(p[..., 0], p[..., 1]) >= MOVING_PX)
     warped = np.abs(b["img"] - bilinear(a["img"], sx, sy)).mean(-1)
     coherence = (warped[moving].mean() / max(diff[moving].mean(), 1e-9)) if moving.any() else float("nan")
+    # Where the residual is: the subject's outline, plane edges, inside the planes.
+    outline = near(borders(b["obj"] != 0), OUTLINE_PX)
+    edges = near(borders(b["ids"]), EDGE_PX) & ~outline
+    parts = {}
+    for name, m in (("outline", outline), ("edges", edges), ("inside", ~outline & ~edges)):
+        parts["coherence_" + name] = (float(warped[moving & m].sum() / max(diff[moving].sum(), 1e-9))
+                                      if moving.any() else float("nan"))
     # The measure's own floor: frame t carried exactly to t+1, measured the same way.
     carried = b["img"].copy()
     carried[moving] = a["img"][ry, rx][moving]
@@ -150,6 +173,7 @@ def pair(a, b):
         "far_bg_changed": float((diff[far_bg] > 0).mean()) if far_bg.any() else 0.0,
         "coherence": float(coherence),
         "coherence_floor": float(floor),
+        **parts,
         "pops": float(pops),
         "plane_pops": plane_pops,
         "changed": float((diff > 0).mean()),
@@ -164,8 +188,8 @@ def main(argv):
     pattern, first, last = argv[1], int(argv[2]), int(argv[3])
     frames = [load(pattern, f) for f in range(first, last + 1)]
     rows = [dict(frame=first + k, **pair(frames[k], frames[k + 1])) for k in range(len(frames) - 1)]
-    keys = ["flicker", "bg_flicker", "bg_changed", "far_bg_changed", "coherence", "coherence_floor", "pops",
-            "plane_pops", "changed"]
+    keys = ["flicker", "bg_flicker", "bg_changed", "far_bg_changed", "coherence", "coherence_floor",
+            "coherence_outline", "coherence_edges", "coherence_inside", "pops", "plane_pops", "changed"]
     mean = {k: float(np.nanmean([r[k] for r in rows])) for k in keys}
     if "--json" in argv:
         print(json.dumps({"pairs": rows, "mean": mean}, indent=1))

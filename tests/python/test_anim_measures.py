@@ -63,6 +63,23 @@ def test_the_floor_counts_the_warps_blend(texture):
     assert r["coherence_floor"] > 0.05, r
 
 
+def test_the_residual_is_split_by_where_it_is(texture):
+    # The square is two planes (its left and right halves), its paint carried exactly, except
+    # two columns either side of the plane edge, repainted: the residual is all at the edge.
+    a, b = frame(10, texture, 10), frame(10 + SHIFT, texture, 10)
+    for f, x0 in ((a, 10), (b, 10 + SHIFT)):
+        f["ids"][12:36, x0 + 10:x0 + 20] = 2
+    b["img"][17:31, 10 + SHIFT + 9:10 + SHIFT + 11] += 30
+    r = am.pair(a, b)
+    parts = r["coherence_outline"] + r["coherence_edges"] + r["coherence_inside"]
+    assert abs(parts - r["coherence"]) < 1e-9, r
+    assert r["coherence_edges"] > 0 and r["coherence_outline"] == 0 and r["coherence_inside"] == 0, r
+    # The shower door: the residual everywhere on the square, outline and inside alike.
+    r = am.pair(frame(10, texture, 10), frame(10 + SHIFT, texture, 10 + SHIFT))
+    assert r["coherence_outline"] > 0 and r["coherence_inside"] > 0 and r["coherence_edges"] == 0, r
+    assert abs(r["coherence_outline"] + r["coherence_inside"] - r["coherence"]) < 1e-9
+
+
 def test_the_script_reads_the_renderers_frames(cubist_bin, tmp_path):
     # Two frames of the built-in still life on a turntable, with every pass the script reads.
     args = [str(cubist_bin), "render", "--width", "64", "--height", "48", "--frames", "1-2", "--orbit", "5",
@@ -72,6 +89,6 @@ def test_the_script_reads_the_renderers_frames(cubist_bin, tmp_path):
     out = subprocess.run([sys.executable, str(ROOT / "scripts" / "anim_measures.py"), str(tmp_path / "f_##.png"),
                           "1", "2", "--json"], check=True, capture_output=True, text=True).stdout
     mean = json.loads(out)["mean"]
-    assert set(mean) >= {"flicker", "coherence", "coherence_floor", "pops", "changed"}
+    assert set(mean) >= {"flicker", "coherence", "coherence_floor", "coherence_edges", "pops", "changed"}
     assert mean["far_bg_changed"] == 0
     assert 0 <= mean["coherence_floor"] <= mean["coherence"] + 0.05
