@@ -738,12 +738,12 @@ fn render_frame(
         pre.saliency = Some(map);
     }
 
-    let (map, revealed, plane_shift, at_key) = match key {
+    let (map, revealed, plane_shift, at_key, ground) = match key {
         Some((key, key_map)) => {
             let carried = timings.time("facet motion", || motion::carry(&key.key(key_map), &pre));
-            (carried.map, Some(carried.revealed), Some(carried.shift), Some(carried.at_key))
+            (carried.map, Some(carried.revealed), Some(carried.shift), Some(carried.at_key), Some(carried.ground))
         }
-        None => (keep.map.clone(), None, None, None),
+        None => (keep.map.clone(), None, None, None, None),
     };
     // The planes (their light ramps, the strokes' directions): the key frame's, moved with
     // their facets when facets follow; the layout's, still, when they do not.
@@ -786,8 +786,12 @@ fn render_frame(
             Some((k, _)) => Some(LaidOn { positions: &k.positions, camera: &k.camera }),
             None => keep.laid.as_ref().map(|(positions, camera)| LaidOn { positions, camera }),
         };
-        let seeds =
-            timings.time("stroke seeds", || SurfaceSeeds::new(&hits, w, h, world, camera, facets, fade_px, laid_on));
+        // The still ground's facets under the subject: the layout's (static facets) or those
+        // carried from the key frame's ground.
+        let ground = keep.faceted.then(|| ground.as_deref().unwrap_or(&keep.map.ids));
+        let seeds = timings.time("stroke seeds", || {
+            SurfaceSeeds::new(&hits, w, h, world, camera, facets, fade_px, laid_on).with_ground(ground)
+        });
         let sequence = Sequence {
             held: keep.held.as_ref(),
             planes_from: keep.faceted.then_some(planes_from),

@@ -37,6 +37,10 @@ pub struct StrokeSeed {
     /// A carried seed: where its point was on the picture its hatching is laid on (`Laid`),
     /// so it is hatched there and its rows move with the surface.
     pub laid: Option<Laid>,
+    /// A seed fixed on the canvas under the subject: its stroke paints the ground of its
+    /// `plane` alone (where the ground shows around the subject), as if the subject were not
+    /// there, so the still ground's strokes stay whatever the subject does in front of them.
+    pub ground: bool,
 }
 
 /// Where a carried seed's surface point was on the picture the hatching of a sequence is laid
@@ -86,7 +90,7 @@ pub fn grid_seeds(
             let r = |k: u64| unit_f64(splitmix64(id ^ k)) as f32;
             let pos = Vec2::new((cx as f32 + r(1)) * cell, (cy as f32 + r(2)) * cell);
             if (pos.x as usize) < width && (pos.y as usize) < height && keep(pos) {
-                out.push(StrokeSeed { pos, id, plane: None, opacity: 1.0, carried: false, laid: None });
+                out.push(StrokeSeed { pos, id, plane: None, opacity: 1.0, carried: false, laid: None, ground: false });
             }
         }
     }

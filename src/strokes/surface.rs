@@ -72,6 +72,9 @@ pub struct SurfaceSeeds<'a> {
     facets: Option<&'a FacetMap>,
     fade_px: f32,
     laid_on: Option<LaidOn<'a>>,
+    /// Per pixel, the facet of the ground there, under the subject too (a still ground's), if
+    /// known: the canvas's seeds under the subject paint it (`StrokeSeed::ground`).
+    ground: Option<&'a [u32]>,
     /// The triangles shown, each with the mean offset (pixels) of its pixels from their hits'
     /// projections, sorted by triangle.
     shown: Vec<(u32, DVec2)>,
@@ -139,7 +142,13 @@ impl<'a> SurfaceSeeds<'a> {
                 || (y + 1 < height && edge(i, i + width))
         };
         let (edge_dist, _) = crate::distance::nearest_features(w, h, fade_px.max(1.0), is_edge);
-        SurfaceSeeds { hits, width, height, world, camera, facets, fade_px, laid_on, shown, edge_dist }
+        SurfaceSeeds { hits, width, height, world, camera, facets, fade_px, laid_on, ground: None, shown, edge_dist }
+    }
+
+    /// With the ground's facet at every pixel (`ground`): the canvas's seeds under the subject
+    /// paint the ground there (`StrokeSeed::ground`); without, they have no stroke.
+    pub fn with_ground(self, ground: Option<&'a [u32]>) -> SurfaceSeeds<'a> {
+        SurfaceSeeds { ground, ..self }
     }
 
     /// Seed `k` of triangle `tri`'s sequence: its barycentrics and its threshold.
@@ -273,16 +282,26 @@ impl SeedSource for SurfaceSeeds<'_> {
                             at: (corners[0] * (1.0 - a - b) + corners[1] * a + corners[2] * b).as_vec2(),
                             to_frame: to_frame.as_mat2(),
                         });
-                        out.push(StrokeSeed { pos, id, plane, opacity, carried: true, laid });
+                        out.push(StrokeSeed { pos, id, plane, opacity, carried: true, laid, ground: false });
                     }
                 }
                 out
             })
             .collect();
-        let hits = self.hits;
+        // The canvas's seeds: on the ground as a still's; under the subject, the ground's
+        // strokes there (`StrokeSeed::ground`) when the ground's facets are known.
+        let (hits, ground) = (self.hits, self.ground);
         let mut seeds = grid_seeds(seed, layer, cell, self.width, self.height, |p| {
-            !hits[p.y as usize * self.width + p.x as usize].is_hit()
+            ground.is_some() || !hits[p.y as usize * self.width + p.x as usize].is_hit()
         });
+        if let Some(ground) = ground {
+            for s in &mut seeds {
+                let i = s.pos.y as usize * self.width + s.pos.x as usize;
+                if hits[i].is_hit() {
+                    (s.plane, s.ground) = (Some(ground[i]), true);
+                }
+            }
+        }
         seeds.extend(surface.into_iter().flatten());
         seeds
     }

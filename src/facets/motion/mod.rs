@@ -70,6 +70,8 @@ pub struct Carried {
     /// on a plane can be read where the point was and move with the surface
     /// (`paint::Sequence::at_key`).
     pub at_key: Vec<Vec2>,
+    /// Per pixel, the still ground's facet there (`background_facets`), under the subject too.
+    pub ground: Vec<u32>,
 }
 
 /// Per-pixel triangle and depth from the camera surface, read off a pre-pass film (one sample
@@ -152,6 +154,7 @@ pub fn carry(key: &Key, film: &Film) -> Carried {
         revealed: if surface == 0 { 0.0 } else { revealed as f64 / surface as f64 },
         shift,
         at_key,
+        ground: background,
     }
 }
 

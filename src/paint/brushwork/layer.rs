@@ -1,6 +1,8 @@
 //! The strokes of a layer and how they paint: a stroke's shape and colour, the layer's
 //! strokes listed per band of rows in compositing order, and the compositing.
 
+use std::collections::HashMap;
+
 use glam::{Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 
@@ -77,8 +79,14 @@ impl Anchor {
             sum += self.smooth.then(between).flatten().unwrap_or_else(|| source[j as usize].truncate());
             n += 1.0;
         }
-        let local = sum / n.max(1.0);
-        let local = means.get(&self.region).map_or(local, |m| local.lerp(*m, PLANE_FLATTEN));
+        let mean = means.get(&self.region);
+        // No sample in its region (a ground stroke whose points the subject covers): its
+        // region's mean.
+        let local = match mean {
+            Some(m) if n == 0.0 => *m,
+            _ => sum / n.max(1.0),
+        };
+        let local = mean.map_or(local, |m| local.lerp(*m, PLANE_FLATTEN));
         let colour = local * self.jitter;
         let value = luminance(colour);
         Tint { colour, inv_value: if value > 0.0 { 1.0 / value } else { 0.0 }, value }
@@ -265,6 +273,10 @@ pub(super) struct Surface<'a> {
     /// `PaintContext::regions`.
     pub(super) regions: &'a [Region],
     pub(super) coverage: Coverage<'a>,
+    /// A sequence's still ground: per facet id, the region of its ground pixels (the layout
+    /// frame's, `sequence::Held::means`), which the strokes of ground seeds paint
+    /// (`strokes::StrokeSeed::ground`).
+    pub(super) ground: Option<&'a HashMap<u32, Region>>,
 }
 
 impl Surface<'_> {

@@ -28,6 +28,8 @@
 //! its length (1-D noise across it modulating value) and a dry-brush tail where only the
 //! loaded bristles still leave paint.
 
+use std::collections::HashMap;
+
 use glam::{Vec2, Vec4};
 use rayon::prelude::*;
 
@@ -169,6 +171,8 @@ impl Brushwork {
                         return None;
                     }
                     let region = match seed.plane {
+                        // The ground of its plane, under the subject (none known: no stroke).
+                        Some(f) if seed.ground => *surface.ground?.get(&f)?,
                         Some(f) => ((f as u64) << 32) | (surface.region(i) & 0xffff_ffff),
                         None => surface.region(i),
                     };
@@ -334,7 +338,13 @@ impl Effect for Brushwork {
         let kept = ctx.inputs_kept() && !canvas.transparent;
         let (coverage, px) = canvas.coverage_and_pixels();
         let regions = ctx.regions(w * h);
-        let surface = Surface { w, h, regions: &regions, coverage };
+        // A sequence's ground regions by facet (from the layout frame's means), for the
+        // strokes of ground seeds.
+        let ground: Option<HashMap<u32, u64>> = ctx
+            .held()
+            .and_then(|h| h.means.as_ref())
+            .map(|m| m.keys().filter(|r| !is_subject(**r)).map(|&r| ((r >> 32) as u32, r)).collect());
+        let surface = Surface { w, h, regions: &regions, coverage, ground: ground.as_ref() };
         let fine_width = 0.5 * width;
         let fine_size = (fine_width >= MIN_WIDTH).then_some((0.5 * length, fine_width));
         let key = [((length.to_bits() as u64) << 32) | width.to_bits() as u64, opacity.to_bits() as u64, self.seed];

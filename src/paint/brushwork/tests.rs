@@ -3,6 +3,8 @@
 use super::layer::*;
 use super::plan::*;
 use super::*;
+use crate::film::NO_HIT;
+use glam::Vec3;
 
 /// A stroke of the given shape at `centre` along `angle` (radians).
 fn stroke(centre: Vec2, angle: f32, half_len: f32, half_wid: f32) -> Stroke {
@@ -106,7 +108,7 @@ fn a_sample_between_pixels_blends_the_pixels_of_its_region() {
     let source: Vec<Vec4> = (0..8).map(|i| Vec4::new(i as f32, 0.0, 0.0, 1.0)).collect();
     // Two rows of four: region 0 on the left half, region 1 on the right.
     let regions: Vec<Region> = (0..8).map(|i| ((i % 4) / 2) as Region).collect();
-    let surface = Surface { w: 4, h: 2, regions: &regions, coverage: crate::paint::Coverage(None) };
+    let surface = Surface { w: 4, h: 2, regions: &regions, coverage: crate::paint::Coverage(None), ground: None };
     let at = |x: f32, y: f32, r: Region| bilinear(&source, &surface, r, Vec2::new(x, y)).map(|c| c.x);
     assert_eq!(at(0.5, 0.5, 0), Some(0.0));
     assert_eq!(at(1.0, 0.5, 0), Some(0.5));
@@ -164,7 +166,7 @@ fn seeds_fixed_on_the_canvas_are_hatched_and_carried_ones_keep_their_place() {
     // plane's direction; a carried seed at the same place stays there and reads between pixels.
     let (w, h) = (64, 64);
     let regions: Vec<Region> = vec![0; w * h];
-    let surface = Surface { w, h, regions: &regions, coverage: crate::paint::Coverage(None) };
+    let surface = Surface { w, h, regions: &regions, coverage: crate::paint::Coverage(None), ground: None };
     let brush = Brushwork { opacity: 1.0, length: 12.0, width: 4.0, seed: 5 };
     let angle = [Vec2::from_angle(0.4)];
     let seed = |carried: bool| crate::strokes::StrokeSeed {
@@ -174,6 +176,7 @@ fn seeds_fixed_on_the_canvas_are_hatched_and_carried_ones_keep_their_place() {
         opacity: 1.0,
         carried,
         laid: None,
+        ground: false,
     };
     let strokes = brush.strokes(0, (12.0, 4.0), &surface, (&angle, &[]), &Mixed(vec![seed(false), seed(true)]), None);
     let (fixed, carried) = (&strokes[0], &strokes[1]);
@@ -192,7 +195,7 @@ fn carried_seeds_are_hatched_where_laid_and_move_with_their_surface() {
     // scale, it keeps its place.
     let (w, h) = (64, 64);
     let regions: Vec<Region> = vec![0; w * h];
-    let surface = Surface { w, h, regions: &regions, coverage: crate::paint::Coverage(None) };
+    let surface = Surface { w, h, regions: &regions, coverage: crate::paint::Coverage(None), ground: None };
     let brush = Brushwork { opacity: 1.0, length: 12.0, width: 4.0, seed: 5 };
     let angle = [Vec2::from_angle(0.4)];
     let at = Vec2::new(31.3, 30.2);
@@ -203,6 +206,7 @@ fn carried_seeds_are_hatched_where_laid_and_move_with_their_surface() {
         opacity: 1.0,
         carried: laid.is_some(),
         laid,
+        ground: false,
     };
     let laid = |to_frame: glam::Mat2| Some(crate::strokes::Laid { at, to_frame });
     let shift = Vec2::new(3.7, -2.2);
@@ -225,6 +229,55 @@ fn carried_seeds_are_hatched_where_laid_and_move_with_their_surface() {
     assert!(moved.jitter == fixed.jitter && moved.smooth && !fixed.smooth);
     assert!((turned.dir - turn * angle[0]).length() < 1e-5, "{:?}", turned.dir);
     assert!((turned.centre - (at + turn * (fixed.centre - at))).length() < 1e-4);
+}
+
+#[test]
+fn a_ground_seed_under_the_subject_paints_its_planes_ground_alone() {
+    // Plane 1's ground on the left, the subject (object 0) on the right half of plane 1. A
+    // ground seed on the subject paints the ground of its plane, never the subject; with all
+    // of its samples under the subject it takes its ground's mean; with no ground known for
+    // its plane it has no stroke.
+    let (w, h) = (64, 64);
+    let ground_region: Region = (1 << 32) | NO_HIT as u64;
+    let subject_region: Region = 1 << 32;
+    let regions: Vec<Region> = (0..w * h).map(|i| if i % w < 28 { ground_region } else { subject_region }).collect();
+    let ground = std::collections::HashMap::from([(1u32, ground_region)]);
+    let surface = Surface { w, h, regions: &regions, coverage: crate::paint::Coverage(None), ground: Some(&ground) };
+    let brush = Brushwork { opacity: 1.0, length: 12.0, width: 4.0, seed: 5 };
+    let angle = [Vec2::X, Vec2::X];
+    let seed = |x: f32, plane: u32| crate::strokes::StrokeSeed {
+        pos: Vec2::new(x, 30.5),
+        id: 77 + x as u64,
+        plane: Some(plane),
+        opacity: 1.0,
+        carried: false,
+        laid: None,
+        ground: true,
+    };
+    // Beside the outline (its ends reach the ground), deep in the subject, and on plane 0.
+    let seeds = Mixed(vec![seed(31.0, 1), seed(50.0, 1), seed(50.0, 0)]);
+    let strokes = brush.strokes(0, (12.0, 4.0), &surface, (&angle, &[]), &seeds, None);
+    assert_eq!(strokes.len(), 2, "the seed of plane 0, whose ground is not known, has a stroke");
+    assert!(strokes.iter().all(|s| s.region == ground_region));
+    let mut px: Vec<Vec4> = vec![Vec4::new(0.5, 0.45, 0.4, 1.0); w * h];
+    let picture = px.clone();
+    let means = RegionMeans::from([(ground_region, Vec3::new(0.6, 0.5, 0.4))]);
+    let layer = StrokeLayer::new(strokes, h);
+    let tints = layer.tints(&picture, &means, &surface);
+    composite(&layer, &tints, None, &mut px, &surface, 1.0);
+    for (i, (p, q)) in px.iter().zip(&picture).enumerate() {
+        if regions[i] == subject_region {
+            assert_eq!(p, q, "a ground stroke painted the subject at {i}");
+        }
+    }
+    assert!(px.iter().zip(&picture).any(|(p, q)| p != q), "the ground beside the outline was not painted");
+    // The stroke deep in the subject has no sample on the ground: its ground's mean (before
+    // its value jitter); the other reads the ground beside the outline too.
+    let deep = layer.strokes.iter().position(|s| s.centre.x > 40.0).unwrap();
+    let mean = tints[deep].colour / layer.strokes[deep].jitter;
+    assert!((mean - Vec3::new(0.6, 0.5, 0.4)).length() < 1e-5, "{mean}");
+    let near = tints[1 - deep].colour / layer.strokes[1 - deep].jitter;
+    assert!((near - Vec3::new(0.6, 0.5, 0.4)).length() > 0.01, "{near}");
 }
 
 #[test]
