@@ -339,11 +339,15 @@ impl Effect for Brushwork {
         let (coverage, px) = canvas.coverage_and_pixels();
         let regions = ctx.regions(w * h);
         // A sequence's ground regions by facet (from the layout frame's means), for the
-        // strokes of ground seeds.
-        let ground: Option<HashMap<u32, u64>> = ctx
-            .held()
-            .and_then(|h| h.means.as_ref())
-            .map(|m| m.keys().filter(|r| !is_subject(**r)).map(|&r| ((r >> 32) as u32, r)).collect());
+        // strokes of ground seeds. A facet has one (its ground, or its open plane); were there
+        // two, the lower would be taken, whatever the map's order.
+        let ground: Option<HashMap<u32, u64>> = ctx.held().and_then(|h| h.means.as_ref()).map(|m| {
+            let mut ground = HashMap::new();
+            for &r in m.keys().filter(|r| !is_subject(**r)) {
+                ground.entry((r >> 32) as u32).and_modify(|g: &mut u64| *g = (*g).min(r)).or_insert(r);
+            }
+            ground
+        });
         let surface = Surface { w, h, regions: &regions, coverage, ground: ground.as_ref() };
         let fine_width = 0.5 * width;
         let fine_size = (fine_width >= MIN_WIDTH).then_some((0.5 * length, fine_width));
