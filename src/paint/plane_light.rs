@@ -46,6 +46,9 @@ pub const CENTRE_LIGHT: f32 = 0.16;
 /// (`CALM`: the share of the ramp's amount lost there).
 pub const EDGE_DARK: f32 = 0.22;
 pub const CALM: f32 = 0.6;
+/// The composition's calm grows from nothing to whole between these distances from the
+/// subject's centre (`Oval::r`).
+pub const CALM_FROM_TO: (f32, f32) = (0.35, 1.1);
 /// A plane all ground has its ramp this share deeper than a plane on the subject (in
 /// proportion to its share of ground pixels): the ground's planes modelled more deeply, the
 /// subject's cues untouched (judged blind: docs/look/README.md, round 12).
@@ -75,7 +78,7 @@ impl PlaneLight {
     /// share of ground pixels. The ramp calms towards the edges, deepens on the ground, and
     /// the value follows the central light.
     pub fn composed(&self, plane: &Plane, p: Vec2, r: f32, ground: f32) -> f32 {
-        let edge = smoothstep(0.35, 1.1, r);
+        let edge = Oval::calm(r);
         let depth = (1.0 - CALM * edge) * (1.0 + GROUND * ground);
         let ramp = 1.0 + self.amount * depth * (LIGHT * (1.0 - plane.ramp(p)) - DARK * plane.ramp(p));
         ramp * (1.0 + self.amount * (CENTRE_LIGHT * (1.0 - smoothstep(0.0, 0.7, r)) - EDGE_DARK * edge))
@@ -114,6 +117,12 @@ impl Oval {
     /// The distance of `p` from the centre over the half diagonal.
     pub fn r(&self, p: Vec2) -> f32 {
         (p - self.centre).length() / self.half_diagonal
+    }
+
+    /// How calm the composition is at distance `r` (`Oval::r`): 0 about the subject, 1 towards
+    /// the canvas's edges and corners.
+    pub fn calm(r: f32) -> f32 {
+        smoothstep(CALM_FROM_TO.0, CALM_FROM_TO.1, r)
     }
 }
 

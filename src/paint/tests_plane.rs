@@ -321,6 +321,29 @@ fn strokes_are_parallel_within_a_plane_and_turn_from_plane_to_plane() {
 }
 
 #[test]
+fn the_hatching_quietens_where_the_composition_is_calm() {
+    // A flat picture, all subject (the composition centred on the canvas), in many planes:
+    // what varies comes from the strokes, whose value changes are smaller towards the corners
+    // (`brushwork::CORNER_CALM`) than about the centre.
+    let (w, h) = (480u32, 360u32);
+    let facets = voronoi(w, h, 60, 3);
+    let mut frame = flat(w, h, Vec3::splat(0.45));
+    run(Box::new(Brushwork { opacity: 1.0, length: 20.0, width: 6.0, seed: 9 }), &mut frame, Some(&facets));
+    let oval = super::plane_light::Oval::of(w as usize, h as usize, &frame.hits);
+    let spread = |inside: &dyn Fn(f32) -> bool| {
+        let v: Vec<f64> = (0..(w * h) as usize)
+            .filter(|&i| inside(oval.r(Vec2::new((i % w as usize) as f32 + 0.5, (i / w as usize) as f32 + 0.5))))
+            .map(|i| luminance(frame.color[i].truncate()) as f64)
+            .collect();
+        let mean = v.iter().sum::<f64>() / v.len() as f64;
+        (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / v.len() as f64).sqrt() / mean
+    };
+    let (centre, corners) = (spread(&|r| r < 0.3), spread(&|r| r > 0.95));
+    assert!(corners < 0.7 * centre, "corners {corners} vs centre {centre}");
+    assert!(corners > 0.1 * centre, "the corners lost their strokes: {corners} vs {centre}");
+}
+
+#[test]
 fn brushwork_keeps_dark_accents_and_skips_what_is_not_painted() {
     // A one-pixel dark line inside a light plane stays dark under the strokes.
     let (w, h) = (120u32, 80u32);

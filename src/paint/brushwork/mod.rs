@@ -10,7 +10,8 @@
 //! every stroke takes its plane's direction (across the plane's light ramp, `planes`, plus a
 //! seeded turn per plane) and paints only the pixels of its own plane and object, so facet
 //! borders and silhouettes stay crisp and each plane reads as hatched on its own, in strokes
-//! sized by the plane (larger on the large calm planes, finer at the cues). A still's
+//! sized by the plane (larger on the large calm planes, finer at the cues), quieter and
+//! thinner towards the canvas's edges and corners, where the composition calms. A still's
 //! strokes, and an animation frame's strokes fixed on the canvas, lie side by side in parallel
 //! rows, in dabs of a shared value (`Hatching`); strokes carried with the surfaces (animation
 //! frames) are hatched on the key frame's picture and carried from there with their surface
@@ -35,6 +36,7 @@ use rayon::prelude::*;
 
 use super::inputs::is_subject;
 use super::noise::lattice1;
+use super::plane_light::Oval;
 use super::planes::Plane;
 use super::sequence::RegionMeans;
 use super::{Canvas, Coverage, Effect, EffectParams, PaintContext, luminance};
@@ -81,6 +83,13 @@ pub const DARK_KEPT: (f32, f32) = (0.45, 0.8);
 /// How far a stroke's colour goes from the picture under it towards its plane's mean colour:
 /// the plane is repainted as a plane, not as the render's smooth shading under glass.
 pub const PLANE_FLATTEN: f32 = 0.7;
+/// Share of a stroke's value change it loses where the composition is calm (towards the
+/// canvas's edges and corners, `plane_light::Oval::calm`, where the planes' ramps calm too):
+/// the hatching quietens there (judged blind: docs/look/README.md, round 18).
+pub const CORNER_CALM: f32 = 0.6;
+/// Share of a stroke's opacity it loses there: thinner paint, the plane under it showing
+/// (judged blind: docs/look/README.md, round 19).
+pub const CORNER_THIN: f32 = 0.7;
 /// Strokes narrower than this (pixels) are not painted: the layer would be noise.
 pub const MIN_WIDTH: f32 = 1.5;
 
@@ -138,11 +147,26 @@ impl Brushwork {
             .collect()
     }
 
+    /// How calm the composition is at a point of the picture (`Oval::calm`: 0 about the
+    /// subject, 1 towards the canvas's edges and corners), read where the point's surface lay on
+    /// the layout (`PaintContext::plane_point`: a still's pixel, an animation frame's key-frame
+    /// point), so a stroke carried with its surface keeps its weight.
+    fn calm<'c>(ctx: &'c PaintContext, w: usize, h: usize) -> impl Fn(Vec2) -> f32 + Sync + 'c {
+        let oval = ctx.oval(w, h);
+        move |p: Vec2| {
+            let (x, y) = (p.x.clamp(0.0, (w - 1) as f32) as usize, p.y.clamp(0.0, (h - 1) as f32) as usize);
+            Oval::calm(oval.r(ctx.plane_point(y * w + x, w)))
+        }
+    }
+
     /// The strokes of layer `layer` (0 coarse, 1 fine), in the seeds' order: one per seed of
     /// `seeds` (`strokes::SeedSource`: a still's jittered grid, or seeds on the surfaces) on a
     /// painted pixel, sized and turned by its plane (each plane's direction and size over
     /// (length, width), by facet id; a missing size is 1); `keep(anchor)`, when given, says
-    /// whether a seed gets its stroke. All that is random about a stroke comes from its seed's id.
+    /// whether a seed gets its stroke; `calm(at)` says how calm the composition is where a
+    /// stroke is placed (`Brushwork::calm`). All that is random about a stroke comes from its
+    /// seed's id.
+    #[allow(clippy::too_many_arguments)]
     fn strokes(
         &self,
         layer: u64,
@@ -151,6 +175,7 @@ impl Brushwork {
         (angle, scale): (&[Vec2], &[f32]),
         seeds: &dyn SeedSource,
         keep: Option<&(dyn Fn(Vec2) -> bool + Sync)>,
+        calm: &(dyn Fn(Vec2) -> f32 + Sync),
     ) -> Vec<Stroke> {
         let (w, h) = (surface.w, surface.h);
         let cell = width * SPACING;
@@ -186,20 +211,23 @@ impl Brushwork {
                     // laid on, carried here by its surface's map, or else keeps its place; one
                     // fixed on the canvas goes onto its plane's row here. Either stays where it
                     // was if its row leaves its plane.
-                    let (centre, dir, jitter) = if let Some(laid) = seed.laid {
+                    let (centre, dir, change) = if let Some(laid) = seed.laid {
                         let (moved, shade) = hatch.place(laid.at, angle[plane], plane as u64, own);
                         let moved = centre + laid_weight(laid.to_frame) * (laid.to_frame * (moved - laid.at));
                         let dir = (laid.to_frame * angle[plane]).try_normalize().unwrap_or(angle[plane]);
                         let inside = surface.painted_in(moved, region).is_some();
-                        (if inside { moved } else { centre }, dir, 1.0 + HATCH_JITTER * shade)
+                        (if inside { moved } else { centre }, dir, HATCH_JITTER * shade)
                     } else if seed.carried {
                         let turn = (2.0 * r(3) - 1.0) * STROKE_TURN_DEG.to_radians();
-                        (centre, Vec2::from_angle(turn).rotate(angle[plane]), 1.0 + VALUE_JITTER * own)
+                        (centre, Vec2::from_angle(turn).rotate(angle[plane]), VALUE_JITTER * own)
                     } else {
                         let (moved, shade) = hatch.place(centre, angle[plane], plane as u64, own);
                         let inside = surface.painted_in(moved, region).is_some();
-                        (if inside { moved } else { centre }, angle[plane], 1.0 + HATCH_JITTER * shade)
+                        (if inside { moved } else { centre }, angle[plane], HATCH_JITTER * shade)
                     };
+                    // Calmer, thinner strokes where the composition is calm.
+                    let calm = calm(centre);
+                    let jitter = 1.0 + change * (1.0 - CORNER_CALM * calm);
                     // The fine layer's test, where the stroke is (a recorded layer tests every
                     // stroke at its centre afterwards: the same answer).
                     if keep.is_some_and(|keep| !keep(centre)) {
@@ -225,7 +253,7 @@ impl Brushwork {
                         samples,
                         jitter,
                         order: 0,
-                        opacity: seed.opacity,
+                        opacity: seed.opacity * (1.0 - CORNER_THIN * calm),
                         smooth: seed.carried,
                     })
                 }
@@ -332,6 +360,7 @@ impl Effect for Brushwork {
         // A sequence sizes them against the layout frame's median plane.
         let scale = plane_scales(&planes, ctx.held().and_then(|h| h.plane_median));
         let seeds: &dyn SeedSource = ctx.seeds().unwrap_or(&Grid);
+        let calm = Self::calm(ctx, w, h);
         let opacity = self.opacity.min(1.0);
         // A session keeps the strokes and their fragments (opaque canvases: a transparent
         // one's coverage comes from the colour, which may change under the same regions).
@@ -362,9 +391,9 @@ impl Effect for Brushwork {
         // Everything the layers read of the picture before them is read first, in cell order
         // (no copy of the picture): the tints (every stroke's colour comes from the picture
         // under the layers), and the fine layer's test's values of that picture.
-        let coarse_new = old
-            .is_none()
-            .then(|| StrokeLayer::new(self.strokes(0, (length, width), &surface, (&angle, &scale), seeds, None), h));
+        let coarse_new = old.is_none().then(|| {
+            StrokeLayer::new(self.strokes(0, (length, width), &surface, (&angle, &scale), seeds, None, &calm), h)
+        });
         let coarse_layer = match (&old, &coarse_new) {
             (Some(plan), _) => &plan.coarse.layer,
             (None, Some(layer)) => layer,
@@ -412,7 +441,7 @@ impl Effect for Brushwork {
                 Some((Fine::Kept(frags), t, b))
             }
             (None, Some(size)) if record => {
-                let l = StrokeLayer::new(self.strokes(1, size, &surface, (&angle, &scale), seeds, None), h);
+                let l = StrokeLayer::new(self.strokes(1, size, &surface, (&angle, &scale), seeds, None, &calm), h);
                 let (t, b) = tints_and_probes(&l);
                 Some((Fine::Recorded(l), t, b))
             }
@@ -460,8 +489,10 @@ impl Effect for Brushwork {
                 Fine::Traced(size, source) => {
                     // The test at an anchor, its probes read from the copy of the picture.
                     let keep_at = |p: Vec2| keep(&probes_in(&source, p));
-                    let layer =
-                        StrokeLayer::new(self.strokes(1, size, &surface, (&angle, &scale), seeds, Some(&keep_at)), h);
+                    let layer = StrokeLayer::new(
+                        self.strokes(1, size, &surface, (&angle, &scale), seeds, Some(&keep_at), &calm),
+                        h,
+                    );
                     if !layer.strokes.is_empty() {
                         let tints = layer.tints(&source, &means, &surface);
                         composite(&layer, &tints, None, px, &surface, opacity);

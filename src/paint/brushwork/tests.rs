@@ -178,7 +178,8 @@ fn seeds_fixed_on_the_canvas_are_hatched_and_carried_ones_keep_their_place() {
         laid: None,
         ground: false,
     };
-    let strokes = brush.strokes(0, (12.0, 4.0), &surface, (&angle, &[]), &Mixed(vec![seed(false), seed(true)]), None);
+    let strokes =
+        brush.strokes(0, (12.0, 4.0), &surface, (&angle, &[]), &Mixed(vec![seed(false), seed(true)]), None, &|_| 0.0);
     let (fixed, carried) = (&strokes[0], &strokes[1]);
     let hatch = Hatching { row: 4.0 * HATCH_ROW, length: 12.0, seed: sub_seed(5, SALT ^ 1) };
     assert_eq!(fixed.centre, hatch.place(seed(false).pos, angle[0], 0, 0.0).0);
@@ -218,7 +219,7 @@ fn carried_seeds_are_hatched_where_laid_and_move_with_their_surface() {
         seed(at, laid(turn)),
         seed(at, laid(glam::Mat2::from_diagonal(Vec2::splat(3.0)))),
     ];
-    let strokes = brush.strokes(0, (12.0, 4.0), &surface, (&angle, &[]), &Mixed(seeds), None);
+    let strokes = brush.strokes(0, (12.0, 4.0), &surface, (&angle, &[]), &Mixed(seeds), None, &|_| 0.0);
     let (fixed, here, moved, turned) = (&strokes[0], &strokes[1], &strokes[2], &strokes[3]);
     // A surface three times as large as where its rows were laid: the stroke stays at its seed.
     assert_eq!(strokes[4].centre, at);
@@ -256,7 +257,7 @@ fn a_ground_seed_under_the_subject_paints_its_planes_ground_alone() {
     };
     // Beside the outline (its ends reach the ground), deep in the subject, and on plane 0.
     let seeds = Mixed(vec![seed(31.0, 1), seed(50.0, 1), seed(50.0, 0)]);
-    let strokes = brush.strokes(0, (12.0, 4.0), &surface, (&angle, &[]), &seeds, None);
+    let strokes = brush.strokes(0, (12.0, 4.0), &surface, (&angle, &[]), &seeds, None, &|_| 0.0);
     assert_eq!(strokes.len(), 2, "the seed of plane 0, whose ground is not known, has a stroke");
     assert!(strokes.iter().all(|s| s.region == ground_region));
     let mut px: Vec<Vec4> = vec![Vec4::new(0.5, 0.45, 0.4, 1.0); w * h];
@@ -300,4 +301,37 @@ fn a_planes_strokes_are_sized_by_the_plane_against_the_median() {
     let held = plane_scales(&planes, Some(150.0));
     assert!((held[1] - (100.0f32 / 150.0).powf(PLANE_SIZE_POWER)).abs() < 1e-6 && held[5] == 1.0);
     assert_eq!(median_size([0u64, 0].into_iter()), None);
+}
+
+#[test]
+fn strokes_are_calmer_and_thinner_where_the_composition_is_calm() {
+    // The same seeds laid where the composition is calm (1) and about the subject (0): their
+    // value change is `CORNER_CALM` smaller and their opacity `CORNER_THIN` lower; their place,
+    // direction and size are the same.
+    let (w, h) = (64, 64);
+    let regions: Vec<Region> = vec![0; w * h];
+    let surface = Surface { w, h, regions: &regions, coverage: crate::paint::Coverage(None), ground: None };
+    let brush = Brushwork { opacity: 1.0, length: 12.0, width: 4.0, seed: 5 };
+    let angle = [Vec2::from_angle(0.4)];
+    let seeds: Vec<crate::strokes::StrokeSeed> = (0..20)
+        .map(|k| crate::strokes::StrokeSeed {
+            pos: Vec2::new(10.0 + 2.3 * k as f32, 12.0 + 1.7 * k as f32),
+            id: 100 + k,
+            plane: None,
+            opacity: 1.0,
+            carried: false,
+            laid: None,
+            ground: false,
+        })
+        .collect();
+    let seeds = Mixed(seeds);
+    let busy = brush.strokes(0, (12.0, 4.0), &surface, (&angle, &[]), &seeds, None, &|_| 0.0);
+    let calm = brush.strokes(0, (12.0, 4.0), &surface, (&angle, &[]), &seeds, None, &|_| 1.0);
+    assert_eq!(busy.len(), 20);
+    assert!(busy.iter().any(|s| (s.jitter - 1.0).abs() > 0.05), "no value change to calm");
+    for (b, c) in busy.iter().zip(&calm) {
+        assert_eq!((b.centre, b.dir, b.half_len, b.half_wid), (c.centre, c.dir, c.half_len, c.half_wid));
+        assert!(((c.jitter - 1.0) - (1.0 - CORNER_CALM) * (b.jitter - 1.0)).abs() < 1e-6);
+        assert!((b.opacity - 1.0).abs() < 1e-6 && (c.opacity - (1.0 - CORNER_THIN)).abs() < 1e-6);
+    }
 }
