@@ -4,16 +4,17 @@
 use rayon::prelude::*;
 
 use super::border_profile::darkening;
-use super::passage::{BorderStyle, Passage};
+use super::passage::BorderStyle;
 use super::{Canvas, Effect, EffectParams, PaintContext, darken};
 use crate::distance::distance_to_features;
 use crate::error::Result;
 use crate::util::grid::Grid;
 
 /// The facet borders' parameters: `width` (md of eq 4.8) in pixels at 1000 px (this image's
-/// pixels: times `scale`), 0 = off; `strength` in [0, 1]; how they are drawn. Passage reads
-/// the `seed` and the per-plane light's amount (`plane_light`); the regions both follow join
-/// the planes left whole across the outline when `open_planes` (`PaintParams::open_planes`).
+/// pixels: times `scale`), 0 = off; `strength` in [0, 1]; how they are drawn: symmetric here,
+/// as passage later in the chain (`passage::PassageParams`, which reads the `seed`); the
+/// regions passage follows join the planes left whole across the outline when `open_planes`
+/// (`PaintParams::open_planes`).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct BorderParams {
     pub width: f64,
@@ -21,23 +22,23 @@ pub struct BorderParams {
     pub style: BorderStyle,
     pub scale: f64,
     pub seed: u64,
-    pub plane_light: f64,
     pub open_planes: bool,
+}
+
+impl BorderParams {
+    /// Whether there are borders to draw, in either style.
+    pub fn drawn(&self) -> bool {
+        self.width > 0.0 && self.strength > 0.0
+    }
 }
 
 impl EffectParams for BorderParams {
     fn is_on(&self) -> bool {
-        self.width > 0.0 && self.strength > 0.0
+        self.drawn() && self.style == BorderStyle::Symmetric
     }
 
     fn build(&self) -> Result<Box<dyn Effect>> {
-        let (width, strength) = ((self.width * self.scale) as f32, self.strength as f32);
-        Ok(match self.style {
-            BorderStyle::Symmetric => Box::new(Borders { width, strength }),
-            BorderStyle::Passage => {
-                Box::new(Passage { width, strength, seed: self.seed, plane_light: self.plane_light as f32 })
-            }
-        })
+        Ok(Box::new(Borders { width: (self.width * self.scale) as f32, strength: self.strength as f32 }))
     }
 }
 

@@ -3,15 +3,17 @@
 //! `Effect` trait and left out of the chain when its setting is off.
 //!
 //! Order (fixed): chiaroscuro (relights the shading, so it must see the unmodified render) ->
-//! silhouettes -> facet borders, symmetric or passage -> gradient overlays (the geometric
+//! silhouettes -> facet borders drawn symmetric (eq 4.8) -> gradient overlays (the geometric
 //! darkenings and lightenings) -> colour transfer / palette (maps the final luminance onto the
 //! painter's colours, so borders and gradients come out in palette colours too) ->
 //! quantisation (so the paint has at most K colours) -> brushwork (strokes of the palette's
 //! colours, drawn towards their plane's mean) -> per-plane light (the ramp across each plane,
 //! after the palette: the palette ranks luminance, and ramps spread over a large backdrop
 //! would push a small subject's values to the ends of the ramp; after the strokes, which would
-//! otherwise flatten the ramp with their plane's mean) -> canvas grain (last: the weave shows
-//! through the paint).
+//! otherwise flatten the ramp with their plane's mean) -> facet borders drawn as passage (after
+//! the strokes and the ramps, so a lost edge melts the two planes' paint and light together and
+//! the line lies on the darker side as lit) -> canvas grain (last: the weave shows through the
+//! paint).
 //!
 //! Background and alpha. An opaque image's background is part of the canvas: every effect
 //! paints it (borders cross it, the palette colours it). A transparent image has no background

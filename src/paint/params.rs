@@ -8,6 +8,7 @@ use super::chiaroscuro::ChiaroscuroParams;
 use super::effect::EffectParams;
 use super::gradients::GradientParams;
 use super::palette::PaletteParams;
+use super::passage::PassageParams;
 use super::plane_light::PlaneLightParams;
 use super::quantise::QuantiseParams;
 use super::silhouettes::SilhouetteParams;
@@ -51,6 +52,7 @@ chain! {
     quantise: QuantiseParams,
     brushwork: BrushworkParams,
     plane_light: PlaneLightParams,
+    passage: PassageParams,
     canvas_grain: CanvasGrainParams,
 }
 

@@ -2,14 +2,13 @@
 //! (session 6): the same bits on random facet maps, canvases and settings, opaque and
 //! transparent, on 1 and 3 threads, through a kept session's inputs and a one-off's.
 
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use proptest::prelude::*;
 use rayon::prelude::*;
 
 use super::border_profile::border_factor;
 use super::noise::Grid2;
 use super::passage::{BLEND, LOST_PERIOD, Passage, SALT, neighbours_rdlu};
-use super::plane_light::PlaneLight;
 use super::planes::smoothstep;
 use super::tests::voronoi;
 use super::*;
@@ -68,16 +67,6 @@ impl Effect for Reference {
             let j = y as usize * w + x as usize;
             if same(j, from) { j } else { from }
         };
-        // The per-plane light's factor at a pixel (1 when it is off).
-        let ramps = (self.0.plane_light > 0.0).then(|| {
-            (PlaneLight { amount: self.0.plane_light, seed: self.0.seed }, ctx.planes(w as u32, w * h, self.0.seed))
-        });
-        let ramp = |i: usize| match (&ramps, ids) {
-            (Some((light, planes)), Some(ids)) => {
-                light.at(&planes[ids[i] as usize], Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5))
-            }
-            _ => 1.0,
-        };
         let seed = sub_seed(self.0.seed, SALT);
         let period = (LOST_PERIOD * ((w * h) as f32).sqrt()).max(4.0);
         let grid = Grid2::new(seed, (0.0, w as f32 / period), (0.0, h as f32 / period));
@@ -90,8 +79,8 @@ impl Effect for Reference {
             let (dx, dy) = ((b % w) as i64 - (a % w) as i64, (b / w) as i64 - (a / w) as i64);
             let (nx, ny) = if dx.abs() >= dy.abs() { (dx.signum(), 0) } else { (0, dy.signum()) };
             let (a_in, b_in) = (inward(a, -nx, -ny), inward(b, nx, ny));
-            let va = 0.5 * (lum[a] + lum[a_in]) * ramp(a);
-            let vb = 0.5 * (lum[b] + lum[b_in]) * ramp(b);
+            let va = 0.5 * (lum[a] + lum[a_in]);
+            let vb = 0.5 * (lum[b] + lum[b_in]);
             (b_in, va, vb)
         };
         let lost_found =
@@ -253,14 +242,13 @@ proptest! {
         seed in 0u64..1000,
         width in 0.5f32..20.0,
         strength in 0.0f32..1.0,
-        plane_light in prop_oneof![Just(0.0f32), 0.0f32..1.0],
         transparent in any::<bool>(),
         faceted in any::<bool>(),
         threads in 1usize..4,
     ) {
         let frame = canvas(w, h, seed, transparent);
         let facets = voronoi(w, h, cells, seed);
-        let p = Passage { width, strength, seed, plane_light };
+        let p = Passage { width, strength, seed };
         paint_both(p, &frame, faceted.then_some(&facets), transparent, threads);
     }
 }
@@ -271,8 +259,8 @@ fn passage_gives_the_per_pixel_forms_bits_on_a_large_map() {
     let facets = voronoi(w, h, 60, 11);
     for (k, transparent) in [false, true].into_iter().enumerate() {
         let frame = canvas(w, h, 5 + k as u64, transparent);
-        for (width, light) in [(11.0, 0.6), (3.0, 0.0), (24.0, 1.0)] {
-            let p = Passage { width, strength: 0.8, seed: 3, plane_light: light };
+        for width in [11.0, 3.0, 24.0] {
+            let p = Passage { width, strength: 0.8, seed: 3 };
             paint_both(p, &frame, Some(&facets), transparent, 2);
         }
     }

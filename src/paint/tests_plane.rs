@@ -142,7 +142,7 @@ fn passage_darkens_one_side_only_with_a_hard_edge() {
     }
     let md = 12.0;
     let mut passage = frame.clone();
-    run(Box::new(Passage { width: md, strength: 1.0, seed: 3, plane_light: 0.0 }), &mut passage, Some(&facets));
+    run(Box::new(Passage { width: md, strength: 1.0, seed: 3 }), &mut passage, Some(&facets));
     let mut symmetric = frame.clone();
     run(Box::new(Borders { width: md, strength: 1.0 }), &mut symmetric, Some(&facets));
     for y in 0..h {
@@ -172,7 +172,7 @@ fn passage_lines_come_and_go_along_a_border() {
     let (w, h) = (64u32, 1000u32);
     let facets = halves(w, h, 32);
     let mut frame = flat(w, h, Vec3::splat(0.5));
-    run(Box::new(Passage { width: 10.0, strength: 1.0, seed: 9, plane_light: 0.0 }), &mut frame, Some(&facets));
+    run(Box::new(Passage { width: 10.0, strength: 1.0, seed: 9 }), &mut frame, Some(&facets));
     let edge: Vec<f32> = (0..h).map(|y| frame.color[(y * w + 31) as usize].x).collect();
     let (lo, hi) = edge.iter().fold((f32::MAX, f32::MIN), |(a, b), &v| (a.min(v), b.max(v)));
     assert!(hi - lo > 0.05, "the line's strength should vary along the border: {lo} .. {hi}");
@@ -195,11 +195,11 @@ fn passage_draws_object_silhouettes_without_a_facet_map() {
         }
     }
     let before = frame.clone();
-    run(Box::new(Passage { width: 8.0, strength: 1.0, seed: 1, plane_light: 0.0 }), &mut frame, None);
+    run(Box::new(Passage { width: 8.0, strength: 1.0, seed: 1 }), &mut frame, None);
     assert!(frame.color != before.color, "the silhouette gets a line");
     let mut plain = flat(w, h, Vec3::splat(0.5));
     let before = bits(&plain);
-    run(Box::new(Passage { width: 8.0, strength: 1.0, seed: 1, plane_light: 0.0 }), &mut plain, None);
+    run(Box::new(Passage { width: 8.0, strength: 1.0, seed: 1 }), &mut plain, None);
     assert_eq!(bits(&plain), before, "no edge, no line");
 }
 

@@ -15,6 +15,7 @@ use crate::paint::canvas::CanvasGrainParams;
 use crate::paint::chiaroscuro::ChiaroscuroParams;
 use crate::paint::gradients::GradientParams;
 use crate::paint::palette::PaletteParams;
+use crate::paint::passage::PassageParams;
 use crate::paint::plane_light::PlaneLightParams;
 use crate::paint::quantise::QuantiseParams;
 use crate::paint::silhouettes::SilhouetteParams;
@@ -206,21 +207,21 @@ pub fn paint(s: &Settings) -> PaintParams {
     let (scale, seed) = (s.pixel_scale(), s.seed);
     // The planes faceting leaves some planes whole across the outline (passage).
     let open_planes = s.faceting == settings::Faceting::Planes && s.plane_outlines;
+    let borders = BorderParams {
+        width: s.border_width,
+        strength: s.border_strength,
+        style: match s.border_style {
+            settings::BorderStyle::Symmetric => BorderStyle::Symmetric,
+            settings::BorderStyle::Passage => BorderStyle::Passage,
+        },
+        scale,
+        seed,
+        open_planes,
+    };
     PaintParams {
         chiaroscuro: ChiaroscuroParams { amount: s.chiaroscuro, seed },
         silhouettes: SilhouetteParams { width: s.silhouette_width, strength: s.silhouette_strength, scale },
-        borders: BorderParams {
-            width: s.border_width,
-            strength: s.border_strength,
-            style: match s.border_style {
-                settings::BorderStyle::Symmetric => BorderStyle::Symmetric,
-                settings::BorderStyle::Passage => BorderStyle::Passage,
-            },
-            scale,
-            seed,
-            plane_light: s.plane_light,
-            open_planes,
-        },
+        borders: borders.clone(),
         gradients: GradientParams { fraction: s.gradients, seed },
         palette: PaletteParams {
             palette: match s.palette {
@@ -236,6 +237,7 @@ pub fn paint(s: &Settings) -> PaintParams {
         },
         quantise: QuantiseParams { colors: s.colors },
         plane_light: PlaneLightParams { amount: s.plane_light, seed },
+        passage: PassageParams(borders),
         brushwork: BrushworkParams {
             opacity: s.brushwork,
             length: s.stroke_length,
