@@ -58,7 +58,7 @@ pub enum BorderStyle {
 /// Passage's parameters: the facet borders' when they are drawn as passage. It runs after the
 /// strokes and the per-plane light (the chain's order: `PaintParams`), so the planes' paint and
 /// light melt into each other where an edge is lost (judged blind: docs/look/README.md, round
-/// 20).
+/// 21).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct PassageParams(pub BorderParams);
 
@@ -116,7 +116,8 @@ pub struct Pairs {
     /// Each pixel's index in `edge_pixels` (u32::MAX off the edges), for the lost-and-found
     /// value of b.
     slot: Vec<u32>,
-    /// What the sides of each edge pixel read besides the colour, for one step and seed (kept across chains only: `Passage::apply`).
+    /// What the sides of each edge pixel read besides the colour, for one step and seed
+    /// (kept across chains only: `Passage::apply`).
     geometry: std::sync::Mutex<Option<GeometryOf>>,
 }
 
