@@ -219,10 +219,10 @@ fn direction(w: usize, a: usize, b: usize) -> u32 {
 }
 
 /// What a pair (a, b) facing each other across an edge reads besides the colour: both
-/// pixels, their inward pixels (`step` in), the per-plane light's factor at each, their
-/// lost-and-found values (a's, b's) and the tie-break (a's region before b's). The same on
-/// every run over these edges with the same step and seed: a session keeps it,
-/// so a colour change upstream reads only the colours (`Side`). `a` = `NONE`: no pair.
+/// pixels, their inward pixels (`step` in), their lost-and-found values (a's, b's) and the
+/// tie-break (a's region before b's). The same on every run over these edges with the same
+/// step and seed: a session keeps it, so a colour change upstream reads only the colours
+/// (`Side`). `a` = `NONE`: no pair.
 #[derive(Clone, Copy)]
 struct Geometry {
     a: u32,

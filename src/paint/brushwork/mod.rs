@@ -226,8 +226,8 @@ impl Brushwork {
                         (if inside { moved } else { centre }, angle[plane], HATCH_JITTER * shade)
                     };
                     // Calmer, thinner strokes where the composition is calm.
-                    let calm = calm(centre);
-                    let jitter = 1.0 + change * (1.0 - CORNER_CALM * calm);
+                    let quiet = calm(centre);
+                    let jitter = 1.0 + change * (1.0 - CORNER_CALM * quiet);
                     // The fine layer's test, where the stroke is (a recorded layer tests every
                     // stroke at its centre afterwards: the same answer).
                     if keep.is_some_and(|keep| !keep(centre)) {
@@ -253,7 +253,7 @@ impl Brushwork {
                         samples,
                         jitter,
                         order: 0,
-                        opacity: seed.opacity * (1.0 - CORNER_THIN * calm),
+                        opacity: seed.opacity * (1.0 - CORNER_THIN * quiet),
                         smooth: seed.carried,
                     })
                 }
