@@ -12,8 +12,9 @@
 //! would push a small subject's values to the ends of the ramp; after the strokes, which would
 //! otherwise flatten the ramp with their plane's mean) -> facet borders drawn as passage (after
 //! the strokes and the ramps, so a lost edge melts the two planes' paint and light together and
-//! the line lies on the darker side as lit) -> canvas grain (last: the weave shows through the
-//! paint).
+//! the line lies on the darker side as lit) -> value range (a fixed curve deepening the darks
+//! and raising the lights, on the finished paint) -> canvas grain (last: the weave shows through
+//! the paint).
 //!
 //! Background and alpha. An opaque image's background is part of the canvas: every effect
 //! paints it (borders cross it, the palette colours it). A transparent image has no background
@@ -44,6 +45,7 @@ pub mod quantise;
 pub mod ranks;
 pub mod sequence;
 pub mod silhouettes;
+pub mod values;
 
 pub use context::{Canvas, Coverage, Lighting, PaintContext, darken, darken_background};
 pub use effect::{Effect, EffectParams, Keyed};

@@ -12,6 +12,7 @@ use super::passage::PassageParams;
 use super::plane_light::PlaneLightParams;
 use super::quantise::QuantiseParams;
 use super::silhouettes::SilhouetteParams;
+use super::values::ValueParams;
 
 /// Declares `PaintParams` with one field per effect and `PaintParams::effects`, which lists
 /// them in the order written: the chain's one list.
@@ -53,6 +54,7 @@ chain! {
     brushwork: BrushworkParams,
     plane_light: PlaneLightParams,
     passage: PassageParams,
+    values: ValueParams,
     canvas_grain: CanvasGrainParams,
 }
 

@@ -19,6 +19,7 @@ use crate::paint::passage::PassageParams;
 use crate::paint::plane_light::PlaneLightParams;
 use crate::paint::quantise::QuantiseParams;
 use crate::paint::silhouettes::SilhouetteParams;
+use crate::paint::values::ValueParams;
 use crate::paint::{BorderStyle, PaintParams, Palette};
 use crate::saliency::{SaliencyMethod, SaliencyParams};
 use crate::settings::{self, Settings};
@@ -245,6 +246,7 @@ pub fn paint(s: &Settings) -> PaintParams {
             scale,
             seed,
         },
+        values: ValueParams { contrast: s.value_contrast },
         canvas_grain: CanvasGrainParams { amount: s.canvas_grain, scale, seed },
         open_planes,
         background: s.background,

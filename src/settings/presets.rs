@@ -74,6 +74,7 @@ impl Preset {
                 s.brushwork = 0.85;
                 s.stroke_length = 30.0;
                 s.stroke_width = 8.0;
+                s.value_contrast = 0.3;
                 s.canvas_grain = 0.5;
             }
             Preset::Braque => {

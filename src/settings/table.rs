@@ -456,6 +456,13 @@ macro_rules! settings_table {
                 flag "Brush stroke width, pixels at 1000 px [default: 8]"
                     #[arg(long, value_name = "PX", help_heading = "Painterly effects", value_parser = finite_f64)] Option<f64>;
 
+            /// How far the finished paint's values spread about the middle (darker darks, lighter
+            /// lights), in [0, 1]; 0 = off.
+            value_contrast: f64 = 0.0,
+                schema field(Number).range(UNIT),
+                flag "Spread of the paint's values about the middle (darker darks, lighter lights), 0..1; 0 = off [analytic: 0.3]"
+                    #[arg(long, help_heading = "Painterly effects", value_parser = finite_f64)] Option<f64>;
+
             /// Canvas weave showing through the paint, in [0, 1]; 0 = off.
             canvas_grain: f64 = 0.0,
                 schema field(Number).range(UNIT),

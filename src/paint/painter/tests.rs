@@ -250,7 +250,7 @@ fn the_default_chain_is_identical_on_any_thread_count() {
     };
     assert_eq!(
         Painter::new(&paint(&s)).unwrap().names(),
-        ["palette", "brushwork", "plane light", "passage", "canvas grain"],
+        ["palette", "brushwork", "plane light", "passage", "values", "canvas grain"],
         "fixed chain order"
     );
     assert_eq!(out(1), out(3));
@@ -264,7 +264,7 @@ fn the_thesis_borders_stay_reachable() {
     assert!(Painter::new(&paint(&s)).unwrap().names().contains(&"borders"));
     // A preset without the look's paint has none of it.
     let plain = Settings::preset(Preset::Plain);
-    assert_eq!((plain.plane_light, plain.brushwork, plain.canvas_grain), (0.0, 0.0, 0.0));
+    assert_eq!((plain.plane_light, plain.brushwork, plain.value_contrast, plain.canvas_grain), (0.0, 0.0, 0.0, 0.0));
     assert_eq!(plain.border_style, crate::settings::BorderStyle::Symmetric);
 }
 
