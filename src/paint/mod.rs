@@ -30,6 +30,7 @@ pub mod brushwork;
 pub mod canvas;
 pub mod chiaroscuro;
 pub mod context;
+pub mod edge_smoothing;
 pub mod effect;
 pub mod gradients;
 pub mod inputs;

@@ -20,13 +20,15 @@
 //!
 //! It runs after the strokes and the per-plane light (`PassageParams`): its blends and lines
 //! are the last word on each edge, so a lost edge melts the two planes' paint and light into
-//! each other, and a plane's dark end takes the line against its neighbour's light end.
+//! each other, and a plane's dark end takes the line against its neighbour's light end. Last,
+//! it smooths the edges' pixel steps (`edge_smoothing`).
 
 use glam::Vec3;
 use rayon::prelude::*;
 
 use super::border_profile::border_factor;
 use super::borders::BorderParams;
+use super::edge_smoothing;
 use super::noise::Grid2;
 use super::planes::smoothstep;
 use super::{Canvas, Effect, EffectParams, PaintContext, darken, luminance};
@@ -265,7 +267,8 @@ impl Effect for Passage {
         let regions = ctx.regions(w * h);
         let key = |i: usize| regions[i];
         let same = |i: usize, j: usize| regions[i] == regions[j];
-        let edges = ctx.edges(w as u32, h as u32, md);
+        // The edges up to md, and as far as the edges' smoothing reads them.
+        let edges = ctx.edges(w as u32, h as u32, md.max(edge_smoothing::REACH));
         let dist = &edges.dist;
         // The first run over these edges (a facet or camera change) keeps no geometry: only
         // the runs after it (a paint-only change) read it again.
@@ -389,6 +392,8 @@ impl Effect for Passage {
                 }
             }
         });
+        // Last, the edges' pixel steps smoothed (the lines and blends are drawn per pixel).
+        edge_smoothing::smooth_edges(canvas, &regions, dist);
         Ok(())
     }
 }

@@ -7,6 +7,7 @@ use proptest::prelude::*;
 use rayon::prelude::*;
 
 use super::border_profile::border_factor;
+use super::edge_smoothing;
 use super::noise::Grid2;
 use super::passage::{BLEND, LOST_PERIOD, Passage, SALT, neighbours_rdlu};
 use super::planes::smoothstep;
@@ -167,6 +168,10 @@ impl Effect for Reference {
                 }
             }
         });
+        // Last, the edges' steps smoothed (`edge_smoothing`, tested on its own).
+        let regions: Vec<u64> = (0..w * h).map(key).collect();
+        let far = ctx.edges(w as u32, h as u32, md.max(edge_smoothing::REACH));
+        edge_smoothing::smooth_edges(canvas, &regions, &far.dist);
         Ok(())
     }
 }
