@@ -218,6 +218,11 @@ fn fade(t: f32) -> f32 {
     t * t * (3.0 - 2.0 * t)
 }
 
+/// A stroke's square start, over its half length from its centre: at 0.9 less 0.2 x the
+/// bristle's noise, so the bristles set down a little apart, as a flat brush's do (judged
+/// blind against rounded ends: docs/look/README.md, round 25).
+const FLAT_START: (f32, f32) = (0.9, 0.2);
+
 /// Where stroke `s` paints the pixel centre `d` = (dx, dy) from its centre (of `region`), at
 /// `opacity`: the stroke's alpha there before the dark accents, and the bristle's shade; None
 /// where it does not paint. `dy_dir` = (dy dir.y, dy dir.x), the same for a whole row. What
@@ -234,10 +239,8 @@ pub(super) fn shape(s: &Stroke, dx: f32, dy_dir: (f32, f32), region: Region, opa
         return None;
     }
     let un = u * s.inv_half_len;
-    // Rounded ends: the half width narrows as 1 - un^6.
-    let un2 = un * un;
-    let hw = s.half_wid * (1.0 - un2 * un2 * un2);
-    let edge = (hw - v + 0.5).clamp(0.0, 1.0);
+    // A flat brush: the stroke keeps its width to its ends, which are cut square.
+    let edge = (s.half_wid - v + 0.5).clamp(0.0, 1.0);
     if edge <= 0.0 {
         return None;
     }
@@ -246,6 +249,11 @@ pub(super) fn shape(s: &Stroke, dx: f32, dy_dir: (f32, f32), region: Region, opa
     let k = x as usize;
     let b = s.bristles[k] + (s.bristles[k + 1] - s.bristles[k]) * fade(x - k as f32);
     let mut alpha = edge * opacity * s.opacity;
+    // The square start: each bristle set down a little earlier or later (`FLAT_START`).
+    if un < 0.0 {
+        let start = FLAT_START.0 - FLAT_START.1 * s.bristles[k];
+        alpha *= 1.0 - smoothstep(start - 0.06, start, -un);
+    }
     // Dry-brush tail: over the last half of the length only the loaded bristles paint.
     if un > 0.5 {
         let t = (un - 0.5) * 1.4 - 0.2;

@@ -25,9 +25,9 @@
 //! thread count.
 //!
 //! A stroke's look: a flat colour (the mean of the picture at three points along it, value
-//! jittered by a few percent), rounded ends, a crisp anti-aliased edge, bristle streaks along
-//! its length (1-D noise across it modulating value) and a dry-brush tail where only the
-//! loaded bristles still leave paint.
+//! jittered by a few percent), a flat brush's square ends (its bristles set down a little
+//! apart), a crisp anti-aliased edge, bristle streaks along its length (1-D noise across it
+//! modulating value) and a dry-brush tail where only the loaded bristles still leave paint.
 
 use std::collections::HashMap;
 
