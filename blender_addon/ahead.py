@@ -13,8 +13,9 @@ The renderer runs a prepare on its lower-priority threads (`background`, docs/se
 interface keeps the cores first.
 
 What it never does: start a renderer for a scene whose engine is not Cubist; run while a render
-job runs or a 3D view renders in Rendered shading (the view has the renderer); write anything
-beside the .blend (no layout saved, the saliency cache only into a folder F12 made already);
+job runs or a 3D view renders in Rendered shading (the view has the renderer); send again,
+before the next edit, a job the user stopped with Esc; write anything beside the .blend (no
+layout saved, the saliency cache only into a folder F12 made already);
 hold the interface longer than READ_BUDGET: the main thread only reads the scene's arrays
 (export.read_scene; the arrays of meshes unchanged since the last read are reused), and the
 worker thread writes the file and waits for the renderer. A scene whose reading takes longer is
@@ -95,6 +96,9 @@ _geometry_dirty = True  # a mesh's data changed since the last read: read every 
 _meshes_read: dict = {}  # the last read's meshes' arrays (export.read_scene's mesh_cache)
 _too_large = False  # the last read went over READ_BUDGET (and no geometry changed since)
 _current: Optional[Prepare] = None  # the newest prepare
+# The edit count when the user cancelled a render (Esc): that job is not prepared again behind
+# their back, only once the scene or a setting changes.
+_held_at: Optional[int] = None
 _numbers = 0
 _threads: set = set()
 # Diagnostics for the tests and the benchmarks: prepares sent, cancelled, and the last reason
@@ -172,6 +176,13 @@ def cancel() -> None:
         client.cancel(pending.id)
 
 
+def hold() -> None:
+    """A render was cancelled (Esc; any thread): nothing is prepared until the next edit."""
+    global _held_at
+    with _lock:
+        _held_at = _edits
+
+
 def _skip(why: str) -> None:
     global last_skip
     last_skip = why
@@ -243,6 +254,9 @@ def prepare(scene) -> Optional[Prepare]:
         return None
     if _viewport_renders():
         _skip("a 3D view renders in Rendered shading")
+        return None
+    if _held_at == _edits:
+        _skip("the last render was cancelled: nothing is prepared until the next edit")
         return None
     p = _current
     if p is not None and p.edits == _edits and not p.cancelled.is_set():
@@ -389,10 +403,10 @@ _closing = threading.Event()
 
 def forget() -> None:
     """A file is closing: what was prepared is of another scene."""
-    global _current
+    global _current, _held_at
     cancel()
     with _lock:
-        _current = None
+        _current, _held_at = None, None
 
 
 def shutdown() -> None:
@@ -434,4 +448,4 @@ def unregister():
 
 
 __all__ = ["Claim", "IDLE", "IDLE_SETTINGS", "Prepare", "READ_BUDGET", "arm", "cancel", "claim", "counts", "current", "enabled",
-           "forget", "job_key", "prepare", "release", "shutdown"]
+           "forget", "hold", "job_key", "prepare", "release", "shutdown"]

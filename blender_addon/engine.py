@@ -157,6 +157,7 @@ class CubistRenderEngine(bpy.types.RenderEngine):
             self._render(depsgraph, scene)
         except (runner.Cancelled, export.ExportCancelled):
             last_run["cancelled"] = True
+            ahead.hold()  # the user stopped this job: it is not rendered again unasked
         except runner.CubistError as e:
             last_run["error"] = str(e)
             self.report({"ERROR"}, f"Cubist: {e}")

@@ -284,6 +284,8 @@ def scene_cancel():
     workspace = str(engine.last_run["workspace"])
     during = temp_entries()
     # The pointer over Blender's windows, then Escape, as a user's key press.
+    ahead = sys.modules["blender_addon.ahead"]
+    sent_at_esc = ahead.counts["sent"]
     user_input.press("Escape", focus=False)
     t_esc = time.monotonic()
     while bpy.app.is_job_running("RENDER"):
@@ -297,11 +299,16 @@ def scene_cancel():
         stats = client.stats()
     except sys.modules["blender_addon.serve_client"].ServerGone:
         stats = {"running": None, "queued": 0}
-    yield 0.5
+    # The render-ahead timer comes round within ahead.IDLE of the job's end: it must not send
+    # the job the user just stopped.
+    t_end = time.monotonic()
+    while time.monotonic() - t_end < ahead.IDLE + 0.5:
+        yield 0.1
     results["cancel"] = {"operator": started, "cancelled": engine.last_run.get("cancelled"),
                          "error": engine.last_run.get("error"),
                          "engine_saw_cancel_after_esc": engine.last_run.get("cancel_seen", t_esc - 1) - t_esc,
                          "job_ended_after_esc": seconds, "renderer_running": stats["running"],
+                         "sent_ahead_after_esc": ahead.counts["sent"] - sent_at_esc, "ahead_skip": ahead.last_skip,
                          "renderer_queued": stats["queued"], "server": engine.last_run.get("server"),
                          "server_pid": client.pid, "server_alive": client.alive(),
                          "workspace": workspace, "workspace_exists": Path(workspace).exists(),

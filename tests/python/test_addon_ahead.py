@@ -174,6 +174,15 @@ def test_f12_waits_for_its_job_under_way_and_esc_stops_both(bpy, ahead, tmp_path
     assert p.cancelled.is_set() and p.pending.wait(30)["cancelled"] is True
     stats = server().current().stats()
     assert stats["running"] is None and stats["queued"] == 0, stats
+    # The job the user stopped is not sent again behind their back, until the next edit.
+    sent = ahead.counts["sent"]
+    assert ahead.prepare(scene) is None and "cancelled" in ahead.last_skip
+    bpy.data.objects["Cube"].location.x += 0.3
+    scene.cubist.spp = 1
+    bpy.context.view_layer.update()
+    q = ahead.prepare(scene)
+    assert q is not None, ahead.last_skip
+    assert wait_done(q).ok and ahead.counts["sent"] == sent + 1
 
 
 def test_a_saved_files_folder_is_made_by_f12_not_by_the_prepare(bpy, ahead, tmp_path):

@@ -148,6 +148,8 @@ def test_ui_esc_stops_the_renderer_and_leaves_no_temp_files(ui):
     assert c["server"] == c["server_pid"], c
     assert c["renderer_running"] is None and c["renderer_queued"] == 0, c
     assert c["job_ended_after_esc"] < 15, c
+    # Nothing rendered ahead the job the user just stopped (it would run on for minutes).
+    assert c["sent_ahead_after_esc"] == 0 and "cancelled" in (c["ahead_skip"] or ""), c
     ws = Path(c["workspace"]).name
     assert ws in c["temp_during"], c  # the check below looks in the right place
     assert not c["workspace_exists"], c
