@@ -105,6 +105,20 @@ fn main() {
         ("gradients", only(&|s| s.gradients = 0.3)),
         ("plane light", only(&|s| s.plane_light = analytic.plane_light)),
         (
+            "plane light, smooth",
+            only(&|s| {
+                s.plane_light = analytic.plane_light;
+                s.light_steps = 0
+            }),
+        ),
+        (
+            "plane light in steps by the dabs",
+            only(&|s| {
+                s.plane_light = analytic.plane_light;
+                s.brushwork = analytic.brushwork
+            }),
+        ),
+        (
             "passage",
             only(&|s| {
                 s.border_style = BorderStyle::Passage;

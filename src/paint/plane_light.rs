@@ -12,16 +12,21 @@
 use glam::Vec2;
 use rayon::prelude::*;
 
+use super::brushwork::{Brushwork, BrushworkParams, HatchCells};
 use super::planes::{Plane, smoothstep};
 use super::{Canvas, Effect, EffectParams, PaintContext};
 use crate::error::Result;
 use crate::film::PixelHit;
+use crate::util::rng::splitmix64;
 
-/// The per-plane light's parameters: its amount in [0, 1] (0 = off).
+/// The per-plane light's parameters: its amount in [0, 1] (0 = off), its steps (0 = a smooth
+/// ramp) and the brushwork whose dabs lay them, if any.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct PlaneLightParams {
     pub amount: f64,
     pub seed: u64,
+    pub steps: u32,
+    pub strokes: Option<BrushworkParams>,
 }
 
 impl EffectParams for PlaneLightParams {
@@ -30,7 +35,9 @@ impl EffectParams for PlaneLightParams {
     }
 
     fn build(&self) -> Result<Box<dyn Effect>> {
-        Ok(Box::new(PlaneLight { amount: self.amount as f32, seed: self.seed }))
+        let steps = (self.steps > 0)
+            .then(|| Steps { levels: self.steps, strokes: self.strokes.as_ref().map(BrushworkParams::brushwork) });
+        Ok(Box::new(PlaneLight { amount: self.amount as f32, seed: self.seed, steps }))
     }
 }
 
@@ -59,6 +66,24 @@ pub struct PlaneLight {
     /// In [0, 1].
     pub amount: f32,
     pub seed: u64,
+    pub steps: Option<Steps>,
+}
+
+/// The light of each plane in `levels` values from its light end to its dark end, as the
+/// painters modelled a plane stroke by stroke rather than in a smooth gradient: with strokes,
+/// each dab of a plane's hatching (`Brushwork::cells`) takes the step of its centre, so the
+/// steps' edges run along the dabs' staggered ends; without, the steps are straight bands.
+pub struct Steps {
+    pub levels: u32,
+    pub strokes: Option<Brushwork>,
+}
+
+impl Steps {
+    /// The middle of the step that ramp position `t` (in [0, 1]) falls in.
+    pub fn step(&self, t: f32) -> f32 {
+        let n = self.levels as f32;
+        ((t * n).floor().min(n - 1.0) + 0.5) / n
+    }
 }
 
 impl PlaneLight {
@@ -78,9 +103,14 @@ impl PlaneLight {
     /// share of ground pixels. The ramp calms towards the edges, deepens on the ground, and
     /// the value follows the central light.
     pub fn composed(&self, plane: &Plane, p: Vec2, r: f32, ground: f32) -> f32 {
+        self.composed_at(plane.ramp(p), r, ground)
+    }
+
+    /// `composed` at ramp position `t` (0 light end, 1 dark end).
+    pub fn composed_at(&self, t: f32, r: f32, ground: f32) -> f32 {
         let edge = Oval::calm(r);
         let depth = (1.0 - CALM * edge) * (1.0 + GROUND * ground);
-        let ramp = 1.0 + self.amount * depth * (LIGHT * (1.0 - plane.ramp(p)) - DARK * plane.ramp(p));
+        let ramp = 1.0 + self.amount * depth * (LIGHT * (1.0 - t) - DARK * t);
         ramp * (1.0 + self.amount * (CENTRE_LIGHT * (1.0 - smoothstep(0.0, 0.7, r)) - EDGE_DARK * edge))
     }
 }
@@ -141,19 +171,36 @@ impl Effect for PlaneLight {
         let w = canvas.width as usize;
         let planes = ctx.planes(canvas.width, canvas.pixel_count(), self.seed);
         let oval = ctx.oval(w, canvas.height as usize);
+        // The dabs' cells, read at a pixel's point on the layout (`plane_point`) as the strokes
+        // are laid there, sized as the strokes are (against a sequence's layout median).
+        let cells: Option<HatchCells> = self
+            .steps
+            .as_ref()
+            .and_then(|s| s.strokes.as_ref())
+            .map(|b| b.cells(&planes, ctx.held().and_then(|h| h.plane_median)));
         // The factor at a pixel given each plane's share of ground, which is counted only when
         // the factors are made (a session keeps them).
         let factor = |ground: &[f32], x: usize, y: usize| {
             let p = ctx.plane_point(y * w + x, w);
             let f = facets.ids[y * w + x] as usize;
-            self.composed(&planes[f], p, oval.r(p), ground.get(f).copied().unwrap_or(0.0))
+            let t = match &self.steps {
+                Some(steps) => steps.step(planes[f].ramp(cells.as_ref().map_or(p, |c| c.centre(f, p)))),
+                None => planes[f].ramp(p),
+            };
+            self.composed_at(t, oval.r(p), ground.get(f).copied().unwrap_or(0.0))
         };
         let n = canvas.pixel_count();
         if ctx.kept_across_chains() {
             // A session keeps each pixel's factor (it reads the planes and the facet map):
             // a paint-only change multiplies by it.
             let centre = ((oval.centre.x.to_bits() as u64) << 32) | oval.centre.y.to_bits() as u64;
-            let key = [self.amount.to_bits() as u64, self.seed ^ centre, w as u64, n as u64];
+            let steps = self.steps.as_ref().map_or(0, |s| {
+                let b = s.strokes.as_ref().map_or(0, |b| {
+                    splitmix64(((b.length.to_bits() as u64) << 32 | b.width.to_bits() as u64) ^ splitmix64(b.seed))
+                });
+                splitmix64(s.levels as u64 ^ b)
+            });
+            let key = [self.amount.to_bits() as u64, self.seed ^ centre ^ steps, w as u64, n as u64];
             let f = ctx.factors(self.name(), key, false, || {
                 let ground = ctx.ground_shares(n);
                 (0..n).into_par_iter().map(|i| factor(&ground, i % w, i / w)).collect()

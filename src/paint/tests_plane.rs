@@ -10,7 +10,7 @@ use super::brushwork::Brushwork;
 use super::canvas::CanvasGrain;
 use super::measure::{luma, per_plane_light};
 use super::passage::Passage;
-use super::plane_light::{DARK, GROUND, LIGHT, PlaneLight};
+use super::plane_light::{DARK, GROUND, LIGHT, PlaneLight, Steps};
 use super::planes::planes;
 use super::tests::voronoi;
 use super::*;
@@ -56,7 +56,7 @@ fn lit_as_composed(
 ) {
     let w = frame.width;
     let oval = super::plane_light::Oval::of(w as usize, frame.height as usize, &frame.hits);
-    run(Box::new(PlaneLight { amount: light.amount, seed: light.seed }), frame, Some(facets));
+    run(Box::new(PlaneLight { amount: light.amount, seed: light.seed, steps: None }), frame, Some(facets));
     let planes = planes(w, &facets.ids, count, light.seed);
     for (i, c) in frame.color.iter().enumerate() {
         let p = Vec2::new((i as u32 % w) as f32 + 0.5, (i as u32 / w) as f32 + 0.5);
@@ -71,7 +71,7 @@ fn every_plane_gets_a_ramp_from_its_light_end_to_its_dark_end() {
     let (w, h) = (240u32, 180u32);
     let facets = voronoi(w, h, 20, 3);
     let mut frame = flat(w, h, Vec3::splat(0.4));
-    let light = PlaneLight { amount: 0.7, seed: 5 };
+    let light = PlaneLight { amount: 0.7, seed: 5, steps: None };
     lit_as_composed(&light, &mut frame, &facets, 20, |_| 0.0);
     // The ends: 1 + amount LIGHT and 1 - amount DARK.
     assert!((light.factor(0.0) - (1.0 + 0.7 * LIGHT)).abs() < 1e-6);
@@ -96,7 +96,7 @@ fn the_grounds_planes_are_modelled_more_deeply_than_the_subjects() {
         }
     }
     assert!(!frame.hits[w as usize - 1].is_hit() && frame.hits[0].is_hit());
-    let light = PlaneLight { amount: 0.7, seed: 5 };
+    let light = PlaneLight { amount: 0.7, seed: 5, steps: None };
     lit_as_composed(&light, &mut frame, &facets, 2, |f| f as f32);
     let planes = planes(w, &facets.ids, 2, 5);
     let centre = 1.0 + 0.7 * super::plane_light::CENTRE_LIGHT;
@@ -108,11 +108,62 @@ fn the_grounds_planes_are_modelled_more_deeply_than_the_subjects() {
 }
 
 #[test]
+fn stepped_light_gives_each_dab_one_of_its_planes_steps() {
+    // Each pixel is lit as `composed_at` says at the step of its dab's centre: a plane's light
+    // takes at most `levels` values (at a given distance from the composition's centre), the
+    // large planes at least three, and the pixels of one dab share one.
+    let (w, h) = (240u32, 180u32);
+    let facets = voronoi(w, h, 12, 3);
+    let strokes = || Brushwork { opacity: 0.85, length: 24.0, width: 6.0, seed: 9 };
+    let light = || PlaneLight { amount: 0.7, seed: 5, steps: Some(Steps { levels: 5, strokes: Some(strokes()) }) };
+    let mut frame = flat(w, h, Vec3::splat(0.4));
+    run(Box::new(light()), &mut frame, Some(&facets));
+    let planes = planes(w, &facets.ids, 12, 5);
+    let cells = strokes().cells(&planes, None);
+    let oval = super::plane_light::Oval::of(w as usize, h as usize, &frame.hits);
+    let (light, steps) = (light(), Steps { levels: 5, strokes: None });
+    let mut seen: Vec<std::collections::BTreeSet<u32>> = vec![Default::default(); 12];
+    for (i, c) in frame.color.iter().enumerate() {
+        let p = Vec2::new((i as u32 % w) as f32 + 0.5, (i as u32 / w) as f32 + 0.5);
+        let f = facets.ids[i] as usize;
+        let t = steps.step(planes[f].ramp(cells.centre(f, p)));
+        let want = 0.4 * light.composed_at(t, oval.r(p), 0.0);
+        assert!((c.x - want).abs() < 1e-6, "pixel {i}: {} against {want}", c.x);
+        seen[f].insert((t * 1000.0).round() as u32);
+    }
+    for (f, s) in seen.iter().enumerate() {
+        assert!(s.len() <= 5 && (planes[f].pixels < 2000 || s.len() >= 3), "plane {f}: {s:?}");
+    }
+    // The steps: the middles of five equal parts of the ramp, the ends included.
+    let middles: Vec<f32> = [0.0, 0.19, 0.2, 0.5, 0.99, 1.0].iter().map(|&t| steps.step(t)).collect();
+    assert_eq!(middles, [0.1, 0.1, 0.3, 0.5, 0.9, 0.9]);
+}
+
+#[test]
+fn stepped_light_without_strokes_lays_straight_bands() {
+    // No strokes: the step of each pixel's own ramp position, as a smooth ramp quantised.
+    let (w, h) = (160u32, 120u32);
+    let facets = voronoi(w, h, 6, 4);
+    let light = || PlaneLight { amount: 0.7, seed: 5, steps: Some(Steps { levels: 4, strokes: None }) };
+    let mut frame = flat(w, h, Vec3::splat(0.4));
+    run(Box::new(light()), &mut frame, Some(&facets));
+    let planes = planes(w, &facets.ids, 6, 5);
+    let oval = super::plane_light::Oval::of(w as usize, h as usize, &frame.hits);
+    let (light, steps) = (light(), Steps { levels: 4, strokes: None });
+    for (i, c) in frame.color.iter().enumerate() {
+        let p = Vec2::new((i as u32 % w) as f32 + 0.5, (i as u32 / w) as f32 + 0.5);
+        let f = facets.ids[i] as usize;
+        let want = 0.4 * light.composed_at(steps.step(planes[f].ramp(p)), oval.r(p), 0.0);
+        assert!((c.x - want).abs() < 1e-6, "pixel {i}: {} against {want}", c.x);
+    }
+}
+
+#[test]
 fn plane_light_leaves_an_unfaceted_or_transparent_background_alone() {
     let (w, h) = (60u32, 40u32);
     let mut frame = flat(w, h, Vec3::splat(0.4));
     let before = bits(&frame);
-    run(Box::new(PlaneLight { amount: 1.0, seed: 1 }), &mut frame, None);
+    run(Box::new(PlaneLight { amount: 1.0, seed: 1, steps: None }), &mut frame, None);
     assert_eq!(bits(&frame), before, "no facet map: no plane");
     // Transparent: pixels nothing covered stay clear.
     let mut frame = flat(w, h, Vec3::splat(0.4));
@@ -120,7 +171,7 @@ fn plane_light_leaves_an_unfaceted_or_transparent_background_alone() {
         *c = Vec4::new(0.62, 0.56, 0.46, 0.0);
     }
     let facets = voronoi(w, h, 4, 2);
-    Painter::from_effects(vec![Box::new(PlaneLight { amount: 1.0, seed: 1 })], [0.62, 0.56, 0.46], true)
+    Painter::from_effects(vec![Box::new(PlaneLight { amount: 1.0, seed: 1, steps: None })], [0.62, 0.56, 0.46], true)
         .apply(&mut frame, Some(&facets), None)
         .unwrap();
     assert!(frame.color.iter().take(600).all(|c| *c == Vec4::new(0.62, 0.56, 0.46, 0.0)));

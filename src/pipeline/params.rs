@@ -219,6 +219,8 @@ pub fn paint(s: &Settings) -> PaintParams {
         seed,
         open_planes,
     };
+    let brushwork =
+        BrushworkParams { opacity: s.brushwork, length: s.stroke_length, width: s.stroke_width, scale, seed };
     PaintParams {
         chiaroscuro: ChiaroscuroParams { amount: s.chiaroscuro, seed },
         silhouettes: SilhouetteParams { width: s.silhouette_width, strength: s.silhouette_strength, scale },
@@ -237,15 +239,14 @@ pub fn paint(s: &Settings) -> PaintParams {
             seed,
         },
         quantise: QuantiseParams { colors: s.colors },
-        plane_light: PlaneLightParams { amount: s.plane_light, seed },
-        passage: PassageParams(borders),
-        brushwork: BrushworkParams {
-            opacity: s.brushwork,
-            length: s.stroke_length,
-            width: s.stroke_width,
-            scale,
+        plane_light: PlaneLightParams {
+            amount: s.plane_light,
             seed,
+            steps: s.light_steps,
+            strokes: (s.brushwork > 0.0).then(|| brushwork.clone()),
         },
+        passage: PassageParams(borders),
+        brushwork,
         values: ValueParams { contrast: s.value_contrast },
         canvas_grain: CanvasGrainParams { amount: s.canvas_grain, scale, seed },
         open_planes,

@@ -70,6 +70,7 @@ impl Preset {
                 s.chiaroscuro = 0.3;
                 // Each plane lit on its own, passage, brushwork.
                 s.plane_light = 0.8;
+                s.light_steps = 5;
                 s.border_style = BorderStyle::Passage;
                 s.brushwork = 0.85;
                 s.stroke_length = 30.0;
