@@ -71,6 +71,9 @@ impl Preset {
                 // Each plane lit on its own, passage, brushwork.
                 s.plane_light = 0.8;
                 s.light_steps = 5;
+                // No cast shadows: each plane has its own light, not one lamp's in space
+                // (judged blind, round 28).
+                s.shadows = false;
                 s.border_style = BorderStyle::Passage;
                 s.brushwork = 0.85;
                 s.stroke_length = 30.0;

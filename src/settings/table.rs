@@ -171,7 +171,7 @@ macro_rules! settings_table {
             /// Cast one shadow ray per light per hit.
             shadows: bool = true,
                 schema field(Boolean),
-                flag "Cast shadow rays (true/false) [default: true]"
+                flag "Cast shadow rays (true/false) [analytic: false; the other presets: true]"
                     #[arg(long, help_heading = "Shading")] Option<bool>;
 
             /// Background colour, linear RGB in [0, 1].

@@ -157,7 +157,8 @@ fn still_life_prerender(
     use crate::pipeline::{Prepared, Shading, StageParams, Timings, prerender};
     use crate::settings::Settings;
     let prep = Prepared::load(None).unwrap();
-    let params = StageParams::new(&Settings { width, height, spp: 1, ..Settings::default() });
+    // Shadows on (the default look casts none): the shadow rays are what these tests check.
+    let params = StageParams::new(&Settings { width, height, spp: 1, shadows: true, ..Settings::default() });
     let pre =
         prerender(&prep, &params.framing, &params.trace, Shading::Lit, &Progress::silent(), &mut Timings::default())
             .unwrap();
@@ -361,7 +362,7 @@ fn deferred_shading_matches_the_lit_pre_render() {
     use crate::pipeline::{Prepared, Shading, StageParams, Timings, prerender};
     use crate::settings::Settings;
     let prep = Prepared::load(None).unwrap();
-    let s = Settings { width: 161, height: 119, spp: 1, ..Settings::default() };
+    let s = Settings { width: 161, height: 119, spp: 1, shadows: true, ..Settings::default() };
     let params = StageParams::new(&s);
     assert!(params.trace.shadows);
     let pre = |shading| {
