@@ -157,16 +157,26 @@ impl Brushwork {
     /// Each plane's hatching cells (`Hatching::cell`): where the centre of the dab a point of
     /// the plane falls in lies, with the rows and dabs a still's strokes are laid on.
     pub fn cells(&self, planes: &[Plane], median: Option<f32>) -> HatchCells {
-        let width = self.width.max(MIN_WIDTH);
-        let length = self.length.max(width);
-        let seed = sub_seed(self.seed, SALT ^ 1);
+        let (length, width) = self.coarse_size();
         let planes = self
             .directions(planes)
             .into_iter()
             .zip(plane_scales(planes, median))
-            .map(|(dir, k)| (dir, Hatching { row: width * k * HATCH_ROW, length: length * k, seed }))
+            .map(|(dir, k)| (dir, self.hatching((length * k, width * k))))
             .collect();
         HatchCells { planes }
+    }
+
+    /// The coarse layer's stroke length and width, pixels: at least `MIN_WIDTH` wide, at least
+    /// as long as wide.
+    fn coarse_size(&self) -> (f32, f32) {
+        let width = self.width.max(MIN_WIDTH);
+        (self.length.max(width), width)
+    }
+
+    /// The hatching of a plane whose strokes are `length` x `width` pixels.
+    fn hatching(&self, (length, width): (f32, f32)) -> Hatching {
+        Hatching { row: width * HATCH_ROW, length, seed: sub_seed(self.seed, SALT ^ 1) }
     }
 
     /// How calm the composition is at a point of the picture (`Oval::calm`: 0 about the
@@ -201,7 +211,6 @@ impl Brushwork {
     ) -> Vec<Stroke> {
         let (w, h) = (surface.w, surface.h);
         let cell = width * SPACING;
-        let hatch = Hatching { row: width * HATCH_ROW, length, seed: sub_seed(self.seed, SALT ^ 1) };
         let seeds = seeds.seeds(sub_seed(self.seed, SALT), layer, cell, w, h);
         seeds
             .par_iter()
@@ -227,7 +236,7 @@ impl Brushwork {
                     let own = 2.0 * r(5) - 1.0;
                     let k = scale.get(plane).copied().unwrap_or(1.0);
                     let (length, width) = (length * k, width * k);
-                    let hatch = Hatching { row: width * HATCH_ROW, length, ..hatch };
+                    let hatch = self.hatching((length, width));
                     // A seed carried with a surface (it reads the picture between pixels:
                     // `Stroke::smooth`) goes onto its plane's row on the picture its hatching is
                     // laid on, carried here by its surface's map, or else keeps its place; one
@@ -395,11 +404,10 @@ impl Effect for Brushwork {
 
     fn apply(&self, canvas: &mut Canvas<'_>, ctx: &PaintContext) -> Result<()> {
         let (w, h) = (canvas.width as usize, canvas.height as usize);
-        let width = self.width.max(MIN_WIDTH);
         if w == 0 || h == 0 || !(self.opacity > 0.0) || !(self.length > 0.0) {
             return Ok(());
         }
-        let length = self.length.max(width);
+        let (length, width) = self.coarse_size();
         let planes = ctx.planes(canvas.width, w * h, self.seed);
         let angle = self.directions(&planes);
         // A sequence sizes them against the layout frame's median plane.
