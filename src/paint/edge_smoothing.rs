@@ -62,7 +62,7 @@ pub fn smooth_edges(canvas: &mut Canvas<'_>, regions: &[u64], dist: &[f32]) {
         for dy in -RADIUS..=RADIUS {
             for dx in -RADIUS..=RADIUS {
                 let Some(j) = inside(dx, dy) else { continue };
-                let g = gauss[((dy + RADIUS) * (2 * RADIUS + 1) + dx + RADIUS) as usize];
+                let g = gauss[(dy + RADIUS) as usize * side + (dx + RADIUS) as usize];
                 total += g;
                 if cut {
                     mx += g * dx as f32;
