@@ -402,6 +402,7 @@ fn a_saliency_centre_on_the_background_aims_at_the_focal_point_of_its_ray() {
         width: s.width,
         height: s.height,
         clip_radius: prep.world.radius as f64 * 1.001,
+        up: framed.frame.up,
     };
     // The top-left corner of the still life is background.
     let (fc, sc) = (DVec2::new(80.5, 60.5), DVec2::new(2.5, 2.5));

@@ -122,6 +122,34 @@ fn default_pipeline_same_image_on_one_and_two_threads() {
     assert_eq!(render_with(1), render_with(2));
 }
 
+/// Turned views (`--view-turn`) repaint the subject's planes, the same on 1 and 2 threads; the
+/// backdrop's corners change only as much as the whole picture's values move.
+#[test]
+fn turned_views_change_the_subject_on_any_thread_count() {
+    let prep = Prepared::load(None).unwrap();
+    let base = Settings { width: 160, height: 120, ..Settings::default() };
+    let turned = Settings { view_turn: 45.0, ..base.clone() };
+    let render_with = |s: &Settings, threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| cubist::render(&prep, s, &Progress::silent()).unwrap().image)
+    };
+    let (a, b) = (render_with(&base, 2), render_with(&turned, 1));
+    assert_eq!(b, render_with(&turned, 2));
+    // Mean absolute difference over a box of pixels.
+    let diff = |x0: u32, y0: u32, x1: u32, y1: u32| {
+        let mut total = 0.0;
+        for y in y0..y1 {
+            for x in x0..x1 {
+                let (p, q) = (a.get_pixel(x, y).0, b.get_pixel(x, y).0);
+                total += (0..3).map(|k| (p[k] as f64 - q[k] as f64).abs()).sum::<f64>();
+            }
+        }
+        total / ((x1 - x0) * (y1 - y0) * 3) as f64
+    };
+    let (centre, corner) = (diff(50, 30, 110, 90), diff(0, 0, 20, 20));
+    assert!(centre > 3.0 && centre > 3.0 * corner, "centre {centre:.2}, corner {corner:.2}");
+}
+
 /// Adaptive anti-aliasing (the default threshold) against `spp` samples at every pixel
 /// (threshold 0), bare camera so that paint does not hide differences: close in PSNR, and
 /// different from one sample per pixel (it does anti-alias).

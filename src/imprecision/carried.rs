@@ -38,6 +38,8 @@ pub struct KeyAim {
     pub aim: FacetAim,
     pub centre: Option<Anchor>,
     pub target: Option<Anchor>,
+    /// The point its turned view turns about (`views`), when it was turned.
+    pub pivot: Option<Anchor>,
 }
 
 /// The key frame's aims (decided from the key frame's picture), anchored to the
@@ -48,6 +50,10 @@ pub fn anchor_aims(ctx: &AimContext, aims: &[FacetAim]) -> Vec<KeyAim> {
             aim: *aim,
             centre: aim.fc.and_then(|c| Anchor::seen_at(ctx, c)),
             target: aim.sc.filter(|_| aim.moved()).and_then(|s| Anchor::seen_at(ctx, s)),
+            pivot: aim.turn.and(aim.fc).and_then(|c| {
+                let r = FacetAim { turn: None, ..*aim }.apply(ctx.ray_at(c), c, ctx.clip_radius);
+                ctx.accel.closest(r.origin, r.dir, 0.0, f32::INFINITY).map(|h| Anchor { tri: h.tri, u: h.u, v: h.v })
+            }),
         })
         .collect()
 }
@@ -60,7 +66,8 @@ pub fn anchor_aims(ctx: &AimContext, aims: &[FacetAim]) -> Vec<KeyAim> {
 /// at the centre of its view in every frame. What the key frame did not anchor (a centre or aim
 /// point on the backdrop, or out of view now) falls back to the facet's centre in `map` and the
 /// key frame's aim offset in pixels. The discontinuity limit (`params`) holds in every frame; a
-/// facet the key frame did not re-aim (held on the backdrop, or not moved) is not re-aimed.
+/// facet the key frame did not re-aim (held on the backdrop, or not moved) is not re-aimed. A
+/// facet the key frame turned (`views`) turns by the same angle about the same surface point.
 /// Frame N's aims are a function of the key frame's and frame N's scene alone: farm chunks agree.
 pub fn carry_aims(
     ctx: &AimContext,
@@ -83,8 +90,15 @@ pub fn carry_aims(
     (0..map.facet_count as usize)
         .into_par_iter()
         .map(|f| {
-            let mut aim =
-                FacetAim { fc: fc_now[f], sc_raw: fc_now[f], sc: fc_now[f], target: None, reaim: None, linear: None };
+            let mut aim = FacetAim {
+                fc: fc_now[f],
+                sc_raw: fc_now[f],
+                sc: fc_now[f],
+                target: None,
+                reaim: None,
+                linear: None,
+                turn: None,
+            };
             let (Some(k), Some(fallback)) = (key.get(f), fc_now[f]) else { return aim };
             let c = now(k.centre).map_or(fallback, |(c, _)| c.clamp(DVec2::ZERO, DVec2::new(w, h)));
             (aim.fc, aim.sc_raw, aim.sc) = (Some(c), Some(c), Some(c));
@@ -108,6 +122,10 @@ pub fn carry_aims(
             }
             if linear && k.aim.linear.is_some() {
                 aim.linear = ctx.linear(c, aim.reaim.as_ref(), by_facet.of(f), params.facet_fov);
+            }
+            // Turned about the same point of the subject, by the same angle, about this frame's up.
+            if let (Some(t), Some(p)) = (k.aim.turn, k.pivot.and_then(|a| Some(a.at(&corners(a.tri)?)))) {
+                aim.turn = Some(super::Turn { pivot: p, axis: ctx.up, ..t });
             }
             aim
         })
@@ -189,5 +207,48 @@ mod tests {
                 .zip(&carried)
                 .any(|(k, c)| k.centre.is_some() && (c.fc.unwrap() - k.aim.fc.unwrap()).length() > 1.0)
         );
+    }
+
+    /// A facet the key frame turned (`views`) turns by the same angle about the same surface
+    /// point in every frame, about that frame's up.
+    #[test]
+    fn carried_turns_keep_their_pivot_and_angle() {
+        let grid = Grid::new(Shading::HitsOnly);
+        let (prep, pre, map) = (&grid.prep, &grid.pre, &grid.map);
+        let key_ctx = grid.ctx();
+        let params = AimParams { view_turn: 40.0, ..grid.random_aims(0.0) };
+        let mut key = aim_facets(&key_ctx, map, None, &params);
+        let turned = super::super::views::turn_views(&mut key, &key_ctx, &map.facet_pixels(), &pre.film, &params);
+        assert!(turned >= 4, "only {turned} facets turned");
+        let anchors = anchor_aims(&key_ctx, &key);
+        let corners = |t: u32| Some(prep.world.triangle(t));
+
+        let same = carry_aims(&key_ctx, &anchors, map, &corners, &params);
+        for (k, c) in key.iter().zip(&same) {
+            assert_eq!(k.turn.is_some(), c.turn.is_some());
+            if let (Some(a), Some(b)) = (k.turn, c.turn) {
+                assert!((a.pivot - b.pivot).length() < 1e-4, "{a:?} against {b:?}");
+                assert_eq!((a.angle, a.axis), (b.angle, b.axis));
+            }
+        }
+
+        // A turntable step: the pivots stay on the (still) subject, the axis follows the camera.
+        let up = pre.view.framed.frame.up;
+        let rotation = DQuat::from_axis_angle(DVec3::X, 5f64.to_radians());
+        let moved = Moved {
+            inner: pre.view.framed.camera.as_ref(),
+            rotation,
+            translation: DVec3::ZERO,
+            clip_radius: grid.clip_radius,
+        };
+        let ctx = AimContext { camera: &moved, up: rotation * up, ..key_ctx };
+        let carried = carry_aims(&ctx, &anchors, map, &corners, &params);
+        for (k, c) in key.iter().zip(&carried) {
+            if let (Some(a), Some(b)) = (k.turn, c.turn) {
+                assert!((a.pivot - b.pivot).length() < 1e-4);
+                assert!((b.axis - rotation * up).length() < 1e-12 && a.angle == b.angle);
+            }
+        }
+        assert!(carried.iter().filter(|c| c.turn.is_some()).count() == turned);
     }
 }

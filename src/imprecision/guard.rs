@@ -121,13 +121,7 @@ pub const CUE_PIXEL_SHARE: f64 = 0.15;
 /// `CUE_PIXEL_SHARE` of `saliency` over the pixels that show geometry.
 /// `by_facet`: the facets' pixels (`FacetMap::facet_pixels`).
 pub fn keep_cues(aims: &mut [FacetAim], ctx: &AimContext, map: &FacetMap, by_facet: &FacetPixels, saliency: &[f32]) {
-    // (The k-th smallest value is the same whatever order the values are gathered in.)
-    let mut values: Vec<f32> = saliency.par_iter().copied().filter(|&v| v > 0.0).collect();
-    if values.is_empty() || saliency.len() != map.ids.len() {
-        return;
-    }
-    let k = ((values.len() as f64 * (1.0 - CUE_PIXEL_SHARE)) as usize).min(values.len() - 1);
-    let (_, &mut threshold, _) = values.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
+    let Some(threshold) = cue_threshold(saliency).filter(|_| saliency.len() == map.ids.len()) else { return };
     // Each facet on its own: in parallel.
     aims.par_iter_mut().enumerate().for_each(|(f, aim)| {
         let (Some(fc), Some(sc)) = (aim.fc, aim.sc) else { return };
@@ -141,6 +135,19 @@ pub fn keep_cues(aims: &mut [FacetAim], ctx: &AimContext, map: &FacetMap, by_fac
         }
         super::cues::reaim_at(aim, ctx, fc, fc + (sc - fc) * scale);
     });
+}
+
+/// The saliency of the least salient cue pixel: the top `CUE_PIXEL_SHARE` of `saliency` over
+/// the pixels that show geometry. None when no pixel is salient.
+pub fn cue_threshold(saliency: &[f32]) -> Option<f32> {
+    // (The k-th smallest value is the same whatever order the values are gathered in.)
+    let mut values: Vec<f32> = saliency.par_iter().copied().filter(|&v| v > 0.0).collect();
+    if values.is_empty() {
+        return None;
+    }
+    let k = ((values.len() as f64 * (1.0 - CUE_PIXEL_SHARE)) as usize).min(values.len() - 1);
+    let (_, &mut threshold, _) = values.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
+    Some(threshold)
 }
 
 /// The largest of 1, 1/2, 1/4 (else 0) such that facet `f`'s view shifted by that much of
@@ -213,6 +220,7 @@ mod tests {
             target: Some(DVec3::ZERO),
             reaim: Some(Reaim { turn: DVec3::X * 0.1, focus: 1.0 }),
             linear: None,
+            turn: None,
         };
         let mut aims = vec![moved, moved];
         assert_eq!(hold_background(&mut aims.clone(), &c, 0.0), 0);

@@ -24,6 +24,7 @@ pub mod guard;
 mod rays;
 #[cfg(test)]
 mod tests;
+pub mod views;
 
 use glam::{DVec2, DVec3};
 use rayon::prelude::*;
@@ -36,6 +37,7 @@ pub use centres::{
     saliency_centres, saliency_centres_with,
 };
 pub use rays::{AimContext, D_AI_SAMPLES, Linear, Reaim};
+pub use views::Turn;
 
 /// How each facet's view is re-aimed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -77,6 +79,8 @@ pub struct AimParams {
     /// A re-aimed facet's view shift is kept within this share of its mean width; 0 = no
     /// limit but the discontinuity. See `guard`.
     pub width_share: f64,
+    /// Degrees the subject's planes' views are turned by; 0 = not turned. See `views`.
+    pub view_turn: f64,
 }
 
 impl AimParams {
@@ -104,18 +108,22 @@ pub struct FacetAim {
     pub target: Option<DVec3>,
     pub reaim: Option<Reaim>,
     pub linear: Option<Linear>,
+    /// The facet's view turned to another side of the subject (`views`).
+    pub turn: Option<Turn>,
 }
 
 impl FacetAim {
     /// Whether the facet's rays differ from the pre-render's (its pixels must be re-traced).
     pub fn moved(&self) -> bool {
-        self.reaim.is_some() || self.linear.is_some()
+        self.reaim.is_some() || self.linear.is_some() || self.turn.is_some()
     }
 
-    /// The facet's version of a camera ray at pixel position `px`.
+    /// The facet's version of a camera ray at pixel position `px`: re-aimed, made linear, then
+    /// turned.
     pub fn apply(&self, ray: CameraRay, px: DVec2, clip_radius: f64) -> CameraRay {
         let r = self.reaim.map_or(ray, |a| a.apply(&ray, clip_radius));
-        self.linear.map_or(r, |l| l.apply(&r, px, clip_radius))
+        let r = self.linear.map_or(r, |l| l.apply(&r, px, clip_radius));
+        self.turn.map_or(r, |t| t.apply(&r, clip_radius))
     }
 }
 
@@ -129,14 +137,16 @@ pub fn centres_only(map: &FacetMap, saliency: Option<&[f32]>, neighbourhood: f64
     };
     fc.iter()
         .zip(&sc)
-        .map(|(&fc, &sc_raw)| FacetAim { fc, sc_raw, sc: fc, target: None, reaim: None, linear: None })
+        .map(|(&fc, &sc_raw)| FacetAim { fc, sc_raw, sc: fc, target: None, reaim: None, linear: None, turn: None })
         .collect()
 }
 
 /// Whether the imprecision stage changes any ray: re-aiming needs a
 /// discontinuity and an imprecision mode; linear facets change rays even at discontinuity 0.
 pub fn changes_rays(params: &AimParams) -> bool {
-    params.projection == FacetProjection::Linear || (params.mode != AimMode::None && params.discontinuity > 0.0)
+    params.projection == FacetProjection::Linear
+        || (params.mode != AimMode::None && params.discontinuity > 0.0)
+        || params.view_turn > 0.0
 }
 
 /// Decides every facet's aim: centres, the discontinuity limit (pixels at 1000 px, scaled to
@@ -176,7 +186,15 @@ pub fn aim_facets_with(
     (0..map.facet_count as usize)
         .into_par_iter()
         .map(|f| {
-            let mut aim = FacetAim { fc: fc[f], sc_raw: sc_raw[f], sc: sc[f], target: None, reaim: None, linear: None };
+            let mut aim = FacetAim {
+                fc: fc[f],
+                sc_raw: sc_raw[f],
+                sc: sc[f],
+                target: None,
+                reaim: None,
+                linear: None,
+                turn: None,
+            };
             let (Some(c), Some(s)) = (fc[f], sc[f]) else { return aim };
             if s != c
                 && let Some((r, p)) = ctx.reaim(c, s)

@@ -19,6 +19,8 @@ pub struct AimContext<'a> {
     pub height: u32,
     /// The cameras' clip radius (see `camera::finish_ray`), for re-aimed rays.
     pub clip_radius: f64,
+    /// The camera's up (render space): the axis a plane's view turns about (`views`).
+    pub up: DVec3,
 }
 
 impl AimContext<'_> {

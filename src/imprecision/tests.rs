@@ -46,6 +46,7 @@ impl Grid {
             width: WIDTH,
             height: HEIGHT,
             clip_radius: self.clip_radius,
+            up: self.pre.view.framed.frame.up,
         }
     }
 

@@ -619,7 +619,7 @@ fn key_frame(
             if params.aim.reads_saliency() {
                 pre.saliency = Some(frame_saliency(prep, world, pre, params)?);
             }
-            let ctx = aim_context(&camera, accel, trace);
+            let ctx = aim_context(&camera, cameras.base, accel, trace);
             let silent = Progress::silent();
             let (aims, _) = aims_stage(&ctx, &map, pre, &params.aim, None, &silent, &mut Timings::default());
             Some(carried::anchor_aims(&ctx, &aims))
@@ -698,8 +698,9 @@ fn frame_saliency(prep: &Prepared, world: &World, pre: &Film, params: &StagePara
 }
 
 /// A frame's camera as the imprecision stage sees it.
-fn aim_context<'a>(camera: &'a Moved, accel: &'a Accel, trace: &TraceParams) -> AimContext<'a> {
-    AimContext { camera, accel, width: trace.width, height: trace.height, clip_radius: camera.clip_radius }
+fn aim_context<'a>(camera: &'a Moved, base: &Framed, accel: &'a Accel, trace: &TraceParams) -> AimContext<'a> {
+    let up = camera.frame(&base.frame).up;
+    AimContext { camera, accel, width: trace.width, height: trace.height, clip_radius: camera.clip_radius, up }
 }
 
 /// One frame, through the still pipeline's stages: its pre-pass (hits only: the saliency map
@@ -752,7 +753,7 @@ fn render_frame(
         imprecision::check_neighbourhood(&map, params.aim.neighbourhood_px())?;
     }
 
-    let ctx = aim_context(camera, accel, trace);
+    let ctx = aim_context(camera, base, accel, trace);
     let silent = Progress::silent();
     let aims: Vec<FacetAim> = match carried_aims {
         Some(key_aims) => timings.time(Stage::Imprecision.name(), || {

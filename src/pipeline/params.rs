@@ -201,6 +201,7 @@ pub fn aim(s: &Settings) -> AimParams {
         seed: s.seed,
         min_coverage: s.aim_min_coverage,
         width_share: s.aim_width_share,
+        view_turn: s.view_turn,
     }
 }
 

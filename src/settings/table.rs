@@ -334,6 +334,16 @@ macro_rules! settings_table {
                 flag "Largest view shift of a re-aimed facet, as a share of its mean width; 0 = only --discontinuity limits it [analytic: 0.3]"
                     #[arg(long, help_heading = "Spatial imprecision", allow_negative_numbers = true, value_parser = finite_f64)] Option<f64>;
 
+            /// Turn the view of the subject's planes by this many degrees about the camera's up,
+            /// each towards its own side of the subject, so the picture shows several sides at
+            /// once (a frontal eye beside a profile nose); 0 = off. A plane that holds a cue keeps its
+            /// view; a plane is turned only where the turned view still mostly shows the subject.
+            view_turn: f64 = 0.0,
+                schema field(Number).unit(DEGREES).range(Range::closed(0.0, 90.0)),
+                check Message("{v} must be in {range}"),
+                flag "Turn each of the subject's planes by this many degrees, so it shows several sides at once; 0 = off [default: 0]"
+                    #[arg(long, help_heading = "Spatial imprecision", allow_negative_numbers = true, value_parser = finite_f64)] Option<f64>;
+
             // ---- spatial imprecision
             imprecision: Imprecision = Imprecision::Saliency,
                 schema field(Enum).choices(choices::<Imprecision>),

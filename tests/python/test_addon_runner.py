@@ -235,6 +235,7 @@ def test_presets_set_every_look_value_and_nothing_else():
     ("canvas_grain", 0.3, "canvas_grain", 0.3),
     ("shadows", True, "shadows", True),
     ("light_steps", 2, "light_steps", 2),
+    ("view_turn", 30.0, "view_turn", 30.0),
     ("pass_facet_ids", True, "passes", ["facet-ids"]),
     ("camera_size", 2.5, "camera_size", 2.5),
     ("fill", 0.6, "fill", 0.6),

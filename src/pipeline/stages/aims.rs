@@ -31,6 +31,7 @@ pub fn aim_context<'a>(prep: &'a Prepared, view: &'a View, trace: &TraceParams) 
         width: trace.width,
         height: trace.height,
         clip_radius,
+        up: view.framed.frame.up,
     }
 }
 
@@ -62,6 +63,8 @@ pub fn aims_stage(
             .zip(saliency.as_ref())
             .and_then(|((prep, _), s)| imprecision::cues::CueVertices::new(&prep.scene, &prep.world, &s.per_mesh));
         let hits = imprecision::guard::apply(&mut aims, ctx, map, &by_facet, film, cues.as_ref(), params);
+        // Turned views last: they turn the rays the rules above settled.
+        imprecision::views::turn_views(&mut aims, ctx, &by_facet, film, params);
         (aims, hits)
     })
 }

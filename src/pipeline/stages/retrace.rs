@@ -280,10 +280,10 @@ impl Delta {
 }
 
 /// A facet's rays as a trace reads them: None for the camera's (not moved), else its re-aim.
-type FacetRays = Option<(Option<imprecision::Reaim>, Option<imprecision::Linear>)>;
+type FacetRays = Option<(Option<imprecision::Reaim>, Option<imprecision::Linear>, Option<imprecision::Turn>)>;
 
 fn facet_rays_of(aim: &FacetAim) -> FacetRays {
-    aim.moved().then_some((aim.reaim, aim.linear))
+    aim.moved().then_some((aim.reaim, aim.linear, aim.turn))
 }
 
 /// The facet map and each facet's rays a re-trace and an anti-aliasing traced through, and
