@@ -123,9 +123,12 @@ pub fn carry_aims(
             if linear && k.aim.linear.is_some() {
                 aim.linear = ctx.linear(c, aim.reaim.as_ref(), by_facet.of(f), params.facet_fov);
             }
-            // Turned about the same point of the subject, by the same angle, about this frame's up.
-            if let (Some(t), Some(p)) = (k.aim.turn, k.pivot.and_then(|a| Some(a.at(&corners(a.tri)?)))) {
-                aim.turn = Some(super::Turn { pivot: p, axis: ctx.up, ..t });
+            // Turned about the same point of the subject, by the same angle, about this frame's up
+            // (the key frame's decision, not checked again: the facet keeps its view).
+            if let (Some(t), Some(p), Some(axis)) =
+                (k.aim.turn, k.pivot.and_then(|a| Some(a.at(&corners(a.tri)?))), ctx.up.try_normalize())
+            {
+                aim.turn = Some(super::Turn { pivot: p, axis, ..t });
             }
             aim
         })

@@ -141,8 +141,9 @@ pub fn centres_only(map: &FacetMap, saliency: Option<&[f32]>, neighbourhood: f64
         .collect()
 }
 
-/// Whether the imprecision stage changes any ray: re-aiming needs a
-/// discontinuity and an imprecision mode; linear facets change rays even at discontinuity 0.
+/// Whether the imprecision stage changes any ray: re-aiming needs a discontinuity and an
+/// imprecision mode; linear facets and turned views (`view_turn`) change rays even at
+/// discontinuity 0.
 pub fn changes_rays(params: &AimParams) -> bool {
     params.projection == FacetProjection::Linear
         || (params.mode != AimMode::None && params.discontinuity > 0.0)

@@ -75,15 +75,18 @@ pub fn turn_views(
         return 0;
     }
     let centre_x = sum / n + 0.5;
-    // The planes that hold a cue keep their view: a cue is drawn whole, not turned.
-    let cue = film.saliency.as_deref().filter(|s| s.len() == film.color.len()).and_then(|s| {
-        let t = super::guard::cue_threshold(s)?;
-        Some(move |f: usize| {
-            let own = by_facet.of(f);
-            let salient = own.iter().filter(|&&i| s[i as usize] >= t).count();
-            salient as f64 > CUE_PLANE_SHARE * own.len() as f64
-        })
-    });
+    // The planes that hold a cue keep their view: a cue is drawn whole, not turned. Only when
+    // re-aiming reads the saliency map (`reads_saliency`), as the guard's cue rules: whether the
+    // map exists otherwise depends on the passes asked for, which must not change the picture.
+    let cue =
+        film.saliency.as_deref().filter(|s| s.len() == film.color.len() && params.reads_saliency()).and_then(|s| {
+            let t = super::guard::cue_threshold(s)?;
+            Some(move |f: usize| {
+                let own = by_facet.of(f);
+                let salient = own.iter().filter(|&&i| s[i as usize] >= t).count();
+                salient as f64 > CUE_PLANE_SHARE * own.len() as f64
+            })
+        });
     let turns: Vec<Option<Turn>> = (0..aims.len())
         .into_par_iter()
         .map(|f| {
@@ -123,8 +126,8 @@ pub fn turn_views(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::imprecision::aim_facets;
     use crate::imprecision::tests::Grid;
+    use crate::imprecision::{AimMode, aim_facets};
     use crate::pipeline::Shading;
 
     fn ray(origin: DVec3, dir: DVec3) -> CameraRay {
@@ -158,7 +161,9 @@ mod tests {
         let ctx = grid.ctx();
         let by_facet = grid.map.facet_pixels();
         let film = &grid.pre.film;
-        let params = AimParams { view_turn: 45.0, ..grid.random_aims(0.0) };
+        // Saliency imprecision (its cue rules apply) with no map to aim by: no facet re-aimed.
+        let params =
+            AimParams { view_turn: 45.0, mode: AimMode::Saliency, discontinuity: 30.0, ..grid.random_aims(0.0) };
         let still = aim_facets(&ctx, &grid.map, None, &params);
         let coverage = super::super::guard::facet_coverage(&by_facet, |i| film.color[i].w);
 
@@ -174,9 +179,13 @@ mod tests {
             let r = FacetAim { turn: None, ..*aim }.apply(ctx.ray_at(fc), fc, ctx.clip_radius);
             let to_pivot = (t.pivot - r.surface_origin()).normalize();
             assert!(to_pivot.dot(r.dir.as_dvec3()) > 1.0 - 1e-6, "facet {f}: pivot off its centre ray");
-            // Turned towards its side: left of the subject one way, right the other.
+            // Turned towards its side: a facet right of the subject's centre is seen from
+            // further right (its rays start further along the camera's right), and the other way.
             let right = fc.x > WIDTH_HALF;
             assert!(right == (t.angle > 0.0) || (fc.x - WIDTH_HALF).abs() < 20.0, "facet {f} turned the wrong way");
+            let moved = t.apply(&r, ctx.clip_radius).surface_origin() - r.surface_origin();
+            let towards = moved.dot(grid.pre.view.framed.frame.right);
+            assert!((towards > 0.0) == (t.angle > 0.0), "facet {f}: seen from {towards} along the right");
         }
         let mut again = still.clone();
         turn_views(&mut again, &ctx, &by_facet, film, &params);
@@ -198,6 +207,12 @@ mod tests {
         turn_views(&mut cued, &ctx, &by_facet, &salient, &params);
         assert!(cued[f].turn.is_none(), "the cue's facet {f} turned");
         assert_eq!(cued.iter().filter(|a| a.turn.is_some()).count(), turned - 1);
+        // Unless re-aiming does not read the map: then a map made for another reason (a
+        // saliency pass) changes nothing.
+        let random = AimParams { view_turn: 45.0, ..grid.random_aims(0.0) };
+        let mut unread = still.clone();
+        turn_views(&mut unread, &ctx, &by_facet, &salient, &random);
+        assert_eq!(unread, aims);
     }
 
     /// Half the grid's width: the subject of the still life is about the canvas's centre.

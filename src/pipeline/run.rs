@@ -344,8 +344,8 @@ fn later_stages(
     }
     let tracer = view.tracer(prep, &params.trace);
     let ctx = stages::aim_context(prep, view, &params.trace);
-    // Spatial imprecision: re-aim facets, re-trace only the pixels
-    // of facets whose rays changed; at discontinuity 0 with converging facets nothing runs.
+    // Spatial imprecision: re-aim and turn facets, re-trace only the pixels of facets whose
+    // rays changed; at discontinuity 0 with converging facets and no turn nothing runs.
     if plan.imprecision {
         if params.aim.reads_saliency() && film.saliency.is_none() {
             warnings.push("no saliency map was computed: facets are not re-aimed (imprecision saliency)".into());

@@ -58,7 +58,7 @@ impl Stage {
             Stage::PreRender => "one trace of the whole image: colour and every hit buffer",
             Stage::Saliency => "mesh saliency of the meshes in view and the per-pixel saliency map",
             Stage::Faceting => "the facet layout: computed (Segment: from the pre-render) or loaded",
-            Stage::Imprecision => "facet and saliency centres, and where each facet is re-aimed",
+            Stage::Imprecision => "facet and saliency centres, and where each facet is re-aimed or turned",
             Stage::ReTrace => "tracing again the pixels of facets whose rays moved",
             Stage::AntiAliasing => "more samples for the pixels whose neighbours disagree (all: aa_threshold 0)",
             Stage::Paint => "the painterly effects",

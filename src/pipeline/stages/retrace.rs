@@ -279,7 +279,8 @@ impl Delta {
     }
 }
 
-/// A facet's rays as a trace reads them: None for the camera's (not moved), else its re-aim.
+/// A facet's rays as a trace reads them: None for the camera's (not moved), else its re-aim,
+/// linear facet and turn.
 type FacetRays = Option<(Option<imprecision::Reaim>, Option<imprecision::Linear>, Option<imprecision::Turn>)>;
 
 fn facet_rays_of(aim: &FacetAim) -> FacetRays {
