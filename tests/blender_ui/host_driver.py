@@ -235,6 +235,21 @@ class FloorEngine(bpy.types.RenderEngine):
         FloorEngine.seconds.append(round(time.monotonic() - t0, 3))
 
 
+def save_result(path, timeout=10.0):
+    """Saves the Render Result to `path`; yields and tries again while nothing was written (a
+    loaded machine's window may not have taken the finished render's pixels yet). Returns the
+    tries taken, or None when nothing was written within `timeout` s."""
+    t0, tries = time.monotonic(), 0
+    while True:
+        tries += 1
+        bpy.data.images["Render Result"].save_render(str(path), scene=bpy.context.scene)
+        if Path(path).is_file():
+            return tries
+        if time.monotonic() - t0 > timeout:
+            return None
+        yield 0.25
+
+
 def step_speed():
     """The first F12 of the session once render ahead has prepared it; F12 again a second after
     one panel change, with render ahead off (the repeat alone), then on; the first F12 again
@@ -247,7 +262,7 @@ def step_speed():
     first = yield from f12()
     engine().keep_exports = None
     first["prepared"] = prepared
-    bpy.data.images["Render Result"].save_render(str(OUT / "first.png"), scene=scene)
+    first["saved_tries"] = yield from save_result(OUT / "first.png")
     prefs().render_ahead = False
     scene.cubist.border_width += 2.0
     yield 1.0
@@ -265,7 +280,7 @@ def step_speed():
         f.unlink()
     yield 1.0
     cold = yield from f12()
-    bpy.data.images["Render Result"].save_render(str(OUT / "cold.png"), scene=scene)
+    cold["saved_tries"] = yield from save_result(OUT / "cold.png")
     cam = scene.camera
     for frame, x in ((1, cam.location.x), (3, cam.location.x + 1.0)):
         cam.location.x = x

@@ -123,6 +123,8 @@ def test_f12_after_an_idle_wait_hands_back_the_picture_rendered_ahead(ui):
     assert not STAGES & set(first["timings"]), first["timings"]
     # The same picture as F12 without render ahead, on a renderer that kept nothing.
     assert cold["ahead"] is None and cold["reused"] == [] and cold["server"] != first["server"], cold
+    # Both pictures reached the Render Result (saved within the driver's wait).
+    assert first["saved_tries"] and cold["saved_tries"], (first["saved_tries"], cold["saved_tries"])
     assert np.array_equal(png_pixels(ui["out"] / "first.png"), png_pixels(ui["out"] / "cold.png"))
     marks = dict(first["timeline"])
     print(f"\nfirst F12 at 1920x1080, rendered ahead: {first['seconds']} s from the key (render() began "
