@@ -7,6 +7,7 @@ use glam::{DVec2, DVec3, Vec3};
 use rayon::prelude::*;
 
 use super::{AimContext, AimParams, FacetAim, FacetProjection};
+use crate::camera::CameraRay;
 use crate::facets::FacetMap;
 
 /// A point of the scene's surface named by its triangle and barycentrics: the same point of
@@ -21,8 +22,12 @@ pub struct Anchor {
 impl Anchor {
     /// The point the ray at pixel position `px` of `ctx`'s camera hits, if any.
     pub fn seen_at(ctx: &AimContext, px: DVec2) -> Option<Anchor> {
-        let r = ctx.ray_at(px);
-        ctx.accel.closest(r.origin, r.dir, 0.0, f32::INFINITY).map(|h| Anchor { tri: h.tri, u: h.u, v: h.v })
+        Anchor::hit_by(ctx, &ctx.ray_at(px))
+    }
+
+    /// The point `ray` hits first in `ctx`'s scene, if any.
+    pub fn hit_by(ctx: &AimContext, ray: &CameraRay) -> Option<Anchor> {
+        ctx.accel.closest(ray.origin, ray.dir, 0.0, f32::INFINITY).map(|h| Anchor { tri: h.tri, u: h.u, v: h.v })
     }
 
     /// Where the point is when its triangle's corners are `corners`.
@@ -50,9 +55,9 @@ pub fn anchor_aims(ctx: &AimContext, aims: &[FacetAim]) -> Vec<KeyAim> {
             aim: *aim,
             centre: aim.fc.and_then(|c| Anchor::seen_at(ctx, c)),
             target: aim.sc.filter(|_| aim.moved()).and_then(|s| Anchor::seen_at(ctx, s)),
+            // The turn's pivot is where its unturned centre ray hits (`views::turn_views`).
             pivot: aim.turn.and(aim.fc).and_then(|c| {
-                let r = FacetAim { turn: None, ..*aim }.apply(ctx.ray_at(c), c, ctx.clip_radius);
-                ctx.accel.closest(r.origin, r.dir, 0.0, f32::INFINITY).map(|h| Anchor { tri: h.tri, u: h.u, v: h.v })
+                Anchor::hit_by(ctx, &FacetAim { turn: None, ..*aim }.apply(ctx.ray_at(c), c, ctx.clip_radius))
             }),
         })
         .collect()
