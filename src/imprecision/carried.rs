@@ -7,7 +7,6 @@ use glam::{DVec2, DVec3, Vec3};
 use rayon::prelude::*;
 
 use super::{AimContext, AimParams, FacetAim, FacetProjection};
-use crate::camera::CameraRay;
 use crate::facets::FacetMap;
 
 /// A point of the scene's surface named by its triangle and barycentrics: the same point of
@@ -22,12 +21,8 @@ pub struct Anchor {
 impl Anchor {
     /// The point the ray at pixel position `px` of `ctx`'s camera hits, if any.
     pub fn seen_at(ctx: &AimContext, px: DVec2) -> Option<Anchor> {
-        Anchor::hit_by(ctx, &ctx.ray_at(px))
-    }
-
-    /// The point `ray` hits first in `ctx`'s scene, if any.
-    pub fn hit_by(ctx: &AimContext, ray: &CameraRay) -> Option<Anchor> {
-        ctx.accel.closest(ray.origin, ray.dir, 0.0, f32::INFINITY).map(|h| Anchor { tri: h.tri, u: h.u, v: h.v })
+        let r = ctx.ray_at(px);
+        ctx.accel.closest(r.origin, r.dir, 0.0, f32::INFINITY).map(|h| Anchor { tri: h.tri, u: h.u, v: h.v })
     }
 
     /// Where the point is when its triangle's corners are `corners`.
@@ -43,8 +38,6 @@ pub struct KeyAim {
     pub aim: FacetAim,
     pub centre: Option<Anchor>,
     pub target: Option<Anchor>,
-    /// The point its turned view turns about (`views`), when it was turned.
-    pub pivot: Option<Anchor>,
 }
 
 /// The key frame's aims (decided from the key frame's picture), anchored to the
@@ -55,10 +48,6 @@ pub fn anchor_aims(ctx: &AimContext, aims: &[FacetAim]) -> Vec<KeyAim> {
             aim: *aim,
             centre: aim.fc.and_then(|c| Anchor::seen_at(ctx, c)),
             target: aim.sc.filter(|_| aim.moved()).and_then(|s| Anchor::seen_at(ctx, s)),
-            // The turn's pivot is where its unturned centre ray hits (`views::turn_views`).
-            pivot: aim.turn.and(aim.fc).and_then(|c| {
-                Anchor::hit_by(ctx, &FacetAim { turn: None, ..*aim }.apply(ctx.ray_at(c), c, ctx.clip_radius))
-            }),
         })
         .collect()
 }
@@ -130,10 +119,11 @@ pub fn carry_aims(
             }
             // Turned about the same point of the subject, by the same angle, about this frame's up
             // (the key frame's decision, not checked again: the facet keeps its view).
-            if let (Some(t), Some(p), Some(axis)) =
-                (k.aim.turn, k.pivot.and_then(|a| Some(a.at(&corners(a.tri)?))), ctx.up.try_normalize())
+            if let Some(t) = k.aim.turn
+                && let Some(at) = corners(t.anchor.tri)
+                && let Some(axis) = ctx.up.try_normalize()
             {
-                aim.turn = Some(super::Turn { pivot: p, axis, ..t });
+                aim.turn = Some(super::Turn { pivot: t.anchor.at(&at), axis, ..t });
             }
             aim
         })

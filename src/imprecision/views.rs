@@ -14,6 +14,7 @@
 use glam::{DQuat, DVec2, DVec3};
 use rayon::prelude::*;
 
+use super::carried::Anchor;
 use super::{AimContext, AimParams, FacetAim};
 use crate::camera::{CameraRay, finish_ray};
 use crate::facets::FacetPixels;
@@ -31,10 +32,12 @@ pub const CUE_PLANE_SHARE: f64 = 0.1;
 const SAMPLES: usize = 64;
 
 /// The turn of a plane's view: a rotation of its rays by `angle` radians about `axis` through
-/// `pivot` (render space).
+/// `pivot` (render space), the point of the surface `anchor` names (facets that follow carry
+/// the turn with it: `carried`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Turn {
     pub pivot: DVec3,
+    pub anchor: Anchor,
     pub axis: DVec3,
     pub angle: f64,
 }
@@ -99,7 +102,8 @@ pub fn turn_views(
             let hit = ctx.accel.closest(centre.origin, centre.dir, 0.0, f32::INFINITY)?;
             let pivot = centre.origin.as_dvec3() + centre.dir.as_dvec3() * hit.t as f64;
             let side = if fc.x >= centre_x { 1.0 } else { -1.0 };
-            let turn = Turn { pivot, axis, angle: side * params.view_turn.to_radians() };
+            let anchor = Anchor { tri: hit.tri, u: hit.u, v: hit.v };
+            let turn = Turn { pivot, anchor, axis, angle: side * params.view_turn.to_radians() };
             let own = by_facet.of(f);
             let m = own.len().min(SAMPLES);
             let hits = (0..m)
@@ -136,7 +140,8 @@ mod tests {
 
     #[test]
     fn a_turn_rotates_the_ray_about_its_pivot() {
-        let turn = Turn { pivot: DVec3::new(0.0, 0.0, -1.0), axis: DVec3::Y, angle: 90f64.to_radians() };
+        let anchor = Anchor { tri: 0, u: 0.0, v: 0.0 };
+        let turn = Turn { pivot: DVec3::new(0.0, 0.0, -1.0), anchor, axis: DVec3::Y, angle: 90f64.to_radians() };
         // The ray through the pivot still passes through it, now from the side.
         let r = turn.apply(&ray(DVec3::new(0.0, 0.0, 2.0), -DVec3::Z), 100.0);
         assert!((r.surface_origin() - DVec3::new(3.0, 0.0, -1.0)).length() < 1e-5, "{r:?}");
