@@ -108,6 +108,8 @@ fn farm_chunks_equal_one_run_byte_for_byte() {
     for (scene, extra) in [
         ("gltf-samples/CesiumMan.glb", &["--facet-motion", "follow"][..]),
         ("gltf-samples/Fox.glb", &["--animation", "Walk", "--layout-frame", "2"][..]),
+        // Static facets with turned views: the layout frame decides the turns of every frame.
+        ("gltf-samples/Fox.glb", &["--animation", "Walk", "--view-turn", "45"][..]),
         ("gltf-samples/CesiumMilkTruck.glb", &["--facet-motion", "follow", "--orbit", "3"][..]),
         // Key frames 1 and 3: the chunk carries its facets 1 -> 3 without frame 2.
         ("gltf-samples/Fox.glb", &["--animation", "Run", "--facet-motion", "follow", "--rekey", "2"][..]),

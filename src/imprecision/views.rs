@@ -98,12 +98,8 @@ pub fn turn_views(
             if coverage[f] < SUBJECT_COVERAGE || cue.as_ref().is_some_and(|is_cue| is_cue(f)) {
                 return None;
             }
-            let centre = aim.apply(ctx.ray_at(fc), fc, ctx.clip_radius);
-            let hit = ctx.accel.closest(centre.origin, centre.dir, 0.0, f32::INFINITY)?;
-            let pivot = centre.origin.as_dvec3() + centre.dir.as_dvec3() * hit.t as f64;
             let side = if fc.x >= centre_x { 1.0 } else { -1.0 };
-            let anchor = Anchor { tri: hit.tri, u: hit.u, v: hit.v };
-            let turn = Turn { pivot, anchor, axis, angle: side * params.view_turn.to_radians() };
+            let turn = pivoted(aim, ctx, axis, side * params.view_turn.to_radians())?;
             let own = by_facet.of(f);
             let m = own.len().min(SAMPLES);
             let hits = (0..m)
@@ -123,6 +119,48 @@ pub fn turn_views(
             aim.turn = t;
             turned += 1;
         }
+    }
+    turned
+}
+
+/// The turn of `aim`'s view by `angle` about `axis` through the point its centre ray hits now;
+/// None where it hits nothing.
+fn pivoted(aim: &FacetAim, ctx: &AimContext, axis: DVec3, angle: f64) -> Option<Turn> {
+    let fc = aim.fc?;
+    let centre = aim.apply(ctx.ray_at(fc), fc, ctx.clip_radius);
+    let hit = ctx.accel.closest(centre.origin, centre.dir, 0.0, f32::INFINITY)?;
+    let pivot = centre.origin.as_dvec3() + centre.dir.as_dvec3() * hit.t as f64;
+    Some(Turn { pivot, anchor: Anchor { tri: hit.tri, u: hit.u, v: hit.v }, axis, angle })
+}
+
+/// Turns the planes another frame decided to turn (`angles`, radians per facet, 0 = kept; a
+/// sequence's layout frame under static facets), each by its angle about the point its centre
+/// ray hits in this frame, while it still shows the subject (`SUBJECT_COVERAGE` of its pixels in
+/// `film`): which planes turn and to which side is that frame's decision, so a plane does not
+/// flip sides as the subject moves under it. Returns how many planes were turned.
+pub fn turn_held(
+    aims: &mut [FacetAim],
+    ctx: &AimContext,
+    by_facet: &FacetPixels,
+    film: &Film,
+    angles: &[f64],
+) -> usize {
+    let Some(axis) = ctx.up.try_normalize() else { return 0 };
+    let coverage = super::guard::facet_coverage(by_facet, |i| film.color[i].w);
+    let turns: Vec<Option<Turn>> = (0..aims.len())
+        .into_par_iter()
+        .map(|f| {
+            let angle = angles.get(f).copied().unwrap_or(0.0);
+            if angle == 0.0 || coverage[f] < SUBJECT_COVERAGE {
+                return None;
+            }
+            pivoted(&aims[f], ctx, axis, angle)
+        })
+        .collect();
+    let mut turned = 0;
+    for (aim, t) in aims.iter_mut().zip(turns) {
+        aim.turn = t;
+        turned += usize::from(t.is_some());
     }
     turned
 }
@@ -218,6 +256,52 @@ mod tests {
         let mut unread = still.clone();
         turn_views(&mut unread, &ctx, &by_facet, &salient, &random);
         assert_eq!(unread, aims);
+    }
+
+    /// Turns held from another frame: the same planes turn to the sides given, each about the
+    /// point its centre ray hits in this frame, however this frame would have decided; a plane
+    /// off the subject here is not turned.
+    #[test]
+    fn held_turns_keep_their_sides_and_pivot_on_this_frame() {
+        let grid = Grid::new(Shading::HitsOnly);
+        let ctx = grid.ctx();
+        let by_facet = grid.map.facet_pixels();
+        let film = &grid.pre.film;
+        let params = AimParams { view_turn: 45.0, ..grid.random_aims(0.0) };
+        let still = aim_facets(&ctx, &grid.map, None, &params);
+        let mut decided = still.clone();
+        let turned = turn_views(&mut decided, &ctx, &by_facet, film, &params);
+        assert!(turned >= 4, "only {turned} facets turned");
+        let angles: Vec<f64> = decided.iter().map(|a| a.turn.map_or(0.0, |t| t.angle)).collect();
+
+        // The same frame: the same turns.
+        let mut held = still.clone();
+        assert_eq!(turn_held(&mut held, &ctx, &by_facet, film, &angles), turned);
+        assert_eq!(held, decided);
+
+        // Sides given the other way round are kept so, about the same pivots.
+        let flipped: Vec<f64> = angles.iter().map(|a| -a).collect();
+        let mut other = still.clone();
+        assert_eq!(turn_held(&mut other, &ctx, &by_facet, film, &flipped), turned);
+        for (a, b) in other.iter().zip(&decided) {
+            match (a.turn, b.turn) {
+                (Some(x), Some(y)) => assert!(x.angle == -y.angle && x.pivot == y.pivot && x.anchor == y.anchor),
+                (None, None) => {}
+                _ => panic!("a plane turned in one and not the other"),
+            }
+        }
+
+        // A plane asked to turn that does not show the subject here is not turned, and no angle
+        // turns nothing.
+        let coverage = super::super::guard::facet_coverage(&by_facet, |i| film.color[i].w);
+        let off = coverage.iter().position(|&c| c < SUBJECT_COVERAGE).expect("a facet on the backdrop");
+        let all = vec![0.3; still.len()];
+        let mut any = still.clone();
+        turn_held(&mut any, &ctx, &by_facet, film, &all);
+        assert!(any[off].turn.is_none(), "facet {off} of the backdrop turned");
+        let mut none = still.clone();
+        assert_eq!(turn_held(&mut none, &ctx, &by_facet, film, &vec![0.0; still.len()]), 0);
+        assert_eq!(none, still);
     }
 
     /// Half the grid's width: the subject of the still life is about the canvas's centre.

@@ -46,7 +46,7 @@ use crate::facets::{self, FacetMap, FacetMethod};
 use crate::film::Film;
 use crate::framing::{Framed, frame_camera};
 use crate::imprecision::carried::{self, KeyAim};
-use crate::imprecision::{self, AimContext, FacetAim};
+use crate::imprecision::{self, AimContext, AimParams, FacetAim};
 use crate::output::{Gray16, Pass};
 use crate::paint::chiaroscuro::ViewAxes;
 use crate::paint::plane_light::Oval;
@@ -535,6 +535,10 @@ struct Keep {
     /// corners and camera, where the strokes carried with the surfaces are hatched
     /// (`strokes::surface::LaidOn`); facets that follow hatch them on their key frame.
     laid: Option<(Vec<[Vec3; 3]>, CameraModel)>,
+    /// Static facets with turned views (`--view-turn`): per facet id, the angle the layout frame
+    /// turned its plane by (0: not turned). Every frame turns those planes to the same side
+    /// (`imprecision::views::turn_held`), so none flips as the subject moves under it.
+    turns: Option<Vec<f64>>,
 }
 
 /// One centre ray per pixel, hits only: what the saliency map, the facets' motion and the key
@@ -626,6 +630,18 @@ fn key_frame(
         }
         _ => None,
     };
+    let turns = (faceted && !follows && plan.imprecision && params.aim.view_turn > 0.0)
+        .then(|| -> Result<Vec<f64>> {
+            let mut pre = prepass(world, accel, &camera, trace);
+            if params.aim.reads_saliency() {
+                pre.saliency = Some(frame_saliency(prep, world, &pre, params)?);
+            }
+            let ctx = aim_context(&camera, cameras.base, accel, trace);
+            let silent = Progress::silent();
+            let (aims, _) = aims_stage(&ctx, &map, &pre, &params.aim, None, &silent, &mut Timings::default());
+            Ok(aims.iter().map(|a| a.turn.map_or(0.0, |t| t.angle)).collect())
+        })
+        .transpose()?;
     if let Some(path) = &params.save_facets {
         facets::io::save(path, &layout, &map)?;
         if let Some(key) = &key {
@@ -664,7 +680,7 @@ fn key_frame(
     let still = key.as_ref().map_or_else(Vec::new, |k| motion::still_facets(&k.key(&map)));
     let laid =
         (key.is_none() && plan.paint && params.paint.brushwork.is_on()).then(|| (world.positions(), camera.model()));
-    Ok(Keep { faceted, map, key, aims, held, oval, still, laid })
+    Ok(Keep { faceted, map, key, aims, held, oval, still, laid, turns })
 }
 
 /// A key frame must match the frames it is carried to: same picture size, same triangles.
@@ -760,7 +776,18 @@ fn render_frame(
             let corners = |t: u32| ((t as usize) < world.triangle_count()).then(|| world.triangle(t));
             carried::carry_aims(&ctx, key_aims, &map, &corners, &params.aim)
         }),
-        None if plan.imprecision => aims_stage(&ctx, &map, &pre, &params.aim, None, &silent, &mut timings).0,
+        // The layout frame's turns (static facets), re-pivoted on this frame's surface.
+        None if plan.imprecision => match &keep.turns {
+            Some(angles) => {
+                let held = AimParams { view_turn: 0.0, ..params.aim.clone() };
+                let mut aims = aims_stage(&ctx, &map, &pre, &held, None, &silent, &mut timings).0;
+                timings.time(Stage::Imprecision.name(), || {
+                    imprecision::views::turn_held(&mut aims, &ctx, &map.facet_pixels(), &pre, angles)
+                });
+                aims
+            }
+            None => aims_stage(&ctx, &map, &pre, &params.aim, None, &silent, &mut timings).0,
+        },
         None => Vec::new(),
     };
 
