@@ -26,8 +26,14 @@ motion`), and reports per pair of consecutive frames, then their mean:
   appearing or vanishing while most of their pixels stay tracked;
 - changed: the share of all pixels that changed between the frames.
 
-Usage: anim_measures.py PATTERN FIRST LAST [--json]   (PATTERN: frame path with a run of #,
-as given to `-o`). Needs numpy, Pillow and pypng (16-bit RGBA).
+With `--plain PLAIN` (the same frames rendered unpainted, `--preset plain`, with the same
+passes), each pair also reports `coherence_plain`, the render's own coherence (its shading
+changes as surfaces turn to the light, or as lights that follow the camera move), and
+`coherence_excess`, what the painting adds to it: where the light moves, no painting of the
+render reads under the render's own figure.
+
+Usage: anim_measures.py PATTERN FIRST LAST [--plain PLAIN] [--json]   (PATTERN: frame path with a
+run of #, as given to `-o`). Needs numpy, Pillow and pypng (16-bit RGBA).
 """
 
 import json
@@ -181,15 +187,28 @@ def pair(a, b):
     }
 
 
+def against_plain(row, a, b):
+    """The render's own coherence between the unpainted frames `a` and `b`, and what the
+    painting's (`row`, from `pair`) adds to it."""
+    own = pair(a, b)["coherence"]
+    return {"coherence_plain": own, "coherence_excess": row["coherence"] - own}
+
+
 def main(argv):
     if len(argv) < 4:
         print(__doc__.split("\n\n")[-1], file=sys.stderr)
         return 2
     pattern, first, last = argv[1], int(argv[2]), int(argv[3])
+    plain = argv[argv.index("--plain") + 1] if "--plain" in argv[:-1] else None
     frames = [load(pattern, f) for f in range(first, last + 1)]
     rows = [dict(frame=first + k, **pair(frames[k], frames[k + 1])) for k in range(len(frames) - 1)]
     keys = ["flicker", "bg_flicker", "bg_changed", "far_bg_changed", "coherence", "coherence_floor",
             "coherence_outline", "coherence_edges", "coherence_inside", "pops", "plane_pops", "changed"]
+    if plain is not None:
+        bare = [load(plain, f) for f in range(first, last + 1)]
+        for k, r in enumerate(rows):
+            r.update(against_plain(r, bare[k], bare[k + 1]))
+        keys += ["coherence_plain", "coherence_excess"]
     mean = {k: float(np.nanmean([r[k] for r in rows])) for k in keys}
     if "--json" in argv:
         print(json.dumps({"pairs": rows, "mean": mean}, indent=1))

@@ -80,6 +80,24 @@ def test_the_residual_is_split_by_where_it_is(texture):
     assert abs(r["coherence_outline"] + r["coherence_inside"] - r["coherence"]) < 1e-9
 
 
+def test_the_plain_render_says_what_the_light_changes(texture):
+    # The square's light rises between the frames (its surface turned to the light) in the
+    # painting and in the unpainted render alike, the paint carried exactly: the residual is
+    # the render's own, and the painting adds nothing to it.
+    def lit(f, gain):
+        f["img"][f["obj"] == 1] *= gain
+        return f
+
+    a, b = frame(10, texture, 10), lit(frame(10 + SHIFT, texture, 10), 1.2)
+    r = am.pair(a, b)
+    assert r["coherence"] > 0.1, r
+    own = am.against_plain(r, a, b)
+    assert own["coherence_plain"] == r["coherence"] and own["coherence_excess"] == 0
+    # Paint left on the screen over the same unpainted render: all of the excess is the paint's.
+    door = am.pair(frame(10, texture, 10), lit(frame(10 + SHIFT, texture, 10 + SHIFT), 1.2))
+    assert am.against_plain(door, a, b)["coherence_excess"] > 0.5, door
+
+
 def test_the_script_reads_the_renderers_frames(cubist_bin, tmp_path):
     # Two frames of the built-in still life on a turntable, with every pass the script reads.
     args = [str(cubist_bin), "render", "--width", "64", "--height", "48", "--frames", "1-2", "--orbit", "5",
@@ -92,3 +110,11 @@ def test_the_script_reads_the_renderers_frames(cubist_bin, tmp_path):
     assert set(mean) >= {"flicker", "coherence", "coherence_floor", "coherence_edges", "pops", "changed"}
     assert mean["far_bg_changed"] == 0
     assert 0 <= mean["coherence_floor"] <= mean["coherence"] + 0.05
+    # Against the same frames unpainted.
+    plain = [*args[:-2], "--preset", "plain", "-o", str(tmp_path / "p_##.png")]
+    subprocess.run(plain, check=True, capture_output=True)
+    out = subprocess.run([sys.executable, str(ROOT / "scripts" / "anim_measures.py"), str(tmp_path / "f_##.png"),
+                          "1", "2", "--plain", str(tmp_path / "p_##.png"), "--json"],
+                         check=True, capture_output=True, text=True).stdout
+    mean = json.loads(out)["mean"]
+    assert abs(mean["coherence"] - mean["coherence_plain"] - mean["coherence_excess"]) < 1e-9
