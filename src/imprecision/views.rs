@@ -113,6 +113,11 @@ pub fn turn_views(
             (m > 0 && hits as f64 >= TURNED_COVERAGE * m as f64).then_some(turn)
         })
         .collect();
+    set_turns(aims, turns)
+}
+
+/// Gives each aim its turn where it has one; returns how many it gave.
+fn set_turns(aims: &mut [FacetAim], turns: Vec<Option<Turn>>) -> usize {
     let mut turned = 0;
     for (aim, t) in aims.iter_mut().zip(turns) {
         if t.is_some() {
@@ -157,12 +162,7 @@ pub fn turn_held(
             pivoted(&aims[f], ctx, axis, angle)
         })
         .collect();
-    let mut turned = 0;
-    for (aim, t) in aims.iter_mut().zip(turns) {
-        aim.turn = t;
-        turned += usize::from(t.is_some());
-    }
-    turned
+    set_turns(aims, turns)
 }
 
 #[cfg(test)]

@@ -46,7 +46,7 @@ use crate::facets::{self, FacetMap, FacetMethod};
 use crate::film::Film;
 use crate::framing::{Framed, frame_camera};
 use crate::imprecision::carried::{self, KeyAim};
-use crate::imprecision::{self, AimContext, AimParams, FacetAim};
+use crate::imprecision::{self, AimContext, FacetAim};
 use crate::output::{Gray16, Pass};
 use crate::paint::chiaroscuro::ViewAxes;
 use crate::paint::plane_light::Oval;
@@ -598,50 +598,46 @@ fn key_frame(
     };
     let (layout, map) = layout_stage(&params.facets, &film, &Progress::silent(), &mut Timings::default(), warnings)?;
     let follows = faceted && params.motion == FacetMotion::Follow;
-    // The layout frame's pre-pass: its key data and its aims.
-    let mut pre = follows.then(|| prepass(world, accel, &camera, trace));
-    let key = if let Some(pre) = &pre {
-        let saved = params.facets.layout_file.as_deref().map(follow_file::path_for).filter(|p| p.is_file());
-        let key = match saved {
-            Some(p) => follow_file::load(&p)?,
-            None => key_of(pre, world, &camera, trace),
-        };
-        check_key(&key, trace, world)?;
-        Some(key)
-    } else {
-        None
-    };
-    // The layout frame's aims, decided as a still's (from its pre-pass and saliency map) and
-    // anchored to the scene: what facets that follow keep in every frame. Only when this
-    // layout frame is the key frame's scene: follow data saved from another pose (a single
-    // frame exported on its own, `follow_frame`) leaves each frame its own aims.
-    let is_key_scene = key
-        .as_ref()
-        .is_some_and(|k| k.positions.iter().enumerate().all(|(t, corners)| *corners == world.triangle(t as u32)));
-    let aims = match pre.as_mut() {
-        Some(pre) if plan.imprecision && is_key_scene => {
-            if params.aim.reads_saliency() {
-                pre.saliency = Some(frame_saliency(prep, world, pre, params)?);
-            }
-            let ctx = aim_context(&camera, cameras.base, accel, trace);
-            let silent = Progress::silent();
-            let (aims, _) = aims_stage(&ctx, &map, pre, &params.aim, None, &silent, &mut Timings::default());
-            Some(carried::anchor_aims(&ctx, &aims))
+    // Static facets with turned views hold the layout frame's turns.
+    let holds_turns = faceted && !follows && plan.imprecision && params.aim.view_turn > 0.0;
+    // The layout frame's pre-pass: its key data (facets that follow) and its aims.
+    let mut pre = (follows || holds_turns).then(|| prepass(world, accel, &camera, trace));
+    let key = match &pre {
+        Some(pre) if follows => {
+            let saved = params.facets.layout_file.as_deref().map(follow_file::path_for).filter(|p| p.is_file());
+            let key = match saved {
+                Some(p) => follow_file::load(&p)?,
+                None => key_of(pre, world, &camera, trace),
+            };
+            check_key(&key, trace, world)?;
+            Some(key)
         }
         _ => None,
     };
-    let turns = (faceted && !follows && plan.imprecision && params.aim.view_turn > 0.0)
-        .then(|| -> Result<Vec<f64>> {
-            let mut pre = prepass(world, accel, &camera, trace);
+    // The layout frame's aims, decided as a still's (from its pre-pass and saliency map):
+    // anchored to the scene, what facets that follow keep in every frame; with static facets,
+    // the turns every frame makes. Facets that follow keep them only when this layout frame is
+    // the key frame's scene: follow data saved from another pose (a single frame exported on
+    // its own, `follow_frame`) leaves each frame its own aims.
+    let is_key_scene = key
+        .as_ref()
+        .is_some_and(|k| k.positions.iter().enumerate().all(|(t, corners)| *corners == world.triangle(t as u32)));
+    let ctx = aim_context(&camera, cameras.base, accel, trace);
+    let layout_aims = match pre.as_mut() {
+        Some(pre) if plan.imprecision && (is_key_scene || holds_turns) => {
             if params.aim.reads_saliency() {
-                pre.saliency = Some(frame_saliency(prep, world, &pre, params)?);
+                pre.saliency = Some(frame_saliency(prep, world, pre, params)?);
             }
-            let ctx = aim_context(&camera, cameras.base, accel, trace);
             let silent = Progress::silent();
-            let (aims, _) = aims_stage(&ctx, &map, &pre, &params.aim, None, &silent, &mut Timings::default());
-            Ok(aims.iter().map(|a| a.turn.map_or(0.0, |t| t.angle)).collect())
-        })
-        .transpose()?;
+            Some(aims_stage(&ctx, &map, pre, &params.aim, None, None, &silent, &mut Timings::default()).0)
+        }
+        _ => None,
+    };
+    let aims = layout_aims.as_deref().filter(|_| is_key_scene).map(|a| carried::anchor_aims(&ctx, a));
+    let turns = layout_aims
+        .as_deref()
+        .filter(|_| holds_turns)
+        .map(|a| a.iter().map(|a| a.turn.map_or(0.0, |t| t.angle)).collect());
     if let Some(path) = &params.save_facets {
         facets::io::save(path, &layout, &map)?;
         if let Some(key) = &key {
@@ -776,18 +772,10 @@ fn render_frame(
             let corners = |t: u32| ((t as usize) < world.triangle_count()).then(|| world.triangle(t));
             carried::carry_aims(&ctx, key_aims, &map, &corners, &params.aim)
         }),
-        // The layout frame's turns (static facets), re-pivoted on this frame's surface.
-        None if plan.imprecision => match &keep.turns {
-            Some(angles) => {
-                let held = AimParams { view_turn: 0.0, ..params.aim.clone() };
-                let mut aims = aims_stage(&ctx, &map, &pre, &held, None, &silent, &mut timings).0;
-                timings.time(Stage::Imprecision.name(), || {
-                    imprecision::views::turn_held(&mut aims, &ctx, &map.facet_pixels(), &pre, angles)
-                });
-                aims
-            }
-            None => aims_stage(&ctx, &map, &pre, &params.aim, None, &silent, &mut timings).0,
-        },
+        // With static facets, turned as the layout frame turned them (`Keep::turns`).
+        None if plan.imprecision => {
+            aims_stage(&ctx, &map, &pre, &params.aim, None, keep.turns.as_deref(), &silent, &mut timings).0
+        }
         None => Vec::new(),
     };
 

@@ -485,7 +485,7 @@ fn aims_step(
     run.step(slot, key, Some(Stage::Imprecision.name()), |run, old| {
         drop(old);
         let mesh = Some((prep, &params.saliency));
-        let (aims, hits) = stages::aims_stage(ctx, map, film, &params.aim, mesh, run.progress, &mut run.timings);
+        let (aims, hits) = stages::aims_stage(ctx, map, film, &params.aim, mesh, None, run.progress, &mut run.timings);
         centre = hits;
         Ok(Made::New(aims))
     })?;

@@ -39,13 +39,16 @@ pub fn aim_context<'a>(prep: &'a Prepared, view: &'a View, trace: &TraceParams) 
 /// aims kept (`imprecision::cues::CentreHits`), which the re-trace takes instead of tracing
 /// them again. `mesh`: the scene whose pre-render `film` is and how its mesh saliency was
 /// computed, to keep its most salient vertices in view (None: not checked, e.g. a posed
-/// animation frame).
+/// animation frame). `held`: the turns another frame decided (per facet, radians; a sequence's
+/// layout frame under static facets), made here instead of deciding them again.
+#[allow(clippy::too_many_arguments)]
 pub fn aims_stage(
     ctx: &AimContext,
     map: &FacetMap,
     film: &Film,
     params: &AimParams,
     mesh: Option<(&Prepared, &SaliencyParams)>,
+    held: Option<&[f64]>,
     progress: &Progress,
     timings: &mut Timings,
 ) -> (Vec<FacetAim>, Option<CentreHits>) {
@@ -64,7 +67,10 @@ pub fn aims_stage(
             .and_then(|((prep, _), s)| imprecision::cues::CueVertices::new(&prep.scene, &prep.world, &s.per_mesh));
         let hits = imprecision::guard::apply(&mut aims, ctx, map, &by_facet, film, cues.as_ref(), params);
         // Turned views last: they turn the rays the rules above settled.
-        imprecision::views::turn_views(&mut aims, ctx, &by_facet, film, params);
+        match held {
+            Some(angles) => imprecision::views::turn_held(&mut aims, ctx, &by_facet, film, angles),
+            None => imprecision::views::turn_views(&mut aims, ctx, &by_facet, film, params),
+        };
         (aims, hits)
     })
 }
