@@ -12,21 +12,19 @@
 use glam::Vec2;
 use rayon::prelude::*;
 
-use super::brushwork::{Brushwork, BrushworkParams, HatchCells};
 use super::planes::{Plane, smoothstep};
 use super::{Canvas, Effect, EffectParams, PaintContext};
 use crate::error::Result;
 use crate::film::PixelHit;
 use crate::util::rng::splitmix64;
 
-/// The per-plane light's parameters: its amount in [0, 1] (0 = off), its steps (0 = a smooth
-/// ramp) and the brushwork whose dabs lay them, if any.
+/// The per-plane light's parameters: its amount in [0, 1] (0 = off) and its steps (0 = a
+/// smooth ramp).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct PlaneLightParams {
     pub amount: f64,
     pub seed: u64,
     pub steps: u32,
-    pub strokes: Option<BrushworkParams>,
 }
 
 impl EffectParams for PlaneLightParams {
@@ -35,8 +33,7 @@ impl EffectParams for PlaneLightParams {
     }
 
     fn build(&self) -> Result<Box<dyn Effect>> {
-        let steps = (self.steps > 0)
-            .then(|| Steps { levels: self.steps, strokes: self.strokes.as_ref().map(BrushworkParams::brushwork) });
+        let steps = (self.steps > 0).then_some(Steps { levels: self.steps });
         Ok(Box::new(PlaneLight { amount: self.amount as f32, seed: self.seed, steps }))
     }
 }
@@ -69,13 +66,12 @@ pub struct PlaneLight {
     pub steps: Option<Steps>,
 }
 
-/// The light of each plane in `levels` values from its light end to its dark end, as the
-/// painters modelled a plane stroke by stroke rather than in a smooth gradient: with strokes,
-/// each dab of a plane's hatching (`Brushwork::cells`) takes the step of its centre, so the
-/// steps' edges run along the dabs' staggered ends; without, the steps are straight bands.
+/// The light of each plane in `levels` values from its light end to its dark end, in straight
+/// bands across the plane (planes within the plane), as the painters modelled a plane in a few
+/// tones rather than in a smooth gradient. The strokes are laid over the bands; steps laid
+/// dab by dab along the hatching read as a staircase (docs/look/README.md, round 45).
 pub struct Steps {
     pub levels: u32,
-    pub strokes: Option<Brushwork>,
 }
 
 impl Steps {
@@ -171,22 +167,13 @@ impl Effect for PlaneLight {
         let w = canvas.width as usize;
         let planes = ctx.planes(canvas.width, canvas.pixel_count(), self.seed);
         let oval = ctx.oval(w, canvas.height as usize);
-        // The dabs' cells, read at a pixel's point on the layout (`plane_point`) as the strokes
-        // are laid there, sized as the strokes are (against a sequence's layout median).
-        let cells: Option<HatchCells> = self
-            .steps
-            .as_ref()
-            .and_then(|s| s.strokes.as_ref())
-            .map(|b| b.cells(&planes, ctx.held().and_then(|h| h.plane_median)));
         // The factor at a pixel given each plane's share of ground, which is counted only when
         // the factors are made (a session keeps them).
         let factor = |ground: &[f32], x: usize, y: usize| {
             let p = ctx.plane_point(y * w + x, w);
             let f = facets.ids[y * w + x] as usize;
-            let t = match &self.steps {
-                Some(steps) => steps.step(planes[f].ramp(cells.as_ref().map_or(p, |c| c.centre(f, p)))),
-                None => planes[f].ramp(p),
-            };
+            let t = planes[f].ramp(p);
+            let t = self.steps.as_ref().map_or(t, |s| s.step(t));
             self.composed_at(t, oval.r(p), ground.get(f).copied().unwrap_or(0.0))
         };
         let n = canvas.pixel_count();
@@ -194,12 +181,7 @@ impl Effect for PlaneLight {
             // A session keeps each pixel's factor (it reads the planes and the facet map):
             // a paint-only change multiplies by it.
             let centre = ((oval.centre.x.to_bits() as u64) << 32) | oval.centre.y.to_bits() as u64;
-            let steps = self.steps.as_ref().map_or(0, |s| {
-                let b = s.strokes.as_ref().map_or(0, |b| {
-                    splitmix64(((b.length.to_bits() as u64) << 32 | b.width.to_bits() as u64) ^ splitmix64(b.seed))
-                });
-                splitmix64(s.levels as u64 ^ b)
-            });
+            let steps = self.steps.as_ref().map_or(0, |s| splitmix64(s.levels as u64));
             let key = [self.amount.to_bits() as u64, self.seed ^ centre ^ steps, w as u64, n as u64];
             let f = ctx.factors(self.name(), key, false, || {
                 let ground = ctx.ground_shares(n);

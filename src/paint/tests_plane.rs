@@ -108,25 +108,23 @@ fn the_grounds_planes_are_modelled_more_deeply_than_the_subjects() {
 }
 
 #[test]
-fn stepped_light_gives_each_dab_one_of_its_planes_steps() {
-    // Each pixel is lit as `composed_at` says at the step of its dab's centre: a plane's light
+fn stepped_light_lays_straight_bands() {
+    // The step of each pixel's own ramp position, as a smooth ramp quantised: a plane's light
     // takes at most `levels` values (at a given distance from the composition's centre), the
-    // large planes at least three, and the pixels of one dab share one.
+    // large planes at least three, in bands whose edges are the ramp's straight iso-lines.
     let (w, h) = (240u32, 180u32);
     let facets = voronoi(w, h, 12, 3);
-    let strokes = || Brushwork { opacity: 0.85, length: 24.0, width: 6.0, seed: 9 };
-    let light = || PlaneLight { amount: 0.7, seed: 5, steps: Some(Steps { levels: 5, strokes: Some(strokes()) }) };
+    let light = || PlaneLight { amount: 0.7, seed: 5, steps: Some(Steps { levels: 5 }) };
     let mut frame = flat(w, h, Vec3::splat(0.4));
     run(Box::new(light()), &mut frame, Some(&facets));
     let planes = planes(w, &facets.ids, 12, 5);
-    let cells = strokes().cells(&planes, None);
     let oval = super::plane_light::Oval::of(w as usize, h as usize, &frame.hits);
-    let (light, steps) = (light(), Steps { levels: 5, strokes: None });
+    let (light, steps) = (light(), Steps { levels: 5 });
     let mut seen: Vec<std::collections::BTreeSet<u32>> = vec![Default::default(); 12];
     for (i, c) in frame.color.iter().enumerate() {
         let p = Vec2::new((i as u32 % w) as f32 + 0.5, (i as u32 / w) as f32 + 0.5);
         let f = facets.ids[i] as usize;
-        let t = steps.step(planes[f].ramp(cells.centre(f, p)));
+        let t = steps.step(planes[f].ramp(p));
         let want = 0.4 * light.composed_at(t, oval.r(p), 0.0);
         assert!((c.x - want).abs() < 1e-6, "pixel {i}: {} against {want}", c.x);
         seen[f].insert((t * 1000.0).round() as u32);
@@ -137,25 +135,6 @@ fn stepped_light_gives_each_dab_one_of_its_planes_steps() {
     // The steps: the middles of five equal parts of the ramp, the ends included.
     let middles: Vec<f32> = [0.0, 0.19, 0.2, 0.5, 0.99, 1.0].iter().map(|&t| steps.step(t)).collect();
     assert_eq!(middles, [0.1, 0.1, 0.3, 0.5, 0.9, 0.9]);
-}
-
-#[test]
-fn stepped_light_without_strokes_lays_straight_bands() {
-    // No strokes: the step of each pixel's own ramp position, as a smooth ramp quantised.
-    let (w, h) = (160u32, 120u32);
-    let facets = voronoi(w, h, 6, 4);
-    let light = || PlaneLight { amount: 0.7, seed: 5, steps: Some(Steps { levels: 4, strokes: None }) };
-    let mut frame = flat(w, h, Vec3::splat(0.4));
-    run(Box::new(light()), &mut frame, Some(&facets));
-    let planes = planes(w, &facets.ids, 6, 5);
-    let oval = super::plane_light::Oval::of(w as usize, h as usize, &frame.hits);
-    let (light, steps) = (light(), Steps { levels: 4, strokes: None });
-    for (i, c) in frame.color.iter().enumerate() {
-        let p = Vec2::new((i as u32 % w) as f32 + 0.5, (i as u32 / w) as f32 + 0.5);
-        let f = facets.ids[i] as usize;
-        let want = 0.4 * light.composed_at(steps.step(planes[f].ramp(p)), oval.r(p), 0.0);
-        assert!((c.x - want).abs() < 1e-6, "pixel {i}: {} against {want}", c.x);
-    }
 }
 
 #[test]

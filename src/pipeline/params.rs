@@ -244,7 +244,6 @@ pub fn paint(s: &Settings) -> PaintParams {
             amount: s.plane_light,
             seed,
             steps: s.light_steps,
-            strokes: (s.brushwork > 0.0).then(|| brushwork.clone()),
         },
         passage: PassageParams(borders),
         brushwork,

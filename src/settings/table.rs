@@ -440,12 +440,12 @@ macro_rules! settings_table {
                 flag "Light-to-dark ramp across each facet, each plane lit on its own, 0..1; 0 = off [analytic: 0.8]"
                     #[arg(long, help_heading = "Painterly effects", value_parser = finite_f64)] Option<f64>;
 
-            /// Steps of each plane's light from its light end to its dark end, laid dab by dab
-            /// along the strokes' hatching (straight bands without strokes); 0 = a smooth ramp.
+            /// Steps of each plane's light from its light end to its dark end, in straight bands
+            /// across the plane under the strokes; 0 = a smooth ramp.
             light_steps: u32 = 0,
                 schema field(Integer).range(Range::closed(0.0, 32.0)),
                 check Message("must be in {min}..={max}"),
-                flag "Steps of each plane's light, laid dab by dab along the strokes; 0 = a smooth ramp [analytic: 5]"
+                flag "Steps of each plane's light, in straight bands across it; 0 = a smooth ramp [analytic: 5]"
                     #[arg(long, help_heading = "Painterly effects")] Option<u32>;
 
             /// How facet borders are drawn: `symmetric` (eq 4.8) or `passage`.

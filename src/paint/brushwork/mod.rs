@@ -154,19 +154,6 @@ impl Brushwork {
             .collect()
     }
 
-    /// Each plane's hatching cells (`Hatching::cell`): where the centre of the dab a point of
-    /// the plane falls in lies, with the rows and dabs a still's strokes are laid on.
-    pub fn cells(&self, planes: &[Plane], median: Option<f32>) -> HatchCells {
-        let (length, width) = self.coarse_size();
-        let planes = self
-            .directions(planes)
-            .into_iter()
-            .zip(plane_scales(planes, median))
-            .map(|(dir, k)| (dir, self.hatching((length * k, width * k))))
-            .collect();
-        HatchCells { planes }
-    }
-
     /// The coarse layer's stroke length and width, pixels: at least `MIN_WIDTH` wide, at least
     /// as long as wide.
     fn coarse_size(&self) -> (f32, f32) {
@@ -350,29 +337,6 @@ impl Hatching {
         let h = splitmix64(self.seed ^ splitmix64(plane) ^ splitmix64(row as i64 as u64 ^ (dab as i64 as u64) << 32));
         let shade = 2.0 * unit_f64(h) as f32 - 1.0;
         (centre + across * (self.row * (row - a)), DAB_SHARE * shade + (1.0 - DAB_SHARE) * own)
-    }
-
-    /// The centre of the dab (a row's stroke-long stretch, as `place` cuts it) that `p` lies
-    /// in, on plane `plane` hatched along `dir`.
-    fn cell(&self, p: Vec2, dir: Vec2, plane: u64) -> Vec2 {
-        let across = dir.perp();
-        let phase = unit_f64(splitmix64(self.seed ^ plane)) as f32;
-        let row = (p.dot(across) / self.row - phase).round();
-        let dab = (p.dot(dir) / self.length + 0.5 * row).floor();
-        across * (self.row * (row + phase)) + dir * (self.length * (dab + 0.5 - 0.5 * row))
-    }
-}
-
-/// Where the dabs of each plane's hatching lie (`Brushwork::cells`), by facet id.
-pub struct HatchCells {
-    planes: Vec<(Vec2, Hatching)>,
-}
-
-impl HatchCells {
-    /// The centre of the dab of plane `plane`'s hatching that `p` falls in (`p` itself for a
-    /// plane it does not know).
-    pub fn centre(&self, plane: usize, p: Vec2) -> Vec2 {
-        self.planes.get(plane).map_or(p, |(dir, h)| h.cell(p, *dir, plane as u64))
     }
 }
 

@@ -151,30 +151,6 @@ fn hatching_puts_strokes_on_parallel_rows_and_shares_a_dabs_value() {
     assert!(((a - b) - 2.0 * (1.0 - DAB_SHARE)).abs() < 1e-4, "{a} {b}");
 }
 
-#[test]
-fn a_cells_centre_is_the_centre_of_the_dab_a_stroke_placed_there_lies_in() {
-    // Every point lies within half a row across and half a dab along from its cell's centre;
-    // the centre is its own cell's; and a stroke moved onto its row there lies in that cell
-    // (the cells are the dabs the hatching cuts).
-    let hatch = Hatching { row: 8.4, length: 30.0, seed: 11 };
-    let dir = Vec2::from_angle(-1.1);
-    let across = dir.perp();
-    for k in 0..500u64 {
-        let r = |j: u64| unit_f64(splitmix64(k * 8 + j)) as f32;
-        let p = Vec2::new(400.0 * r(1), 300.0 * r(2));
-        let c = hatch.cell(p, dir, 3);
-        assert!((p - c).dot(across).abs() <= 0.5 * hatch.row + 1e-3, "{p} {c}");
-        assert!((p - c).dot(dir).abs() <= 0.5 * hatch.length + 1e-3, "{p} {c}");
-        assert!((hatch.cell(c, dir, 3) - c).length() < 1e-3);
-        let (moved, _) = hatch.place(p, dir, 3, 0.0);
-        assert!((hatch.cell(moved, dir, 3) - c).length() < 1e-3, "{moved} {c}");
-    }
-    // Through `Brushwork::cells`: a plane it does not know leaves the point as it is.
-    let b = Brushwork { opacity: 1.0, length: 30.0, width: 8.0, seed: 2 };
-    let cells = b.cells(&[], None);
-    assert_eq!(cells.centre(4, Vec2::new(3.0, 5.0)), Vec2::new(3.0, 5.0));
-}
-
 /// A source mixing the two kinds of seeds, as an animation frame's (`strokes::surface`).
 struct Mixed(Vec<crate::strokes::StrokeSeed>);
 
