@@ -112,13 +112,6 @@ fn main() {
             }),
         ),
         (
-            "plane light in steps by the dabs",
-            only(&|s| {
-                s.plane_light = analytic.plane_light;
-                s.brushwork = analytic.brushwork
-            }),
-        ),
-        (
             "passage",
             only(&|s| {
                 s.border_style = BorderStyle::Passage;

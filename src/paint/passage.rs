@@ -9,9 +9,9 @@
 //! of an edge, the feature transform (`distance::nearest_features`) gives the nearest edge
 //! pixel, hence the pair of pixels facing each other across the edge, and each side's value
 //! a little way in:
-//! - the darker side takes the line: eq 4.8's darkening (a quarter of the colour on the edge,
-//!   rising steeply, gone at md) on that side only, so the line's edge against the other
-//!   side is crisp and it fades into its own plane;
+//! - the darker side takes the line (`border_profile::drawn_line`: a quarter of the colour
+//!   over a narrow core, then a quick rise into its own plane), on that side only, so the
+//!   line is crisp against both sides, a painter's line rather than a shadow;
 //! - the line's strength follows the two sides' value contrast (planes of the same value
 //!   meet softly) and a seeded, slowly varying "lost and found" along the edges, as a
 //!   painter's line comes and goes;
@@ -26,7 +26,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::border_profile::border_factor;
+use super::border_profile::drawn_line;
 use super::borders::BorderParams;
 use super::edge_smoothing;
 use super::noise::Grid2;
@@ -388,7 +388,7 @@ impl Effect for Passage {
                     *p = p.truncate().lerp(s.across, beta).extend(p.w);
                 }
                 if s.dark && self.strength > 0.0 {
-                    darken(p, 1.0 - self.strength * line * (1.0 - border_factor(d, md)), transparent);
+                    darken(p, 1.0 - self.strength * line * (1.0 - drawn_line(d, md)), transparent);
                 }
             }
         });

@@ -120,6 +120,27 @@ fn eq_4_8_at_zero_half_and_full_distance() {
 }
 
 #[test]
+fn the_drawn_line_is_dark_across_its_core_and_gone_past_its_end() {
+    use super::border_profile::{LINE_CORE, LINE_END, drawn_line};
+    let md = 12.0;
+    assert_eq!(drawn_line(0.0, md), border_factor(0.0, md));
+    assert_eq!(drawn_line(LINE_CORE * md, md), 0.25);
+    assert_eq!(drawn_line(LINE_END * md, md), 1.0);
+    assert_eq!(drawn_line(md, md), 1.0);
+    // Rising, and darker than eq 4.8 over the core, lighter past the line.
+    let mut last = 0.0;
+    for k in 0..=120 {
+        let d = k as f32 * 0.1;
+        let f = drawn_line(d, md);
+        assert!(f >= last && (0.25..=1.0).contains(&f), "{d}: {f}");
+        last = f;
+    }
+    assert!(drawn_line(0.25 * md, md) < border_factor(0.25 * md, md));
+    assert!(drawn_line(0.6 * md, md) > border_factor(0.6 * md, md));
+    assert_eq!(drawn_line(3.0, 0.0), 1.0);
+}
+
+#[test]
 fn border_darkening_matches_eq_4_8_on_the_image() {
     // Two facets split at x = 50; md = 20 px given at 1000 px and scaled to this image.
     let (w, h) = (120u32, 30u32);

@@ -6,7 +6,7 @@ use glam::Vec3;
 use proptest::prelude::*;
 use rayon::prelude::*;
 
-use super::border_profile::border_factor;
+use super::border_profile::drawn_line;
 use super::edge_smoothing;
 use super::noise::Grid2;
 use super::passage::{BLEND, LOST_PERIOD, Passage, SALT, neighbours_rdlu};
@@ -164,7 +164,7 @@ impl Effect for Reference {
                     *p = p.truncate().lerp(before[b_in], beta).extend(p.w);
                 }
                 if dark_side && self.0.strength > 0.0 {
-                    darken(p, 1.0 - self.0.strength * line * (1.0 - border_factor(d, md)), transparent);
+                    darken(p, 1.0 - self.0.strength * line * (1.0 - drawn_line(d, md)), transparent);
                 }
             }
         });

@@ -4,7 +4,7 @@
 
 use glam::{Vec2, Vec3, Vec4};
 
-use super::border_profile::border_factor;
+use super::border_profile::{border_factor, drawn_line};
 use super::borders::Borders;
 use super::brushwork::Brushwork;
 use super::canvas::CanvasGrain;
@@ -177,12 +177,15 @@ fn passage_darkens_one_side_only_with_a_hard_edge() {
     run(Box::new(Borders { width: md, strength: 1.0 }), &mut symmetric, Some(&facets));
     for y in 0..h {
         let at = |f: &Film, x: u32| f.color[(y * w + x) as usize].x;
-        // The darker side, past the blend band (md / 2) and within md: darkened by eq 4.8's
-        // profile times the line's strength, which never drops to nothing.
-        let d = 7.0;
-        let dark = at(&passage, 79 - 7) / base(79 - 7);
-        assert!(dark < 1.0 - (1.0 - border_factor(d, md)) * passage::LOST * passage::FLOOR + 1e-5, "row {y}: {dark}");
-        assert!(dark >= border_factor(d, md) - 1e-6, "row {y}: {dark}");
+        // The darker side, past the blend band (md / 2) and within the line: darkened by the
+        // drawn line's profile times the line's strength, which never drops to nothing; past
+        // the line's end, untouched.
+        let d = 6.0;
+        let dark = at(&passage, 79 - 6) / base(79 - 6);
+        assert!(drawn_line(d, md) < 1.0);
+        assert!(dark < 1.0 - (1.0 - drawn_line(d, md)) * passage::LOST * passage::FLOOR + 1e-5, "row {y}: {dark}");
+        assert!(dark >= drawn_line(d, md) - 1e-6, "row {y}: {dark}");
+        assert_eq!(at(&passage, 79 - 8), base(79 - 8), "row {y}: past the line");
         // The lighter side never darkens below the blend of its own and the other side's value.
         for x in 80..w {
             assert!(at(&passage, x) >= base(x) * (1.0 - passage::BLEND) + 0.25 * passage::BLEND - 1e-5);
