@@ -20,3 +20,9 @@ for p in "${presets[@]}"; do
         --progress none -o "docs/presets/$p.png"
     echo "docs/presets/$p.png"
 done
+# The add-on's preset grid shows these pictures reduced: keep its thumbnails in step.
+if [ -x .venv/bin/python ]; then
+    .venv/bin/python scripts/preset_thumbnails.py
+else
+    echo "then: python3 scripts/preset_thumbnails.py (needs Pillow; scripts/setup-python.sh makes .venv)" >&2
+fi

@@ -20,7 +20,7 @@ pub fn darkening(pd: f32, md: f32, strength: f32) -> f32 {
 pub const LINE_CORE: f32 = 0.3;
 /// ... and is gone at this share: a drawn line with a crisp side against its own plane, where
 /// eq 4.8's profile fades into the plane like a cast shadow (judged blind:
-/// docs/look/README.md, round 48; twice as wide was refused as stained-glass leading).
+/// docs/look/README.md, round 48).
 pub const LINE_END: f32 = 0.56;
 
 /// Passage's line: eq 4.8's value on the border (a quarter of the colour) held to
