@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Renders the README's pictures from the built-in still life, so they can be regenerated
 # whenever the pipeline changes: docs/cubist.png (`cubist render`, the defaults, 800x600) and
-# the presets' (docs/presets/<preset>.png, 480x360):
+# the presets' (docs/presets/<preset>.png, 480x360), then the add-on's preset thumbnails
+# (scripts/preset_thumbnails.py):
 #   bash scripts/render-docs.sh            # every preset
 #   bash scripts/render-docs.sh braque     # some presets
 # Each picture is `cubist render --preset <name>` with nothing else changed but the size.

@@ -78,9 +78,10 @@ impl EffectParams for PassageParams {
 /// One-sided, lost-and-found borders with passage.
 #[derive(Clone, Copy, Debug)]
 pub struct Passage {
-    /// md, pixels of this image: the line fades out this far into its plane.
+    /// md, pixels of this image: the join's reach (the line within `LINE_END` md of the edge,
+    /// the blend within md / 2).
     pub width: f32,
-    /// In [0, 1]: 1 = eq 4.8's full darkening where the line is strongest.
+    /// In [0, 1]: 1 = the drawn line's full darkening where the line is strongest.
     pub strength: f32,
     pub seed: u64,
 }

@@ -68,8 +68,9 @@ pub struct PlaneLight {
 
 /// The light of each plane in `levels` values from its light end to its dark end, in straight
 /// bands across the plane (planes within the plane), as the painters modelled a plane in a few
-/// tones rather than in a smooth gradient, the strokes laid over the bands (judged blind:
-/// docs/look/README.md, rounds 26 and 45).
+/// tones rather than in a smooth gradient; the bands multiply the strokes' paint, so each
+/// band's edge crosses the strokes in a straight line (judged blind: docs/look/README.md,
+/// rounds 26 and 45).
 pub struct Steps {
     pub levels: u32,
 }

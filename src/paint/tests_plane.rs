@@ -4,7 +4,7 @@
 
 use glam::{Vec2, Vec3, Vec4};
 
-use super::border_profile::{border_factor, drawn_line};
+use super::border_profile::drawn_line;
 use super::borders::Borders;
 use super::brushwork::Brushwork;
 use super::canvas::CanvasGrain;

@@ -376,10 +376,11 @@ macro_rules! settings_table {
                     #[arg(long, help_heading = "Spatial imprecision", value_parser = finite_f64)] Option<f64>;
 
             // ---- painterly effects
-            /// Facet border darkening distance md of eq 4.8, pixels at 1000 px; 0 = off.
+            /// Facet border darkening distance md of eq 4.8 (with passage, the join's reach: the
+            /// line within 0.56 md, the blend within md / 2), pixels at 1000 px; 0 = off.
             border_width: f64 = 0.0,
                 schema field(Number).unit(PX_AT_1000).range(DISTANCE_PX),
-                flag "Facet border darkening distance md (eq 4.8), pixels at 1000 px; 0 = off [analytic: 7]"
+                flag "Facet border darkening distance md (eq 4.8; passage: the join's reach), pixels at 1000 px; 0 = off [analytic: 7]"
                     #[arg(long, help_heading = "Painterly effects", value_parser = finite_f64)] Option<f64>;
 
             /// 0 = no darkening, 1 = eq 4.8 as printed.
@@ -441,7 +442,7 @@ macro_rules! settings_table {
                     #[arg(long, help_heading = "Painterly effects", value_parser = finite_f64)] Option<f64>;
 
             /// Steps of each plane's light from its light end to its dark end, in straight bands
-            /// across the plane under the strokes; 0 = a smooth ramp.
+            /// across the plane (over the strokes' paint); 0 = a smooth ramp.
             light_steps: u32 = 0,
                 schema field(Integer).range(Range::closed(0.0, 32.0)),
                 check Message("must be in {min}..={max}"),
