@@ -240,11 +240,7 @@ pub fn paint(s: &Settings) -> PaintParams {
             seed,
         },
         quantise: QuantiseParams { colors: s.colors },
-        plane_light: PlaneLightParams {
-            amount: s.plane_light,
-            seed,
-            steps: s.light_steps,
-        },
+        plane_light: PlaneLightParams { amount: s.plane_light, seed, steps: s.light_steps },
         passage: PassageParams(borders),
         brushwork,
         values: ValueParams { contrast: s.value_contrast },
