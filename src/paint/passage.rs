@@ -11,7 +11,9 @@
 //! a little way in:
 //! - the darker side takes the line (`border_profile::drawn_line`: a quarter of the colour
 //!   over a narrow core, then a quick rise into its own plane), on that side only, so the
-//!   line is crisp against both sides, a painter's line rather than a shadow;
+//!   line is crisp against both sides, a painter's line rather than a shadow; drawn by the
+//!   distance to the edge's smoothed line (`edge_smoothing::edge_line`), not to its pixel
+//!   staircase, so a slanted line runs straight and a line moving by less than a pixel moves;
 //! - the line's strength follows the two sides' value contrast (planes of the same value
 //!   meet softly) and a seeded, slowly varying "lost and found" along the edges, as a
 //!   painter's line comes and goes;
@@ -119,6 +121,13 @@ pub struct Pairs {
     /// Each pixel's index in `edge_pixels` (u32::MAX off the edges), for the lost-and-found
     /// value of b.
     slot: Vec<u32>,
+    /// Per edge pixel, its region's smoothed edge line there (`edge_smoothing::edge_line`),
+    /// which the line is drawn from: a pixel's distance to the edge's true line, not to the
+    /// nearest pixel of its staircase, so a slanted line is drawn straight and a line moving
+    /// less than a pixel moves with it.
+    lines: Vec<Option<edge_smoothing::EdgeLine>>,
+    /// Where the distance to a line is measured from (`edge_smoothing::grid_offset`).
+    grid_offset: f32,
     /// What the sides of each edge pixel read besides the colour, for one step and seed
     /// (kept across chains only: `Passage::apply`).
     geometry: std::sync::Mutex<Option<GeometryOf>>,
@@ -172,12 +181,31 @@ impl Pairs {
                 fallback.push((i as u32, near[i]));
             }
         }
-        Pairs { edge_pixels, of, fallback, slot, geometry: std::sync::Mutex::new(None) }
+        let gauss = edge_smoothing::window();
+        let lines = edge_pixels
+            .par_iter()
+            .map(|&q| edge_smoothing::edge_line(w, h, q as usize, &gauss, |j| same(j, q as usize)))
+            .collect();
+        let grid_offset = edge_smoothing::grid_offset(&gauss);
+        Pairs { edge_pixels, of, fallback, slot, lines, grid_offset, geometry: std::sync::Mutex::new(None) }
+    }
+
+    /// Pixel `i`'s distance to the edge line at edge pixel `e` of its own region (`lines`),
+    /// measured as `d` (the distance to the nearest edge pixel: from the edge pixels' centres,
+    /// half a pixel in from the line, `grid_offset`), within a pixel of `d`; `d` where the
+    /// line is not known.
+    fn to_line(&self, e: usize, i: usize, w: usize, d: f32) -> f32 {
+        let Some(line) = self.lines[e] else { return d };
+        let q = self.edge_pixels[e] as usize;
+        let (dx, dy) = ((i % w) as f32 - (q % w) as f32, (i / w) as f32 - (q / w) as f32);
+        (line.at(dx, dy) - self.grid_offset).clamp((d - 1.0).max(0.0), d + 1.0)
     }
 
     pub fn bytes(&self) -> usize {
         let geometry = self.geometry.lock().map_or(0, |g| g.as_ref().map_or(0, |(_, g)| size_of_val(&g[..])));
-        (self.edge_pixels.len() + self.of.len() + self.slot.len() + 2 * self.fallback.len()) * 4 + geometry
+        (self.edge_pixels.len() + self.of.len() + self.slot.len() + 2 * self.fallback.len()) * 4
+            + size_of_val(&self.lines[..])
+            + geometry
     }
 
     /// The geometry of every edge pixel's sides for `key`, made by `make` when not held (the
@@ -376,13 +404,14 @@ impl Effect for Passage {
                 if o == NO_PAIR || d >= md {
                     continue;
                 }
-                let (s, line) = if o & FALLBACK != 0 {
+                let (s, line, d) = if o & FALLBACK != 0 {
                     let s = &fallback[(o & !FALLBACK) as usize];
-                    (s, s.line[1])
+                    (s, s.line[1], d)
                 } else {
                     let k = (o >> 1) as usize;
                     let s = &sides[k / 4][k % 4];
-                    (s, s.line[(o & 1) as usize])
+                    let role = (o & 1) as usize;
+                    (s, s.line[role], if role == 0 { pairs.to_line(k / 4, i, w, d) } else { d })
                 };
                 if d < wb && s.painted && coverage.is_painted(i) {
                     let beta = BLEND * (1.0 - line) * (1.0 - d / wb).powi(2);

@@ -134,6 +134,8 @@ impl Effect for Reference {
             (b_in != u32::MAX).then_some((b_in as usize, va, vb))
         };
         let transparent = canvas.transparent;
+        let gauss = edge_smoothing::window();
+        let grid_offset = edge_smoothing::grid_offset(&gauss);
         let (coverage, px) = canvas.coverage_and_pixels();
         px.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
             for (x, p) in row.iter_mut().enumerate() {
@@ -143,6 +145,12 @@ impl Effect for Reference {
                     continue;
                 }
                 let q = q as usize;
+                // The distance to the edge's smoothed line where q is of this pixel's region.
+                let d = match edge_smoothing::edge_line(w, h, q, &gauss, |j| same(j, q)).filter(|_| same(i, q)) {
+                    Some(l) => (l.at(x as f32 - (q % w) as f32, y as f32 - (q / w) as f32) - grid_offset)
+                        .clamp((d - 1.0).max(0.0), d + 1.0),
+                    None => d,
+                };
                 // The pair facing each other across the edge: a on this pixel's side, b across.
                 let (a, b) = if same(i, q) {
                     match neighbour(q, q, false) {

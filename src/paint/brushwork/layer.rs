@@ -339,13 +339,13 @@ pub(super) fn each_band<T: Send, B: Send>(
     });
 }
 
-/// Composites the strokes of `layer` (tinted `tints`; only the `active` ones when given) over
+/// Composites the strokes of `layer` (tinted `tints`; each at its `active` share when given) over
 /// every painted pixel of `px` in place, each pixel over its colour before the layer
 /// (`each_band`).
 pub(super) fn composite(
     layer: &StrokeLayer,
     tints: &[Tint],
-    active: Option<&[bool]>,
+    active: Option<&[f32]>,
     px: &mut [Vec4],
     surface: &Surface,
     opacity: f32,
@@ -362,10 +362,11 @@ pub(super) fn composite(
         // The band's regions, and each pixel's luminance before the layer.
         |y0, pixels| (&regions[y0 * w..], pixels.iter().map(|p| luminance(p.truncate())).collect::<Vec<f32>>()),
         |pixels, (regions, value), i, k, dx, dy_dir| {
-            if active.is_some_and(|a| !a[k as usize]) {
+            let share = active.map_or(1.0, |a| a[k as usize]);
+            if share <= 0.0 {
                 return;
             }
-            if let Some((alpha, shade)) = shape(&layer.strokes[k as usize], dx, dy_dir, regions[i], opacity) {
+            if let Some((alpha, shade)) = shape(&layer.strokes[k as usize], dx, dy_dir, regions[i], opacity * share) {
                 let p = &mut pixels[i];
                 *p = lay(&tints[k as usize], value[i], p.truncate(), alpha, shade).extend(p.w);
             }

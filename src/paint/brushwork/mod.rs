@@ -3,19 +3,20 @@
 //! Cezanne's and the cubists' hatching.
 //!
 //! After Hertzmann ("Painterly rendering with curved brush strokes of multiple sizes", 1998):
-//! layers of strokes from coarse to fine, each stroke one colour sampled from the picture
-//! under it, the finer layer painted only where the coarser one strays from the picture by
-//! more than a threshold (so detail and the legible cues get small strokes, calm areas keep
-//! the large ones). Unlike his curved strokes, ours are straight dabs aligned per plane:
-//! every stroke takes its plane's direction (across the plane's light ramp, `planes`, plus a
-//! seeded turn per plane) and paints only the pixels of its own plane and object, so facet
-//! borders and silhouettes stay crisp and each plane reads as hatched on its own, in strokes
-//! sized by the plane (larger on the large calm planes, finer at the cues), quieter and
-//! thinner towards the canvas's edges and corners, where the composition calms. A still's
-//! strokes, and an animation frame's strokes fixed on the canvas, lie side by side in parallel
-//! rows, in dabs of a shared value (`Hatching`); strokes carried with the surfaces (animation
-//! frames) are hatched on the key frame's picture and carried from there with their surface
-//! (`strokes::Laid`), or, without one, keep their place and a small turn each.
+//! layers of strokes from coarse to fine, each stroke one colour sampled from the picture under
+//! it, the finer layer painted only where the coarser one strays from the picture by more than
+//! a threshold (so detail and the legible cues get small strokes, calm areas keep the large
+//! ones; an animation's fine strokes fade in across it, so none pops). Unlike his curved
+//! strokes, ours are straight dabs aligned per plane: every stroke takes its plane's direction
+//! (across the plane's light ramp, `planes`, plus a seeded turn per plane) and paints only the
+//! pixels of its own plane and object, so facet borders and silhouettes stay crisp and each
+//! plane reads as hatched on its own, in strokes sized by the plane (larger on the large calm
+//! planes, finer at the cues), quieter and thinner towards the canvas's edges and corners,
+//! where the composition calms. A still's strokes, and an animation frame's strokes fixed on
+//! the canvas, lie side by side in parallel rows, in dabs of a shared value (`Hatching`);
+//! strokes carried with the surfaces (animation frames) are hatched on the key frame's picture
+//! and carried from there with their surface (`strokes::Laid`), or, without one, keep their
+//! place and a small turn each.
 //!
 //! Speed and determinism (Lu, Sander and Finkelstein 2010 splat 60,000 strokes on a GPU): the
 //! strokes sit one per cell of a jittered grid (seeded per cell), sorted once by a seeded
@@ -77,6 +78,9 @@ pub const BRISTLES: usize = 3;
 /// The fine layer paints where the coarse layer strays from the picture by more than this
 /// (mean difference of the square root of luminance, roughly perceptual).
 pub const FINE_THRESHOLD: f32 = 0.025;
+/// In an animation a fine stroke fades in over this share of the threshold either side of it,
+/// so a stroke whose test changes from frame to frame does not pop.
+pub const FINE_FADE: f32 = 0.9;
 /// A pixel darker than the first share of a stroke's luminance keeps its paint; the stroke
 /// covers it fully from the second share on.
 pub const DARK_KEPT: (f32, f32) = (0.45, 0.8);
@@ -182,7 +186,7 @@ impl Brushwork {
     /// `seeds` (`strokes::SeedSource`: a still's jittered grid, or seeds on the surfaces) on a
     /// painted pixel, sized and turned by its plane (each plane's direction and size over
     /// (length, width), by facet id; a missing size is 1); `keep(anchor)`, when given, says
-    /// whether a seed gets its stroke; `calm(at)` says how calm the composition is where a
+    /// at what share of its opacity a seed gets its stroke (none at 0); `calm(at)` says how calm the composition is where a
     /// stroke is placed (`Brushwork::calm`). All that is random about a stroke comes from its
     /// seed's id.
     #[allow(clippy::too_many_arguments)]
@@ -193,7 +197,7 @@ impl Brushwork {
         surface: &Surface,
         (angle, scale): (&[Vec2], &[f32]),
         seeds: &dyn SeedSource,
-        keep: Option<&(dyn Fn(Vec2) -> bool + Sync)>,
+        keep: Option<&(dyn Fn(Vec2) -> f32 + Sync)>,
         calm: &(dyn Fn(Vec2) -> f32 + Sync),
     ) -> Vec<Stroke> {
         let (w, h) = (surface.w, surface.h);
@@ -248,7 +252,8 @@ impl Brushwork {
                     let jitter = 1.0 + change * (1.0 - CORNER_CALM * quiet);
                     // The fine layer's test, where the stroke is (a recorded layer tests every
                     // stroke at its centre afterwards: the same answer).
-                    if keep.is_some_and(|keep| !keep(centre)) {
+                    let kept = keep.map_or(1.0, |keep| keep(centre));
+                    if kept <= 0.0 {
                         return None;
                     }
                     let half_len = 0.5 * length * (0.8 + 0.4 * r(4));
@@ -271,7 +276,7 @@ impl Brushwork {
                         samples,
                         jitter,
                         order: 0,
-                        opacity: seed.opacity * (1.0 - CORNER_THIN * quiet),
+                        opacity: seed.opacity * (1.0 - CORNER_THIN * quiet) * kept,
                         smooth: seed.carried,
                     })
                 }
@@ -483,17 +488,23 @@ impl Effect for Brushwork {
         let mut recorded_fine = None;
         if let Some((fine, tints, before)) = fine {
             let painted: &[Vec4] = px;
-            // Whether the probes' mean value after the coarse layer strays from before.
-            let keep = |b: &Probes| {
+            // How much a fine stroke paints: whether the probes' mean value after the coarse
+            // layer strays from before; in an animation, faded in across the threshold.
+            let fade =
+                ctx.in_sequence().then_some((FINE_THRESHOLD * (1.0 - FINE_FADE), FINE_THRESHOLD * (1.0 + FINE_FADE)));
+            let keep = |b: &Probes| -> f32 {
                 let (mut e, mut n) = (0.0, 0.0);
                 for &(j, v) in b.iter().filter(|(j, _)| *j != u32::MAX) {
                     e += (value(painted[j as usize]) - v).abs();
                     n += 1.0;
                 }
-                e / n > FINE_THRESHOLD
+                match fade {
+                    Some((lo, hi)) => super::planes::smoothstep(lo, hi, e / n),
+                    None => f32::from(u8::from(e / n > FINE_THRESHOLD)),
+                }
             };
             // The test's answer for every stroke of `l`, in key order.
-            let kept_by = |l: &StrokeLayer| l.to_key_order(&before.par_iter().map(&keep).collect::<Vec<bool>>());
+            let kept_by = |l: &StrokeLayer| l.to_key_order(&before.par_iter().map(&keep).collect::<Vec<f32>>());
             match fine {
                 Fine::Kept(frags) => {
                     let a = kept_by(&frags.layer);

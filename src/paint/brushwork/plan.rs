@@ -70,14 +70,14 @@ pub(super) struct Fragments {
 }
 
 impl Fragments {
-    /// The fragments of `layer`'s strokes, compositing them (tinted `tints`, only the
-    /// `active` ones when given) over `px` on the way, as `composite` does.
+    /// The fragments of `layer`'s strokes, compositing them (tinted `tints`, each at its
+    /// `active` share when given) over `px` on the way, as `composite` does.
     pub(super) fn build(
         layer: StrokeLayer,
         surface: &Surface,
         opacity: f32,
         tints: &[Tint],
-        active: Option<&[bool]>,
+        active: Option<&[f32]>,
         px: &mut [Vec4],
     ) -> Fragments {
         let w = surface.w;
@@ -101,9 +101,10 @@ impl Fragments {
             |(out, pixels), (regions, value), i, k, dx, dy_dir| {
                 if let Some((alpha, shade)) = shape(&layer.strokes[k as usize], dx, dy_dir, regions[i], opacity) {
                     out.push(k, Fragment { pixel: i as u32, alpha, shade });
-                    if active.is_none_or(|a| a[k as usize]) {
+                    let share = active.map_or(1.0, |a| a[k as usize]);
+                    if share > 0.0 {
                         let p = &mut pixels[i];
-                        *p = lay(&tints[k as usize], value[i], p.truncate(), alpha, shade).extend(p.w);
+                        *p = lay(&tints[k as usize], value[i], p.truncate(), alpha * share, shade).extend(p.w);
                     }
                 }
             },
@@ -119,18 +120,19 @@ impl Fragments {
     }
 
     /// `composite` from the kept fragments: the same pixels.
-    pub(super) fn composite(&self, tints: &[Tint], active: Option<&[bool]>, px: &mut [Vec4], w: usize) {
+    pub(super) fn composite(&self, tints: &[Tint], active: Option<&[f32]>, px: &mut [Vec4], w: usize) {
         px.par_chunks_mut(BAND * w).zip(&self.bands).for_each(|(pixels, band)| {
             let value: Vec<f32> = pixels.iter().map(|p| luminance(p.truncate())).collect();
             for (k, frags) in band.runs() {
-                if active.is_some_and(|a| !a[k as usize]) {
+                let share = active.map_or(1.0, |a| a[k as usize]);
+                if share <= 0.0 {
                     continue;
                 }
                 let t = &tints[k as usize];
                 for f in frags {
                     let i = f.pixel as usize;
                     let p = &mut pixels[i];
-                    *p = lay(t, value[i], p.truncate(), f.alpha, f.shade).extend(p.w);
+                    *p = lay(t, value[i], p.truncate(), f.alpha * share, f.shade).extend(p.w);
                 }
             }
         });

@@ -335,3 +335,37 @@ fn strokes_are_calmer_and_thinner_where_the_composition_is_calm() {
         assert!((b.opacity - 1.0).abs() < 1e-6 && (c.opacity - (1.0 - CORNER_THIN)).abs() < 1e-6);
     }
 }
+
+#[test]
+fn a_fine_strokes_share_fades_it_and_none_drops_it() {
+    // The fine layer's test answers a share (an animation fades a stroke across the
+    // threshold): the stroke's opacity is its seed's times the share; a share of 0 paints none.
+    let (w, h) = (64, 64);
+    let regions: Vec<Region> = vec![0; w * h];
+    let surface = Surface { w, h, regions: &regions, coverage: crate::paint::Coverage(None), ground: None };
+    let brush = Brushwork { opacity: 1.0, length: 12.0, width: 4.0, seed: 5 };
+    let angle = [Vec2::from_angle(0.4)];
+    let seed = |x: f32| crate::strokes::StrokeSeed {
+        pos: Vec2::new(x, 30.2),
+        id: x as u64,
+        plane: None,
+        opacity: 0.8,
+        carried: true,
+        laid: None,
+        ground: false,
+    };
+    let seeds = Mixed(vec![seed(10.5), seed(30.5), seed(50.5)]);
+    let share = |p: Vec2| {
+        if p.x < 20.0 {
+            0.0
+        } else if p.x < 40.0 {
+            0.25
+        } else {
+            1.0
+        }
+    };
+    let strokes = brush.strokes(1, (6.0, 2.0), &surface, (&angle, &[]), &seeds, Some(&share), &|_| 0.0);
+    assert_eq!(strokes.len(), 2, "the stroke whose share is 0 is dropped");
+    assert!((strokes[0].opacity - 0.8 * 0.25).abs() < 1e-6, "{}", strokes[0].opacity);
+    assert!((strokes[1].opacity - 0.8).abs() < 1e-6, "{}", strokes[1].opacity);
+}
