@@ -12,7 +12,7 @@
 //! - the darker side takes the line (`border_profile::drawn_line`: a quarter of the colour
 //!   over a narrow core, then a quick rise into its own plane), on that side only, so the
 //!   line is crisp against both sides, a painter's line rather than a shadow; drawn by the
-//!   distance to the edge's smoothed line (`edge_smoothing::edge_line`), not to its pixel
+//!   distance to the edge's smoothed line (`util::edge_line`), not to its pixel
 //!   staircase, so a slanted line runs straight and a line moving by less than a pixel moves;
 //! - the line's strength follows the two sides' value contrast (planes of the same value
 //!   meet softly) and a seeded, slowly varying "lost and found" along the edges, as a
@@ -36,6 +36,7 @@ use super::planes::smoothstep;
 use super::{Canvas, Effect, EffectParams, PaintContext, darken, luminance};
 use crate::distance::NO_FEATURE;
 use crate::error::Result;
+use crate::util::edge_line::{self, EdgeLine};
 use crate::util::rng::sub_seed;
 
 pub(crate) const SALT: u64 = 0x7061_7373_6167_6531; // "passage1"
@@ -121,12 +122,12 @@ pub struct Pairs {
     /// Each pixel's index in `edge_pixels` (u32::MAX off the edges), for the lost-and-found
     /// value of b.
     slot: Vec<u32>,
-    /// Per edge pixel, its region's smoothed edge line there (`edge_smoothing::edge_line`),
+    /// Per edge pixel, its region's smoothed edge line there (`util::edge_line`),
     /// which the line is drawn from: a pixel's distance to the edge's true line, not to the
     /// nearest pixel of its staircase, so a slanted line is drawn straight and a line moving
     /// less than a pixel moves with it.
-    lines: Vec<Option<edge_smoothing::EdgeLine>>,
-    /// Where the distance to a line is measured from (`edge_smoothing::grid_offset`).
+    lines: Vec<Option<EdgeLine>>,
+    /// Where the distance to a line is measured from (`util::edge_line::grid_offset`).
     grid_offset: f32,
     /// What the sides of each edge pixel read besides the colour, for one step and seed
     /// (kept across chains only: `Passage::apply`).
@@ -181,12 +182,12 @@ impl Pairs {
                 fallback.push((i as u32, near[i]));
             }
         }
-        let gauss = edge_smoothing::window();
+        let gauss = edge_line::window();
         let lines = edge_pixels
             .par_iter()
-            .map(|&q| edge_smoothing::edge_line(w, h, q as usize, &gauss, |j| same(j, q as usize)))
+            .map(|&q| edge_line::edge_line(w, h, q as usize, &gauss, |j| same(j, q as usize)))
             .collect();
-        let grid_offset = edge_smoothing::grid_offset(&gauss);
+        let grid_offset = edge_line::grid_offset(&gauss);
         Pairs { edge_pixels, of, fallback, slot, lines, grid_offset, geometry: std::sync::Mutex::new(None) }
     }
 
@@ -425,5 +426,53 @@ impl Effect for Passage {
         // Last, the edges' pixel steps smoothed (the lines and blends are drawn per pixel).
         edge_smoothing::smooth_edges(canvas, &regions, dist);
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::distance::nearest_features;
+
+    /// Each pixel's distance to the line (`Pairs::to_line`) on a `w` x `h` map split by
+    /// `region`, against `truth` (x, y -> the distance measured as `to_line` measures it), for
+    /// the pixels within 4 of an edge whose pair is of their own region.
+    fn worst_miss(
+        w: usize,
+        h: usize,
+        region: impl Fn(usize, usize) -> u32,
+        truth: impl Fn(usize, usize) -> f32,
+    ) -> f32 {
+        let ids: Vec<u32> = (0..w * h).map(|i| region(i % w, i / w)).collect();
+        let grid = crate::util::grid::Grid::new(w as u32, h as u32);
+        let (dist, near) = nearest_features(w as u32, h as u32, 4.0, |i| grid.on_border(&ids, i));
+        let pairs = Pairs::new(w, h, &near, &|i, j| ids[i] == ids[j]);
+        let mut worst = 0.0f32;
+        for i in 0..w * h {
+            let (o, d) = (pairs.of[i], dist[i]);
+            let (x, y) = (i % w, i / w);
+            if o == NO_PAIR || o & FALLBACK != 0 || o & 1 != 0 || d >= 4.0 || x < 8 || y < 8 || x + 8 > w || y + 8 > h {
+                continue;
+            }
+            let e = (o >> 1) as usize / 4;
+            worst = worst.max((pairs.to_line(e, i, w, d) - truth(x, y)).abs());
+        }
+        worst
+    }
+
+    #[test]
+    fn along_the_grid_the_distance_to_the_line_is_the_distance_to_the_edge_pixels() {
+        let miss =
+            worst_miss(40, 30, |x, _| (x >= 20) as u32, |x, _| if x >= 20 { (x - 20) as f32 } else { (19 - x) as f32 });
+        assert!(miss < 1e-4, "{miss}");
+    }
+
+    #[test]
+    fn on_a_slanted_edge_the_distance_is_to_its_true_line() {
+        // The line y = 0.6 x + 5 (pixel centres at integer + 0.5), measured from half a pixel in.
+        let (a, b) = (0.6f32, 5.0f32);
+        let signed = |x: usize, y: usize| ((y as f32 + 0.5) - a * (x as f32 + 0.5) - b) / (1.0 + a * a).sqrt();
+        let miss = worst_miss(60, 60, |x, y| (signed(x, y) > 0.0) as u32, |x, y| (signed(x, y).abs() - 0.5).max(0.0));
+        assert!(miss < 0.25, "{miss}");
     }
 }

@@ -4,11 +4,13 @@
 //! A facet layout is made at a key frame (the layout frame). Every surface point keeps, in
 //! every later frame, the facet it had there: the point a pixel of frame N shows (its triangle
 //! and barycentrics, from frame N's pre-pass) is put back where it was at the key frame (the
-//! same triangle of the key frame's geometry, at the same barycentrics), projected through
-//! the key frame's camera (`Camera::project`, the exact inverse of its rays), and takes the
-//! facet of the key picture there. The motion is the scene's own (its animation, the camera's
-//! orbit), not an estimate from the pictures (optical flow), and frame N needs only the key
-//! frame, never frames between: a render farm's chunks agree.
+//! same triangle of the key frame's geometry, at the same barycentrics), projected through the
+//! key frame's camera (`Camera::project`, the exact inverse of its rays), and takes the facet
+//! of the key picture there, its edges read as straight lines rather than as the steps of its
+//! pixels (`util::edge_line`), so an edge moves with its surface by less than a pixel too. The
+//! motion is the scene's own (its animation, the camera's orbit), not an estimate from the
+//! pictures (optical flow), and frame N needs only the key frame, never frames between: a
+//! render farm's chunks agree.
 //!
 //! A point may have had no facet at the key frame: it was hidden there (behind another
 //! surface, or turned away) or out of the picture. Such pixels take the facet of the nearest
@@ -27,6 +29,8 @@ use super::FacetMap;
 use crate::camera::Camera;
 use crate::distance::nearest_features;
 use crate::film::{Film, NO_HIT};
+use crate::util::edge_line;
+use crate::util::grid::Grid;
 
 /// How facets move over the frames of an animation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -123,12 +127,13 @@ pub fn carry(key: &Key, film: &Film) -> Carried {
     let mut moves = vec![(DVec2::ZERO, 0u64); facets];
     let mut at_key = vec![Vec2::NAN; n];
     let at = |i: usize| DVec2::new((i % w as usize) as f64, (i / w as usize) as f64);
+    let lines = EdgeLines::new();
     for (i, hit) in film.hits.iter().enumerate() {
         if hit.is_hit() {
             surface += 1;
             match seen_at_key(key, hit.tri, hit.u, hit.v) {
                 Some((k, p)) => {
-                    let id = key.map.ids[k];
+                    let id = across_edge(key.map, key.tri, k, p, &lines).unwrap_or(key.map.ids[k]);
                     ids[i] = id;
                     at_key[i] = p.as_vec2();
                     if let Some(m) = moves.get_mut(id as usize) {
@@ -156,6 +161,52 @@ pub fn carry(key: &Key, film: &Film) -> Carried {
         at_key,
         ground: background,
     }
+}
+
+/// What reading a key map's edges sub-pixel needs: the Gaussian window of its smoothed lines
+/// and their offset at an edge along the grid.
+struct EdgeLines {
+    gauss: Vec<f32>,
+    grid_offset: f32,
+}
+
+impl EdgeLines {
+    fn new() -> EdgeLines {
+        let gauss = edge_line::window();
+        let grid_offset = edge_line::grid_offset(&gauss);
+        EdgeLines { gauss, grid_offset }
+    }
+}
+
+/// The facet across the key map's edge from key pixel `k` when the point at `p` (key picture
+/// pixels) lies beyond the smoothed line of `k`'s facet there: the key map's edges read as
+/// straight lines, not as the steps of its pixels, so an edge carried by less than a pixel
+/// moves with its surface. None: `k`'s own facet; also where there is no clear edge line (a
+/// corner), where `k`'s own centre lies beyond the line (a corner's or a bump's pixel: the key
+/// frame's own map is kept), and where the pixel across shows no surface (a subject point
+/// never takes a facet of the ground alone).
+/// `tri`: the key frame's triangle per pixel (`Key::tri`).
+fn across_edge(map: &FacetMap, tri: &[u32], k: usize, p: DVec2, lines: &EdgeLines) -> Option<u32> {
+    let (w, h) = (map.width as usize, map.height as usize);
+    let own = map.ids[k];
+    if !Grid::new(map.width, map.height).on_border(&map.ids, k) {
+        return None;
+    }
+    let line = edge_line::edge_line(w, h, k, &lines.gauss, |j| map.ids[j] == own)?;
+    // The estimate reads `grid_offset` at a centre half a pixel from an edge along the grid.
+    let bias = lines.grid_offset - 0.5;
+    let (kx, ky) = ((k % w) as f64 + 0.5, (k / w) as f64 + 0.5);
+    let s = line.at((p.x - kx) as f32, (p.y - ky) as f32) - bias;
+    if line.offset - bias < 0.0 || !(s < 0.0) {
+        return None;
+    }
+    // The pixel across the line from k.
+    let (x, y) = ((kx - line.normal.x as f64).floor(), (ky - line.normal.y as f64).floor());
+    if x < 0.0 || y < 0.0 || x >= w as f64 || y >= h as f64 {
+        return None;
+    }
+    let j = y as usize * w + x as usize;
+    (map.ids[j] != own && tri[j] != NO_HIT).then_some(map.ids[j])
 }
 
 /// The background's facets of every pixel: the key frame's where it showed background, grown
@@ -262,6 +313,75 @@ pub fn coherence(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A key map split by a slanted line: a point takes the facet of the side of the line it
+    /// lies on, within a fifth of a pixel, wherever the map's pixel steps put it; pixels off
+    /// the edge keep their facet.
+    #[test]
+    fn a_key_maps_edge_is_read_as_its_straight_line() {
+        let (w, h) = (64u32, 48u32);
+        let (slope, at) = (0.35f64, 12.0f64);
+        let side = |x: f64, y: f64| y > slope * x + at;
+        let ids = (0..w * h).map(|i| side((i % w) as f64 + 0.5, (i / w) as f64 + 0.5) as u32).collect();
+        let map = FacetMap { width: w, height: h, ids, facet_count: 2 };
+        let tri = vec![0u32; (w * h) as usize];
+        let lines = EdgeLines::new();
+        let norm = (1.0 + slope * slope).sqrt();
+        let (mut checked, mut flipped) = (0, 0);
+        for k in 0..(w * h) as usize {
+            let (kx, ky) = ((k % w as usize) as f64, (k / w as usize) as f64);
+            if kx < 8.0 || kx > w as f64 - 8.0 {
+                continue;
+            }
+            for (fx, fy) in [(0.1, 0.1), (0.5, 0.5), (0.9, 0.2), (0.3, 0.9), (0.7, 0.6)] {
+                let p = DVec2::new(kx + fx, ky + fy);
+                let id = across_edge(&map, &tri, k, p, &lines).unwrap_or(map.ids[k]);
+                let truth = (p.y - slope * p.x - at) / norm;
+                if truth.abs() > 0.2 && (truth.abs() < 2.0) {
+                    assert_eq!(id == 1, truth > 0.0, "point {p:?} ({truth} from the line)");
+                    checked += 1;
+                }
+                flipped += (id != map.ids[k]) as usize;
+            }
+        }
+        assert!(checked > 200 && flipped > 20, "{checked} points checked, {flipped} took the facet across");
+        // Across onto pixels that show no surface: never.
+        let ground: Vec<u32> = map.ids.iter().map(|&id| if id == 1 { NO_HIT } else { 0 }).collect();
+        for k in (0..(w * h) as usize).filter(|&k| map.ids[k] == 0) {
+            for (fx, fy) in [(0.1, 0.1), (0.9, 0.9), (0.1, 0.9), (0.9, 0.1)] {
+                let p = DVec2::new((k % w as usize) as f64 + fx, (k / w as usize) as f64 + fy);
+                assert_eq!(across_edge(&map, &ground, k, p, &lines), None);
+            }
+        }
+    }
+
+    /// Points at the key pixels' own centres keep their pixels' facets, corners and one-pixel
+    /// bumps too: the key frame carried onto itself is its own map.
+    #[test]
+    fn the_key_frame_carried_onto_itself_keeps_its_map() {
+        let (w, h) = (40u32, 30u32);
+        // A rectangle with a one-pixel bump and a notch, beside a slanted edge.
+        let facet = |x: u32, y: u32| -> u32 {
+            let rect = (10..25).contains(&x) && (8..20).contains(&y);
+            let bump = x == 17 && y == 7;
+            let notch = x == 12 && y == 19;
+            if (rect || bump) && !notch {
+                1
+            } else if 2 * y > x + 30 {
+                2
+            } else {
+                0
+            }
+        };
+        let ids = (0..w * h).map(|i| facet(i % w, i / w)).collect();
+        let map = FacetMap { width: w, height: h, ids, facet_count: 3 };
+        let tri = vec![0u32; (w * h) as usize];
+        let lines = EdgeLines::new();
+        for k in 0..(w * h) as usize {
+            let p = DVec2::new((k % w as usize) as f64 + 0.5, (k / w as usize) as f64 + 0.5);
+            assert_eq!(across_edge(&map, &tri, k, p, &lines), None, "pixel {p:?}");
+        }
+    }
 
     /// Every grown pixel takes a facet of a set pixel at the least Euclidean distance (brute
     /// force), set pixels keep theirs, and nothing stays unset.

@@ -185,10 +185,10 @@ impl Brushwork {
     /// The strokes of layer `layer` (0 coarse, 1 fine), in the seeds' order: one per seed of
     /// `seeds` (`strokes::SeedSource`: a still's jittered grid, or seeds on the surfaces) on a
     /// painted pixel, sized and turned by its plane (each plane's direction and size over
-    /// (length, width), by facet id; a missing size is 1); `keep(anchor)`, when given, says
-    /// at what share of its opacity a seed gets its stroke (none at 0); `calm(at)` says how calm the composition is where a
-    /// stroke is placed (`Brushwork::calm`). All that is random about a stroke comes from its
-    /// seed's id.
+    /// (length, width), by facet id; a missing size is 1); `keep(anchor)`, when given, says at
+    /// what share of its opacity a seed gets its stroke (none at 0); `calm(at)` says how calm
+    /// the composition is where a stroke is placed (`Brushwork::calm`). All that is random
+    /// about a stroke comes from its seed's id.
     #[allow(clippy::too_many_arguments)]
     fn strokes(
         &self,
