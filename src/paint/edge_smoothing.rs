@@ -12,7 +12,7 @@ use glam::{Vec3, Vec4};
 use rayon::prelude::*;
 
 use super::Canvas;
-use crate::util::edge_line::{edge_line, window};
+use crate::util::edge_line::Window;
 
 /// Farther than this from a region edge pixel, no pixel of another region is in the edge
 /// line's window (`util::edge_line::RADIUS`).
@@ -25,7 +25,7 @@ pub fn smooth_edges(canvas: &mut Canvas<'_>, regions: &[u64], dist: &[f32]) {
     if w == 0 || h == 0 || regions.len() != w * h || dist.len() != w * h {
         return;
     }
-    let gauss = window();
+    let window = Window::new();
     // Read first (the new colours of the few pixels that change, in scan order), then write:
     // no copy of the canvas.
     let (coverage, px) = canvas.coverage_and_pixels();
@@ -36,7 +36,7 @@ pub fn smooth_edges(canvas: &mut Canvas<'_>, regions: &[u64], dist: &[f32]) {
             return None;
         }
         let own = regions[i];
-        let line = edge_line(w, h, i, &gauss, |j| regions[j] == own)?;
+        let line = window.line(w, h, i, |j| regions[j] == own)?;
         let c = (0.5 + line.offset).clamp(0.0, 1.0);
         if c >= 1.0 {
             return None;

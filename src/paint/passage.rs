@@ -36,7 +36,7 @@ use super::planes::smoothstep;
 use super::{Canvas, Effect, EffectParams, PaintContext, darken, luminance};
 use crate::distance::NO_FEATURE;
 use crate::error::Result;
-use crate::util::edge_line::{self, EdgeLine};
+use crate::util::edge_line::{EdgeLine, Window};
 use crate::util::rng::sub_seed;
 
 pub(crate) const SALT: u64 = 0x7061_7373_6167_6531; // "passage1"
@@ -127,7 +127,7 @@ pub struct Pairs {
     /// nearest pixel of its staircase, so a slanted line is drawn straight and a line moving
     /// less than a pixel moves with it.
     lines: Vec<Option<EdgeLine>>,
-    /// Where the distance to a line is measured from (`util::edge_line::grid_offset`).
+    /// Where the distance to a line is measured from (`edge_line::Window::grid_offset`).
     grid_offset: f32,
     /// What the sides of each edge pixel read besides the colour, for one step and seed
     /// (kept across chains only: `Passage::apply`).
@@ -182,12 +182,9 @@ impl Pairs {
                 fallback.push((i as u32, near[i]));
             }
         }
-        let gauss = edge_line::window();
-        let lines = edge_pixels
-            .par_iter()
-            .map(|&q| edge_line::edge_line(w, h, q as usize, &gauss, |j| same(j, q as usize)))
-            .collect();
-        let grid_offset = edge_line::grid_offset(&gauss);
+        let window = Window::new();
+        let lines = edge_pixels.par_iter().map(|&q| window.line(w, h, q as usize, |j| same(j, q as usize))).collect();
+        let grid_offset = window.grid_offset;
         Pairs { edge_pixels, of, fallback, slot, lines, grid_offset, geometry: std::sync::Mutex::new(None) }
     }
 

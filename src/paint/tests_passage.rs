@@ -135,8 +135,7 @@ impl Effect for Reference {
             (b_in != u32::MAX).then_some((b_in as usize, va, vb))
         };
         let transparent = canvas.transparent;
-        let gauss = edge_line::window();
-        let grid_offset = edge_line::grid_offset(&gauss);
+        let window = edge_line::Window::new();
         let (coverage, px) = canvas.coverage_and_pixels();
         px.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
             for (x, p) in row.iter_mut().enumerate() {
@@ -147,8 +146,8 @@ impl Effect for Reference {
                 }
                 let q = q as usize;
                 // The distance to the edge's smoothed line where q is of this pixel's region.
-                let d = match edge_line::edge_line(w, h, q, &gauss, |j| same(j, q)).filter(|_| same(i, q)) {
-                    Some(l) => (l.at(x as f32 - (q % w) as f32, y as f32 - (q / w) as f32) - grid_offset)
+                let d = match window.line(w, h, q, |j| same(j, q)).filter(|_| same(i, q)) {
+                    Some(l) => (l.at(x as f32 - (q % w) as f32, y as f32 - (q / w) as f32) - window.grid_offset)
                         .clamp((d - 1.0).max(0.0), d + 1.0),
                     None => d,
                 };

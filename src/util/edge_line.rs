@@ -16,15 +16,46 @@ const MIN_GRADIENT: f32 = 0.08;
 /// parts, a sliver or a whisker, have none).
 const INTERIOR: f32 = 2.0;
 
-/// The Gaussian's weights over its window, row by row.
-pub fn window() -> Vec<f32> {
-    let side = (2 * RADIUS + 1) as usize;
-    (0..side * side)
-        .map(|k| {
-            let (dx, dy) = ((k % side) as i64 - RADIUS, (k / side) as i64 - RADIUS);
-            (-((dx * dx + dy * dy) as f32) / (2.0 * SIGMA * SIGMA)).exp()
-        })
-        .collect()
+/// The Gaussian's window over which edge lines are read: its weights, row by row, and the
+/// offset it reads at a pixel on an edge along the pixel grid (half a pixel, as the window
+/// estimates it: what a pixel's distance to a line is measured from, so a line along the grid
+/// is at its edge pixels' centres, as the distance to them).
+pub struct Window {
+    weights: Vec<f32>,
+    pub grid_offset: f32,
+}
+
+impl Window {
+    pub fn new() -> Window {
+        let side = (2 * RADIUS + 1) as usize;
+        let weights = (0..side * side)
+            .map(|k| {
+                let (dx, dy) = ((k % side) as i64 - RADIUS, (k / side) as i64 - RADIUS);
+                (-((dx * dx + dy * dy) as f32) / (2.0 * SIGMA * SIGMA)).exp()
+            })
+            .collect();
+        let mut window = Window { weights, grid_offset: 0.5 };
+        let (w, h) = (2 * RADIUS as usize + 2, 2 * RADIUS as usize + 1);
+        let i = RADIUS as usize * w + RADIUS as usize;
+        if let Some(l) = window.line(w, h, i, |j| j % w <= RADIUS as usize) {
+            window.grid_offset = l.offset;
+        }
+        window
+    }
+
+    /// The smoothed edge line of the region `own` (the pixels for which it holds) near pixel
+    /// `i` of a `w` x `h` grid, from its indicator blurred over the window: None where no pixel
+    /// of another region is in the window, where the edge has no clear direction (a corner, a
+    /// sliver), or where the region does not go on `INTERIOR` pixels in (a thin part).
+    pub fn line(&self, w: usize, h: usize, i: usize, own: impl Fn(usize) -> bool) -> Option<EdgeLine> {
+        edge_line(w, h, i, &self.weights, own)
+    }
+}
+
+impl Default for Window {
+    fn default() -> Window {
+        Window::new()
+    }
 }
 
 /// A region's smoothed edge line near one of its pixels: the unit normal pointing into the
@@ -43,11 +74,8 @@ impl EdgeLine {
     }
 }
 
-/// The smoothed edge line of the region `own` (the pixels for which it holds) near pixel `i`
-/// of a `w` x `h` grid, from its indicator blurred by `gauss` (`window`): None where no pixel
-/// of another region is in the window, where the edge has no clear direction (a corner, a
-/// sliver), or where the region does not go on `INTERIOR` pixels in (a thin part).
-pub fn edge_line(w: usize, h: usize, i: usize, gauss: &[f32], own: impl Fn(usize) -> bool) -> Option<EdgeLine> {
+/// `Window::line` over the weights `gauss`.
+fn edge_line(w: usize, h: usize, i: usize, gauss: &[f32], own: impl Fn(usize) -> bool) -> Option<EdgeLine> {
     let side = (2 * RADIUS + 1) as usize;
     let (x, y) = (i % w, i / w);
     let inside = |dx: i64, dy: i64| -> Option<usize> {
@@ -99,15 +127,6 @@ pub fn edge_line(w: usize, h: usize, i: usize, gauss: &[f32], own: impl Fn(usize
     Some(EdgeLine { normal: Vec2::new(nx, ny), offset: (s - 0.5) / grad })
 }
 
-/// `edge_line`'s offset at a pixel on an edge along the pixel grid (half a pixel, as the
-/// Gaussian's window estimates it): what a pixel's distance to a line is measured from, so a
-/// line along the grid is at its edge pixels' centres, as the distance to them.
-pub fn grid_offset(gauss: &[f32]) -> f32 {
-    let (w, h) = (2 * RADIUS as usize + 2, 2 * RADIUS as usize + 1);
-    let i = RADIUS as usize * w + RADIUS as usize;
-    edge_line(w, h, i, gauss, |j| j % w <= RADIUS as usize).map_or(0.5, |l| l.offset)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -118,7 +137,7 @@ mod tests {
         let (w, h) = (48usize, 32usize);
         let (a, b) = (0.4f32, 3.3f32);
         let own = |j: usize| ((j / w) as f32 + 0.5) > a * ((j % w) as f32 + 0.5) + b;
-        let gauss = window();
+        let window = Window::new();
         let normal = Vec2::new(-a, 1.0).normalize();
         let mut lines = 0;
         for i in 0..w * h {
@@ -127,11 +146,11 @@ mod tests {
             if !on_edge || x < 8 || x + 8 > w {
                 continue;
             }
-            let line = edge_line(w, h, i, &gauss, own).expect("a straight edge has a line");
+            let line = window.line(w, h, i, own).expect("a straight edge has a line");
             let truth = ((y as f32 + 0.5) - a * (x as f32 + 0.5) - b) / (1.0 + a * a).sqrt();
             assert!(line.normal.dot(normal) > 0.995, "pixel {x},{y}: {:?}", line.normal);
             // The estimate's bias is the grid's (a half-pixel offset reads `grid_offset`).
-            let bias = grid_offset(&gauss) - 0.5;
+            let bias = window.grid_offset - 0.5;
             assert!((line.offset - bias - truth).abs() < 0.2, "pixel {x},{y}: {} vs {truth}", line.offset);
             lines += 1;
         }
@@ -140,7 +159,7 @@ mod tests {
 
     #[test]
     fn the_grid_offset_is_about_half_a_pixel() {
-        let g = grid_offset(&window());
+        let g = Window::new().grid_offset;
         assert!((0.45..0.6).contains(&g), "{g}");
     }
 }

@@ -127,13 +127,13 @@ pub fn carry(key: &Key, film: &Film) -> Carried {
     let mut moves = vec![(DVec2::ZERO, 0u64); facets];
     let mut at_key = vec![Vec2::NAN; n];
     let at = |i: usize| DVec2::new((i % w as usize) as f64, (i / w as usize) as f64);
-    let lines = EdgeLines::new();
+    let window = edge_line::Window::new();
     for (i, hit) in film.hits.iter().enumerate() {
         if hit.is_hit() {
             surface += 1;
             match seen_at_key(key, hit.tri, hit.u, hit.v) {
                 Some((k, p)) => {
-                    let id = across_edge(key.map, key.tri, k, p, &lines).unwrap_or(key.map.ids[k]);
+                    let id = across_edge(key.map, key.tri, k, p, &window).unwrap_or(key.map.ids[k]);
                     ids[i] = id;
                     at_key[i] = p.as_vec2();
                     if let Some(m) = moves.get_mut(id as usize) {
@@ -163,21 +163,6 @@ pub fn carry(key: &Key, film: &Film) -> Carried {
     }
 }
 
-/// What reading a key map's edges sub-pixel needs: the Gaussian window of its smoothed lines
-/// and their offset at an edge along the grid.
-struct EdgeLines {
-    gauss: Vec<f32>,
-    grid_offset: f32,
-}
-
-impl EdgeLines {
-    fn new() -> EdgeLines {
-        let gauss = edge_line::window();
-        let grid_offset = edge_line::grid_offset(&gauss);
-        EdgeLines { gauss, grid_offset }
-    }
-}
-
 /// The facet across the key map's edge from key pixel `k` when the point at `p` (key picture
 /// pixels) lies beyond the smoothed line of `k`'s facet there: the key map's edges read as
 /// straight lines, not as the steps of its pixels, so an edge carried by less than a pixel
@@ -186,15 +171,15 @@ impl EdgeLines {
 /// frame's own map is kept), and where the pixel across shows no surface (a subject point
 /// never takes a facet of the ground alone).
 /// `tri`: the key frame's triangle per pixel (`Key::tri`).
-fn across_edge(map: &FacetMap, tri: &[u32], k: usize, p: DVec2, lines: &EdgeLines) -> Option<u32> {
+fn across_edge(map: &FacetMap, tri: &[u32], k: usize, p: DVec2, window: &edge_line::Window) -> Option<u32> {
     let (w, h) = (map.width as usize, map.height as usize);
     let own = map.ids[k];
     if !Grid::new(map.width, map.height).on_border(&map.ids, k) {
         return None;
     }
-    let line = edge_line::edge_line(w, h, k, &lines.gauss, |j| map.ids[j] == own)?;
+    let line = window.line(w, h, k, |j| map.ids[j] == own)?;
     // The estimate reads `grid_offset` at a centre half a pixel from an edge along the grid.
-    let bias = lines.grid_offset - 0.5;
+    let bias = window.grid_offset - 0.5;
     let (kx, ky) = ((k % w) as f64 + 0.5, (k / w) as f64 + 0.5);
     let s = line.at((p.x - kx) as f32, (p.y - ky) as f32) - bias;
     if line.offset - bias < 0.0 || !(s < 0.0) {
@@ -325,7 +310,7 @@ mod tests {
         let ids = (0..w * h).map(|i| side((i % w) as f64 + 0.5, (i / w) as f64 + 0.5) as u32).collect();
         let map = FacetMap { width: w, height: h, ids, facet_count: 2 };
         let tri = vec![0u32; (w * h) as usize];
-        let lines = EdgeLines::new();
+        let window = edge_line::Window::new();
         let norm = (1.0 + slope * slope).sqrt();
         let (mut checked, mut flipped) = (0, 0);
         for k in 0..(w * h) as usize {
@@ -335,7 +320,7 @@ mod tests {
             }
             for (fx, fy) in [(0.1, 0.1), (0.5, 0.5), (0.9, 0.2), (0.3, 0.9), (0.7, 0.6)] {
                 let p = DVec2::new(kx + fx, ky + fy);
-                let id = across_edge(&map, &tri, k, p, &lines).unwrap_or(map.ids[k]);
+                let id = across_edge(&map, &tri, k, p, &window).unwrap_or(map.ids[k]);
                 let truth = (p.y - slope * p.x - at) / norm;
                 if truth.abs() > 0.2 && (truth.abs() < 2.0) {
                     assert_eq!(id == 1, truth > 0.0, "point {p:?} ({truth} from the line)");
@@ -350,7 +335,7 @@ mod tests {
         for k in (0..(w * h) as usize).filter(|&k| map.ids[k] == 0) {
             for (fx, fy) in [(0.1, 0.1), (0.9, 0.9), (0.1, 0.9), (0.9, 0.1)] {
                 let p = DVec2::new((k % w as usize) as f64 + fx, (k / w as usize) as f64 + fy);
-                assert_eq!(across_edge(&map, &ground, k, p, &lines), None);
+                assert_eq!(across_edge(&map, &ground, k, p, &window), None);
             }
         }
     }
@@ -376,10 +361,10 @@ mod tests {
         let ids = (0..w * h).map(|i| facet(i % w, i / w)).collect();
         let map = FacetMap { width: w, height: h, ids, facet_count: 3 };
         let tri = vec![0u32; (w * h) as usize];
-        let lines = EdgeLines::new();
+        let window = edge_line::Window::new();
         for k in 0..(w * h) as usize {
             let p = DVec2::new((k % w as usize) as f64 + 0.5, (k / w as usize) as f64 + 0.5);
-            assert_eq!(across_edge(&map, &tri, k, p, &lines), None, "pixel {p:?}");
+            assert_eq!(across_edge(&map, &tri, k, p, &window), None, "pixel {p:?}");
         }
     }
 

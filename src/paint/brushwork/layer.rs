@@ -339,17 +339,9 @@ pub(super) fn each_band<T: Send, B: Send>(
     });
 }
 
-/// Composites the strokes of `layer` (tinted `tints`; each at its `active` share when given) over
-/// every painted pixel of `px` in place, each pixel over its colour before the layer
-/// (`each_band`).
-pub(super) fn composite(
-    layer: &StrokeLayer,
-    tints: &[Tint],
-    active: Option<&[f32]>,
-    px: &mut [Vec4],
-    surface: &Surface,
-    opacity: f32,
-) {
+/// Composites the strokes of `layer` (tinted `tints`) over every painted pixel of `px` in
+/// place, each pixel over its colour before the layer (`each_band`).
+pub(super) fn composite(layer: &StrokeLayer, tints: &[Tint], px: &mut [Vec4], surface: &Surface, opacity: f32) {
     let w = surface.w;
     if w == 0 || surface.h == 0 {
         return;
@@ -362,11 +354,7 @@ pub(super) fn composite(
         // The band's regions, and each pixel's luminance before the layer.
         |y0, pixels| (&regions[y0 * w..], pixels.iter().map(|p| luminance(p.truncate())).collect::<Vec<f32>>()),
         |pixels, (regions, value), i, k, dx, dy_dir| {
-            let share = active.map_or(1.0, |a| a[k as usize]);
-            if share <= 0.0 {
-                return;
-            }
-            if let Some((alpha, shade)) = shape(&layer.strokes[k as usize], dx, dy_dir, regions[i], opacity * share) {
+            if let Some((alpha, shade)) = shape(&layer.strokes[k as usize], dx, dy_dir, regions[i], opacity) {
                 let p = &mut pixels[i];
                 *p = lay(&tints[k as usize], value[i], p.truncate(), alpha, shade).extend(p.w);
             }

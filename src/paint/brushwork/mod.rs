@@ -481,7 +481,7 @@ impl Effect for Brushwork {
             }
             Some(layer) if record => Some(Fragments::build(layer, &surface, opacity, &coarse_tints, None, px)),
             Some(layer) => {
-                composite(&layer, &coarse_tints, None, px, &surface, opacity);
+                composite(&layer, &coarse_tints, px, &surface, opacity);
                 None
             }
         };
@@ -523,7 +523,7 @@ impl Effect for Brushwork {
                     );
                     if !layer.strokes.is_empty() {
                         let tints = layer.tints(&source, &means, &surface);
-                        composite(&layer, &tints, None, px, &surface, opacity);
+                        composite(&layer, &tints, px, &surface, opacity);
                     }
                 }
             }

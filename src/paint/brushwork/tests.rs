@@ -265,7 +265,7 @@ fn a_ground_seed_under_the_subject_paints_its_planes_ground_alone() {
     let means = RegionMeans::from([(ground_region, Vec3::new(0.6, 0.5, 0.4))]);
     let layer = StrokeLayer::new(strokes, h);
     let tints = layer.tints(&picture, &means, &surface);
-    composite(&layer, &tints, None, &mut px, &surface, 1.0);
+    composite(&layer, &tints, &mut px, &surface, 1.0);
     for (i, (p, q)) in px.iter().zip(&picture).enumerate() {
         if regions[i] == subject_region {
             assert_eq!(p, q, "a ground stroke painted the subject at {i}");
