@@ -427,6 +427,40 @@ fn node_transforms_do_not_change_vertex_saliency() {
     assert_eq!(*results[0], mesh_saliency(&m));
 }
 
+/// A small part modelled as a mesh of its own (an eye on a head) has no mesh saliency, a sphere
+/// having none; the part saliency makes it a cue, at its weight, while the head stays at 0.
+#[test]
+fn a_small_part_of_its_own_is_salient_at_its_weight() {
+    let ball = ellipsoid("ball", Vec3::ONE, 16, 32, 0);
+    let place = |c: DVec3, r: f64| DMat4::from_translation(c) * DMat4::from_scale(DVec3::splat(r));
+    let scene = Scene {
+        meshes: vec![ball],
+        objects: vec![
+            Object { name: "head".into(), mesh: 0, transform: place(DVec3::ZERO, 1.0) },
+            Object { name: "eye".into(), mesh: 0, transform: place(DVec3::new(0.0, 0.0, 1.02), 0.06) },
+        ],
+        ..Default::default()
+    };
+    let prep = cubist::Prepared::new(scene);
+    let map = |parts: f64| {
+        let settings = cubist::Settings { width: 128, height: 96, spp: 1, part_saliency: parts, ..plain_settings() };
+        let r = cubist::pipeline::saliency_map(&prep, &settings, &cubist::progress::Progress::silent()).unwrap();
+        let eye = prep.world.objects.iter().position(|o| o.name == "eye").unwrap() as u32;
+        let of = |object: u32| -> Vec<f32> {
+            let map = r.film.saliency.as_ref().unwrap();
+            r.film.hits.iter().zip(map).filter(|(h, _)| h.is_hit() && h.object == object).map(|(_, s)| *s).collect()
+        };
+        let head = 1 - eye;
+        (of(eye), of(head))
+    };
+    let (eye, head) = map(0.0);
+    assert!(!eye.is_empty() && !head.is_empty(), "both in view");
+    assert!(eye.iter().chain(&head).all(|&s| s < 1e-3), "spheres have no mesh saliency");
+    let (eye, head) = map(0.5);
+    assert!(eye.iter().all(|&s| (s - 0.5).abs() < 1e-6), "the eye at the weight: {eye:?}");
+    assert!(head.iter().all(|&s| s < 1e-3), "the head is most of the subject");
+}
+
 #[test]
 fn clustered_approximation_stays_close_to_exact() {
     let m = bumpy_sphere(5);

@@ -589,7 +589,7 @@ fn key_frame(
         tracer.render(&mut film, &|_, p| camera.ray(p), None, None, &Progress::silent());
         if plan.saliency {
             let sal = saliency::for_film(&prep.scene, world, &prep.saliency, &film, &params.saliency)?;
-            film.saliency = Some(saliency::pixel_saliency(world, &sal, &film));
+            film.saliency = Some(saliency::saliency_map(world, &sal, &film, &params.saliency));
         }
         film
     } else {
@@ -706,7 +706,7 @@ pub fn check_key(key: &KeyData, trace: &TraceParams, world: &World) -> Result<()
 /// The saliency map of a frame off its pre-pass (mesh saliency once per mesh content).
 fn frame_saliency(prep: &Prepared, world: &World, pre: &Film, params: &StageParams) -> Result<Vec<f32>> {
     let sal = saliency::for_film(&prep.scene, world, &prep.saliency, pre, &params.saliency)?;
-    Ok(saliency::pixel_saliency(world, &sal, pre))
+    Ok(saliency::saliency_map(world, &sal, pre, &params.saliency))
 }
 
 /// A frame's camera as the imprecision stage sees it.

@@ -39,7 +39,7 @@ pub fn look(prep: &Prepared, settings: &Settings, scene_name: &str) -> Result<Lo
         rendered.aims.iter().map(|a| a.moved()).collect()
     };
     let saliency = crate::saliency::for_film(&prep.scene, &prep.world, &prep.saliency, &pre, &params.saliency)?;
-    let saliency_map = crate::saliency::pixel_saliency(&prep.world, &saliency, &pre);
+    let saliency_map = crate::saliency::saliency_map(&prep.world, &saliency, &pre, &params.saliency);
     let stretch = if params.facets.faceted() || params.framing.kind != crate::camera::CameraKind::Perspective {
         look::legibility::stretch(&params.framing, &prep.world, &prep.accel)?
     } else {

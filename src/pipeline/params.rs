@@ -127,7 +127,11 @@ pub fn trace(s: &Settings) -> TraceParams {
 }
 
 pub fn saliency(s: &Settings) -> SaliencyParams {
-    SaliencyParams { method: saliency_method(s.saliency_method), cache: s.saliency_cache.clone() }
+    SaliencyParams {
+        method: saliency_method(s.saliency_method),
+        cache: s.saliency_cache.clone(),
+        parts: s.part_saliency as f32,
+    }
 }
 
 pub fn saliency_method(m: settings::SaliencyMethod) -> SaliencyMethod {

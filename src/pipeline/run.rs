@@ -204,7 +204,7 @@ pub(super) fn run(
     })?;
     prerender_step(&mut run, lane, prep, scene, params, &plan, after_saliency.is_some())?;
     let pre_gen = lane.pre.id();
-    let sal_key = saliency::Key { pre: pre_gen, method: params.saliency.method };
+    let sal_key = saliency::Key { pre: pre_gen, method: params.saliency.method, parts: params.saliency.parts };
     if plan.saliency {
         let film = &lane.pre.made().film;
         run.step(&mut lane.saliency, sal_key, Some(Stage::Saliency.name()), |run, old| {

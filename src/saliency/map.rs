@@ -9,6 +9,25 @@ use super::MeshSaliency;
 use crate::film::Film;
 use crate::scene::World;
 
+/// The saliency map: `pixel_saliency`, raised to `params.parts` times each pixel's part
+/// saliency (`parts`) where that is higher.
+pub fn saliency_map(world: &World, sal: &MeshSaliency, film: &Film, params: &super::SaliencyParams) -> Vec<f32> {
+    let mut map = pixel_saliency(world, sal, film);
+    if params.parts > 0.0 {
+        let part = super::parts::part_saliency(world);
+        let spp = film.spp.max(1) as usize;
+        map.par_iter_mut().zip(film.samples.par_chunks(spp)).for_each(|(m, samples)| {
+            let sum: f32 = samples
+                .iter()
+                .filter(|s| s.is_hit())
+                .map(|s| part.get(world.object_of(s.tri) as usize).copied().unwrap_or(0.0))
+                .sum();
+            *m = m.max((params.parts * sum / spp as f32).clamp(0.0, 1.0));
+        });
+    }
+    map
+}
+
 /// Per-pixel saliency in [0, 1]: the mean over ALL samples of the pixel, misses counting 0.
 pub fn pixel_saliency(world: &World, sal: &MeshSaliency, film: &Film) -> Vec<f32> {
     let spp = film.spp.max(1) as usize;

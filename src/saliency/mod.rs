@@ -3,7 +3,8 @@
 //!
 //! Stages: `surface` (weld by position, canonical order) -> `curvature` (cotangent mean
 //! curvature) -> `levels` (Gaussian means through `neighbourhood` grids, centre-surround,
-//! normalisation, suppression) -> `map` (per-pixel interpolation). `approx` offers a clustered
+//! normalisation, suppression) -> `map` (per-pixel interpolation, raised where a small part of
+//! the subject modelled as its own mesh is salient: `parts`). `approx` offers a clustered
 //! evaluation of the Gaussian means with a bounded cost (its inner loops in `kernels`) for
 //! meshes too large for the exact sums; `cache` keeps results on disk across processes (the
 //! Blender add-on runs once per animation frame).
@@ -24,6 +25,7 @@ pub mod kernels;
 pub mod levels;
 pub mod map;
 pub mod neighbourhood;
+pub mod parts;
 pub mod proxy;
 pub mod surface;
 
@@ -34,7 +36,7 @@ use std::sync::{Arc, Mutex};
 use glam::Vec3;
 use rayon::prelude::*;
 
-pub use map::{pixel_saliency, saliency_image};
+pub use map::{pixel_saliency, saliency_image, saliency_map};
 
 use crate::error::Result;
 use crate::film::Film;
@@ -69,6 +71,9 @@ impl SaliencyMethod {
 pub struct SaliencyParams {
     pub method: SaliencyMethod,
     pub cache: Option<std::path::PathBuf>,
+    /// Weight of the small parts' saliency in the map (`parts`, `saliency_map`); 0 = mesh
+    /// saliency alone (the thesis).
+    pub parts: f32,
 }
 
 /// Bumped whenever the definition or its numbers change, so stale cache entries are ignored.

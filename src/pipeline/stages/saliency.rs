@@ -13,6 +13,7 @@ use crate::saliency::{MeshSaliency, SaliencyMethod, SaliencyParams};
 pub struct Key {
     pub pre: Gen,
     pub method: SaliencyMethod,
+    pub parts: f32,
 }
 
 /// Mesh saliency and the saliency map of `film` (a pre-render of `prep`).
@@ -26,7 +27,7 @@ pub fn saliency_stage(
     progress.begin(Stage::Saliency.name(), 1);
     let out = timings.time(Stage::Saliency.name(), || {
         crate::saliency::for_film(&prep.scene, &prep.world, &prep.saliency, film, params).map(|sal| {
-            let map = crate::saliency::pixel_saliency(&prep.world, &sal, film);
+            let map = crate::saliency::saliency_map(&prep.world, &sal, film, params);
             (sal, map)
         })
     })?;
