@@ -24,7 +24,8 @@ from typing import Mapping, Optional
 # layout is never reused.
 LAYOUT_KEYS = ("faceting", "facet_map", "facet_count", "grid_cells", "patch_count", "occlusion", "segments",
                "thresholds", "superpixels", "weight_colour", "weight_normal", "weight_depth", "weight_object",
-               "weight_saliency", "planes", "plane_detail", "plane_outlines", "saliency_method", "seed")
+               "weight_saliency", "planes", "plane_detail", "plane_outlines", "saliency_method", "part_saliency",
+               "seed")
 
 # Faceting methods whose layout follows the pre-render (its saliency, outlines, segments): a
 # saved layout of theirs is computed again when what the layout frame shows changes.

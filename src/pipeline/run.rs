@@ -7,7 +7,7 @@
 //! | output | keyed by |
 //! |---|---|
 //! | pre-render | scene, `FramingParams`, `TraceParams` |
-//! | saliency map | pre-render, saliency method |
+//! | saliency map | pre-render, saliency method, part saliency weight |
 //! | facet layout and map | `FacetParams`, its files' contents; pre-render and saliency map when the method reads the picture |
 //! | aims | layout, pre-render, saliency map when the mode reads it, `AimParams` |
 //! | re-trace | aims (kept as the moved pixels only, swapped into the pre-render's film when read) |

@@ -61,7 +61,7 @@ mod tests {
 
     #[test]
     fn a_small_part_is_salient_and_the_body_is_not() {
-        let p = body_and_eye(0.08);
+        let p = body_and_eye(0.05);
         let s = part_saliency(&p.world);
         assert_eq!(s.len(), 2);
         assert_eq!(s[0], 0.0, "the body is most of the subject");
