@@ -28,7 +28,10 @@ pub const CUE_SHARE: f64 = 0.05;
 
 /// The most salient vertices of the placed meshes: the top `CUE_SHARE` of mesh saliency over
 /// every vertex of every object whose mesh has saliency values (the meshes in view), each
-/// object's vertices counted apart (a slot per object and vertex).
+/// object's vertices counted apart (a slot per object and vertex). With `parts`, a vertex's
+/// value is the higher of its mesh saliency and its object's part saliency
+/// (`saliency::parts`), so the small parts the saliency map shows (an eye, a beak) are kept in
+/// view too.
 pub struct CueVertices<'a> {
     scene: &'a Scene,
     world: &'a World,
@@ -39,19 +42,21 @@ pub struct CueVertices<'a> {
 }
 
 impl<'a> CueVertices<'a> {
-    /// The top `CUE_SHARE` of `saliency` (per mesh, `MeshSaliency::per_mesh`). None when no
-    /// mesh has values.
-    pub fn new(scene: &'a Scene, world: &'a World, saliency: &[Option<Arc<Vec<f32>>>]) -> Option<Self> {
+    /// The top `CUE_SHARE` of `saliency` (per mesh, `MeshSaliency::per_mesh`), with the small
+    /// parts' saliency when `parts`. None when no mesh has values.
+    pub fn new(scene: &'a Scene, world: &'a World, saliency: &[Option<Arc<Vec<f32>>>], parts: bool) -> Option<Self> {
         let mut base = Vec::with_capacity(world.objects.len());
         let mut total = 0usize;
         for o in &world.objects {
             base.push(total);
             total += scene.meshes[o.mesh].positions.len();
         }
+        let part = if parts { crate::saliency::parts::part_saliency(world) } else { vec![0.0; world.objects.len()] };
+        let value = |k: usize, x: f32| x.max(part[k]);
         let mut values: Vec<f32> = Vec::new();
-        for o in &world.objects {
+        for (k, o) in world.objects.iter().enumerate() {
             if let Some(Some(s)) = saliency.get(o.mesh) {
-                values.extend_from_slice(s);
+                values.extend(s.iter().map(|&x| value(k, x)));
             }
         }
         if values.is_empty() {
@@ -65,7 +70,7 @@ impl<'a> CueVertices<'a> {
         for (k, o) in world.objects.iter().enumerate() {
             if let Some(Some(s)) = saliency.get(o.mesh) {
                 for (v, &x) in s.iter().enumerate() {
-                    top[base[k] + v] = x >= threshold;
+                    top[base[k] + v] = value(k, x) >= threshold;
                 }
             }
         }
@@ -368,6 +373,31 @@ mod tests {
     use crate::pipeline::{Shading, Timings};
     use crate::progress::Progress;
 
+    /// A head and an eye modelled as two spheres: mesh saliency is 0 on both (a sphere has no
+    /// variation), so no vertex is a cue; with the parts, every vertex of the eye is and none of
+    /// the head.
+    #[test]
+    fn the_small_parts_are_cue_vertices_with_parts() {
+        use glam::{DMat4, DVec3, Vec3};
+        let mut scene = Scene::default();
+        scene.materials.push(crate::scene::Material::default());
+        scene.meshes.push(crate::scene::default::ellipsoid("ball", Vec3::ONE, 12, 24, 0));
+        let place = |c: DVec3, r: f64| DMat4::from_translation(c) * DMat4::from_scale(DVec3::splat(r));
+        for (name, c, r) in [("head", DVec3::ZERO, 1.0), ("eye", DVec3::new(0.0, 0.3, 1.0), 0.05)] {
+            scene.objects.push(crate::scene::Object { name: name.into(), mesh: 0, transform: place(c, r) });
+        }
+        let prep = crate::pipeline::Prepared::new(scene);
+        let n = prep.scene.meshes[0].positions.len();
+        let flat = vec![Some(Arc::new(vec![0.0f32; n]))];
+        let without = CueVertices::new(&prep.scene, &prep.world, &flat, false).unwrap();
+        assert!(without.top.iter().all(|&t| !t), "no variation, no cue");
+        let with = CueVertices::new(&prep.scene, &prep.world, &flat, true).unwrap();
+        let eye = prep.world.objects.iter().position(|o| o.name == "eye").unwrap();
+        let head = 1 - eye;
+        assert!((0..n).all(|v| with.top[with.base[eye] + v]), "every vertex of the eye");
+        assert!((0..n).all(|v| !with.top[with.base[head] + v]), "none of the head");
+    }
+
     /// The still life on a grid of 48 facets, each re-aimed at a random point up to 40 pixels
     /// away (far more than the default's shifts): some salient vertices drop out of view.
     /// After `keep_cue_vertices` and the re-trace, every most salient vertex the pre-render
@@ -380,7 +410,7 @@ mod tests {
         assert_eq!(pre.film.spp, 1);
         let mesh =
             crate::saliency::for_film(&prep.scene, &prep.world, &prep.saliency, &pre.film, &params.saliency).unwrap();
-        let cues = CueVertices::new(&prep.scene, &prep.world, &mesh.per_mesh).unwrap();
+        let cues = CueVertices::new(&prep.scene, &prep.world, &mesh.per_mesh, params.saliency.parts > 0.0).unwrap();
         let before = cues.seen(&pre.film);
         let shown_before = before.iter().filter(|&&b| b).count();
         assert!(shown_before >= 10, "{shown_before}");

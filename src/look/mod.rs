@@ -108,6 +108,9 @@ pub struct Render<'a> {
     pub scene: &'a Scene,
     pub world: &'a World,
     pub vertex_saliency: &'a [Option<Arc<Vec<f32>>>],
+    /// Whether the saliency map holds the small parts (`SaliencyParams::parts` > 0): the cue
+    /// vertices then count them too, as the imprecision stage does.
+    pub parts: bool,
     /// The pre-render's per-pixel saliency map.
     pub saliency_map: &'a [f32],
     /// `legibility::stretch`, measured by the caller (it traces two probes).
@@ -126,7 +129,7 @@ pub fn measure(r: &Render) -> LookRow {
     let fin_cov: Vec<f32> = r.fin.color.iter().map(|c| c.w).collect();
     let (fill, bbox) = measures::subject_fill(&pre_cov, w, h);
     let ghost = measures::ghost_share(r.map, r.moved, &pre_cov, &fin_cov);
-    let (cues_pre, cues_final) = cues(r.scene, r.world, r.vertex_saliency, r.pre, r.fin);
+    let (cues_pre, cues_final) = cues(r.scene, r.world, r.vertex_saliency, r.parts, r.pre, r.fin);
     let lum: Vec<f32> = r
         .image
         .pixels()
@@ -167,10 +170,11 @@ pub fn cues(
     scene: &Scene,
     world: &World,
     saliency: &[Option<Arc<Vec<f32>>>],
+    parts: bool,
     pre: &Film,
     fin: &Film,
 ) -> (usize, usize) {
-    match CueVertices::new(scene, world, saliency) {
+    match CueVertices::new(scene, world, saliency, parts) {
         Some(c) => (c.shown(pre), c.shown(fin)),
         None => (0, 0),
     }

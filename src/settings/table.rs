@@ -489,11 +489,6 @@ macro_rules! settings_table {
                     #[arg(long, help_heading = "Painterly effects", value_parser = finite_f64)] Option<f64>;
 
             // ---- saliency
-            saliency_method: SaliencyMethod = SaliencyMethod::Auto,
-                schema field(Enum).choices(choices::<SaliencyMethod>),
-                flag "How mesh saliency's Gaussian means are evaluated [default: auto]"
-                    #[arg(long, value_enum, help_heading = "Saliency")] Option<SaliencyMethod>;
-
             /// Weight of the subject's small separate parts in the saliency map, in [0, 1]: a part
             /// modelled as a mesh of its own (an eye, a beak, a valve cap) has no saliency of its
             /// own mesh's, so the planes would neither gather at it nor keep it whole.
@@ -502,6 +497,11 @@ macro_rules! settings_table {
                 check Message("{v} must be in {range}"),
                 flag "Weight of the subject's small separate parts (an eye, a beak, a valve cap modelled as meshes of their own, which mesh saliency scores 0) in the saliency map, 0..1; 0 = mesh saliency alone, the thesis [analytic, braque, blue-period, grisaille: 0.5]"
                     #[arg(long, help_heading = "Saliency", value_parser = finite_f64)] Option<f64>;
+
+            saliency_method: SaliencyMethod = SaliencyMethod::Auto,
+                schema field(Enum).choices(choices::<SaliencyMethod>),
+                flag "How mesh saliency's Gaussian means are evaluated [default: auto]"
+                    #[arg(long, value_enum, help_heading = "Saliency")] Option<SaliencyMethod>;
 
             /// Directory keeping per-mesh saliency across runs, keyed by mesh content (animation
             /// frames rendered by separate processes compute each mesh once). None: no disk cache.
