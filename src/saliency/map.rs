@@ -12,29 +12,23 @@ use crate::scene::World;
 /// The saliency map: `pixel_saliency`, raised to `params.parts` times each pixel's part
 /// saliency (`parts`) where that is higher.
 pub fn saliency_map(world: &World, sal: &MeshSaliency, film: &Film, params: &super::SaliencyParams) -> Vec<f32> {
-    let mut map = pixel_saliency(world, sal, film);
-    if params.parts > 0.0 {
-        let part = super::parts::part_saliency(world);
-        let spp = film.spp.max(1) as usize;
-        map.par_iter_mut().zip(film.samples.par_chunks(spp)).for_each(|(m, samples)| {
-            let sum: f32 = samples
-                .iter()
-                .filter(|s| s.is_hit())
-                .map(|s| part.get(world.object_of(s.tri) as usize).copied().unwrap_or(0.0))
-                .sum();
-            *m = m.max((params.parts * sum / spp as f32).clamp(0.0, 1.0));
-        });
-    }
-    map
+    let part = (params.parts > 0.0).then(|| super::parts::part_saliency(world));
+    map_of(world, sal, film, part.as_deref().map(|p| (p, params.parts)))
 }
 
 /// Per-pixel saliency in [0, 1]: the mean over ALL samples of the pixel, misses counting 0.
 pub fn pixel_saliency(world: &World, sal: &MeshSaliency, film: &Film) -> Vec<f32> {
+    map_of(world, sal, film, None)
+}
+
+/// `pixel_saliency`, and with `part` (each object's part saliency, its weight) the higher of
+/// that and the weighted mean of the samples' part saliency, in one pass over the samples.
+fn map_of(world: &World, sal: &MeshSaliency, film: &Film, part: Option<(&[f32], f32)>) -> Vec<f32> {
     let spp = film.spp.max(1) as usize;
     film.samples
         .par_chunks(spp)
         .map(|samples| {
-            let mut sum = 0.0f32;
+            let (mut sum, mut parts) = (0.0f32, 0.0f32);
             for s in samples.iter().filter(|s| s.is_hit()) {
                 let (o, local) = world.local_triangle(s.tri);
                 let mesh = world.objects[o as usize].mesh;
@@ -43,8 +37,15 @@ pub fn pixel_saliency(world: &World, sal: &MeshSaliency, film: &Film) -> Vec<f32
                 {
                     sum += (1.0 - s.u - s.v) * c[0] + s.u * c[1] + s.v * c[2];
                 }
+                if let Some((p, _)) = part {
+                    parts += p.get(o as usize).copied().unwrap_or(0.0);
+                }
             }
-            (sum / spp as f32).clamp(0.0, 1.0)
+            let mesh = (sum / spp as f32).clamp(0.0, 1.0);
+            match part {
+                Some((_, weight)) => mesh.max((weight * parts / spp as f32).clamp(0.0, 1.0)),
+                None => mesh,
+            }
         })
         .collect()
 }
