@@ -19,7 +19,7 @@ pub trait Effect: Send + Sync {
     fn apply(&self, canvas: &mut Canvas<'_>, ctx: &PaintContext) -> Result<()>;
     /// A colour transfer's luminance mapping for this canvas, to hold for a sequence
     /// (`Painter::hold`); None for every other effect.
-    fn palette_key(&self, _canvas: &Canvas<'_>) -> Option<palette::PaletteKey> {
+    fn palette_key(&self, _canvas: &Canvas<'_>, _ctx: &PaintContext) -> Option<palette::PaletteKey> {
         None
     }
     /// The region means this effect reads of this canvas that a sequence holds

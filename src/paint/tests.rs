@@ -306,6 +306,32 @@ fn plain_ranks_without_contrast_limit() {
 }
 
 #[test]
+fn ground_value_lifts_the_subject_above_a_ground_of_its_value() {
+    // A subject (row 0, hit pixels) of one value over a ground (row 1) whose values run from
+    // below it to above it: ranked as rendered it takes a middle level; with the ground ranked
+    // at 0.6 of its value, a level above the whole ground's, the ground keeping its own order.
+    let reference: Vec<Vec3> = (0..100).map(|k| Vec3::splat(k as f32 / 100.0)).collect();
+    let n = 40u32;
+    let paint = |ground: f32| {
+        let mut film = frame_with(n, 2, Vec3::ZERO, |_, _| Vec3::splat(0.3), |_, y| y == 0);
+        for x in 0..n {
+            film.color[(n + x) as usize] = Vec3::splat(0.2 + 0.3 * x as f32 / n as f32).extend(1.0);
+        }
+        let mut t = ColourTransfer::from_colours(&reference).unwrap();
+        t.contrast_limit = f64::INFINITY;
+        t.ground = ground;
+        run(Box::new(t), &mut film, None, false);
+        let (subject, ground) = film.color.split_at(n as usize);
+        (subject[0].x, ground.iter().map(|c| c.x).collect::<Vec<f32>>())
+    };
+    let (subject, ground) = paint(1.0);
+    assert!(ground.iter().any(|&g| g > subject) && ground.iter().any(|&g| g < subject));
+    let (subject, ground) = paint(0.6);
+    assert!(ground.iter().all(|&g| g < subject), "{subject} over {ground:?}");
+    assert!(ground.windows(2).all(|w| w[0] <= w[1]), "the ground's order: {ground:?}");
+}
+
+#[test]
 fn bad_palette_images_are_clear_errors() {
     let dir = tempfile::tempdir().unwrap();
     let missing = dir.path().join("missing.jpg");

@@ -65,6 +65,10 @@ impl Preset {
                 s.silhouette_width = 0.0;
                 s.silhouette_strength = 0.5;
                 s.palette = Palette::OchreGrey;
+                // The palette ranks the ground at 0.6 of its value, so a dark part of the
+                // subject (a brown bowl, a wooden handle) stands out of a ground of its own
+                // value (judged blind, round 63).
+                s.ground_value = 0.6;
                 s.gradients = 0.0;
                 s.colors = 0;
                 s.chiaroscuro = 0.3;
@@ -79,6 +83,9 @@ impl Preset {
                 s.stroke_length = 30.0;
                 s.stroke_width = 8.0;
                 s.value_contrast = 0.3;
+                // A lighter key over it: the darks stay deep against the lit planes, the
+                // whole no longer umber murk (judged blind, round 66).
+                s.value_lift = 1.4;
                 s.canvas_grain = 0.5;
             }
             Preset::Braque => {

@@ -150,7 +150,7 @@ impl Painter {
                 open_planes: self.open_planes,
                 sequence: Some(&sequence),
             };
-            if let Some(key) = e.palette_key(&canvas) {
+            if let Some(key) = e.palette_key(&canvas, &ctx) {
                 held.palette = Some(key);
                 // The palette paints this picture as the frames will, through the key.
                 let now = held.clone();
