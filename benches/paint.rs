@@ -65,7 +65,7 @@ fn main() {
     (unpainted.border_width, unpainted.silhouette_width, unpainted.gradients) = (0.0, 0.0, 0.0);
     (unpainted.palette, unpainted.colors, unpainted.chiaroscuro) = (Palette::None, 0, 0.0);
     (unpainted.plane_light, unpainted.brushwork, unpainted.canvas_grain) = (0.0, 0.0, 0.0);
-    unpainted.value_contrast = 0.0;
+    (unpainted.value_contrast, unpainted.value_lift, unpainted.ground_value) = (0.0, 1.0, 1.0);
     let rendered = render(&prep, &unpainted, &Progress::silent()).expect("render");
     let facets = rendered.facets;
     let film: Film = rendered.film;
@@ -120,7 +120,13 @@ fn main() {
             }),
         ),
         ("brushwork", only(&|s| s.brushwork = analytic.brushwork)),
-        ("values", only(&|s| s.value_contrast = analytic.value_contrast)),
+        (
+            "values",
+            only(&|s| {
+                s.value_contrast = analytic.value_contrast;
+                s.value_lift = analytic.value_lift
+            }),
+        ),
         ("canvas grain", only(&|s| s.canvas_grain = analytic.canvas_grain)),
         ("palette (ochre)", only(&|s| s.palette = Palette::Ochre)),
         ("palette (image)", only(&|s| s.palette_image = Some(painting.clone()))),

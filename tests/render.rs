@@ -123,35 +123,41 @@ fn default_pipeline_same_image_on_one_and_two_threads() {
 }
 
 /// Turned views (`--view-turn`) repaint the subject's planes, the same on 1 and 2 threads; the
-/// backdrop's corners change only as much as the whole picture's values move. The ground is
-/// ranked with the subject (`ground_value` 1): ranked below it, the ground's levels move with
-/// every change of the subject's darks (the corners 13.0 against the centre's 22.1).
+/// backdrop's corners change only as much as the whole picture's values move. With the ground
+/// ranked with the subject (`ground_value` 1), about a third of the centre's change; with the
+/// default's ground ranked below it, the ground's levels follow every change of the subject's
+/// darks, so its corners move more (a live session's backdrop shifts with an edit; a sequence
+/// holds its palette's key).
 #[test]
 fn turned_views_change_the_subject_on_any_thread_count() {
     let prep = Prepared::load(None).unwrap();
-    let base = Settings { width: 160, height: 120, ground_value: 1.0, ..Settings::default() };
-    let turned = Settings { view_turn: 45.0, ..base.clone() };
     let render_with = |s: &Settings, threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
         pool.install(|| cubist::render(&prep, s, &Progress::silent()).unwrap().image)
     };
-    let (a, b) = (render_with(&base, 2), render_with(&turned, 1));
-    assert_eq!(b, render_with(&turned, 2));
-    // Mean absolute difference over a box of pixels.
-    let diff = |x0: u32, y0: u32, x1: u32, y1: u32| {
-        let mut total = 0.0;
-        for y in y0..y1 {
-            for x in x0..x1 {
-                let (p, q) = (a.get_pixel(x, y).0, b.get_pixel(x, y).0);
-                total += (0..3).map(|k| (p[k] as f64 - q[k] as f64).abs()).sum::<f64>();
+    // The centre's and the corner's mean absolute change (160 x 120).
+    let change = |ground_value: f64| {
+        let base = Settings { width: 160, height: 120, ground_value, ..Settings::default() };
+        let turned = Settings { view_turn: 45.0, ..base.clone() };
+        let (a, b) = (render_with(&base, 2), render_with(&turned, 1));
+        assert_eq!(b, render_with(&turned, 2));
+        let diff = |x0: u32, y0: u32, x1: u32, y1: u32| {
+            let mut total = 0.0;
+            for y in y0..y1 {
+                for x in x0..x1 {
+                    let (p, q) = (a.get_pixel(x, y).0, b.get_pixel(x, y).0);
+                    total += (0..3).map(|k| (p[k] as f64 - q[k] as f64).abs()).sum::<f64>();
+                }
             }
-        }
-        total / ((x1 - x0) * (y1 - y0) * 3) as f64
+            total / ((x1 - x0) * (y1 - y0) * 3) as f64
+        };
+        (diff(50, 30, 110, 90), diff(0, 0, 20, 20))
     };
-    // The corners move with the whole picture's values (the palette's ranks are the whole
-    // canvas's): about a third of the centre's change (20.0 against 6.9 at 160 x 120).
-    let (centre, corner) = (diff(50, 30, 110, 90), diff(0, 0, 20, 20));
+    // Measured: 20.1 against 6.9 ranked together; 22.4 against 13.0 by default.
+    let (centre, corner) = change(1.0);
     assert!(centre > 3.0 && centre > 2.5 * corner, "centre {centre:.2}, corner {corner:.2}");
+    let (centre, corner) = change(Settings::default().ground_value);
+    assert!(centre > 3.0 && centre > 1.5 * corner, "default: centre {centre:.2}, corner {corner:.2}");
 }
 
 /// Adaptive anti-aliasing (the default threshold) against `spp` samples at every pixel

@@ -44,6 +44,7 @@ pub mod plane_light;
 pub mod planes;
 pub mod quantise;
 pub mod ranks;
+pub mod region_means;
 pub mod sequence;
 pub mod silhouettes;
 pub mod values;

@@ -29,9 +29,9 @@ pub struct PaletteParams {
     pub image: Option<std::path::PathBuf>,
     /// The ochre-grey palette's plane hues (`PlaneHues`).
     pub seed: u64,
-    /// The ground's luminance, as a share, where the palette ranks the values
+    /// The share of its luminance the ground (background, open planes) is ranked at
     /// (`ColourTransfer::ranked_luminances`).
-    pub ground: f64,
+    pub ground_value: f64,
 }
 
 /// How far the ochre palette turns a plane at the canvas's edge towards its grey or green
@@ -46,11 +46,11 @@ impl EffectParams for PaletteParams {
     fn build(&self) -> Result<Box<dyn Effect>> {
         Ok(match (&self.image, ramp(self.palette)) {
             (Some(path), _) => {
-                Box::new(ColourTransfer { ground: self.ground as f32, ..ColourTransfer::from_image(path)? })
+                Box::new(ColourTransfer { ground_value: self.ground_value as f32, ..ColourTransfer::from_image(path)? })
             }
             (None, Some(ramp)) => {
-                let mut t = ColourTransfer::from_ramp(ramp);
-                t.ground = self.ground as f32;
+                let mut t =
+                    ColourTransfer { ground_value: self.ground_value as f32, ..ColourTransfer::from_ramp(ramp) };
                 // The ochre-grey palette of 1910-11 is not one hue: greys and greens too.
                 if self.palette == Palette::OchreGrey {
                     t.hues = Some(PlaneHues { strength: PLANE_HUE_STRENGTH, seed: self.seed });
@@ -213,9 +213,9 @@ pub struct ColourTransfer {
     /// Cool greys and grey-greens among the ochres, plane by plane (`PlaneHues`); None: the
     /// reference's colours only.
     pub hues: Option<PlaneHues>,
-    /// The ground's luminance, as a share, where the values are ranked (`ranked_luminances`); 1:
-    /// ranked as painted.
-    pub ground: f32,
+    /// The share of its luminance the ground (background, open planes) is ranked at
+    /// (`ranked_luminances`); 1: ranked as painted.
+    pub ground_value: f32,
 }
 
 /// A narrow palette that is not one hue: warm ochres at the composition's lit centre, cooler
@@ -255,7 +255,7 @@ impl ColourTransfer {
     /// A built-in palette: its ramp sampled at `LEVELS` quantiles.
     pub fn from_ramp(ramp: &Ramp) -> ColourTransfer {
         let levels = (0..LEVELS).map(|k| ramp.at((k as f32 + 0.5) / LEVELS as f32)).collect();
-        ColourTransfer { levels, contrast_limit: CONTRAST_LIMIT, hues: None, ground: 1.0 }
+        ColourTransfer { levels, contrast_limit: CONTRAST_LIMIT, hues: None, ground_value: 1.0 }
     }
 
     /// A painting (PNG or JPEG, any size); fully transparent pixels are not part of it.
@@ -297,7 +297,7 @@ impl ColourTransfer {
         order.par_sort_unstable();
         let sorted: Vec<Vec3> = order.iter().map(|k| colours[(*k & 0xffff_ffff) as usize]).collect();
         let levels = choose_levels(&sorted, LEVELS);
-        Ok(ColourTransfer { levels, contrast_limit: CONTRAST_LIMIT, hues: None, ground: 1.0 })
+        Ok(ColourTransfer { levels, contrast_limit: CONTRAST_LIMIT, hues: None, ground_value: 1.0 })
     }
 
     /// The reference's colours, darkest first.
@@ -424,16 +424,17 @@ impl PaletteKey {
 impl ColourTransfer {
     /// Each pixel's luminance as the palette ranks it (-1 where the effects do not paint): the
     /// ground's (the background and the planes open across the outline, `is_subject`) times
-    /// `ground`. Below 1 the subject takes the upper, lighter part of the palette and the ground
-    /// the lower, so a dark part of the subject (a brown bowl, a wooden handle) stands out of a
-    /// ground of its own value, as the 1910 canvases gather the light on the figure.
+    /// `ground_value`. Below 1 the subject takes the upper, lighter part of the palette and
+    /// the ground the lower, so a dark part of the subject (a brown bowl, a wooden handle)
+    /// stands out of a ground of its own value, as the 1910 canvases gather the light on the
+    /// figure. A transparent canvas paints no background: only its open planes are ground.
     fn ranked_luminances(&self, canvas: &Canvas<'_>, ctx: &PaintContext) -> Vec<f32> {
         let mut lum = painted_luminances(canvas);
-        if self.ground < 1.0 {
+        if self.ground_value < 1.0 {
             let regions = ctx.regions(lum.len());
             lum.par_iter_mut().zip(regions.par_iter()).for_each(|(l, &r)| {
                 if *l > 0.0 && !is_subject(r) {
-                    *l *= self.ground;
+                    *l *= self.ground_value;
                 }
             });
         }

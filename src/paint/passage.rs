@@ -7,8 +7,8 @@
 //! another facet or another object, the background counting as one), so the subject's
 //! contours are drawn the same way, without the silhouette halo. For every pixel within md
 //! of an edge, the feature transform (`distance::nearest_features`) gives the nearest edge
-//! pixel, hence the pair of pixels facing each other across the edge, and each side's value
-//! a little way in:
+//! pixel, hence the pair of pixels facing each other across the edge, and each side's value,
+//! its region's mean (the plane's, not the strokes' dabs at the edge):
 //! - the darker side takes the line (`border_profile::drawn_line`: a quarter of the colour
 //!   over a narrow core, then a quick rise into its own plane), on that side only, so the
 //!   line is crisp against both sides, a painter's line rather than a shadow; drawn by the
@@ -33,6 +33,7 @@ use super::borders::BorderParams;
 use super::edge_smoothing;
 use super::noise::Grid2;
 use super::planes::smoothstep;
+use super::region_means::region_means;
 use super::{Canvas, Effect, EffectParams, PaintContext, darken, luminance};
 use crate::distance::NO_FEATURE;
 use crate::error::Result;
@@ -248,22 +249,21 @@ fn direction(w: usize, a: usize, b: usize) -> u32 {
 }
 
 /// What a pair (a, b) facing each other across an edge reads besides the colour: both
-/// pixels, their inward pixels (`step` in), their lost-and-found values (a's, b's) and the
-/// tie-break (a's region before b's). The same on every run over these edges with the same
-/// step and seed: a session keeps it, so a colour change upstream reads only the colours
-/// (`Side`). `a` = `NONE`: no pair.
+/// pixels, b's inward pixel (`step` in, whose colour a blends in), their lost-and-found
+/// values (a's, b's) and the tie-break (a's region before b's). The same on every run over
+/// these edges with the same step and seed: a session keeps it, so a colour change upstream
+/// reads only the colours (`Side`). `a` = `NONE`: no pair.
 #[derive(Clone, Copy)]
 struct Geometry {
     a: u32,
     b: u32,
-    a_in: u32,
     b_in: u32,
     lost_found: [f32; 2],
     below: bool,
 }
 
 impl Geometry {
-    const NONE: Geometry = Geometry { a: u32::MAX, b: 0, a_in: 0, b_in: 0, lost_found: [0.0; 2], below: false };
+    const NONE: Geometry = Geometry { a: u32::MAX, b: 0, b_in: 0, lost_found: [0.0; 2], below: false };
 }
 
 /// A pair's values for one run: the colour of b's inward pixel before passage (what a's side
@@ -320,33 +320,34 @@ impl Effect for Passage {
             smoothstep(0.25, 0.75, grid.value2(seed, at.x / period, at.y / period))
         };
         let (coverage, px) = canvas.coverage_and_pixels();
-        // The colours before (what the other side blends in; alpha is not read) and their
-        // values, read before any pixel changes.
-        let lum = |i: usize| luminance(px[i].truncate()).max(0.0);
-        // What a pair (a, b) facing each other across an edge reads besides the colour: each
-        // side's value is read a little way in (a on the pixel's side; the tie-break's region
-        // of the pixel is a's), and b's inward pixel.
+        // The colours before (what the other side blends in; alpha is not read) and each
+        // region's value (its mean's), read before any pixel changes: a join weighs its two
+        // planes, not the strokes' dabs at it, which would turn its line on and off, and from
+        // side to side, dab by dab (a dashed, stitched seam).
+        let mut means = region_means(px, &regions, &coverage);
+        // A sequence's background and open planes take the layout frame's means
+        // (`sequence::Held::means`), as the strokes do: the subject moving over part of one
+        // must not move its joins' lines far from the subject.
+        if let Some(held) = ctx.held().and_then(|h| h.means.as_ref()) {
+            means.extend(held.iter().map(|(r, m)| (*r, *m)));
+        }
+        let value = |i: usize| means.get(&regions[i]).map_or(0.0, |m| luminance(*m).max(0.0));
+        // What a pair (a, b) facing each other across an edge reads besides the colour and the
+        // two regions' values: b's inward pixel, whose colour a takes where the line is lost
+        // (a on the pixel's side; the tie-break's region of the pixel is a's).
         let geometry = |a: usize, b: usize, lost_found: [f32; 2]| -> Geometry {
             let (dx, dy) = ((b % w) as i64 - (a % w) as i64, (b / w) as i64 - (a / w) as i64);
             let (nx, ny) = if dx.abs() >= dy.abs() { (dx.signum(), 0) } else { (0, dy.signum()) };
-            let (a_in, b_in) = (inward(a, -nx, -ny), inward(b, nx, ny));
-            Geometry {
-                a: a as u32,
-                b: b as u32,
-                a_in: a_in as u32,
-                b_in: b_in as u32,
-                lost_found,
-                below: key(a) < key(b),
-            }
+            let b_in = inward(b, nx, ny);
+            Geometry { a: a as u32, b: b as u32, b_in: b_in as u32, lost_found, below: key(a) < key(b) }
         };
         // What a pair gives on this picture: the two sides' values.
         let side = |g: &Geometry| -> Side {
             if g.a == u32::MAX {
                 return Side::default();
             }
-            let (a, b, a_in, b_in) = (g.a as usize, g.b as usize, g.a_in as usize, g.b_in as usize);
-            let va = 0.5 * (lum(a) + lum(a_in));
-            let vb = 0.5 * (lum(b) + lum(b_in));
+            let (a, b, b_in) = (g.a as usize, g.b as usize, g.b_in as usize);
+            let (va, vb) = (value(a), value(b));
             Side {
                 across: px[b_in].truncate(),
                 painted: coverage.is_painted(b_in),

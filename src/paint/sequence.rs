@@ -64,7 +64,8 @@ pub struct Held {
     pub open: Option<Vec<bool>>,
     /// Per facet id: the plane's share of ground (`PaintContext::ground_shares`).
     pub ground: Option<Vec<f32>>,
-    /// The brushwork's region means for the background's and the open planes' regions.
+    /// The region means of the background's and the open planes' regions, as the brushwork
+    /// reads the picture (the strokes go towards them; passage weighs a join's sides by them).
     pub means: Option<RegionMeans>,
     /// The median plane's pixels, which the brushwork sizes each plane's strokes against
     /// (`brushwork::plane_scales`).

@@ -319,7 +319,7 @@ fn ground_value_lifts_the_subject_above_a_ground_of_its_value() {
         }
         let mut t = ColourTransfer::from_colours(&reference).unwrap();
         t.contrast_limit = f64::INFINITY;
-        t.ground = ground;
+        t.ground_value = ground;
         run(Box::new(t), &mut film, None, false);
         let (subject, ground) = film.color.split_at(n as usize);
         (subject[0].x, ground.iter().map(|c| c.x).collect::<Vec<f32>>())
@@ -329,6 +329,33 @@ fn ground_value_lifts_the_subject_above_a_ground_of_its_value() {
     let (subject, ground) = paint(0.6);
     assert!(ground.iter().all(|&g| g < subject), "{subject} over {ground:?}");
     assert!(ground.windows(2).all(|w| w[0] <= w[1]), "the ground's order: {ground:?}");
+}
+
+#[test]
+fn ground_value_holds_for_a_sequence_as_for_a_still() {
+    // An animation decides the palette's mapping on one picture and looks every frame up in
+    // it: that picture painted as a frame paints as the still does, ground lowered and all.
+    let reference: Vec<Vec3> = (0..100).map(|k| Vec3::splat(k as f32 / 100.0)).collect();
+    let n = 40u32;
+    let mut film = frame_with(n, 2, Vec3::ZERO, |_, _| Vec3::splat(0.3), |_, y| y == 0);
+    for x in 0..n {
+        film.color[(n + x) as usize] = Vec3::splat(0.2 + 0.3 * x as f32 / n as f32).extend(1.0);
+    }
+    let mut t = ColourTransfer::from_colours(&reference).unwrap();
+    t.ground_value = 0.6;
+    let painter = Painter::from_effects(vec![Box::new(t)], [0.0; 3], false);
+    let mut still = film.clone();
+    painter.apply(&mut still, None, None).unwrap();
+    let held = painter.hold(&film, None, None, &sequence::Sequence::default()).unwrap();
+    let mut frame = film.clone();
+    painter
+        .apply_sequence(&mut frame, None, None, &sequence::Sequence { held: Some(&held), ..Default::default() })
+        .unwrap();
+    for (i, (a, b)) in still.color.iter().zip(&frame.color).enumerate() {
+        assert!((a.x - b.x).abs() <= 0.02, "pixel {i}: still {a}, frame {b}");
+    }
+    let (subject, ground) = frame.color.split_at(n as usize);
+    assert!(ground.iter().all(|g| g.x < subject[0].x));
 }
 
 #[test]

@@ -11,6 +11,7 @@ use super::edge_smoothing;
 use super::noise::Grid2;
 use super::passage::{BLEND, LOST_PERIOD, Passage, SALT, neighbours_rdlu};
 use super::planes::smoothstep;
+use super::region_means::region_means;
 use super::tests::voronoi;
 use super::*;
 use crate::distance::NO_FEATURE;
@@ -51,9 +52,12 @@ impl Effect for Reference {
         };
         let edges = ctx.edges(w as u32, h as u32, md);
         let (dist, near) = (&edges.dist, &edges.near);
-        // The colours before (what the other side blends in; alpha is not read).
+        // The colours before (what the other side blends in; alpha is not read), and each
+        // region's value, its mean colour's.
         let before: Vec<Vec3> = canvas.px.par_iter().map(|p| p.truncate()).collect();
-        let lum: Vec<f32> = before.par_iter().map(|p| luminance(*p).max(0.0)).collect();
+        let all: Vec<u64> = (0..w * h).map(key).collect();
+        let means = region_means(&*canvas.px, &all, &Coverage(canvas.coverage.as_deref()));
+        let value = |i: usize| means.get(&key(i)).map_or(0.0, |m| luminance(*m).max(0.0));
         // A 4-neighbour of q (right, down, left, up: fixed order) that is (`want` = true) or
         // is not in the region of `of`.
         let neighbour = |q: usize, of: usize, want: bool| -> Option<usize> {
@@ -80,10 +84,7 @@ impl Effect for Reference {
         let sides = |a: usize, b: usize| -> (usize, f32, f32) {
             let (dx, dy) = ((b % w) as i64 - (a % w) as i64, (b / w) as i64 - (a / w) as i64);
             let (nx, ny) = if dx.abs() >= dy.abs() { (dx.signum(), 0) } else { (0, dy.signum()) };
-            let (a_in, b_in) = (inward(a, -nx, -ny), inward(b, nx, ny));
-            let va = 0.5 * (lum[a] + lum[a_in]);
-            let vb = 0.5 * (lum[b] + lum[b_in]);
-            (b_in, va, vb)
+            (inward(b, nx, ny), value(a), value(b))
         };
         let lost_found =
             |q: usize| smoothstep(0.25, 0.75, grid.value2(seed, (q % w) as f32 / period, (q / w) as f32 / period));

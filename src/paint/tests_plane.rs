@@ -200,6 +200,42 @@ fn passage_darkens_one_side_only_with_a_hard_edge() {
 }
 
 #[test]
+fn passage_keeps_a_join_on_its_darker_plane_through_its_dabs() {
+    // The left plane hatched in dabs two rows high, alternately 0.1 and 0.4 (its mean 0.25),
+    // beside a flat 0.3: the line lies on the left, the darker plane, along the whole join,
+    // not on whichever side is darker dab by dab (a seam that turns on and off and changes
+    // sides, stitched).
+    let (w, h) = (160u32, 120u32);
+    let facets = halves(w, h, 80);
+    let base = |x: u32, y: u32| {
+        if x >= 80 {
+            0.3
+        } else if (y / 2).is_multiple_of(2) {
+            0.1
+        } else {
+            0.4
+        }
+    };
+    let mut frame = flat(w, h, Vec3::ONE);
+    for (i, c) in frame.color.iter_mut().enumerate() {
+        *c = Vec3::splat(base(i as u32 % w, i as u32 / w)).extend(1.0);
+    }
+    let md = 12.0;
+    run(Box::new(Passage { width: md, strength: 1.0, seed: 3 }), &mut frame, Some(&facets));
+    let at = |x: u32, y: u32| frame.color[(y * w + x) as usize].x;
+    for y in (0..h).filter(|y| !(y / 2).is_multiple_of(2)) {
+        // A light dab: darkened by the line, past the blend band ...
+        let dark = at(79 - 6, y) / base(79 - 6, y);
+        assert!(dark < 1.0 - (1.0 - drawn_line(6.0, md)) * passage::LOST * passage::FLOOR + 1e-5, "row {y}: {dark}");
+        // ... and the flat plane beside it, darker than the dab, never darkened (only blended
+        // towards the lighter dab where the line is weak).
+        for x in 80..w {
+            assert!(at(x, y) >= 0.3 - 1e-5, "row {y}, x {x}: {}", at(x, y));
+        }
+    }
+}
+
+#[test]
 fn passage_lines_come_and_go_along_a_border() {
     // Lost and found: along a long border of two equal planes the line's strength varies.
     let (w, h) = (64u32, 1000u32);

@@ -4,7 +4,8 @@
 //! 1910 canvases, instead of every value sitting in the middle of the range.
 //!
 //! Then a lift: every value times one factor, the whole picture in a lighter key (the
-//! silvery middle tones of 1910-11 rather than umber murk), the values' order and ratios kept.
+//! silvery middle tones of 1910-11 rather than umber murk), the values' order and ratios kept
+//! below white (a channel lifted past it clips in the encoding).
 //!
 //! The curve is the same on every picture (a power about `PIVOT`, no statistic of the
 //! picture), so an animation's frames keep their values where the scene holds still and a

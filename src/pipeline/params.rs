@@ -242,7 +242,7 @@ pub fn paint(s: &Settings) -> PaintParams {
             },
             image: s.palette_image.clone(),
             seed,
-            ground: s.ground_value,
+            ground_value: s.ground_value,
         },
         quantise: QuantiseParams { colors: s.colors },
         plane_light: PlaneLightParams { amount: s.plane_light, seed, steps: s.light_steps },

@@ -412,13 +412,14 @@ macro_rules! settings_table {
                 flag "A painting (PNG/JPEG, any size) whose colours are mapped onto the luminance ranks; overrides --palette"
                     #[arg(long, value_name = "IMAGE", help_heading = "Painterly effects")] Option<PathBuf>;
 
-            /// The ground's luminance, as a share, where the palette ranks the values, in (0, 1]:
-            /// below 1 the subject takes the lighter part of the palette and the ground the
-            /// darker (the figure stands out of its ground); 1 = ranked as rendered.
+            /// The share of its luminance the ground (the background and the planes open across
+            /// the outline) is ranked at by the palette, in [0.05, 1]: below 1 the subject takes
+            /// the lighter part of the palette and the ground the darker (the figure stands out
+            /// of its ground); 1 = ranked as rendered.
             ground_value: f64 = 1.0,
-                schema field(Number).range(Range::closed(0.0, 1.0).open_min()),
+                schema field(Number).range(Range::closed(0.05, 1.0)),
                 check Message("{v} must be in {range}"),
-                flag "The ground's luminance, as a share, where the palette ranks the values: below 1 the subject takes the lighter part of the palette and the ground the darker; 1 = as rendered [analytic: 0.6]"
+                flag "The share of its luminance the ground (background, planes open across the outline) is ranked at by the palette, 0.05..1: below 1 the subject takes the palette's lighter part; 1 = as rendered; needs a palette [analytic: 0.6]"
                     #[arg(long, help_heading = "Painterly effects", value_parser = finite_f64)] Option<f64>;
 
             /// Quantise to this many colours; 0 = off.
@@ -491,12 +492,12 @@ macro_rules! settings_table {
                 flag "Spread of the paint's values about the middle (darker darks, lighter lights), 0..1; 0 = off [analytic: 0.3]"
                     #[arg(long, help_heading = "Painterly effects", value_parser = finite_f64)] Option<f64>;
 
-            /// The finished paint's values times this factor, in (0, 4]: above 1 a lighter key
-            /// (order and ratios kept); 1 = off.
+            /// The finished paint's values times this factor, in [0.1, 4]: above 1 a lighter key
+            /// (order and ratios kept below white); 1 = off.
             value_lift: f64 = 1.0,
-                schema field(Number).range(Range::closed(0.0, 4.0).open_min()),
+                schema field(Number).range(Range::closed(0.1, 4.0)),
                 check Message("{v} must be in {range}"),
-                flag "The paint's values times this factor, after their spread: above 1 a lighter key; 1 = off [analytic: 1.4]"
+                flag "The paint's values times this factor, after their spread, 0.1..4: above 1 a lighter key; 1 = off [analytic: 1.4]"
                     #[arg(long, help_heading = "Painterly effects", value_parser = finite_f64)] Option<f64>;
 
             /// Canvas weave showing through the paint, in [0, 1]; 0 = off.

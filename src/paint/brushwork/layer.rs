@@ -399,24 +399,3 @@ pub(super) fn span(s: &Stroke, py: f32, x0: usize, x1: usize) -> Option<(usize, 
     let b = if b.is_finite() { (b.max(0.0) as usize).min(x1) } else { x1 };
     (a < b).then_some((a, b))
 }
-
-/// Each region's mean colour over its painted pixels (`regions`: facet << 32 | object),
-/// summed in pixel order (the same sums on any thread count).
-pub(super) fn plane_means(source: &[Vec4], regions: &[Region], coverage: &Coverage) -> RegionMeans {
-    let mut sums: std::collections::HashMap<Region, ([f64; 3], u64)> = std::collections::HashMap::new();
-    for (i, (p, r)) in source.iter().zip(regions).enumerate() {
-        if coverage.is_painted(i) {
-            let s = sums.entry(*r).or_insert(([0.0; 3], 0));
-            s.0[0] += p.x as f64;
-            s.0[1] += p.y as f64;
-            s.0[2] += p.z as f64;
-            s.1 += 1;
-        }
-    }
-    sums.into_iter()
-        .map(|(r, (c, n))| {
-            let n = n.max(1) as f64;
-            (r, Vec3::new((c[0] / n) as f32, (c[1] / n) as f32, (c[2] / n) as f32))
-        })
-        .collect()
-}

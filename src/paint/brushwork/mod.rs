@@ -39,12 +39,13 @@ use super::inputs::is_subject;
 use super::noise::lattice1;
 use super::plane_light::Oval;
 use super::planes::Plane;
+use super::region_means::region_means;
 use super::sequence::RegionMeans;
 use super::{Canvas, Coverage, Effect, EffectParams, PaintContext, luminance};
 use crate::error::Result;
 use crate::strokes::{Grid, SeedSource};
 use crate::util::rng::{splitmix64, sub_seed, unit_f64};
-use layer::{SAMPLES_AT, Stroke, StrokeLayer, Surface, Tint, composite, plane_means};
+use layer::{SAMPLES_AT, Stroke, StrokeLayer, Surface, Tint, composite};
 use plan::Fragments;
 pub use plan::StrokePlan;
 
@@ -367,7 +368,7 @@ impl Effect for Brushwork {
     /// `sequence::Held::means`).
     fn region_means(&self, canvas: &Canvas<'_>, ctx: &PaintContext) -> Option<RegionMeans> {
         let regions = ctx.regions(canvas.pixel_count());
-        let means = plane_means(canvas.px, &regions, &Coverage(canvas.coverage.as_deref()));
+        let means = region_means(canvas.px, &regions, &Coverage(canvas.coverage.as_deref()));
         Some(means.into_iter().filter(|(r, _)| !is_subject(*r)).collect())
     }
 
@@ -422,7 +423,7 @@ impl Effect for Brushwork {
             (None, None) => unreachable!("a layer is made when no plan is kept"),
         };
         let source: &[Vec4] = px;
-        let mut means = plane_means(source, &regions, &surface.coverage);
+        let mut means = region_means(source, &regions, &surface.coverage);
         // A sequence's background and open planes take the layout frame's means
         // (`sequence::Held::means`): the subject covering part of one does not change it. One
         // the layout frame did not show keeps none (its strokes take the picture under them):

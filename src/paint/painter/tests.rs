@@ -262,10 +262,13 @@ fn the_thesis_borders_stay_reachable() {
     assert_eq!(s.border_style, crate::settings::BorderStyle::Passage);
     s.border_style = crate::settings::BorderStyle::Symmetric;
     assert!(Painter::new(&paint(&s)).unwrap().names().contains(&"borders"));
-    // A preset without the look's paint has none of it.
-    let plain = Settings::preset(Preset::Plain);
-    assert_eq!((plain.plane_light, plain.brushwork, plain.value_contrast, plain.canvas_grain), (0.0, 0.0, 0.0, 0.0));
-    assert_eq!(plain.border_style, crate::settings::BorderStyle::Symmetric);
+    // A preset without the look's paint has none of it; the paper's method none either.
+    for p in [Preset::Plain, Preset::Thesis] {
+        let s = Settings::preset(p);
+        assert_eq!((s.plane_light, s.brushwork, s.value_contrast, s.canvas_grain), (0.0, 0.0, 0.0, 0.0));
+        assert_eq!((s.ground_value, s.value_lift), (1.0, 1.0));
+        assert_eq!(s.border_style, crate::settings::BorderStyle::Symmetric);
+    }
 }
 
 #[test]
