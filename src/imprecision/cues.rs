@@ -410,7 +410,7 @@ mod tests {
         assert_eq!(pre.film.spp, 1);
         let mesh =
             crate::saliency::for_film(&prep.scene, &prep.world, &prep.saliency, &pre.film, &params.saliency).unwrap();
-        let cues = CueVertices::new(&prep.scene, &prep.world, &mesh.per_mesh, params.saliency.parts > 0.0).unwrap();
+        let cues = CueVertices::new(&prep.scene, &prep.world, &mesh.per_mesh, params.saliency.reads_parts()).unwrap();
         let before = cues.seen(&pre.film);
         let shown_before = before.iter().filter(|&&b| b).count();
         assert!(shown_before >= 10, "{shown_before}");

@@ -108,7 +108,7 @@ pub struct Render<'a> {
     pub scene: &'a Scene,
     pub world: &'a World,
     pub vertex_saliency: &'a [Option<Arc<Vec<f32>>>],
-    /// Whether the saliency map holds the small parts (`SaliencyParams::parts` > 0): the cue
+    /// Whether the saliency map holds the small parts (`SaliencyParams::reads_parts`): the cue
     /// vertices then count them too, as the imprecision stage does.
     pub parts: bool,
     /// The pre-render's per-pixel saliency map.

@@ -59,7 +59,7 @@ pub fn look(prep: &Prepared, settings: &Settings, scene_name: &str) -> Result<Lo
         scene: &prep.scene,
         world: &prep.world,
         vertex_saliency: &saliency.per_mesh,
-        parts: params.saliency.parts > 0.0,
+        parts: params.saliency.reads_parts(),
         saliency_map: &saliency_map,
         stretch,
         time_ms,

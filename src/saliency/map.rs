@@ -12,7 +12,7 @@ use crate::scene::World;
 /// The saliency map: `pixel_saliency`, raised to `params.parts` times each pixel's part
 /// saliency (`parts`) where that is higher.
 pub fn saliency_map(world: &World, sal: &MeshSaliency, film: &Film, params: &super::SaliencyParams) -> Vec<f32> {
-    let part = (params.parts > 0.0).then(|| super::parts::part_saliency(world));
+    let part = params.reads_parts().then(|| super::parts::part_saliency(world));
     map_of(world, sal, film, part.as_deref().map(|p| (p, params.parts)))
 }
 

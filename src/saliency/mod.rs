@@ -76,6 +76,14 @@ pub struct SaliencyParams {
     pub parts: f32,
 }
 
+impl SaliencyParams {
+    /// Whether the small parts are salient at all: the map holds them and the re-aim's cue
+    /// vertices count them (`imprecision::cues::CueVertices`).
+    pub fn reads_parts(&self) -> bool {
+        self.parts > 0.0
+    }
+}
+
 /// Bumped whenever the definition or its numbers change, so stale cache entries are ignored.
 pub const ALGORITHM_VERSION: u32 = 4;
 

@@ -63,7 +63,7 @@ pub fn aims_stage(
             .filter(|_| params.reads_saliency() && film.saliency.is_some())
             .and_then(|(prep, p)| crate::saliency::for_film(&prep.scene, &prep.world, &prep.saliency, film, p).ok());
         let cues = mesh.zip(saliency.as_ref()).and_then(|((prep, p), s)| {
-            imprecision::cues::CueVertices::new(&prep.scene, &prep.world, &s.per_mesh, p.parts > 0.0)
+            imprecision::cues::CueVertices::new(&prep.scene, &prep.world, &s.per_mesh, p.reads_parts())
         });
         let hits = imprecision::guard::apply(&mut aims, ctx, map, &by_facet, film, cues.as_ref(), params);
         // Turned views last: they turn the rays the rules above settled.
