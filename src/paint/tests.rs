@@ -305,18 +305,24 @@ fn plain_ranks_without_contrast_limit() {
     }
 }
 
+/// A grey reference ramp of 100 levels, and an `n` x 2 picture: a subject (row 0, hit pixels)
+/// of value 0.3 over a ground (row 1) whose values run from 0.2 to 0.5, below it to above it.
+fn subject_over_a_ground_ramp(n: u32) -> (Vec<Vec3>, Film) {
+    let reference: Vec<Vec3> = (0..100).map(|k| Vec3::splat(k as f32 / 100.0)).collect();
+    let mut film = frame_with(n, 2, Vec3::ZERO, |_, _| Vec3::splat(0.3), |_, y| y == 0);
+    for x in 0..n {
+        film.color[(n + x) as usize] = Vec3::splat(0.2 + 0.3 * x as f32 / n as f32).extend(1.0);
+    }
+    (reference, film)
+}
+
 #[test]
 fn ground_value_lifts_the_subject_above_a_ground_of_its_value() {
-    // A subject (row 0, hit pixels) of one value over a ground (row 1) whose values run from
-    // below it to above it: ranked as rendered it takes a middle level; with the ground ranked
-    // at 0.6 of its value, a level above the whole ground's, the ground keeping its own order.
-    let reference: Vec<Vec3> = (0..100).map(|k| Vec3::splat(k as f32 / 100.0)).collect();
+    // Ranked as rendered the subject takes a middle level; with the ground ranked at 0.6 of
+    // its value, a level above the whole ground's, the ground keeping its own order.
     let n = 40u32;
     let paint = |ground: f32| {
-        let mut film = frame_with(n, 2, Vec3::ZERO, |_, _| Vec3::splat(0.3), |_, y| y == 0);
-        for x in 0..n {
-            film.color[(n + x) as usize] = Vec3::splat(0.2 + 0.3 * x as f32 / n as f32).extend(1.0);
-        }
+        let (reference, mut film) = subject_over_a_ground_ramp(n);
         let mut t = ColourTransfer::from_colours(&reference).unwrap();
         t.contrast_limit = f64::INFINITY;
         t.ground_value = ground;
@@ -335,12 +341,8 @@ fn ground_value_lifts_the_subject_above_a_ground_of_its_value() {
 fn ground_value_holds_for_a_sequence_as_for_a_still() {
     // An animation decides the palette's mapping on one picture and looks every frame up in
     // it: that picture painted as a frame paints as the still does, ground lowered and all.
-    let reference: Vec<Vec3> = (0..100).map(|k| Vec3::splat(k as f32 / 100.0)).collect();
     let n = 40u32;
-    let mut film = frame_with(n, 2, Vec3::ZERO, |_, _| Vec3::splat(0.3), |_, y| y == 0);
-    for x in 0..n {
-        film.color[(n + x) as usize] = Vec3::splat(0.2 + 0.3 * x as f32 / n as f32).extend(1.0);
-    }
+    let (reference, film) = subject_over_a_ground_ramp(n);
     let mut t = ColourTransfer::from_colours(&reference).unwrap();
     t.ground_value = 0.6;
     let painter = Painter::from_effects(vec![Box::new(t)], [0.0; 3], false);
