@@ -63,6 +63,7 @@ fn main() {
     let mut unpainted = Settings::default();
     (unpainted.width, unpainted.height) = (SIDE, SIDE);
     (unpainted.border_width, unpainted.silhouette_width, unpainted.gradients) = (0.0, 0.0, 0.0);
+    unpainted.contour_width = 0.0;
     (unpainted.palette, unpainted.colors, unpainted.chiaroscuro) = (Palette::None, 0, 0.0);
     (unpainted.plane_light, unpainted.brushwork, unpainted.canvas_grain) = (0.0, 0.0, 0.0);
     (unpainted.value_contrast, unpainted.value_lift, unpainted.ground_value) = (0.0, 1.0, 1.0);
@@ -120,6 +121,13 @@ fn main() {
             }),
         ),
         ("brushwork", only(&|s| s.brushwork = analytic.brushwork)),
+        (
+            "contours",
+            only(&|s| {
+                s.contour_width = analytic.contour_width;
+                s.contour_strength = analytic.contour_strength
+            }),
+        ),
         (
             "values",
             only(&|s| {

@@ -31,7 +31,7 @@ SOFT = {
     "grid_cells": (None, 400), "patch_count": (None, 1000), "occlusion": (None, 10.0), "superpixels": (None, 5000),
     "weight_colour": (None, 4.0), "weight_normal": (None, 4.0), "weight_depth": (None, 4.0),
     "weight_saliency": (None, 4.0), "discontinuity": (None, 400.0), "neighborhood": (None, 200.0),
-    "border_width": (None, 50.0), "silhouette_width": (None, 50.0), "colors": (None, 64),
+    "border_width": (None, 50.0), "silhouette_width": (None, 50.0), "contour_width": (None, 20.0), "colors": (None, 64),
     "stroke_length": (2.0, 80.0), "stroke_width": (1.0, 30.0),
     "background": (None, 1.0),
 }

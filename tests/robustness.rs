@@ -598,6 +598,7 @@ fn painterly_effects_on_tiny_and_extreme_images() {
         let effects: Vec<Effect> = vec![
             ("chiaroscuro", Box::new(|s| s.chiaroscuro = 1.0)),
             ("silhouettes", Box::new(|s| (s.silhouette_width, s.silhouette_strength) = (400.0, 1.0))),
+            ("contours", Box::new(|s| (s.contour_width, s.contour_strength) = (400.0, 1.0))),
             ("borders", Box::new(|s| (s.border_width, s.border_strength) = (400.0, 1.0))),
             ("gradients", Box::new(|s| s.gradients = 1.0)),
             ("palette ochre", Box::new(|s| s.palette = Palette::Ochre)),

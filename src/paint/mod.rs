@@ -10,7 +10,8 @@
 //! colours, drawn towards their plane's mean) -> per-plane light (the ramp across each plane,
 //! after the palette: the palette ranks luminance, and ramps spread over a large backdrop
 //! would push a small subject's values to the ends of the ramp; after the strokes, which would
-//! otherwise flatten the ramp with their plane's mean) -> facet borders drawn as passage (after
+//! otherwise flatten the ramp with their plane's mean) -> the subject's inner contours drawn
+//! (after the paint and the light, so the line lies on top of both) -> facet borders drawn as passage (after
 //! the strokes and the ramps, so a lost edge melts the two planes' paint and light together and
 //! the line lies on the darker side as lit) -> value range (a fixed curve deepening the darks
 //! and raising the lights, on the finished paint) -> canvas grain (last: the weave shows through
@@ -30,6 +31,7 @@ pub mod brushwork;
 pub mod canvas;
 pub mod chiaroscuro;
 pub mod context;
+pub mod contours;
 pub mod edge_smoothing;
 pub mod effect;
 pub mod gradients;

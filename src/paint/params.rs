@@ -5,6 +5,7 @@ use super::borders::BorderParams;
 use super::brushwork::BrushworkParams;
 use super::canvas::CanvasGrainParams;
 use super::chiaroscuro::ChiaroscuroParams;
+use super::contours::ContourParams;
 use super::effect::EffectParams;
 use super::gradients::GradientParams;
 use super::palette::PaletteParams;
@@ -53,6 +54,7 @@ chain! {
     quantise: QuantiseParams,
     brushwork: BrushworkParams,
     plane_light: PlaneLightParams,
+    contours: ContourParams,
     passage: PassageParams,
     values: ValueParams,
     canvas_grain: CanvasGrainParams,

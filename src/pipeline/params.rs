@@ -13,6 +13,7 @@ use crate::paint::borders::BorderParams;
 use crate::paint::brushwork::BrushworkParams;
 use crate::paint::canvas::CanvasGrainParams;
 use crate::paint::chiaroscuro::ChiaroscuroParams;
+use crate::paint::contours::ContourParams;
 use crate::paint::gradients::GradientParams;
 use crate::paint::palette::PaletteParams;
 use crate::paint::passage::PassageParams;
@@ -246,6 +247,7 @@ pub fn paint(s: &Settings) -> PaintParams {
         },
         quantise: QuantiseParams { colors: s.colors },
         plane_light: PlaneLightParams { amount: s.plane_light, seed, steps: s.light_steps },
+        contours: ContourParams { width: s.contour_width, strength: s.contour_strength, scale, seed },
         passage: PassageParams(borders),
         brushwork,
         values: ValueParams { contrast: s.value_contrast, lift: s.value_lift },

@@ -400,6 +400,18 @@ macro_rules! settings_table {
                 flag "Silhouette darkening strength, 0..1 [analytic: 0.5]"
                     #[arg(long, help_heading = "Painterly effects", value_parser = finite_f64)] Option<f64>;
 
+            /// The subject's inner contours (parts meeting, depth steps, creases) drawn as a
+            /// broken dark line (`paint::contours`): its width, pixels at 1000 px; 0 = off.
+            contour_width: f64 = 0.0,
+                schema field(Number).unit(PX_AT_1000).range(DISTANCE_PX),
+                flag "Width of the line drawn along the subject's inner contours (parts, depth steps, creases), pixels at 1000 px; 0 = off [analytic: 2.4]"
+                    #[arg(long, help_heading = "Painterly effects", value_parser = finite_f64)] Option<f64>;
+
+            contour_strength: f64 = 1.0,
+                schema field(Number).range(UNIT),
+                flag "Darkness of the inner contour line, 0..1 [analytic: 0.5]"
+                    #[arg(long, help_heading = "Painterly effects", value_parser = finite_f64)] Option<f64>;
+
             /// Built-in palette mapped onto the output's luminance.
             palette: Palette = Palette::None,
                 schema field(Enum).choices(choices::<Palette>),

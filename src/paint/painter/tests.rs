@@ -149,6 +149,7 @@ fn paint_chain_golden() {
     s.width = w;
     s.height = h;
     s.chiaroscuro = 0.0; // needs a scene; covered by its own test
+    s.contour_width = 0.0; // the same
     apply_chain(&mut film, Some(&facets), &paint(&s), None).unwrap();
     let img = crate::output::encode(&film, s.background, false);
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden/paint-chain.png");
@@ -242,6 +243,7 @@ fn the_default_chain_is_identical_on_any_thread_count() {
     let mut s = Settings::default();
     (s.width, s.height) = (w, h);
     s.chiaroscuro = 0.0; // needs a scene: covered by the pipeline test below
+    s.contour_width = 0.0; // the same
     let out = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
         let mut f = frame0.clone();
@@ -303,7 +305,7 @@ fn kept_paint_inputs_give_the_one_off_chains_pixels_after_a_change_upstream() {
     let frame0 = crate::paint::tests_plane::textured(w, h);
     let mut s = Settings::default();
     (s.width, s.height) = (w, h);
-    s.chiaroscuro = 0.0;
+    (s.chiaroscuro, s.contour_width) = (0.0, 0.0); // they need a scene
     let inputs = PaintInputs::kept_for_changes();
     for (threads, border) in [(1, 12.0), (3, 11.0), (1, 16.0), (3, 12.0)] {
         s.border_width = border;
