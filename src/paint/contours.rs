@@ -7,8 +7,9 @@
 //! `DEPTH_STEP` of the nearer, or normals more than `CREASE_DEG` apart. Facet borders and the
 //! outline against the ground get no contour (the join lines and passage draw those), nor do
 //! thin parts (strings, spokes, whiskers: a surface running on less than `THIN` line widths
-//! past the contour), whose two lines would read as beads. The line is dark over half its width
-//! either side of the contour and fades over as much again. It is broken: the surface is
+//! past the contour), whose two lines would read as beads; nor does a contour found only here
+//! and there (a rim whose step comes and goes pixel by pixel). The line is dark over half its
+//! width either side of the contour and fades over as much again. It is broken: the surface is
 //! divided into cubes of `BREAK_CELL` render units and the line left out where its contour
 //! lies in one of the `1 - KEEP` share of them, so the gaps stay on the surface when the
 //! camera moves.
@@ -51,6 +52,10 @@ pub const CREASE_DEG: f32 = 35.0;
 /// A contour whose surface on either side runs on less than this many line widths past it (a
 /// string, a spoke) draws no line.
 pub const THIN: f32 = 1.5;
+/// A contour pixel is kept when the square of this side about it holds `RUN` contour pixels or
+/// more (itself included): a line, not a bead.
+pub const RUN_SIDE: usize = 5;
+pub const RUN: usize = 4;
 /// The side of the cubes the line's breaks are drawn by, render units (the scene's radius 1).
 pub const BREAK_CELL: f32 = 0.1;
 /// The share of the cubes where the line is drawn.
@@ -146,6 +151,27 @@ impl Effect for Contours {
                 let down = (y >= thin, y + 1 + thin < h);
                 (x + 1 < w && self.splits(world, hits, facet, i, 1, thin, across))
                     || (y + 1 < h && self.splits(world, hits, facet, i, w, thin, down))
+            })
+            .collect();
+        // A contour found only every few pixels (a rim whose depth step comes and goes with
+        // the sampling) would draw a row of beads: a mark with fewer than `RUN` marks in the
+        // square of `RUN_SIDE` pixels about it is dropped. A drawn line holds at least `RUN`
+        // there, one pixel per row or column it crosses.
+        let r = (RUN_SIDE / 2) as isize;
+        let marks: Vec<bool> = (0..w * h)
+            .into_par_iter()
+            .map(|i| {
+                if !marks[i] {
+                    return false;
+                }
+                let (x, y) = ((i % w) as isize, (i / w) as isize);
+                let mut n = 0;
+                for yy in (y - r).max(0)..=(y + r).min(h as isize - 1) {
+                    for xx in (x - r).max(0)..=(x + r).min(w as isize - 1) {
+                        n += marks[yy as usize * w + xx as usize] as usize;
+                    }
+                }
+                n >= RUN
             })
             .collect();
         let half = 0.5 * self.width;
@@ -283,6 +309,20 @@ mod tests {
         }
         draw(&mut f, None, &world, 7);
         assert!(untouched(&f), "the outline against the ground");
+    }
+
+    #[test]
+    fn a_contour_found_every_fourth_pixel_draws_no_beads() {
+        let world = row_of_triangles();
+        // The step below row 12 only in every fourth column: dots, not a line.
+        let mut f = film(H, 1.5, None);
+        for x in (0..W).step_by(4) {
+            for y in 12..H {
+                f.hits[(y * W + x) as usize].t = 1.5;
+            }
+        }
+        draw(&mut f, None, &world, 7);
+        assert!(f.color.iter().all(|c| *c == Vec4::ONE), "no beads");
     }
 
     #[test]

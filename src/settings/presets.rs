@@ -64,9 +64,9 @@ impl Preset {
                 // corner gradients.
                 s.silhouette_width = 0.0;
                 s.silhouette_strength = 0.5;
-                // The subject's inner contours drawn, broken (judged blind, round 85).
+                // The subject's inner contours drawn, broken (judged blind, rounds 85-90).
                 s.contour_width = 2.4;
-                s.contour_strength = 0.5;
+                s.contour_strength = 0.75;
                 s.palette = Palette::OchreGrey;
                 // The palette ranks the ground at 0.6 of its value, so a dark part of the
                 // subject (a brown bowl, a wooden handle) stands out of a ground of its own
@@ -99,7 +99,7 @@ impl Preset {
                 s.silhouette_width = 20.0;
                 s.silhouette_strength = 0.5;
                 s.contour_width = 2.4;
-                s.contour_strength = 0.5;
+                s.contour_strength = 0.75;
                 s.palette = Palette::Olive;
                 s.gradients = 0.3;
                 s.colors = 8;
@@ -121,7 +121,7 @@ impl Preset {
                 s.silhouette_width = 20.0;
                 s.silhouette_strength = 0.4;
                 s.contour_width = 2.4;
-                s.contour_strength = 0.5;
+                s.contour_strength = 0.75;
                 s.palette = Palette::BluePeriod;
                 s.gradients = 0.2;
                 s.colors = 0;
@@ -142,7 +142,7 @@ impl Preset {
                 s.silhouette_width = 25.0;
                 s.silhouette_strength = 0.4;
                 s.contour_width = 2.4;
-                s.contour_strength = 0.5;
+                s.contour_strength = 0.75;
                 s.palette = Palette::Grey;
                 s.gradients = 0.2;
                 s.colors = 6;

@@ -409,7 +409,7 @@ macro_rules! settings_table {
 
             contour_strength: f64 = 1.0,
                 schema field(Number).range(UNIT),
-                flag "Darkness of the inner contour line, 0..1 [analytic: 0.5]"
+                flag "Darkness of the inner contour line, 0..1 [analytic: 0.75]"
                     #[arg(long, help_heading = "Painterly effects", value_parser = finite_f64)] Option<f64>;
 
             /// Built-in palette mapped onto the output's luminance.
