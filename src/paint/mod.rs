@@ -11,11 +11,11 @@
 //! after the palette: the palette ranks luminance, and ramps spread over a large backdrop
 //! would push a small subject's values to the ends of the ramp; after the strokes, which would
 //! otherwise flatten the ramp with their plane's mean) -> the subject's inner contours drawn
-//! (after the paint and the light, so the line lies on top of both) -> facet borders drawn as passage (after
-//! the strokes and the ramps, so a lost edge melts the two planes' paint and light together and
-//! the line lies on the darker side as lit) -> value range (a fixed curve deepening the darks
-//! and raising the lights, on the finished paint) -> canvas grain (last: the weave shows through
-//! the paint).
+//! (after the paint and the light, so the line lies on both) -> facet borders drawn as passage
+//! (after the strokes and the ramps, so a lost edge melts the two planes' paint and light
+//! together and the line lies on the darker side as lit) -> value range (a fixed curve
+//! deepening the darks and raising the lights, on the finished paint) -> canvas grain (last:
+//! the weave shows through the paint).
 //!
 //! Background and alpha. An opaque image's background is part of the canvas: every effect
 //! paints it (borders cross it, the palette colours it). A transparent image has no background
