@@ -167,8 +167,7 @@ impl Effect for Chiaroscuro {
                         after += *radiance * n.dot(*rotated).max(0.0);
                     }
                     _ => {
-                        let [p0, p1, p2] = world.triangle(hit.tri);
-                        let position = p0 * (1.0 - hit.u - hit.v) + p1 * hit.u + p2 * hit.v;
+                        let position = world.point_at(hit.tri, hit.u, hit.v);
                         let (to_light, radiance) = incident(l, position);
                         before += radiance * n.dot(to_light).max(0.0);
                         after += radiance * n.dot(*rotation * to_light).max(0.0);

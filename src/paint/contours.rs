@@ -14,7 +14,6 @@
 //! lies in one of the `1 - KEEP` share of them, so the gaps stay on the surface when the
 //! camera moves.
 
-use glam::Vec3;
 use rayon::prelude::*;
 
 use super::{Canvas, Effect, EffectParams, PaintContext, darken};
@@ -111,9 +110,7 @@ impl Contours {
     /// The line's weight at contour point `hit` (see the module doc): None in a gap, else
     /// 0.7-1, varying cube to cube as a brush's pressure does.
     fn weight(&self, world: &World, hit: &PixelHit) -> Option<f32> {
-        let [a, b, c] = world.triangle(hit.tri);
-        let p: Vec3 = a * (1.0 - hit.u - hit.v) + b * hit.u + c * hit.v;
-        let cell = (p / BREAK_CELL).floor().as_ivec3();
+        let cell = (world.point_at(hit.tri, hit.u, hit.v) / BREAK_CELL).floor().as_ivec3();
         let key = (cell.x as u32 as u64) ^ ((cell.y as u32 as u64) << 21) ^ ((cell.z as u32 as u64) << 42);
         let u = (splitmix64(self.seed ^ splitmix64(key)) >> 40) as f32 / (1u64 << 24) as f32;
         (u < KEEP).then(|| 0.7 + 0.3 * u / KEEP)
@@ -139,7 +136,7 @@ impl Effect for Contours {
         if hits.len() != w * h || w < 2 || h < 2 {
             return Ok(());
         }
-        let facet = |i: usize| ctx.facets.map_or(0, |f| f.ids[i]);
+        let facet = |i: usize| ctx.facet(i);
         let thin = (THIN * self.width).round().max(1.0) as usize;
         // A contour pixel: the pixel before a split across or down (the split between
         // pixel centres is drawn half a pixel off, the same for every line).

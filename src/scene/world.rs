@@ -501,6 +501,12 @@ impl World {
         self.geometries[o.geometry].corners(local).map(|p| o.point(p))
     }
 
+    /// The point at barycentrics (u, v) of triangle `tri`, render space (a hit's surface point).
+    pub fn point_at(&self, tri: u32, u: f32, v: f32) -> Vec3 {
+        let [p0, p1, p2] = self.triangle(tri);
+        p0 * (1.0 - u - v) + p1 * u + p2 * v
+    }
+
     /// Corners of every triangle, by triangle id, render space: a frame's geometry kept for
     /// later frames (a key frame's, the picture strokes are hatched on).
     pub fn positions(&self) -> Vec<[Vec3; 3]> {
