@@ -64,8 +64,8 @@ impl Preset {
                 // corner gradients.
                 s.silhouette_width = 0.0;
                 s.silhouette_strength = 0.5;
-                // The subject's inner contours drawn, broken (judged blind, rounds 85-90).
-                s.contour_width = 2.4;
+                // The subject's inner contours drawn, broken (judged blind, rounds 85-93).
+                s.contour_width = 3.4;
                 s.contour_strength = 0.75;
                 s.palette = Palette::OchreGrey;
                 // The palette ranks the ground at 0.6 of its value, so a dark part of the
@@ -98,7 +98,7 @@ impl Preset {
                 s.border_strength = 1.0;
                 s.silhouette_width = 20.0;
                 s.silhouette_strength = 0.5;
-                s.contour_width = 2.4;
+                s.contour_width = 3.4;
                 s.contour_strength = 0.75;
                 s.palette = Palette::Olive;
                 s.gradients = 0.3;
@@ -120,7 +120,7 @@ impl Preset {
                 s.border_strength = 0.7;
                 s.silhouette_width = 20.0;
                 s.silhouette_strength = 0.4;
-                s.contour_width = 2.4;
+                s.contour_width = 3.4;
                 s.contour_strength = 0.75;
                 s.palette = Palette::BluePeriod;
                 s.gradients = 0.2;
@@ -141,7 +141,7 @@ impl Preset {
                 s.border_strength = 0.9;
                 s.silhouette_width = 25.0;
                 s.silhouette_strength = 0.4;
-                s.contour_width = 2.4;
+                s.contour_width = 3.4;
                 s.contour_strength = 0.75;
                 s.palette = Palette::Grey;
                 s.gradients = 0.2;

@@ -404,7 +404,7 @@ macro_rules! settings_table {
             /// broken dark line (`paint::contours`): its width, pixels at 1000 px; 0 = off.
             contour_width: f64 = 0.0,
                 schema field(Number).unit(PX_AT_1000).range(DISTANCE_PX),
-                flag "Width of the line drawn along the subject's inner contours (parts, depth steps, creases), pixels at 1000 px; 0 = off [analytic: 2.4]"
+                flag "Width of the line drawn along the subject's inner contours (parts, depth steps, creases), pixels at 1000 px; 0 = off [analytic: 3.4]"
                     #[arg(long, help_heading = "Painterly effects", value_parser = finite_f64)] Option<f64>;
 
             contour_strength: f64 = 1.0,
