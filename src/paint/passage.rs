@@ -47,8 +47,10 @@ pub const FLOOR: f32 = 0.45;
 pub const FULL_CONTRAST: f32 = 0.25;
 /// Lost and found: along the edges a line's strength varies between this share and 1 ...
 pub const LOST: f32 = 0.05;
-/// ... over about this share of the image's size sqrt(w h).
-pub const LOST_PERIOD: f32 = 0.05;
+/// ... over about this share of the image's size sqrt(w h): longer than a plane's side, so
+/// a join is drawn or lost over most of its length, and whole stretches of the picture are
+/// drawn firmly while others dissolve, where a shorter period broke each line into dashes.
+pub const LOST_PERIOD: f32 = 0.3;
 /// Largest share of the other side's colour a pixel takes on an edge whose line is lost.
 pub const BLEND: f32 = 0.5;
 
