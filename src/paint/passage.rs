@@ -41,8 +41,9 @@ use crate::util::edge_line::{EdgeLine, Window};
 use crate::util::rng::sub_seed;
 
 pub(crate) const SALT: u64 = 0x7061_7373_6167_6531; // "passage1"
-/// Share of a line's strength kept where both sides have the same value.
-pub const FLOOR: f32 = 0.45;
+/// Share of a line's strength kept where both sides have the same value: low, so two planes
+/// of one value meet softly and the lines gather where the value changes.
+pub const FLOOR: f32 = 0.2;
 /// Relative value difference (|a - b| / max) at which a line has its full strength.
 pub const FULL_CONTRAST: f32 = 0.25;
 /// Lost and found: along the edges a line's strength varies between this share and 1 ...
