@@ -58,7 +58,7 @@ pub const RUN: usize = 4;
 /// The side of the cubes the line's breaks are drawn by, render units (the scene's radius 1).
 pub const BREAK_CELL: f32 = 0.1;
 /// The share of the cubes where the line is drawn.
-pub const KEEP: f32 = 0.7;
+pub const KEEP: f32 = 0.85;
 
 /// Draws the subject's inner contours.
 pub struct Contours {
