@@ -64,9 +64,6 @@ impl Preset {
                 // corner gradients.
                 s.silhouette_width = 0.0;
                 s.silhouette_strength = 0.5;
-                // The subject's inner contours drawn, broken (judged blind, rounds 85-93).
-                s.contour_width = 3.4;
-                s.contour_strength = 0.75;
                 s.palette = Palette::OchreGrey;
                 // The palette ranks the ground at 0.6 of its value, so a dark part of the
                 // subject (a brown bowl, a wooden handle) stands out of a ground of its own
@@ -98,8 +95,6 @@ impl Preset {
                 s.border_strength = 1.0;
                 s.silhouette_width = 20.0;
                 s.silhouette_strength = 0.5;
-                s.contour_width = 3.4;
-                s.contour_strength = 0.75;
                 s.palette = Palette::Olive;
                 s.gradients = 0.3;
                 s.colors = 8;
@@ -120,8 +115,6 @@ impl Preset {
                 s.border_strength = 0.7;
                 s.silhouette_width = 20.0;
                 s.silhouette_strength = 0.4;
-                s.contour_width = 3.4;
-                s.contour_strength = 0.75;
                 s.palette = Palette::BluePeriod;
                 s.gradients = 0.2;
                 s.colors = 0;
@@ -141,8 +134,6 @@ impl Preset {
                 s.border_strength = 0.9;
                 s.silhouette_width = 25.0;
                 s.silhouette_strength = 0.4;
-                s.contour_width = 3.4;
-                s.contour_strength = 0.75;
                 s.palette = Palette::Grey;
                 s.gradients = 0.2;
                 s.colors = 6;
@@ -159,7 +150,7 @@ impl Preset {
 /// The facet, camera and imprecision values of our presets (every preset but
 /// `plain` and `thesis`): planes faceting, the `compose` framing with the angles chosen per
 /// scene, background facets not re-aimed and view shifts within a share of each facet's width
-/// (`imprecision::guard`).
+/// (`imprecision::guard`), small parts in the saliency map, the inner contours drawn.
 fn planes_look(s: &mut Settings) {
     s.camera = CameraKind::Auto;
     s.ambiguity = None;
@@ -173,4 +164,7 @@ fn planes_look(s: &mut Settings) {
     // The small parts are cues too: mesh saliency cannot see a part modelled on its own
     // (judged blind, rounds 59-60).
     s.part_saliency = 0.5;
+    // The subject's inner contours drawn, broken (judged blind, rounds 85-93 and 109).
+    s.contour_width = 3.4;
+    s.contour_strength = 0.75;
 }
