@@ -191,7 +191,7 @@ impl Effect for Contours {
 
 #[cfg(test)]
 mod tests {
-    use glam::Vec3;
+    use glam::{Vec3, Vec4};
 
     use super::*;
     use crate::facets::FacetMap;
@@ -239,8 +239,6 @@ mod tests {
         let c = Contours { width: 2.0, strength: 0.5, seed };
         Painter::from_effects(vec![Box::new(c)], [0.0; 3], false).apply(film, facets, Some(&lighting)).unwrap();
     }
-
-    use glam::Vec4;
 
     #[test]
     fn a_depth_step_is_drawn_as_a_broken_line_and_nothing_else_darkens() {
