@@ -1,8 +1,8 @@
 """Build the look-judging scenes: small glTF scenes of subjects the renderer was not tuned on.
 
 Usage: python make-look-scenes.py OUT_DIR [NAME...]   (bpy 5.0.1 importable)
-Without NAMEs it builds the first set; NAMEs pick scenes from either set, and `second` stands
-for the whole second set.
+Without NAMEs it builds the first set; NAMEs pick scenes from any set, `second` stands for the
+whole second set and `rooms` for the rooms.
 
 Why: the look of cubist is tuned on a handful of models (a still life, a bunny, a teapot, a
 cow, a bust of Venus...). Judging a look on those alone rewards over-fitting. These scenes are
@@ -51,6 +51,14 @@ apart, e.g. `make-look-scenes.py OUT2 second`, and keep their renders away from 
                          bit (a small subject with one long thin part)
   trumpet                bell, three valves with buttons, tubing loops (bell bend, main tuning
                          slide, valve slides), leadpipe and mouthpiece
+
+Rooms: three rooms built of separate slabs (floor and walls), for the framing of open rooms:
+  lounge                 a sofa, a low table with a bowl of fruit, a potted plant, a picture;
+                         three walls 15 cm thick, the camera inside
+  kitchen                a table with a bottle and a jug, two chairs, a shelf of plates; a
+                         floor and one wall
+  attic                  a person seated on a stool in a corner with a window; walls 25 cm thick,
+                         the camera outside
 
 Deterministic: the same bpy gives the same bytes on every run. Meshes are built vertex by vertex
 with bmesh (no mesh operators, no bmesh.ops.create_uvsphere, whose face order varies between runs),
@@ -1253,6 +1261,92 @@ def build_trumpet():
     normalise(rot_z=-35)
 
 
+def room_camera(loc, target, lens=28):
+    """The scene's camera at `loc`, looking at `target`."""
+    cd = bpy.data.cameras.new("camera")
+    cd.lens = lens
+    cam = bpy.data.objects.new("camera", cd)
+    bpy.context.scene.collection.objects.link(cam)
+    cam.location = loc
+    cam.rotation_euler = (Vector(target) - cam.location).to_track_quat("-Z", "Y").to_euler()
+    bpy.context.scene.camera = cam
+
+
+def sofa(x, y, mat_):
+    """A three-seat sofa centred at (x, y) on the floor, its back towards +y."""
+    box("sofa.seat", (x, y, 0.22), (1.8, 0.8, 0.24), mat_, bevel=0.04)
+    box("sofa.back", (x, y + 0.32, 0.6), (1.8, 0.18, 0.56), mat_, bevel=0.05)
+    for sx in (-1, 1):
+        box(f"sofa.arm{sx}", (x + sx * 0.95, y, 0.4), (0.16, 0.8, 0.5), mat_, bevel=0.05)
+    box("sofa.cushion", (x - 0.4, y + 0.15, 0.48), (0.4, 0.15, 0.35), mat("cushion", (0.75, 0.6, 0.25)), rot=(10, 0, 5), bevel=0.05)
+
+
+def build_lounge():
+    """A sitting room: three walls 15 cm thick, the camera inside."""
+    fl = mat("floor", (0.45, 0.33, 0.24))
+    wa = mat("wall", (0.85, 0.82, 0.75))
+    wb = mat("wall.b", (0.68, 0.74, 0.7))
+    box("floor", (0, 0, -0.075), (5.0, 4.0, 0.15), fl)
+    box("wall.back", (0, 2.075, 1.3), (5.3, 0.15, 2.6), wa)
+    box("wall.left", (-2.575, 0, 1.3), (0.15, 4.0, 2.6), wb)
+    box("wall.right", (2.575, 0, 1.3), (0.15, 4.0, 2.6), wb)
+    sofa(0, 1.4, mat("sofa", (0.3, 0.38, 0.5)))
+    wood = mat("wood", (0.45, 0.28, 0.15))
+    box("coffee.top", (0, 0.2, 0.42), (1.0, 0.55, 0.05), wood, bevel=0.01)
+    for sx in (-1, 1):
+        for sy in (-1, 1):
+            box(f"coffee.leg{sx}{sy}", (sx * 0.45, 0.2 + sy * 0.22, 0.2), (0.04, 0.04, 0.4), wood)
+    lathe("bowl", [(0, 0.445), (0.1, 0.445), (0.16, 0.5), (0.17, 0.53), (0.16, 0.53), (0.09, 0.46), (0, 0.46)], mat("bowl", (0.85, 0.8, 0.7)), center=(0.15, 0.2, 0))
+    for k, (dx, dy, c) in enumerate(((0.1, 0.18, (0.8, 0.5, 0.1)), (0.2, 0.22, (0.6, 0.1, 0.1)), (0.15, 0.14, (0.4, 0.6, 0.15)))):
+        ellipsoid(f"fruit{k}", (dx, dy, 0.51), (0.045,) * 3, mat(f"fruit{k}", c))
+    pot = mat("pot", (0.6, 0.32, 0.2))
+    lathe("plant.pot", [(0, 0), (0.15, 0), (0.2, 0.4), (0.19, 0.4), (0, 0.4)], pot, center=(-1.9, 1.5, 0))
+    leaf = mat("leaf", (0.2, 0.4, 0.18))
+    for k in range(7):
+        a = k * 2 * math.pi / 7
+        ellipsoid(f"leaf{k}", (-1.9 + 0.22 * math.cos(a), 1.5 + 0.22 * math.sin(a), 0.75 + 0.1 * (k % 3)), (0.25, 0.06, 0.03), leaf, rot=(0, -35, math.degrees(a)))
+    box("picture.frame", (0.0, 1.99, 1.7), (1.0, 0.03, 0.7), wood)
+    box("picture", (0.0, 1.97, 1.7), (0.9, 0.02, 0.6), mat("picture", (0.7, 0.45, 0.3)))
+    room_camera((0.4, -1.7, 1.3), (0.0, 1.0, 0.55), lens=24)
+    normalise()
+
+
+def build_kitchen():
+    """A kitchen: a floor and one wall, a table with a bottle and a jug, two chairs."""
+    fl = mat("floor", (0.6, 0.55, 0.48))
+    wa = mat("wall", (0.78, 0.7, 0.55))
+    box("floor", (0, 0, -0.04), (4.0, 3.5, 0.08), fl)
+    box("wall", (0, 1.79, 1.4), (4.0, 0.08, 2.8), wa)
+    wood = mat("wood", (0.5, 0.32, 0.18))
+    box("table.top", (0, 0.5, 0.75), (1.4, 0.8, 0.05), wood, bevel=0.01)
+    for sx in (-1, 1):
+        for sy in (-1, 1):
+            box(f"table.leg{sx}{sy}", (sx * 0.62, 0.5 + sy * 0.33, 0.37), (0.06, 0.06, 0.74), wood)
+    chair("chairL", (-0.45, -0.1, 0), mat("chair", (0.55, 0.36, 0.2)), rot_z=180 - 10)
+    chair("chairR", (0.95, 0.55, 0), mat("chair", (0.55, 0.36, 0.2)), rot_z=90)
+    glass = mat("bottle", (0.15, 0.35, 0.2), rough=0.2)
+    lathe("bottle", [(0, 0.775), (0.04, 0.775), (0.04, 0.98), (0.015, 1.04), (0.015, 1.08), (0, 1.08)], glass, center=(-0.2, 0.55, 0))
+    lathe("jug", [(0, 0.775), (0.07, 0.775), (0.09, 0.85), (0.07, 0.95), (0.08, 0.99), (0, 0.99)], mat("jug", (0.85, 0.82, 0.75)), center=(0.2, 0.45, 0))
+    box("shelf", (-1.0, 1.7, 1.6), (1.2, 0.1, 0.04), wood)
+    for k in range(4):
+        lathe(f"plate{k}", [(0, 1.62), (0.1, 1.62), (0.12, 1.64), (0, 1.64)], mat("plate", (0.9, 0.9, 0.88)), center=(-1.45 + 0.3 * k, 1.7, 0))
+    room_camera((0.3, -2.4, 1.5), (0.0, 0.6, 0.8), lens=30)
+    normalise()
+
+
+def build_attic():
+    """A seated figure in the corner of an attic: floor and two walls 25 cm thick, a window."""
+    build_figure(True)
+    fl = mat("floor", (0.5, 0.4, 0.3))
+    wa = mat("wall", (0.8, 0.78, 0.7))
+    box("floor", (0, 0, -0.125), (3.5, 3.0, 0.25), fl)
+    box("wall.back", (0, 1.625, 1.5), (3.5, 0.25, 3.0), wa)
+    box("wall.left", (-1.875, 0, 1.5), (0.25, 3.0, 3.0), wa)
+    box("window", (-1.74, 0.2, 1.6), (0.03, 0.8, 1.0), mat("sky", (0.75, 0.88, 1.0)))
+    room_camera((2.0, -3.2, 1.6), (-0.2, 0.3, 0.7), lens=30)
+    normalise()
+
+
 SCENES = [
     ("head-bust", build_head_bust, True),
     ("figure-standing", lambda: build_figure(False), True),
@@ -1284,6 +1378,13 @@ SECOND_SET = [
     ("trumpet", build_trumpet, True),
 ]
 
+# the third set: rooms built of separate slabs, for the framing of open rooms
+ROOMS = [
+    ("lounge", build_lounge, True),
+    ("kitchen", build_kitchen, True),
+    ("attic", build_attic, True),
+]
+
 
 def main(argv):
     if len(argv) < 2 or argv[1].startswith("-"):
@@ -1293,13 +1394,15 @@ def main(argv):
     only = set(argv[2:])
     if "second" in only:
         only = (only - {"second"}) | {name for name, _, _ in SECOND_SET}
-    known = {name for name, _, _ in SCENES + SECOND_SET}
+    if "rooms" in only:
+        only = (only - {"rooms"}) | {name for name, _, _ in ROOMS}
+    known = {name for name, _, _ in SCENES + SECOND_SET + ROOMS}
     if only - known:
         print(f"make-look-scenes.py: unknown scene {sorted(only - known)[0]!r}", file=sys.stderr)
         return 2
     os.makedirs(out, exist_ok=True)
-    for name, build, yup in SCENES + SECOND_SET:
-        if (only and name not in only) or (not only and (name, build, yup) in SECOND_SET):
+    for name, build, yup in SCENES + SECOND_SET + ROOMS:
+        if (only and name not in only) or (not only and (name, build, yup) not in SCENES):
             continue
         reset()
         build()

@@ -1,6 +1,7 @@
 //! Backdrops: a floor, a wall or a shadow-catcher plane much larger than everything else in
-//! the scene, as most scenes made in Blender stand their objects on one, and the
-//! subject, not the floor, should fill the canvas. A backdrop is rendered, shaded and faceted like anything else, but:
+//! the scene, as most scenes made in Blender stand their objects on one, and the sides of an
+//! open room (`room`), so the subject, not the floor, fills the canvas. A backdrop is rendered,
+//! shaded and faceted like anything else, but:
 //! - the cameras are framed around the scene without it (`framing::subject`): with it, objects
 //!   on a 20 m floor were a few pixels tall on a kite of floor;
 //! - it has one side, the subject's: a ray that starts behind its plane passes through it
@@ -42,8 +43,8 @@ impl Backdrop {
 
 /// The backdrops of `world` (its objects' `bounds` made): the flat ones among the
 /// `CANDIDATES` largest objects that are `BACKDROP_RATIO` times larger than the box of every
-/// object that is not flat, in object order. None when every object is flat (a board alone
-/// is its own subject).
+/// object that is not flat, and the sides of an open room among them (`room::sides`), in
+/// object order. None when every object is flat (a board alone is its own subject).
 pub fn backdrops(world: &World) -> Vec<Backdrop> {
     let objects = &world.objects;
     let bounds = |o: usize| objects[o].bounds.map(|(lo, hi, _)| (lo.as_dvec3(), hi.as_dvec3()));
@@ -68,6 +69,11 @@ pub fn backdrops(world: &World) -> Vec<Backdrop> {
     let solid = (hi - lo).length();
     let mut chosen: Vec<(usize, DVec3, DVec3)> =
         flat.into_iter().filter(|f| extent(f.0) >= BACKDROP_RATIO * solid).collect();
+    for side in super::room::sides(world, &by_size[..by_size.len().min(CANDIDATES)]) {
+        if !chosen.iter().any(|c| c.0 == side.0) {
+            chosen.push(side);
+        }
+    }
     chosen.sort_unstable_by_key(|f| f.0);
     // The subject's centre: the box of everything else.
     let (lo, hi) = box_without(&|o| chosen.iter().any(|f| f.0 == o));
@@ -105,13 +111,18 @@ fn corners(world: &World, o: usize) -> impl Iterator<Item = DVec3> + '_ {
 /// The plane (unit normal, a point) of object `o` when every corner of its sampled triangles
 /// lies within `FLAT_SHARE` of `extent` of the plane of its largest triangle.
 fn plane_of(world: &World, o: usize, extent: f64) -> Option<(DVec3, DVec3)> {
+    plane_within(world, o, extent, FLAT_SHARE)
+}
+
+/// `plane_of` within `share` of `extent`.
+pub(super) fn plane_within(world: &World, o: usize, extent: f64, share: f64) -> Option<(DVec3, DVec3)> {
     if extent <= 0.0 {
         return None;
     }
     let area2 = |t: &[DVec3; 3]| (t[1] - t[0]).cross(t[2] - t[0]).length_squared();
     let largest = triangles(world, o).max_by(|a, b| area2(a).total_cmp(&area2(b)))?;
     let normal = (largest[1] - largest[0]).cross(largest[2] - largest[0]).try_normalize()?;
-    let tolerance = FLAT_SHARE * extent;
+    let tolerance = share * extent;
     corners(world, o).all(|p| (p - largest[0]).dot(normal).abs() <= tolerance).then_some((normal, largest[0]))
 }
 

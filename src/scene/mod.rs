@@ -10,6 +10,7 @@ pub mod backdrop;
 pub mod default;
 pub mod enclosure;
 mod gltf;
+pub mod room;
 pub mod srgb;
 pub mod texture;
 pub mod world;

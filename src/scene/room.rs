@@ -1,0 +1,181 @@
+//! Open rooms: a floor and walls modelled as slabs, the furniture standing in the corner they
+//! make, as Blender users build interiors and stage sets. Their sides are backdrops
+//! (`backdrop`) though hardly larger than the furniture: framed with them, the picture was the
+//! whole corner seen from outside its edges, a box floating in black, the furniture small in
+//! it. A side is a large slab that meets another at right angles with everything else on one
+//! side of both; a chair built of boards has its legs on both sides of its seat, so it is
+//! never a room.
+
+use glam::DVec3;
+
+use super::World;
+
+/// A side of a room is a slab: every corner within this share of its extent of one plane
+/// (walls 5 cm to 25 cm thick).
+pub const SLAB_SHARE: f64 = 0.1;
+/// A side of a room is at least this many times the extent of the largest object that is not
+/// a slab (a sofa in a small room).
+pub const ROOM_RATIO: f64 = 1.5;
+/// A side of a room spans at least this share of the whole scene's extent.
+pub const ROOM_SHARE: f64 = 0.5;
+/// Two sides meet at right angles: the cosine between their normals at most this (10 deg).
+const RIGHT_ANGLE_COS: f64 = 0.17;
+/// Two sides meet: the gap between their boxes at most this share of the smaller one's extent.
+const MEET_SHARE: f64 = 0.02;
+
+/// A slab among the candidates: object, unit normal, a point of its plane (render space).
+type Slab = (usize, DVec3, DVec3);
+
+/// The sides of an open room among `candidates` (the largest objects of `world`, its objects'
+/// `bounds` made): the slabs at least `ROOM_RATIO` times the largest other object and
+/// `ROOM_SHARE` of the scene, with every object that is not such a slab on one side of them,
+/// that meet another such at right angles. In `candidates`' order.
+pub fn sides(world: &World, candidates: &[usize]) -> Vec<Slab> {
+    let objects = &world.objects;
+    let bounds = |o: usize| objects[o].bounds.map(|(lo, hi, _)| (lo.as_dvec3(), hi.as_dvec3()));
+    let extent = |o: usize| bounds(o).map_or(0.0, |(lo, hi)| (hi - lo).length());
+    let slabs: Vec<Slab> = candidates
+        .iter()
+        .filter_map(|&o| super::backdrop::plane_within(world, o, extent(o), SLAB_SHARE).map(|(n, p)| (o, n, p)))
+        .collect();
+    let is_slab = |o: usize| slabs.iter().any(|s| s.0 == o);
+    let largest = (0..objects.len()).filter(|&o| !is_slab(o)).map(extent).fold(0.0, f64::max);
+    let scene = (world.bounds.1 - world.bounds.0).as_dvec3().length();
+    let least = (ROOM_RATIO * largest).max(ROOM_SHARE * scene);
+    let large: Vec<Slab> = slabs.into_iter().filter(|s| extent(s.0) >= least && least > 0.0).collect();
+    let others: Vec<(DVec3, DVec3)> =
+        (0..objects.len()).filter(|&o| !large.iter().any(|s| s.0 == o)).filter_map(bounds).collect();
+    if others.is_empty() {
+        return Vec::new();
+    }
+    let one_sided = |&(o, normal, point): &Slab| {
+        let tolerance = SLAB_SHARE * extent(o);
+        let (mut below, mut above) = (false, false);
+        for &(lo, hi) in &others {
+            for corner in box_corners(lo, hi) {
+                let d = (corner - point).dot(normal);
+                below |= d < -tolerance;
+                above |= d > tolerance;
+            }
+        }
+        !(below && above)
+    };
+    let sided: Vec<Slab> = large.into_iter().filter(one_sided).collect();
+    let meet = |a: &Slab, b: &Slab| {
+        let (Some((alo, ahi)), Some((blo, bhi))) = (bounds(a.0), bounds(b.0)) else { return false };
+        let gap = (blo - ahi).max(alo - bhi).max(DVec3::ZERO).length();
+        a.0 != b.0 && a.1.dot(b.1).abs() <= RIGHT_ANGLE_COS && gap <= MEET_SHARE * extent(a.0).min(extent(b.0))
+    };
+    sided.iter().filter(|a| sided.iter().any(|b| meet(a, b))).copied().collect()
+}
+
+/// The eight corners of the box `lo`..`hi`.
+fn box_corners(lo: DVec3, hi: DVec3) -> impl Iterator<Item = DVec3> {
+    (0..8).map(move |k| {
+        DVec3::new(
+            if k & 1 == 0 { lo.x } else { hi.x },
+            if k & 2 == 0 { lo.y } else { hi.y },
+            if k & 4 == 0 { lo.z } else { hi.z },
+        )
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::Vec3;
+
+    use super::*;
+    use crate::framing::subject::Subject;
+    use crate::scene::Mesh;
+    use crate::scene::default::{cuboid, ellipsoid};
+
+    fn scene(parts: Vec<(Mesh, DVec3)>, camera: Option<DVec3>) -> World {
+        crate::scene::test_world(parts, camera)
+    }
+
+    fn slab(size: Vec3, at: DVec3) -> (Mesh, DVec3) {
+        (cuboid("slab", size, 0), at)
+    }
+
+    /// A room `side` wide and 2.5 high, walls `thick`: the floor under y = 0, the back wall
+    /// behind z = -side / 2, the left wall left of x = -side / 2.
+    fn corner(side: f32, thick: f32) -> Vec<(Mesh, DVec3)> {
+        let (h, t) = (side as f64 * 0.5, thick as f64 * 0.5);
+        vec![
+            slab(Vec3::new(side, thick, side), DVec3::new(0.0, -t, 0.0)),
+            slab(Vec3::new(side, 2.5, thick), DVec3::new(0.0, 1.25, -h - t)),
+            slab(Vec3::new(thick, 2.5, side), DVec3::new(-h - t, 1.25, 0.0)),
+        ]
+    }
+
+    /// Furniture: a table-sized box and a ball on the floor, a picture on the back wall.
+    fn furniture(side: f64) -> Vec<(Mesh, DVec3)> {
+        vec![
+            (cuboid("table", Vec3::new(1.1, 0.75, 0.7), 0), DVec3::new(0.2, 0.375, -0.3)),
+            (ellipsoid("ball", Vec3::splat(0.3), 12, 24, 0), DVec3::new(-0.6, 0.3, 0.2)),
+            (cuboid("picture", Vec3::new(0.7, 0.5, 0.03), 0), DVec3::new(0.0, 1.6, -side * 0.5 + 0.015)),
+        ]
+    }
+
+    fn backdrop_objects(w: &World) -> Vec<usize> {
+        w.backdrops.iter().map(|b| b.object).collect()
+    }
+
+    #[test]
+    fn the_floor_and_walls_of_an_open_room_are_backdrops_facing_in() {
+        for (side, thick) in [(3.0, 0.05), (3.5, 0.25), (5.0, 0.15)] {
+            let mut parts = corner(side, thick);
+            parts.extend(furniture(side as f64));
+            let w = scene(parts, Some(DVec3::new(2.2, 1.7, 2.8)));
+            assert_eq!(backdrop_objects(&w), vec![0, 1, 2], "room {side} m, walls {thick} m");
+            // Each faces the furniture: the table's centre is in front of every side.
+            let table = w.to_render.point(DVec3::new(0.2, 0.375, -0.3));
+            assert!(w.backdrops.iter().all(|b| !b.behind(table)), "{:?}", w.backdrops);
+            // The floor's plane is its top face.
+            let floor = w.backdrops[0];
+            assert!(floor.behind(w.to_render.point(DVec3::new(0.0, -0.02, 0.0))));
+            assert!(!floor.behind(w.to_render.point(DVec3::new(0.0, 0.02, 0.0))));
+        }
+    }
+
+    /// The cameras are framed around the furniture, not the corner.
+    #[test]
+    fn the_subject_is_the_furniture() {
+        let mut parts = corner(3.0, 0.05);
+        parts.extend(furniture(3.0));
+        let w = scene(parts, Some(DVec3::new(2.2, 1.7, 2.8)));
+        let subject = Subject::new(&w, 5000, 500, None);
+        // The furniture's box (scene units): the table, the ball and the picture.
+        let (lo, hi) = (DVec3::new(-0.9, 0.0, -1.5), DVec3::new(0.75, 1.85, 0.5));
+        let centre = w.to_render.point_f64((lo + hi) * 0.5);
+        let half_diagonal = 0.5 * (hi - lo).length() * w.to_render.scale;
+        assert!((subject.centre - centre).length() < 0.02 * half_diagonal, "{:?} vs {centre:?}", subject.centre);
+        assert!(subject.radius <= half_diagonal * 1.001, "{} vs {half_diagonal}", subject.radius);
+        assert!(subject.radius > 0.8 * half_diagonal, "{} vs {half_diagonal}", subject.radius);
+        // The corner's half-diagonal is about 1 in render units: the furniture about two thirds.
+        assert!(subject.radius < 0.7, "{}", subject.radius);
+    }
+
+    #[test]
+    fn boards_of_furniture_apart_and_sloped_slabs_are_not_rooms() {
+        // A chair of boards: a seat with legs under it and a back rising from it.
+        let chair = vec![
+            slab(Vec3::new(1.0, 0.04, 1.0), DVec3::new(0.0, 0.45, 0.0)),
+            slab(Vec3::new(1.0, 1.0, 0.04), DVec3::new(0.0, 0.97, -0.48)),
+            slab(Vec3::new(0.05, 0.45, 0.05), DVec3::new(0.45, 0.225, 0.45)),
+            slab(Vec3::new(0.05, 0.45, 0.05), DVec3::new(-0.45, 0.225, 0.45)),
+            (ellipsoid("cushion", Vec3::new(0.3, 0.08, 0.3), 12, 24, 0), DVec3::new(0.0, 0.55, 0.0)),
+        ];
+        assert!(scene(chair, None).backdrops.is_empty());
+        // A floor and a wall that do not meet (a gap of a metre between them).
+        let mut apart = corner(3.0, 0.05);
+        apart.truncate(2);
+        apart[1].1.z -= 1.0;
+        apart.extend(furniture(5.0));
+        assert!(scene(apart, None).backdrops.is_empty());
+        // Furniture larger than the room's sides allow (a 2.5 m wardrobe in a 3 m room).
+        let mut crowded = corner(3.0, 0.05);
+        crowded.push((cuboid("wardrobe", Vec3::new(1.2, 2.4, 0.6), 0), DVec3::new(0.5, 1.2, -1.2)));
+        assert!(scene(crowded, None).backdrops.is_empty());
+    }
+}
