@@ -4,7 +4,8 @@
 //! whole corner seen from outside its edges, a box floating in black, the furniture small in
 //! it. A side is a large slab that meets another at right angles with everything else on one
 //! side of both; a chair built of boards has its legs on both sides of its seat, so it is
-//! never a room.
+//! never a room. What hangs flat on a side (a picture, a window, a rug) is setting too: framed
+//! with a window on the far wall, a figure seated in the corner was a third of the canvas tall.
 
 use glam::DVec3;
 
@@ -22,14 +23,19 @@ pub const ROOM_SHARE: f64 = 0.5;
 const RIGHT_ANGLE_COS: f64 = 0.17;
 /// Two sides meet: the gap between their boxes at most this share of the smaller one's extent.
 const MEET_SHARE: f64 = 0.02;
+/// A slab hangs on a side when parallel to it (the cosine between their normals at least this,
+/// 10 deg) and within this share of the side's extent of its faces (a picture, a window, a rug).
+const PARALLEL_COS: f64 = 0.985;
+const HANG_SHARE: f64 = 0.05;
 
 /// A slab among the candidates: object, unit normal, a point of its plane (render space).
 type Slab = (usize, DVec3, DVec3);
 
 /// The sides of an open room among `candidates` (the largest objects of `world`, its objects'
-/// `bounds` made): the slabs at least `ROOM_RATIO` times the largest other object and
-/// `ROOM_SHARE` of the scene, with every object that is not such a slab on one side of them,
-/// that meet another such at right angles. In `candidates`' order.
+/// `bounds` made), then what hangs on them. The sides: the slabs at least `ROOM_RATIO` times
+/// the largest other object and `ROOM_SHARE` of the scene, with every object that is not such
+/// a slab on one side of them, that meet another such at right angles (in `candidates`' order).
+/// What hangs on them: the slabs parallel to a side and on it (in object order).
 pub fn sides(world: &World, candidates: &[usize]) -> Vec<Slab> {
     let objects = &world.objects;
     let bounds = |o: usize| objects[o].bounds.map(|(lo, hi, _)| (lo.as_dvec3(), hi.as_dvec3()));
@@ -66,7 +72,33 @@ pub fn sides(world: &World, candidates: &[usize]) -> Vec<Slab> {
         let gap = (blo - ahi).max(alo - bhi).max(DVec3::ZERO).length();
         a.0 != b.0 && a.1.dot(b.1).abs() <= RIGHT_ANGLE_COS && gap <= MEET_SHARE * extent(a.0).min(extent(b.0))
     };
-    sided.iter().filter(|a| sided.iter().any(|b| meet(a, b))).copied().collect()
+    let sides: Vec<Slab> = sided.iter().filter(|a| sided.iter().any(|b| meet(a, b))).copied().collect();
+    let hangs_on = |o: usize, normal: DVec3, &(side, side_normal, _): &Slab| {
+        let (Some((lo, hi)), Some((slo, shi))) = (bounds(o), bounds(side)) else { return false };
+        let span = |lo: DVec3, hi: DVec3| {
+            box_corners(lo, hi)
+                .map(|c| c.dot(side_normal))
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), d| (a.min(d), b.max(d)))
+        };
+        let ((a, b), (sa, sb)) = (span(lo, hi), span(slo, shi));
+        let tolerance = HANG_SHARE * extent(side);
+        normal.dot(side_normal).abs() >= PARALLEL_COS && a >= sa - tolerance && b <= sb + tolerance
+    };
+    let mut out = sides.clone();
+    if sides.is_empty() {
+        return out;
+    }
+    for o in 0..objects.len() {
+        if out.iter().any(|s| s.0 == o) {
+            continue;
+        }
+        if let Some((normal, point)) = super::backdrop::plane_within(world, o, extent(o), SLAB_SHARE)
+            && sides.iter().any(|side| hangs_on(o, normal, side))
+        {
+            out.push((o, normal, point));
+        }
+    }
+    out
 }
 
 /// The eight corners of the box `lo`..`hi`.
@@ -127,7 +159,8 @@ mod tests {
             let mut parts = corner(side, thick);
             parts.extend(furniture(side as f64));
             let w = scene(parts, Some(DVec3::new(2.2, 1.7, 2.8)));
-            assert_eq!(backdrop_objects(&w), vec![0, 1, 2], "room {side} m, walls {thick} m");
+            // The floor and the two walls, then the picture on the back wall.
+            assert_eq!(backdrop_objects(&w), vec![0, 1, 2, 5], "room {side} m, walls {thick} m");
             // Each faces the furniture: the table's centre is in front of every side.
             let table = w.to_render.point(DVec3::new(0.2, 0.375, -0.3));
             assert!(w.backdrops.iter().all(|b| !b.behind(table)), "{:?}", w.backdrops);
@@ -138,6 +171,20 @@ mod tests {
         }
     }
 
+    #[test]
+    fn what_hangs_flat_on_a_side_is_setting_and_what_stands_out_from_it_is_not() {
+        let mut parts = corner(3.5, 0.25);
+        parts.extend(furniture(3.5));
+        // A rug on the floor, a window in the left wall's inner face, a shelf (a board standing
+        // out from the back wall) and a cupboard against it (not a slab).
+        parts.push(slab(Vec3::new(1.2, 0.01, 0.8), DVec3::new(0.3, 0.005, 0.5)));
+        parts.push(slab(Vec3::new(0.03, 0.8, 0.9), DVec3::new(-1.735, 1.5, 0.3)));
+        parts.push(slab(Vec3::new(1.0, 0.03, 0.25), DVec3::new(-0.8, 1.4, -1.625)));
+        parts.push(slab(Vec3::new(0.8, 1.8, 0.5), DVec3::new(1.2, 0.9, -1.5)));
+        let w = scene(parts, Some(DVec3::new(2.2, 1.7, 2.8)));
+        assert_eq!(backdrop_objects(&w), vec![0, 1, 2, 5, 6, 7], "{:?}", w.backdrops);
+    }
+
     /// The cameras are framed around the furniture, not the corner.
     #[test]
     fn the_subject_is_the_furniture() {
@@ -145,19 +192,20 @@ mod tests {
         parts.extend(furniture(3.0));
         let w = scene(parts, Some(DVec3::new(2.2, 1.7, 2.8)));
         let subject = Subject::new(&w, 5000, 500, None);
-        // The furniture's box (scene units): the table, the ball and the picture.
-        let (lo, hi) = (DVec3::new(-0.9, 0.0, -1.5), DVec3::new(0.75, 1.85, 0.5));
+        // The furniture's box (scene units): the table and the ball (the picture hangs on the
+        // wall).
+        let (lo, hi) = (DVec3::new(-0.9, 0.0, -0.65), DVec3::new(0.75, 0.75, 0.5));
         let centre = w.to_render.point_f64((lo + hi) * 0.5);
         let half_diagonal = 0.5 * (hi - lo).length() * w.to_render.scale;
         assert!((subject.centre - centre).length() < 0.02 * half_diagonal, "{:?} vs {centre:?}", subject.centre);
         assert!(subject.radius <= half_diagonal * 1.001, "{} vs {half_diagonal}", subject.radius);
         assert!(subject.radius > 0.8 * half_diagonal, "{} vs {half_diagonal}", subject.radius);
-        // The corner's half-diagonal is about 1 in render units: the furniture about two thirds.
-        assert!(subject.radius < 0.7, "{}", subject.radius);
+        // The corner's half-diagonal is about 1 in render units: the furniture under half.
+        assert!(subject.radius < 0.45, "{}", subject.radius);
     }
 
     #[test]
-    fn boards_of_furniture_apart_and_sloped_slabs_are_not_rooms() {
+    fn boards_of_furniture_sides_apart_and_crowded_rooms_are_not_rooms() {
         // A chair of boards: a seat with legs under it and a back rising from it.
         let chair = vec![
             slab(Vec3::new(1.0, 0.04, 1.0), DVec3::new(0.0, 0.45, 0.0)),
