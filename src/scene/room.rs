@@ -49,38 +49,33 @@ pub fn sides(world: &World, candidates: &[usize]) -> Vec<Slab> {
     let scene = (world.bounds.1 - world.bounds.0).as_dvec3().length();
     let least = (ROOM_RATIO * largest).max(ROOM_SHARE * scene);
     let large: Vec<Slab> = slabs.into_iter().filter(|s| extent(s.0) >= least && least > 0.0).collect();
-    let others: Vec<(DVec3, DVec3)> =
-        (0..objects.len()).filter(|&o| !large.iter().any(|s| s.0 == o)).filter_map(bounds).collect();
+    let meet = |a: &Slab, b: &Slab| {
+        let (Some((alo, ahi)), Some((blo, bhi))) = (bounds(a.0), bounds(b.0)) else { return false };
+        let gap = (blo - ahi).max(alo - bhi).max(DVec3::ZERO).length();
+        a.0 != b.0 && a.1.dot(b.1).abs() <= RIGHT_ANGLE_COS && gap <= MEET_SHARE * extent(a.0).min(extent(b.0))
+    };
+    let meeting: Vec<Slab> = large.iter().filter(|a| large.iter().any(|b| meet(a, b))).copied().collect();
+    if meeting.is_empty() {
+        return Vec::new();
+    }
+    let others: Vec<usize> = (0..objects.len()).filter(|&o| !large.iter().any(|s| s.0 == o)).collect();
     if others.is_empty() {
         return Vec::new();
     }
     let one_sided = |&(o, normal, point): &Slab| {
         let tolerance = SLAB_SHARE * extent(o);
         let (mut below, mut above) = (false, false);
-        for &(lo, hi) in &others {
-            for corner in box_corners(lo, hi) {
-                let d = (corner - point).dot(normal);
-                below |= d < -tolerance;
-                above |= d > tolerance;
-            }
+        for &other in &others {
+            let (a, b) = span(world, other, normal);
+            below |= a - point.dot(normal) < -tolerance;
+            above |= b - point.dot(normal) > tolerance;
         }
         !(below && above)
     };
-    let sided: Vec<Slab> = large.into_iter().filter(one_sided).collect();
-    let meet = |a: &Slab, b: &Slab| {
-        let (Some((alo, ahi)), Some((blo, bhi))) = (bounds(a.0), bounds(b.0)) else { return false };
-        let gap = (blo - ahi).max(alo - bhi).max(DVec3::ZERO).length();
-        a.0 != b.0 && a.1.dot(b.1).abs() <= RIGHT_ANGLE_COS && gap <= MEET_SHARE * extent(a.0).min(extent(b.0))
-    };
+    let sided: Vec<Slab> = meeting.into_iter().filter(one_sided).collect();
     let sides: Vec<Slab> = sided.iter().filter(|a| sided.iter().any(|b| meet(a, b))).copied().collect();
     let hangs_on = |o: usize, normal: DVec3, &(side, side_normal, _): &Slab| {
-        let (Some((lo, hi)), Some((slo, shi))) = (bounds(o), bounds(side)) else { return false };
-        let span = |lo: DVec3, hi: DVec3| {
-            box_corners(lo, hi)
-                .map(|c| c.dot(side_normal))
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), d| (a.min(d), b.max(d)))
-        };
-        let ((a, b), (sa, sb)) = (span(lo, hi), span(slo, shi));
+        let ((a, b), (sa, sb)) = (span(world, o, side_normal), span(world, side, side_normal));
         let tolerance = HANG_SHARE * extent(side);
         normal.dot(side_normal).abs() >= PARALLEL_COS && a >= sa - tolerance && b <= sb + tolerance
     };
@@ -101,16 +96,21 @@ pub fn sides(world: &World, candidates: &[usize]) -> Vec<Slab> {
     out
 }
 
-/// The eight corners of the box `lo`..`hi`.
-fn box_corners(lo: DVec3, hi: DVec3) -> impl Iterator<Item = DVec3> {
-    (0..8).map(move |k| {
-        DVec3::new(
-            if k & 1 == 0 { lo.x } else { hi.x },
-            if k & 2 == 0 { lo.y } else { hi.y },
-            if k & 4 == 0 { lo.z } else { hi.z },
-        )
-    })
+/// The least and greatest of `normal . p` over object `o`'s corners (render space), of up to
+/// `SPAN_SAMPLE` of its triangles evenly spread: how far it reaches either way along `normal`.
+fn span(world: &World, o: usize, normal: DVec3) -> (f64, f64) {
+    let obj = &world.objects[o];
+    let step = (obj.triangle_count as usize).div_ceil(SPAN_SAMPLE).max(1);
+    (0..obj.triangle_count as usize)
+        .step_by(step)
+        .flat_map(|t| world.triangle(obj.first_triangle + t as u32))
+        .filter(|p| p.is_finite())
+        .map(|p| p.as_dvec3().dot(normal))
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), d| (a.min(d), b.max(d)))
 }
+
+/// Triangles of an object read for its reach along a side's normal (evenly spread).
+const SPAN_SAMPLE: usize = 256;
 
 #[cfg(test)]
 mod tests {
@@ -183,6 +183,33 @@ mod tests {
         parts.push(slab(Vec3::new(0.8, 1.8, 0.5), DVec3::new(1.2, 0.9, -1.5)));
         let w = scene(parts, Some(DVec3::new(2.2, 1.7, 2.8)));
         assert_eq!(backdrop_objects(&w), vec![0, 1, 2, 5, 6, 7], "{:?}", w.backdrops);
+    }
+
+    proptest::proptest! {
+        /// The room is found whichever way it is turned (a z-up export, a tilted set) and at
+        /// any scale (millimetres to kilometres).
+        #[test]
+        fn a_room_is_found_turned_and_scaled_any_way(
+            axis in (-1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0),
+            angle in -3.2f32..3.2,
+            scale in -3.0f32..3.0,
+        ) {
+            let axis = Vec3::new(axis.0, axis.1, axis.2).try_normalize().unwrap_or(Vec3::Y);
+            let (turn, size) = (glam::Quat::from_axis_angle(axis, angle), 10f32.powf(scale));
+            let mut parts = corner(3.5, 0.25);
+            parts.extend(furniture(3.5));
+            let parts: Vec<(Mesh, DVec3)> = parts
+                .into_iter()
+                .map(|(mut mesh, at)| {
+                    let at = at.as_vec3();
+                    mesh.positions.iter_mut().for_each(|p| *p = turn * ((*p + at) * size));
+                    mesh.normals.iter_mut().for_each(|n| *n = turn * *n);
+                    (mesh, DVec3::ZERO)
+                })
+                .collect();
+            let w = scene(parts, None);
+            proptest::prop_assert_eq!(backdrop_objects(&w), vec![0, 1, 2, 5]);
+        }
     }
 
     /// The cameras are framed around the furniture, not the corner.
