@@ -1,4 +1,4 @@
-//! The framing's tests: the broad side, the near-C guard, objects on a floor.
+//! The framing's tests: the broad side, the near-C guard, objects on a floor, an open room.
 
 use glam::DVec3;
 
@@ -125,4 +125,57 @@ fn objects_on_a_floor_are_framed_without_it() {
     assert!(alone > 0.4, "{alone}");
     assert!(ball > 0.5 * alone, "the ball on the floor {ball:.3}, alone {alone:.3}");
     assert!(floor > 0.05, "the floor is in the picture: {floor:.3}");
+}
+
+/// An open room (a floor and two walls, separate slabs) seen by the scene's camera from outside
+/// its corner: framed around the furniture, the walls and floor run past the canvas; before, the
+/// corner was framed whole, a box floating in black with the furniture small in it.
+#[test]
+fn an_open_room_is_framed_around_its_furniture() {
+    use crate::scene::default::{cuboid, ellipsoid};
+    use crate::scene::{Material, Object, Projection, Scene, SceneCamera};
+    let mut s = Scene::default();
+    s.materials.push(Material::default());
+    let put = |s: &mut Scene, mesh: crate::scene::Mesh, at: DVec3| {
+        s.meshes.push(mesh);
+        let name = format!("o{}", s.objects.len());
+        s.objects.push(Object { name, mesh: s.meshes.len() - 1, transform: glam::DMat4::from_translation(at) });
+    };
+    // The furniture first (objects 0 and 1): a table-sized box and a ball.
+    put(&mut s, cuboid("table", glam::Vec3::new(1.1, 0.75, 0.7), 0), DVec3::new(0.2, 0.375, -0.3));
+    put(&mut s, ellipsoid("ball", glam::Vec3::splat(0.3), 12, 24, 0), DVec3::new(-0.6, 0.3, 0.2));
+    put(&mut s, cuboid("floor", glam::Vec3::new(3.0, 0.05, 3.0), 0), DVec3::new(0.0, -0.025, 0.0));
+    put(&mut s, cuboid("back", glam::Vec3::new(3.0, 2.5, 0.05), 0), DVec3::new(0.0, 1.25, -1.525));
+    put(&mut s, cuboid("left", glam::Vec3::new(0.05, 2.5, 3.0), 0), DVec3::new(-1.525, 1.25, 0.0));
+    let eye = DVec3::new(2.8, 1.7, 2.2);
+    s.camera = Some(SceneCamera {
+        position: eye,
+        forward: (DVec3::new(-0.3, 0.7, -0.5) - eye).normalize(),
+        up: DVec3::Y,
+        projection: Projection::Perspective { yfov: 0.9 },
+        focus_distance: None,
+    });
+    let prep = Prepared::new(s);
+    assert_eq!(prep.world.backdrops.iter().map(|b| b.object).collect::<Vec<_>>(), vec![2, 3, 4]);
+    let framed = frame_camera(&params(), &prep.world, &prep.accel).unwrap();
+    let (w, h) = (64u32, 48u32);
+    let (mut furniture, mut nothing) = (0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            let r = framed.camera.ray(crate::camera::screen_point(x, y, glam::DVec2::splat(0.5), w, h));
+            match prep.accel.closest(r.origin, r.dir, 0.0, f32::INFINITY).map(|h| prep.world.object_of(h.tri)) {
+                Some(0 | 1) => furniture += 1,
+                Some(_) => {}
+                None => nothing += 1,
+            }
+        }
+    }
+    let share = |n: i32| n as f64 / (w * h) as f64;
+    assert!(share(furniture) > 0.25, "the furniture covers {:.3} ({})", share(furniture), framed.describe(&prep.world));
+    assert!(
+        share(nothing) < 0.15,
+        "{:.3} of the canvas shows nothing ({})",
+        share(nothing),
+        framed.describe(&prep.world)
+    );
 }
