@@ -57,7 +57,7 @@ Rooms: three rooms built of separate slabs (floor and walls), for the framing of
                          three walls 15 cm thick, the camera inside
   kitchen                a table with a bottle and a jug, two chairs, a shelf of plates; a
                          floor and one wall
-  attic                  a person seated on a stool in a corner with a window; walls 25 cm thick,
+  attic                  a person seated on a stool in an attic with a window; walls 25 cm thick,
                          the camera outside
 
 Deterministic: the same bpy gives the same bytes on every run. Meshes are built vertex by vertex
@@ -1335,7 +1335,7 @@ def build_kitchen():
 
 
 def build_attic():
-    """A seated figure in the corner of an attic: floor and two walls 25 cm thick, a window."""
+    """A seated figure in an attic: floor and two walls 25 cm thick, a window in one."""
     build_figure(True)
     fl = mat("floor", (0.5, 0.4, 0.3))
     wa = mat("wall", (0.8, 0.78, 0.7))

@@ -2,17 +2,18 @@
 //! make, as Blender users build interiors and stage sets. Their sides are backdrops
 //! (`backdrop`) though hardly larger than the furniture: framed with them, the picture was the
 //! whole corner seen from outside its edges, a box floating in black, the furniture small in
-//! it. A side is a large slab that meets another at right angles with everything else on one
-//! side of both; a chair built of boards has its legs on both sides of its seat, so it is
-//! never a room. What hangs flat on a side (a picture, a window, a rug) is setting too: framed
-//! with a window on the far wall, a figure seated in the corner was a third of the canvas tall.
+//! it. A side is a large slab that meets another at right angles, facing the way the other
+//! runs, with everything else on that side; a chair built of boards has its legs below its seat
+//! and its back above, so it is never a room (an open crate or a bookcase of boards with things
+//! in it would be). What hangs flat on a side (a picture, a window, a rug) is setting too: framed
+//! with a window on the far wall, a figure seated in the room was a third of the canvas tall.
 
 use glam::DVec3;
 
 use super::World;
 
-/// A side of a room is a slab: every corner within this share of its extent of one plane
-/// (walls 5 cm to 25 cm thick).
+/// A side of a room is a slab: every corner within this share of its extent of one plane (a
+/// wall 25 cm thick in a room 2.5 m across).
 pub const SLAB_SHARE: f64 = 0.1;
 /// A side of a room is at least this many times the extent of the largest object that is not
 /// a slab (a sofa in a small room).
@@ -24,18 +25,20 @@ const RIGHT_ANGLE_COS: f64 = 0.17;
 /// Two sides meet: the gap between their boxes at most this share of the smaller one's extent.
 const MEET_SHARE: f64 = 0.02;
 /// A slab hangs on a side when parallel to it (the cosine between their normals at least this,
-/// 10 deg) and within this share of the side's extent of its faces (a picture, a window, a rug).
+/// 10 deg), over it and within this share of the side's extent of its faces (a picture, a
+/// window, a rug; not a table top over a large floor, nor a sofa's back before a wall).
 const PARALLEL_COS: f64 = 0.985;
-const HANG_SHARE: f64 = 0.05;
+const HANG_SHARE: f64 = 0.02;
 
 /// A slab among the candidates: object, unit normal, a point of its plane (render space).
 type Slab = (usize, DVec3, DVec3);
 
 /// The sides of an open room among `candidates` (the largest objects of `world`, its objects'
-/// `bounds` made), then what hangs on them. The sides: the slabs at least `ROOM_RATIO` times
-/// the largest other object and `ROOM_SHARE` of the scene, with every object that is not such
-/// a slab on one side of them, that meet another such at right angles (in `candidates`' order).
-/// What hangs on them: the slabs parallel to a side and on it (in object order).
+/// `bounds` made), then what hangs on them, none when nothing else is left. The sides: the
+/// slabs at least `ROOM_RATIO` times the largest other object and `ROOM_SHARE` of the scene
+/// that meet another such at right angles, each with every object that is not such a slab on
+/// the side the others run to (in `candidates`' order, each normal facing in). What hangs on
+/// them: the slabs parallel to a side and on it (in object order).
 pub fn sides(world: &World, candidates: &[usize]) -> Vec<Slab> {
     let objects = &world.objects;
     let bounds = |o: usize| objects[o].bounds.map(|(lo, hi, _)| (lo.as_dvec3(), hi.as_dvec3()));
@@ -59,41 +62,75 @@ pub fn sides(world: &World, candidates: &[usize]) -> Vec<Slab> {
         return Vec::new();
     }
     let others: Vec<usize> = (0..objects.len()).filter(|&o| !large.iter().any(|s| s.0 == o)).collect();
-    if others.is_empty() {
-        return Vec::new();
-    }
-    let one_sided = |&(o, normal, point): &Slab| {
+    // Each side faces into the room, the way the sides it meets run from it (a floor faces up,
+    // where its walls rise), and everything else stands on that side: a chair's seat has its
+    // back above it and its legs below, so it is no floor.
+    let inward = |side: &Slab| {
+        let (o, normal, point) = *side;
+        let level = point.dot(normal);
+        let run: f64 = meeting
+            .iter()
+            .filter(|b| meet(side, b))
+            .map(|b| {
+                let (a, c) = span(world, b.0, normal);
+                0.5 * (a + c) - level
+            })
+            .sum();
+        let normal = if run > 0.0 { normal } else { -normal };
         let tolerance = SLAB_SHARE * extent(o);
-        let (mut below, mut above) = (false, false);
-        for &other in &others {
-            let (a, b) = span(world, other, normal);
-            below |= a - point.dot(normal) < -tolerance;
-            above |= b - point.dot(normal) > tolerance;
-        }
-        !(below && above)
+        let level = point.dot(normal);
+        let inside = |other: usize| {
+            let Some((lo, hi)) = bounds(other) else { return true };
+            box_corners(lo, hi).all(|c| c.dot(normal) >= level - tolerance)
+                || span(world, other, normal).0 >= level - tolerance
+        };
+        (run.abs() > 0.0 && others.iter().all(|&other| inside(other))).then_some((o, normal, point))
     };
-    let sided: Vec<Slab> = meeting.into_iter().filter(one_sided).collect();
-    let sides: Vec<Slab> = sided.iter().filter(|a| sided.iter().any(|b| meet(a, b))).copied().collect();
-    let hangs_on = |o: usize, normal: DVec3, &(side, side_normal, _): &Slab| {
-        let ((a, b), (sa, sb)) = (span(world, o, side_normal), span(world, side, side_normal));
+    let facing: Vec<Slab> = meeting.iter().filter_map(inward).collect();
+    let sides: Vec<Slab> = facing.iter().filter(|a| facing.iter().any(|b| meet(a, b))).copied().collect();
+    if sides.is_empty() {
+        return sides;
+    }
+    // What hangs on a side: parallel to it, over it, and no further from its faces than
+    // `HANG_SHARE` of its size.
+    let near = |o: usize, &(side, _, _): &Slab| {
+        let (Some((lo, hi)), Some((slo, shi))) = (bounds(o), bounds(side)) else { return false };
+        let reach = DVec3::splat(HANG_SHARE * extent(side));
+        lo.cmple(shi + reach).all() && hi.cmpge(slo - reach).all()
+    };
+    let lies_on = |o: usize, normal: DVec3, &(side, side_normal, _): &Slab| {
         let tolerance = HANG_SHARE * extent(side);
+        let ((a, b), (sa, sb)) = (span(world, o, side_normal), span(world, side, side_normal));
         normal.dot(side_normal).abs() >= PARALLEL_COS && a >= sa - tolerance && b <= sb + tolerance
     };
     let mut out = sides.clone();
-    if sides.is_empty() {
-        return out;
-    }
     for o in 0..objects.len() {
-        if out.iter().any(|s| s.0 == o) {
+        let close: Vec<&Slab> = sides.iter().filter(|side| near(o, side)).collect();
+        if close.is_empty() || out.iter().any(|s| s.0 == o) {
             continue;
         }
         if let Some((normal, point)) = super::backdrop::plane_within(world, o, extent(o), SLAB_SHARE)
-            && sides.iter().any(|side| hangs_on(o, normal, side))
+            && close.iter().any(|side| lies_on(o, normal, side))
         {
             out.push((o, normal, point));
         }
     }
+    // A room with nothing standing in it is its own subject.
+    if out.len() >= objects.iter().filter(|o| o.bounds.is_some()).count() {
+        return Vec::new();
+    }
     out
+}
+
+/// The eight corners of the box `lo`..`hi`.
+fn box_corners(lo: DVec3, hi: DVec3) -> impl Iterator<Item = DVec3> {
+    (0..8).map(move |k| {
+        DVec3::new(
+            if k & 1 == 0 { lo.x } else { hi.x },
+            if k & 2 == 0 { lo.y } else { hi.y },
+            if k & 4 == 0 { lo.z } else { hi.z },
+        )
+    })
 }
 
 /// The least and greatest of `normal . p` over object `o`'s corners (render space), of up to
@@ -233,15 +270,18 @@ mod tests {
 
     #[test]
     fn boards_of_furniture_sides_apart_and_crowded_rooms_are_not_rooms() {
-        // A chair of boards: a seat with legs under it and a back rising from it.
+        // A chair of boards alone: a seat with its legs below and its back rising above it.
         let chair = vec![
             slab(Vec3::new(1.0, 0.04, 1.0), DVec3::new(0.0, 0.45, 0.0)),
             slab(Vec3::new(1.0, 1.0, 0.04), DVec3::new(0.0, 0.97, -0.48)),
             slab(Vec3::new(0.05, 0.45, 0.05), DVec3::new(0.45, 0.225, 0.45)),
             slab(Vec3::new(0.05, 0.45, 0.05), DVec3::new(-0.45, 0.225, 0.45)),
-            (ellipsoid("cushion", Vec3::new(0.3, 0.08, 0.3), 12, 24, 0), DVec3::new(0.0, 0.55, 0.0)),
         ];
-        assert!(scene(chair, None).backdrops.is_empty());
+        assert!(scene(chair.clone(), None).backdrops.is_empty());
+        // The same with a cushion on its seat.
+        let mut cushioned = chair;
+        cushioned.push((ellipsoid("cushion", Vec3::new(0.3, 0.08, 0.3), 12, 24, 0), DVec3::new(0.0, 0.55, 0.0)));
+        assert!(scene(cushioned, None).backdrops.is_empty());
         // A floor and a wall that do not meet (a gap of a metre between them).
         let mut apart = corner(3.0, 0.05);
         apart.truncate(2);
@@ -252,5 +292,29 @@ mod tests {
         let mut crowded = corner(3.0, 0.05);
         crowded.push((cuboid("wardrobe", Vec3::new(1.2, 2.4, 0.6), 0), DVec3::new(0.5, 1.2, -1.2)));
         assert!(scene(crowded, None).backdrops.is_empty());
+        // Something behind the back wall: that wall faces it too, so it is no side; the floor
+        // and the left wall still make a corner with everything in it (the picture on the back
+        // wall then hangs on no side).
+        let mut behind = corner(3.0, 0.05);
+        behind.extend(furniture(3.0));
+        behind.push((ellipsoid("outside", Vec3::splat(0.3), 12, 24, 0), DVec3::new(0.0, 0.3, -2.5)));
+        assert_eq!(backdrop_objects(&scene(behind, None)), vec![0, 2]);
+        // An empty corner (a rug its only content) is its own subject.
+        let mut empty = corner(3.0, 0.05);
+        empty.push(slab(Vec3::new(1.2, 0.01, 0.8), DVec3::new(0.3, 0.005, 0.5)));
+        assert!(scene(empty, None).backdrops.is_empty());
+    }
+
+    /// In a large room a table top a few percent of the room's size above the floor stands on
+    /// legs; it does not lie on the floor.
+    #[test]
+    fn a_table_top_in_a_large_room_is_furniture() {
+        let mut parts = corner(12.0, 0.2);
+        parts.push(slab(Vec3::new(1.4, 0.03, 0.8), DVec3::new(0.0, 0.735, 0.0)));
+        for (x, z) in [(-0.65, -0.35), (0.65, -0.35), (-0.65, 0.35), (0.65, 0.35)] {
+            parts.push(slab(Vec3::new(0.05, 0.72, 0.05), DVec3::new(x, 0.36, z)));
+        }
+        let w = scene(parts, Some(DVec3::new(4.0, 1.7, 4.0)));
+        assert_eq!(backdrop_objects(&w), vec![0, 1, 2], "{:?}", w.backdrops);
     }
 }
