@@ -87,6 +87,20 @@ fn the_guard_refuses_a_part_magnified_near_c() {
 /// Objects standing on a floor many times their size (`scene::backdrop`) are framed, not
 /// the floor: the ball fills a good part of the canvas, as it does without the floor,
 /// instead of a few pixels of a kite of floor; the floor is still in the picture.
+/// The object each pixel of a 64 x 48 picture through `framed` shows (None: nothing).
+fn objects_seen<'a>(framed: &'a Framed, prep: &'a Prepared) -> impl Iterator<Item = Option<u32>> + 'a {
+    let (w, h) = (64u32, 48u32);
+    (0..h).flat_map(move |y| {
+        (0..w).map(move |x| {
+            let r = framed.camera.ray(crate::camera::screen_point(x, y, glam::DVec2::splat(0.5), w, h));
+            prep.accel.closest(r.origin, r.dir, 0.0, f32::INFINITY).map(|h| prep.world.object_of(h.tri))
+        })
+    })
+}
+
+/// The pixels `objects_seen` reads.
+const SEEN_PIXELS: f64 = 64.0 * 48.0;
+
 #[test]
 fn objects_on_a_floor_are_framed_without_it() {
     use crate::scene::default::{cuboid, ellipsoid};
@@ -106,19 +120,15 @@ fn objects_on_a_floor_are_framed_without_it() {
         }
         let prep = Prepared::new(s);
         let framed = frame_camera(&params(), &prep.world, &prep.accel).unwrap();
-        let (w, h) = (64u32, 48u32);
         let (mut ball, mut floor) = (0, 0);
-        for y in 0..h {
-            for x in 0..w {
-                let r = framed.camera.ray(crate::camera::screen_point(x, y, glam::DVec2::splat(0.5), w, h));
-                match prep.accel.closest(r.origin, r.dir, 0.0, f32::INFINITY).map(|h| prep.world.object_of(h.tri)) {
-                    Some(0) => ball += 1,
-                    Some(_) => floor += 1,
-                    None => {}
-                }
+        for seen in objects_seen(&framed, &prep) {
+            match seen {
+                Some(0) => ball += 1,
+                Some(_) => floor += 1,
+                None => {}
             }
         }
-        (ball as f64 / (w * h) as f64, floor as f64 / (w * h) as f64)
+        (ball as f64 / SEEN_PIXELS, floor as f64 / SEEN_PIXELS)
     };
     let (alone, _) = share(false);
     let (ball, floor) = share(true);
@@ -158,19 +168,15 @@ fn an_open_room_is_framed_around_its_furniture() {
     let prep = Prepared::new(s);
     assert_eq!(prep.world.backdrops.iter().map(|b| b.object).collect::<Vec<_>>(), vec![2, 3, 4]);
     let framed = frame_camera(&params(), &prep.world, &prep.accel).unwrap();
-    let (w, h) = (64u32, 48u32);
     let (mut furniture, mut nothing) = (0, 0);
-    for y in 0..h {
-        for x in 0..w {
-            let r = framed.camera.ray(crate::camera::screen_point(x, y, glam::DVec2::splat(0.5), w, h));
-            match prep.accel.closest(r.origin, r.dir, 0.0, f32::INFINITY).map(|h| prep.world.object_of(h.tri)) {
-                Some(0 | 1) => furniture += 1,
-                Some(_) => {}
-                None => nothing += 1,
-            }
+    for seen in objects_seen(&framed, &prep) {
+        match seen {
+            Some(0 | 1) => furniture += 1,
+            Some(_) => {}
+            None => nothing += 1,
         }
     }
-    let share = |n: i32| n as f64 / (w * h) as f64;
+    let share = |n: i32| n as f64 / SEEN_PIXELS;
     assert!(share(furniture) > 0.25, "the furniture covers {:.3} ({})", share(furniture), framed.describe(&prep.world));
     assert!(
         share(nothing) < 0.15,

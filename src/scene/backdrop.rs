@@ -93,15 +93,17 @@ pub fn backdrops(world: &World) -> Vec<Backdrop> {
         .collect()
 }
 
-/// Up to `FLAT_SAMPLE` of object `o`'s triangles (render space), evenly spread.
-fn triangles(world: &World, o: usize) -> impl Iterator<Item = [DVec3; 3]> + '_ {
+/// Up to `samples` of object `o`'s triangles (render space), evenly spread (every n-th).
+pub(super) fn sampled(world: &World, o: usize, samples: usize) -> impl Iterator<Item = [DVec3; 3]> + '_ {
     let obj = &world.objects[o];
     let count = obj.triangle_count as usize;
-    let step = count.div_ceil(FLAT_SAMPLE).max(1);
-    (0..count)
-        .step_by(step)
-        .map(move |t| world.triangle(obj.first_triangle + t as u32).map(|p| p.as_dvec3()))
-        .filter(|t| t.iter().all(|p| p.is_finite()))
+    let step = count.div_ceil(samples).max(1);
+    (0..count).step_by(step).map(move |t| world.triangle(obj.first_triangle + t as u32).map(|p| p.as_dvec3()))
+}
+
+/// Up to `FLAT_SAMPLE` of object `o`'s triangles, those with finite corners.
+fn triangles(world: &World, o: usize) -> impl Iterator<Item = [DVec3; 3]> + '_ {
+    sampled(world, o, FLAT_SAMPLE).filter(|t| t.iter().all(|p| p.is_finite()))
 }
 
 fn corners(world: &World, o: usize) -> impl Iterator<Item = DVec3> + '_ {

@@ -136,13 +136,10 @@ fn box_corners(lo: DVec3, hi: DVec3) -> impl Iterator<Item = DVec3> {
 /// The least and greatest of `normal . p` over object `o`'s corners (render space), of up to
 /// `SPAN_SAMPLE` of its triangles evenly spread: how far it reaches either way along `normal`.
 fn span(world: &World, o: usize, normal: DVec3) -> (f64, f64) {
-    let obj = &world.objects[o];
-    let step = (obj.triangle_count as usize).div_ceil(SPAN_SAMPLE).max(1);
-    (0..obj.triangle_count as usize)
-        .step_by(step)
-        .flat_map(|t| world.triangle(obj.first_triangle + t as u32))
+    super::backdrop::sampled(world, o, SPAN_SAMPLE)
+        .flatten()
         .filter(|p| p.is_finite())
-        .map(|p| p.as_dvec3().dot(normal))
+        .map(|p| p.dot(normal))
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), d| (a.min(d), b.max(d)))
 }
 
