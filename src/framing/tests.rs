@@ -184,4 +184,17 @@ fn an_open_room_is_framed_around_its_furniture() {
         share(nothing),
         framed.describe(&prep.world)
     );
+    // Rendered, the floor and the walls run on past their edges (`trace::run_on`): every pixel
+    // shows the room.
+    let tracer = crate::trace::Tracer {
+        world: &prep.world,
+        accel: &prep.accel,
+        rig: None,
+        background: glam::Vec3::ZERO,
+        seed: 0,
+    };
+    let mut film = crate::film::Film::new(64, 48, 1);
+    tracer.render(&mut film, &|_, p| framed.camera.ray(p), None, None, &crate::progress::Progress::silent());
+    let missed = film.hits.iter().filter(|h| h.object == crate::film::NO_HIT).count();
+    assert!(nothing > 0 && missed == 0, "{missed} of {nothing} pixels left showing nothing");
 }

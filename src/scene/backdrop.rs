@@ -7,7 +7,10 @@
 //! - it has one side, the subject's: a ray that starts behind its plane passes through it
 //!   (`Accel`). A converging camera wraps around its subject, so the rays of the lower rows
 //!   start below the floor, and the floor's unlit underside covered the lower half of the
-//!   canvas; through it they see the subject from below, another of its sides.
+//!   canvas; through it they see the subject from below, another of its sides;
+//! - it runs on past its edges (`trace::run_on`): a ray that misses everything and meets its
+//!   plane from the subject's side shows it there, as a floor continued under a room's furniture
+//!   where the camera looks past the floor's near edge. What hangs on a room's side does not.
 
 use glam::{DVec3, Vec3};
 
@@ -31,6 +34,9 @@ pub struct Backdrop {
     pub object: usize,
     pub normal: Vec3,
     pub offset: f32,
+    /// Its largest triangle on that plane, which a ray missing everything runs on to past the
+    /// backdrop's edges (`trace::run_on`); None when no triangle lies on it.
+    pub face: Option<u32>,
 }
 
 impl Backdrop {
@@ -69,18 +75,24 @@ pub fn backdrops(world: &World) -> Vec<Backdrop> {
     let solid = (hi - lo).length();
     let mut chosen: Vec<(usize, DVec3, DVec3)> =
         flat.into_iter().filter(|f| extent(f.0) >= BACKDROP_RATIO * solid).collect();
-    for side in super::room::sides(world, &by_size[..by_size.len().min(CANDIDATES)]) {
+    let room = super::room::sides(world, &by_size[..by_size.len().min(CANDIDATES)]);
+    // What hangs on a room's side does not run on past its edges: its plane lies in front of
+    // the wall's.
+    let hangs = |o: usize| room.hangings.iter().any(|h| h.0 == o);
+    for side in room.sides.iter().chain(&room.hangings) {
         if !chosen.iter().any(|c| c.0 == side.0) {
-            chosen.push(side);
+            chosen.push(*side);
         }
     }
-    chosen.sort_unstable_by_key(|f| f.0);
+    let runs_on: Vec<bool> = chosen.iter().map(|c| !hangs(c.0)).collect();
+    let mut chosen: Vec<_> = chosen.into_iter().zip(runs_on).collect();
+    chosen.sort_unstable_by_key(|f| f.0.0);
     // The subject's centre: the box of everything else.
-    let (lo, hi) = box_without(&|o| chosen.iter().any(|f| f.0 == o));
+    let (lo, hi) = box_without(&|o| chosen.iter().any(|f| f.0.0 == o));
     let centre = (lo + hi) * 0.5;
     chosen
         .into_iter()
-        .filter_map(|(o, normal, point)| {
+        .filter_map(|((o, normal, point), runs_on)| {
             let normal = if (centre - point).dot(normal) >= 0.0 { normal } else { -normal };
             // The plane through the corner nearest the subject (a slab's top face).
             let offset = corners(world, o).map(|p| p.dot(normal)).fold(f64::NEG_INFINITY, f64::max);
@@ -88,10 +100,38 @@ pub fn backdrops(world: &World) -> Vec<Backdrop> {
                 object: o,
                 normal: normal.as_vec3(),
                 offset: offset as f32,
+                face: if runs_on { face(world, o, normal, offset) } else { None },
             })
         })
         .collect()
 }
+
+/// The largest of object `o`'s sampled triangles whose corners lie on the plane
+/// `normal . p = offset` (within `FACE_SHARE` of the object's extent) and which faces along
+/// `normal` or against it: a slab's face towards the subject.
+fn face(world: &World, o: usize, normal: DVec3, offset: f64) -> Option<u32> {
+    let obj = &world.objects[o];
+    let (lo, hi, _) = obj.bounds?;
+    let tolerance = FACE_SHARE * (hi - lo).as_dvec3().length();
+    let step = (obj.triangle_count as usize).div_ceil(FLAT_SAMPLE).max(1);
+    (0..obj.triangle_count)
+        .step_by(step)
+        .map(|t| obj.first_triangle + t)
+        .filter_map(|tri| {
+            let [a, b, c] = world.triangle(tri).map(|p| p.as_dvec3());
+            let cross = (b - a).cross(c - a);
+            let on = [a, b, c].iter().all(|p| (p.dot(normal) - offset).abs() <= tolerance);
+            let flat = cross.try_normalize().is_some_and(|n| n.dot(normal).abs() >= FACE_COS);
+            (on && flat).then_some((tri, cross.length()))
+        })
+        .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)))
+        .map(|(tri, _)| tri)
+}
+
+/// A backdrop's face lies within this share of its extent of its plane.
+const FACE_SHARE: f64 = 1e-4;
+/// A backdrop's face is parallel to its plane: the cosine between their normals at least this.
+const FACE_COS: f64 = 0.9999;
 
 /// Up to `samples` of object `o`'s triangles (render space), evenly spread (every n-th).
 pub(super) fn sampled(world: &World, o: usize, samples: usize) -> impl Iterator<Item = [DVec3; 3]> + '_ {

@@ -31,15 +31,22 @@ const PARALLEL_COS: f64 = 0.985;
 const HANG_SHARE: f64 = 0.02;
 
 /// A slab among the candidates: object, unit normal, a point of its plane (render space).
-type Slab = (usize, DVec3, DVec3);
+pub type Slab = (usize, DVec3, DVec3);
+
+/// An open room's sides and what hangs flat on them.
+#[derive(Debug, Default)]
+pub struct Room {
+    pub sides: Vec<Slab>,
+    pub hangings: Vec<Slab>,
+}
 
 /// The sides of an open room among `candidates` (the largest objects of `world`, its objects'
-/// `bounds` made), then what hangs on them, none when nothing else is left. The sides: the
+/// `bounds` made) and what hangs on them; neither when nothing else is left. The sides: the
 /// slabs at least `ROOM_RATIO` times the largest other object and `ROOM_SHARE` of the scene
 /// that meet another such at right angles, each with every object that is not such a slab on
 /// the side the others run to (in `candidates`' order, each normal facing in). What hangs on
 /// them: the slabs parallel to a side and on it (in object order).
-pub fn sides(world: &World, candidates: &[usize]) -> Vec<Slab> {
+pub fn sides(world: &World, candidates: &[usize]) -> Room {
     let objects = &world.objects;
     let bounds = |o: usize| objects[o].bounds.map(|(lo, hi, _)| (lo.as_dvec3(), hi.as_dvec3()));
     let extent = |o: usize| bounds(o).map_or(0.0, |(lo, hi)| (hi - lo).length());
@@ -59,7 +66,7 @@ pub fn sides(world: &World, candidates: &[usize]) -> Vec<Slab> {
     };
     let meeting: Vec<Slab> = large.iter().filter(|a| large.iter().any(|b| meet(a, b))).copied().collect();
     if meeting.is_empty() {
-        return Vec::new();
+        return Room::default();
     }
     let others: Vec<usize> = (0..objects.len()).filter(|&o| !large.iter().any(|s| s.0 == o)).collect();
     // Each side faces into the room, the way the sides it meets run from it (a floor faces up,
@@ -89,7 +96,7 @@ pub fn sides(world: &World, candidates: &[usize]) -> Vec<Slab> {
     let facing: Vec<Slab> = meeting.iter().filter_map(inward).collect();
     let sides: Vec<Slab> = facing.iter().filter(|a| facing.iter().any(|b| meet(a, b))).copied().collect();
     if sides.is_empty() {
-        return sides;
+        return Room::default();
     }
     // What hangs on a side: parallel to it, over it, and no further from its faces than
     // `HANG_SHARE` of its size.
@@ -103,23 +110,23 @@ pub fn sides(world: &World, candidates: &[usize]) -> Vec<Slab> {
         let ((a, b), (sa, sb)) = (span(world, o, side_normal), span(world, side, side_normal));
         normal.dot(side_normal).abs() >= PARALLEL_COS && a >= sa - tolerance && b <= sb + tolerance
     };
-    let mut out = sides.clone();
+    let mut hangings = Vec::new();
     for o in 0..objects.len() {
         let close: Vec<&Slab> = sides.iter().filter(|side| near(o, side)).collect();
-        if close.is_empty() || out.iter().any(|s| s.0 == o) {
+        if close.is_empty() || sides.iter().chain(&hangings).any(|s| s.0 == o) {
             continue;
         }
         if let Some((normal, point)) = super::backdrop::plane_within(world, o, extent(o), SLAB_SHARE)
             && close.iter().any(|side| lies_on(o, normal, side))
         {
-            out.push((o, normal, point));
+            hangings.push((o, normal, point));
         }
     }
     // A room with nothing standing in it is its own subject.
-    if out.len() >= objects.iter().filter(|o| o.bounds.is_some()).count() {
-        return Vec::new();
+    if sides.len() + hangings.len() >= objects.iter().filter(|o| o.bounds.is_some()).count() {
+        return Room::default();
     }
-    out
+    Room { sides, hangings }
 }
 
 /// The eight corners of the box `lo`..`hi`.
@@ -202,6 +209,13 @@ mod tests {
             let floor = w.backdrops[0];
             assert!(floor.behind(w.to_render.point(DVec3::new(0.0, -0.02, 0.0))));
             assert!(!floor.behind(w.to_render.point(DVec3::new(0.0, 0.02, 0.0))));
+            // The sides run on past their edges, on their inner faces; the picture does not.
+            let faces: Vec<bool> = w.backdrops.iter().map(|b| b.face.is_some()).collect();
+            assert_eq!(faces, vec![true, true, true, false]);
+            for b in &w.backdrops[..3] {
+                let corners = w.triangle(b.face.unwrap());
+                assert!(corners.iter().all(|p| (b.normal.dot(*p) - b.offset).abs() < 1e-5), "{b:?}");
+            }
         }
     }
 
@@ -217,6 +231,7 @@ mod tests {
         parts.push(slab(Vec3::new(0.8, 1.8, 0.5), DVec3::new(1.2, 0.9, -1.5)));
         let w = scene(parts, Some(DVec3::new(2.2, 1.7, 2.8)));
         assert_eq!(backdrop_objects(&w), vec![0, 1, 2, 5, 6, 7], "{:?}", w.backdrops);
+        assert!(w.backdrops[3..].iter().all(|b| b.face.is_none()), "{:?}", w.backdrops);
     }
 
     proptest::proptest! {

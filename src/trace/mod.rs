@@ -18,6 +18,7 @@ use crate::util::rng::{splitmix64, unit_f64};
 
 mod antialias;
 mod bands;
+mod run_on;
 mod sampler;
 mod shadows;
 mod tracer;

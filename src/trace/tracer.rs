@@ -83,7 +83,8 @@ impl Tracer<'_> {
     /// blocked.
     #[inline]
     pub(super) fn sample(&self, ray: &CameraRay, known: Known) -> (Vec3, Option<(Hit, Option<SurfacePoint>)>, u8) {
-        self.sample_hit(ray, known, self.accel.closest(ray.origin, ray.dir, 0.0, f32::INFINITY))
+        let hit = self.accel.closest(ray.origin, ray.dir, 0.0, f32::INFINITY);
+        self.sample_hit(ray, known, super::run_on::run_on(self.world, ray.origin, ray.dir, hit))
     }
 
     /// `sample` with `ray`'s closest hit `hit` already found.
@@ -343,7 +344,8 @@ impl Tracer<'_> {
     #[inline]
     pub(super) fn closest_of(&self, packet: &[CameraRay; TileRow::PACKET], n: usize) -> [Option<Hit>; TileRow::PACKET] {
         let lanes: [(Vec3, Vec3); TileRow::PACKET] = packet.map(|r| (r.origin, r.dir));
-        self.accel.closest4(&lanes[..n], 0.0, f32::INFINITY)
+        let hits = self.accel.closest4(&lanes[..n], 0.0, f32::INFINITY);
+        std::array::from_fn(|l| super::run_on::run_on(self.world, lanes[l].0, lanes[l].1, hits[l]))
     }
 
     /// The pixels of `list`, in parallel chunks, with what `known[k]` says of the lights of

@@ -1,0 +1,117 @@
+//! Backdrops run on past their edges: a ray that misses everything but meets a backdrop's
+//! plane ahead of it, from the subject's side, shows that backdrop there. A converging camera
+//! framed on the furniture of a room looks past the floor's near edge in its lowest rows,
+//! which stayed black; the floor now continues under them.
+
+use glam::{DVec3, Vec3};
+
+use crate::accel::Hit;
+use crate::scene::World;
+
+/// `hit`, or on a miss the nearest backdrop plane that the ray from `origin` along `dir` meets
+/// ahead of it from the subject's side: a hit on the backdrop's face triangle, its
+/// barycentrics outside it, so its material, normal and texture run on.
+#[inline]
+pub(super) fn run_on(world: &World, origin: Vec3, dir: Vec3, hit: Option<Hit>) -> Option<Hit> {
+    if hit.is_some() || world.backdrops.is_empty() {
+        return hit;
+    }
+    let mut nearest: Option<(f32, u32, usize)> = None;
+    for b in &world.backdrops {
+        let Some(face) = b.face else { continue };
+        let (towards, above) = (b.normal.dot(dir), b.normal.dot(origin) - b.offset);
+        if towards >= 0.0 || above < 0.0 {
+            continue;
+        }
+        let t = -above / towards;
+        if t.is_finite() && nearest.is_none_or(|(best, ..)| t < best) {
+            nearest = Some((t, face, b.object));
+        }
+    }
+    let (t, face, object) = nearest?;
+    let (u, v) = barycentrics(world.triangle(face).map(Vec3::as_dvec3), (origin + dir * t).as_dvec3())?;
+    Some(Hit { tri: face, object: object as u32, t, u: u as f32, v: v as f32 })
+}
+
+/// The barycentrics (u, v) of `q` on the plane of triangle `[a, b, c]`: q = a + u (b - a) +
+/// v (c - a), as `Hit` has them; None for a degenerate triangle.
+fn barycentrics([a, b, c]: [DVec3; 3], q: DVec3) -> Option<(f64, f64)> {
+    let (e1, e2, d) = (b - a, c - a, q - a);
+    let (d00, d01, d11) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+    let (d20, d21) = (d.dot(e1), d.dot(e2));
+    let det = d00 * d11 - d01 * d01;
+    let (u, v) = ((d11 * d20 - d01 * d21) / det, (d00 * d21 - d01 * d20) / det);
+    (det > 0.0 && u.is_finite() && v.is_finite()).then_some((u, v))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::Accel;
+    use crate::scene::default::{cuboid, ellipsoid};
+
+    /// A slab floor 20 m square and 10 cm thick, its top at y = 0, and a ball on it.
+    fn floor_and_ball() -> World {
+        let floor = (cuboid("floor", glam::Vec3::new(20.0, 0.1, 20.0), 0), DVec3::new(0.0, -0.05, 0.0));
+        let ball = (ellipsoid("ball", glam::Vec3::splat(1.0), 12, 24, 0), DVec3::new(0.0, 1.0, 0.0));
+        crate::scene::test_world(vec![floor, ball], None)
+    }
+
+    /// A ray in scene units from `from` towards `to`, in render space.
+    fn ray(w: &World, from: DVec3, to: DVec3) -> (Vec3, Vec3) {
+        let (a, b) = (w.to_render.point(from), w.to_render.point(to));
+        (a, (b - a).normalize())
+    }
+
+    #[test]
+    fn a_ray_past_the_floors_edge_runs_on_to_its_plane() {
+        let w = floor_and_ball();
+        let accel = Accel::new(&w);
+        assert_eq!(w.backdrops.len(), 1);
+        // From 1 m up beyond the floor's edge, down to y = 0 further out: a miss, then the
+        // floor's top face where the ray crosses its plane, 30 m out.
+        let (o, d) = ray(&w, DVec3::new(0.0, 1.0, 15.0), DVec3::new(0.0, 0.0, 30.0));
+        assert!(accel.closest(o, d, 0.0, f32::INFINITY).is_none());
+        let hit = run_on(&w, o, d, None).expect("runs on");
+        assert_eq!(hit.object, 0);
+        let at = w.to_render.inverse_point(w.point_at(hit.tri, hit.u, hit.v));
+        assert!((at - DVec3::new(0.0, 0.0, 30.0)).length() < 1e-3, "{at}");
+        assert!((w.to_render.inverse_point(o + d * hit.t) - at).length() < 1e-3);
+        // Its surface is the floor's: facing up, the floor's material.
+        let sp = crate::shading::surface(&w, &hit, o, d);
+        assert!(sp.normal.dot(w.backdrops[0].normal) > 0.999);
+    }
+
+    #[test]
+    fn rays_away_from_below_or_hitting_something_do_not_run_on() {
+        let w = floor_and_ball();
+        let accel = Accel::new(&w);
+        // Rising beyond the edge; level; from below the floor; a hit stays the hit.
+        for (from, to) in [
+            (DVec3::new(0.0, 1.0, 15.0), DVec3::new(0.0, 2.0, 30.0)),
+            (DVec3::new(0.0, 1.0, 15.0), DVec3::new(0.0, 1.0, 30.0)),
+            (DVec3::new(0.0, -1.0, 15.0), DVec3::new(0.0, -2.0, 30.0)),
+        ] {
+            let (o, d) = ray(&w, from, to);
+            assert!(run_on(&w, o, d, None).is_none(), "{from} -> {to}");
+        }
+        let (o, d) = ray(&w, DVec3::new(0.0, 1.0, 5.0), DVec3::new(0.0, 1.0, 0.0));
+        let hit = accel.closest(o, d, 0.0, f32::INFINITY).unwrap();
+        assert_eq!(run_on(&w, o, d, Some(hit)), Some(hit));
+        // Without backdrops nothing runs on.
+        let ball = (ellipsoid("ball", glam::Vec3::splat(1.0), 12, 24, 0), DVec3::ZERO);
+        let w = crate::scene::test_world(vec![ball], None);
+        let (o, d) = ray(&w, DVec3::new(0.0, 3.0, 5.0), DVec3::new(0.0, -3.0, 10.0));
+        assert!(run_on(&w, o, d, None).is_none());
+    }
+
+    #[test]
+    fn barycentrics_inside_and_beyond_a_triangle() {
+        let tri = [DVec3::ZERO, DVec3::X, DVec3::Y];
+        let (u, v) = barycentrics(tri, DVec3::new(0.25, 0.5, 0.0)).unwrap();
+        assert!((u - 0.25).abs() < 1e-12 && (v - 0.5).abs() < 1e-12);
+        let (u, v) = barycentrics(tri, DVec3::new(-3.0, 7.0, 0.0)).unwrap();
+        assert!((u + 3.0).abs() < 1e-12 && (v - 7.0).abs() < 1e-12);
+        assert!(barycentrics([DVec3::ZERO, DVec3::X, DVec3::X * 2.0], DVec3::Y).is_none());
+    }
+}
