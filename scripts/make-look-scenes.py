@@ -2,7 +2,7 @@
 
 Usage: python make-look-scenes.py OUT_DIR [NAME...]   (bpy 5.0.1 importable)
 Without NAMEs it builds the first set; NAMEs pick scenes from any set, `second` stands for the
-whole second set and `rooms` for the rooms.
+whole second set, `rooms` for the rooms and `sweeps` for the subjects on a studio sweep.
 
 Why: the look of cubist is tuned on a handful of models (a still life, a bunny, a teapot, a
 cow, a bust of Venus...). Judging a look on those alone rewards over-fitting. These scenes are
@@ -59,6 +59,12 @@ Rooms: three rooms built of separate slabs (floor and walls), for the framing of
                          floor and one wall
   attic                  a person seated on a stool in an attic with a window; walls 25 cm thick,
                          the camera outside
+
+Sweeps: four subjects of the first set on a studio sweep (a floor curving up into a wall, one
+mesh of one layer, about four times the subject's size), as product and character shots stand
+them; for the framing of sweeps:
+  sweep-horse, sweep-chair           the renderer's own view
+  sweep-head, sweep-teakettle        a camera of the scene's, a little above and to one side
 
 Deterministic: the same bpy gives the same bytes on every run. Meshes are built vertex by vertex
 with bmesh (no mesh operators, no bmesh.ops.create_uvsphere, whose face order varies between runs),
@@ -1347,6 +1353,32 @@ def build_attic():
     normalise()
 
 
+def sweep(width=7.0, front=-3.5, back=2.2, radius=1.2, height=4.5, depth_segs=16):
+    """A studio sweep behind the normalised subject: a floor at z = 0 from y = `front` curving
+    up (a quarter circle of `radius`) into a wall at y = `back`, one layer, `width` wide."""
+    profile = [(front, 0.0), (back - radius, 0.0)]
+    for k in range(1, depth_segs):
+        a = math.pi / 2 * k / depth_segs
+        profile.append((back - radius + radius * math.sin(a), radius - radius * math.cos(a)))
+    profile += [(back, radius), (back, height)]
+    xs = [-width / 2 + width * i / 6 for i in range(7)]
+    verts = [(x, y, z) for x in xs for (y, z) in profile]
+    m = len(profile)
+    faces = [(i * m + j, (i + 1) * m + j, (i + 1) * m + j + 1, i * m + j + 1)
+             for i in range(len(xs) - 1) for j in range(m - 1)]
+    from_pydata("sweep", verts, faces, mat("sweep", (0.82, 0.8, 0.76)), smooth=True, sharp_deg=30)
+
+
+def on_sweep(build, camera=None):
+    """`build`'s subject on a studio sweep, seen by `camera` ((location, target)) if given."""
+    def scene():
+        build()
+        sweep()
+        if camera:
+            room_camera(*camera, lens=50)
+    return scene
+
+
 SCENES = [
     ("head-bust", build_head_bust, True),
     ("figure-standing", lambda: build_figure(False), True),
@@ -1385,6 +1417,14 @@ ROOMS = [
     ("attic", build_attic, True),
 ]
 
+# the fourth set: subjects on a studio sweep (a floor curving up into a wall, one mesh)
+SWEEPS = [
+    ("sweep-horse", on_sweep(build_horse), True),
+    ("sweep-head", on_sweep(build_head_bust, ((1.2, -4.5, 1.4), (0.0, 0.0, 0.9))), True),
+    ("sweep-teakettle", on_sweep(build_teakettle, ((-1.5, -4.0, 1.8), (0.0, 0.0, 0.6))), True),
+    ("sweep-chair", on_sweep(build_chair), True),
+]
+
 
 def main(argv):
     if len(argv) < 2 or argv[1].startswith("-"):
@@ -1396,12 +1436,14 @@ def main(argv):
         only = (only - {"second"}) | {name for name, _, _ in SECOND_SET}
     if "rooms" in only:
         only = (only - {"rooms"}) | {name for name, _, _ in ROOMS}
-    known = {name for name, _, _ in SCENES + SECOND_SET + ROOMS}
+    if "sweeps" in only:
+        only = (only - {"sweeps"}) | {name for name, _, _ in SWEEPS}
+    known = {name for name, _, _ in SCENES + SECOND_SET + ROOMS + SWEEPS}
     if only - known:
         print(f"make-look-scenes.py: unknown scene {sorted(only - known)[0]!r}", file=sys.stderr)
         return 2
     os.makedirs(out, exist_ok=True)
-    for name, build, yup in SCENES + SECOND_SET + ROOMS:
+    for name, build, yup in SCENES + SECOND_SET + ROOMS + SWEEPS:
         if (only and name not in only) or (not only and (name, build, yup) not in SCENES):
             continue
         reset()

@@ -102,21 +102,17 @@ fn objects_seen<'a>(framed: &'a Framed, prep: &'a Prepared) -> impl Iterator<Ite
 const SEEN_PIXELS: f64 = 64.0 * 48.0;
 
 #[test]
-fn objects_on_a_floor_are_framed_without_it() {
+fn objects_on_a_floor_or_a_sweep_are_framed_without_it() {
     use crate::scene::default::{cuboid, ellipsoid};
-    use crate::scene::{Material, Object, Scene};
-    let share = |with_floor: bool| {
+    use crate::scene::{Material, Mesh, Object, Scene};
+    let share = |setting: Option<(Mesh, DVec3)>| {
         let mut s = Scene::default();
         s.materials.push(Material::default());
         s.meshes.push(ellipsoid("ball", glam::Vec3::splat(1.0), 12, 24, 0));
         s.objects.push(Object { name: "ball".into(), mesh: 0, transform: glam::DMat4::from_translation(DVec3::Y) });
-        if with_floor {
-            s.meshes.push(cuboid("floor", glam::Vec3::new(40.0, 0.02, 40.0), 0));
-            s.objects.push(Object {
-                name: "floor".into(),
-                mesh: 1,
-                transform: glam::DMat4::from_translation(DVec3::new(0.0, -0.01, 0.0)),
-            });
+        if let Some((mesh, at)) = setting {
+            s.meshes.push(mesh);
+            s.objects.push(Object { name: "setting".into(), mesh: 1, transform: glam::DMat4::from_translation(at) });
         }
         let prep = Prepared::new(s);
         let framed = frame_camera(&params(), &prep.world, &prep.accel).unwrap();
@@ -130,11 +126,16 @@ fn objects_on_a_floor_are_framed_without_it() {
         }
         (ball as f64 / SEEN_PIXELS, floor as f64 / SEEN_PIXELS)
     };
-    let (alone, _) = share(false);
-    let (ball, floor) = share(true);
+    let (alone, _) = share(None);
     assert!(alone > 0.4, "{alone}");
-    assert!(ball > 0.5 * alone, "the ball on the floor {ball:.3}, alone {alone:.3}");
-    assert!(floor > 0.05, "the floor is in the picture: {floor:.3}");
+    // A 40 m floor; a studio sweep 8 m wide, curving up into its wall 3 m behind the ball.
+    let floor = (cuboid("floor", glam::Vec3::new(40.0, 0.02, 40.0), 0), DVec3::new(0.0, -0.01, 0.0));
+    let sweep = (crate::scene::test_sweep(&crate::scene::sweep_profile(0.0), 8.0, false), DVec3::ZERO);
+    for (what, setting) in [("floor", floor), ("sweep", sweep)] {
+        let (ball, floor) = share(Some(setting));
+        assert!(ball > 0.5 * alone, "the ball on the {what} {ball:.3}, alone {alone:.3}");
+        assert!(floor > 0.05, "the {what} is in the picture: {floor:.3}");
+    }
 }
 
 /// An open room (a floor and two walls, separate slabs) seen by the scene's camera from outside

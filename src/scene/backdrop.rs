@@ -37,6 +37,10 @@ pub struct Backdrop {
     /// Its largest triangle on that plane, which a ray missing everything runs on to past the
     /// backdrop's edges (`trace::run_on`); None when no triangle lies on it.
     pub face: Option<u32>,
+    /// A sweep modelled in one layer (`sweep`): its one side is its triangles' (rays meeting a
+    /// triangle from behind pass it, `Accel`), not its plane's; true when their winding faces
+    /// the subject. None: rays starting behind the plane pass the whole object.
+    pub winding: Option<bool>,
 }
 
 impl Backdrop {
@@ -85,25 +89,41 @@ pub fn backdrops(world: &World) -> Vec<Backdrop> {
         }
     }
     let runs_on: Vec<bool> = chosen.iter().map(|c| !hangs(c.0)).collect();
-    let mut chosen: Vec<_> = chosen.into_iter().zip(runs_on).collect();
-    chosen.sort_unstable_by_key(|f| f.0.0);
-    // The subject's centre: the box of everything else.
-    let (lo, hi) = box_without(&|o| chosen.iter().any(|f| f.0.0 == o));
-    let centre = (lo + hi) * 0.5;
-    chosen
-        .into_iter()
-        .filter_map(|((o, normal, point), runs_on)| {
-            let normal = if (centre - point).dot(normal) >= 0.0 { normal } else { -normal };
-            // The plane through the corner nearest the subject (a slab's top face).
-            let offset = corners(world, o).map(|p| p.dot(normal)).fold(f64::NEG_INFINITY, f64::max);
-            (normal.is_finite() && offset.is_finite()).then(|| Backdrop {
-                object: o,
-                normal: normal.as_vec3(),
-                offset: offset as f32,
-                face: if runs_on { face(world, o, normal, offset) } else { None },
-            })
+    let chosen: Vec<_> = chosen.into_iter().zip(runs_on).collect();
+    // Sweeps (`sweep`): a sheet bent from a floor into a wall, as large as a backdrop; its plane
+    // is its floor's.
+    let sweeps: Vec<(usize, super::sweep::Sweep)> = by_size
+        .iter()
+        .take(CANDIDATES)
+        .filter(|&&o| !chosen.iter().any(|c| c.0.0 == o))
+        .filter_map(|&o| {
+            let (lo, hi) = box_without(&|k| k == o || chosen.iter().any(|c| c.0.0 == k));
+            let large = lo.is_finite() && extent(o) >= BACKDROP_RATIO * (hi - lo).length();
+            large.then(|| super::sweep::sweep(world, o, (lo, hi)).map(|s| (o, s))).flatten()
         })
-        .collect()
+        .collect();
+    // The subject's centre: the box of everything else.
+    let (lo, hi) = box_without(&|o| chosen.iter().any(|f| f.0.0 == o) || sweeps.iter().any(|s| s.0 == o));
+    let centre = (lo + hi) * 0.5;
+    let planes = chosen.into_iter().map(|((o, normal, point), runs_on)| {
+        let normal = if (centre - point).dot(normal) >= 0.0 { normal } else { -normal };
+        // The plane through the corner nearest the subject (a slab's top face).
+        let offset = corners(world, o).map(|p| p.dot(normal)).fold(f64::NEG_INFINITY, f64::max);
+        (o, normal, offset, runs_on, None)
+    });
+    let mut found: Vec<Backdrop> = planes
+        .chain(sweeps.into_iter().map(|(o, s)| (o, s.normal, s.offset, true, s.winding)))
+        .filter(|&(_, normal, offset, ..)| normal.is_finite() && offset.is_finite())
+        .map(|(o, normal, offset, runs_on, winding)| Backdrop {
+            object: o,
+            normal: normal.as_vec3(),
+            offset: offset as f32,
+            face: if runs_on { face(world, o, normal, offset) } else { None },
+            winding,
+        })
+        .collect();
+    found.sort_unstable_by_key(|b| b.object);
+    found
 }
 
 /// The largest of object `o`'s sampled triangles whose corners lie on the plane

@@ -12,6 +12,7 @@ pub mod enclosure;
 mod gltf;
 pub mod room;
 pub mod srgb;
+mod sweep;
 pub mod texture;
 pub mod world;
 
@@ -216,4 +217,44 @@ pub(crate) fn test_world(parts: Vec<(Mesh, glam::DVec3)>, camera: Option<glam::D
         focus_distance: None,
     });
     World::new(&s)
+}
+
+#[cfg(test)]
+/// A sheet `width` wide (along X) swept along the profile `(z, y)` points, its winding
+/// facing up and forward (towards +Y, +Z) or, `flipped`, away.
+pub(crate) fn test_sweep(profile: &[(f32, f32)], width: f32, flipped: bool) -> Mesh {
+    let xs = [-0.5 * width, -0.25 * width, 0.0, 0.25 * width, 0.5 * width];
+    let positions: Vec<glam::Vec3> =
+        xs.iter().flat_map(|&x| profile.iter().map(move |&(z, y)| glam::Vec3::new(x, y, z))).collect();
+    let m = profile.len() as u32;
+    let mut triangles = Vec::new();
+    for i in 0..xs.len() as u32 - 1 {
+        for j in 0..m - 1 {
+            let (a, c) = (i * m + j, (i + 1) * m + j);
+            let (t1, t2) = ([a, c, a + 1], [a + 1, c, c + 1]);
+            triangles.extend(if flipped { [[t1[0], t1[2], t1[1]], [t2[0], t2[2], t2[1]]] } else { [t1, t2] });
+        }
+    }
+    Mesh {
+        name: "sweep".into(),
+        normals: vec![glam::Vec3::Y; positions.len()],
+        positions,
+        uvs: None,
+        colors: None,
+        triangles,
+        material: None,
+    }
+}
+
+#[cfg(test)]
+/// The profile of a studio sweep: a floor 6 m deep at y = `y` from z = 3 back to a curve of
+/// radius 1.5 m rising into a wall 5 m high at z = -3.
+pub(crate) fn sweep_profile(y: f32) -> Vec<(f32, f32)> {
+    let mut p = vec![(3.0, y), (-1.5, y)];
+    for k in 1..12 {
+        let a = std::f32::consts::FRAC_PI_2 * k as f32 / 12.0;
+        p.push((-1.5 - 1.5 * a.sin(), y + 1.5 - 1.5 * a.cos()));
+    }
+    p.extend([(-3.0, y + 1.5), (-3.0, y + 5.0)]);
+    p
 }
