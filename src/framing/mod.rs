@@ -24,7 +24,7 @@ mod view;
 
 use glam::DVec3;
 
-pub use probe::probe_image;
+pub use probe::probe_subject;
 use subject::{SceneView, Subject};
 use view::{Search, View, frame_view};
 

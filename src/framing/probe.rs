@@ -55,17 +55,19 @@ fn probe<T: Send>(
         .collect()
 }
 
-/// Which pixels of a tiny `w x h` image show geometry (1) or not (0): what the canvas warp
-/// is fitted to.
-fn probe_coverage(camera: &dyn Camera, accel: &Accel, w: u32, h: u32) -> Vec<f64> {
-    probe(camera, accel, (w, h), |_, hit| if hit.is_some() { 1.0 } else { 0.0 })
-}
-
 /// A `columns`-wide probe of `camera` at the canvas's `aspect`: 1 where a pixel centre's ray
-/// hits geometry, else 0, with its width and height (the look report's stretch measure).
-pub fn probe_image(camera: &dyn Camera, accel: &Accel, aspect: f64, columns: u32) -> (Vec<f64>, u32, u32) {
+/// first hits the subject of `world` (not its setting: a floor filling the canvas is not the
+/// subject's extent), else 0, with its width and height (the look report's stretch measure).
+pub fn probe_subject(
+    camera: &dyn Camera,
+    accel: &Accel,
+    world: &crate::scene::World,
+    aspect: f64,
+    columns: u32,
+) -> (Vec<f64>, u32, u32) {
     let (w, h) = probe_size(aspect, columns);
-    (probe_coverage(camera, accel, w, h), w, h)
+    let subject = |hit: Option<crate::accel::Hit>| hit.is_some_and(|h| !world.is_setting(h.object as usize));
+    (probe(camera, accel, (w, h), |_, hit| if subject(hit) { 1.0 } else { 0.0 }), w, h)
 }
 
 /// The share of a tiny image (`columns` wide, one ray per pixel centre) whose rays hit

@@ -1,4 +1,4 @@
-//! Measures of a legible subject: its proportions against a pinhole view of it, the planes'
+//! Measures of a legible subject: its proportions against a parallel view of it, the planes'
 //! hierarchy from the canvas edges to the salient features, the salient features kept whole
 //! in one plane, and the share of the subject's outline crossed by planes or opened.
 //!
@@ -6,17 +6,16 @@
 //! features sliced by plane edges and an unbroken outline are what made pictures hard to read.
 
 use crate::accel::Accel;
-use crate::camera::CameraKind;
 use crate::error::Result;
 use crate::facets::FacetMap;
-use crate::framing::{self, Framing, FramingParams};
+use crate::framing::subject::{SceneView, Subject};
+use crate::framing::{self, FramingParams};
 use crate::scene::World;
 
 /// Columns of the probes the stretch is measured on (rows follow the canvas's aspect).
 pub const STRETCH_PROBE_COLUMNS: u32 = 320;
-/// The pinhole's distance from the focal centre, in scene radii: far enough that its own
-/// perspective hardly changes the subject's proportions.
-pub const PINHOLE_DISTANCE_RADII: f64 = 12.0;
+/// Points of the subject sampled for its parallel projection (every n-th triangle corner).
+const STRETCH_SAMPLES: usize = 30_000;
 /// The canvas band whose planes are the edge planes, as a share of the shorter side.
 pub const EDGE_BAND: f64 = 0.06;
 /// The salient pixels: this top share of the subject's pixels by the saliency map.
@@ -29,35 +28,29 @@ pub const WHOLE_SHARE: f64 = 0.9;
 /// An outline is opened where the painted luminance across it differs by less than this.
 pub const OPEN_STEP: f32 = 0.035;
 
-/// The subject's bounding-box aspect (width / height) under the composed camera against a
-/// far pinhole looking along the same view, as max(r, 1/r) (1 = the same proportions).
-/// None when the subject is not seen by one of them.
+/// The subject's bounding-box aspect (width / height) under the composed camera against its
+/// parallel projection along the same view (a pinhole at infinity), as max(r, 1/r) (1 = the
+/// same proportions). Only the subject counts, not a floor or a room filling the canvas; with
+/// the scene's own camera, what that camera sees of it, as the framing takes it. None when the
+/// composed camera shows none of it.
 pub fn stretch(params: &FramingParams, world: &World, accel: &Accel) -> Result<Option<f64>> {
     let framed = framing::frame_camera(params, world, accel)?;
     let aspect = params.width as f64 / params.height.max(1) as f64;
-    let ours = framing::probe_image(framed.camera.as_ref(), accel, aspect, STRETCH_PROBE_COLUMNS);
-    // The pinhole looks along the composed view at the focal centre (or the scene's centre),
-    // from far away; `Fit` frames it around the scene.
-    let to = &world.to_render;
-    let target = framed.focal_centre.unwrap_or(glam::DVec3::ZERO);
-    let eye = target - framed.frame.forward * (PINHOLE_DISTANCE_RADII * world.radius.max(1e-6) as f64);
-    let scene_point = |p: glam::DVec3| (p / to.scale + to.centre).to_array();
-    let pin_params = FramingParams {
-        kind: CameraKind::Perspective,
-        ambiguity: None,
-        framing: Framing::Fit,
-        focus_distance: None,
-        position: Some(scene_point(eye)),
-        target: Some(scene_point(target)),
-        up: Some(framed.frame.up.to_array()),
-        size: None,
-        fill: None,
-        ..*params
+    let ours = framing::probe_subject(framed.camera.as_ref(), accel, world, aspect, STRETCH_PROBE_COLUMNS);
+    let own = params.position.is_none() && params.target.is_none();
+    let view = world.camera.as_ref().filter(|_| own).and_then(|c| SceneView::of(c, aspect, world, accel));
+    let subject = Subject::new(world, STRETCH_SAMPLES, STRETCH_SAMPLES / 10, view.as_ref());
+    let span = |axis: glam::DVec3| {
+        let (lo, hi) = subject
+            .points(false)
+            .iter()
+            .map(|p| p.dot(axis))
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| (lo.min(x), hi.max(x)));
+        hi - lo
     };
-    let pin = framing::frame_camera(&pin_params, world, accel)?;
-    let theirs = framing::probe_image(pin.camera.as_ref(), accel, aspect, STRETCH_PROBE_COLUMNS);
-    let (Some(a), Some(b)) = (bbox_aspect(&ours), bbox_aspect(&theirs)) else { return Ok(None) };
-    let r = a / b;
+    let theirs = span(framed.frame.right) / span(framed.frame.up);
+    let Some(a) = bbox_aspect(&ours).filter(|_| theirs.is_finite() && theirs > 0.0) else { return Ok(None) };
+    let r = a / theirs;
     Ok(Some(r.max(1.0 / r)))
 }
 

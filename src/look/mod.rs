@@ -72,7 +72,7 @@ pub struct LookRow {
     /// cues_final / cues_pre (1 when the pre-render shows none).
     pub cues_kept: f64,
     pub light: f64,
-    /// The subject's proportions against a pinhole view of it (`legibility::stretch`; 1 = the
+    /// The subject's proportions against a parallel view of it (`legibility::stretch`; 1 = the
     /// same), None when one of them does not see it.
     pub stretch: Option<f64>,
     /// Median edge plane against median salient plane, by area (`legibility::hierarchy`).
@@ -113,7 +113,7 @@ pub struct Render<'a> {
     pub parts: bool,
     /// The pre-render's per-pixel saliency map.
     pub saliency_map: &'a [f32],
-    /// `legibility::stretch`, measured by the caller (it traces two probes).
+    /// `legibility::stretch`, measured by the caller (it frames the camera and traces a probe).
     pub stretch: Option<f64>,
     pub time_ms: f64,
 }
