@@ -31,9 +31,12 @@ pub(super) struct Instance {
     pub(super) backdrop: Option<Backdrop>,
     /// An enclosure (`scene::enclosure`) has its inner side only: 1 or -1, the sign of d . n
     /// (d the ray in base space, n the normal its triangles' winding gives there) of the faces
-    /// a ray leaves it through, which it hits; a ray entering through a face passes it. 0 for
-    /// every other object. Enclosures cast no shadow (`occluded` passes them).
+    /// a ray leaves it through, which it hits; a ray entering through a face passes it. A sweep
+    /// modelled in one layer (`scene::sweep`) has its subject's side only, the same way. 0 for
+    /// every other object.
     pub(super) cull: f32,
+    /// Enclosures cast no shadow (`occluded` passes them).
+    pub(super) shadowless: bool,
 }
 
 impl Instance {

@@ -244,7 +244,7 @@ impl Accel {
         let world = LocalRay::new(Vec3A::from(origin), Vec3A::from(dir));
         !traverse_miss(tlas, Ray::new(world.o, world.d, tmin, tmax), |_, slot| {
             let inst = &self.instances[slot];
-            if inst.skipped_from(world.o) || inst.cull != 0.0 {
+            if inst.skipped_from(world.o) || inst.shadowless {
                 return f32::INFINITY;
             }
             self.blas_of(inst).any_hit(&inst.ray(&world), tmin, tmax).unwrap_or(f32::INFINITY)

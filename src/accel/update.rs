@@ -128,6 +128,7 @@ impl Accel {
                     let mirrored = o.placement.is_some_and(|p| p.to_base.matrix3.determinant() < 0.0);
                     enclosure.or(sweep).map_or(0.0, |away| if away != mirrored { 1.0 } else { -1.0 })
                 },
+                shadowless: world.enclosures.iter().any(|e| e.object == i),
             });
             boxes.push(aabb);
         }
@@ -137,7 +138,10 @@ impl Accel {
         // (A backdrop or an enclosure keeps its own instance: rays behind it skip it, rays
         // entering it pass its faces.)
         let mut by_id: Vec<usize> = (0..instances.len())
-            .filter(|&k| instances[k].to_base.is_none() && instances[k].backdrop.is_none() && instances[k].cull == 0.0)
+            .filter(|&k| {
+                let inst = &instances[k];
+                inst.to_base.is_none() && inst.backdrop.is_none() && inst.cull == 0.0 && !inst.shadowless
+            })
             .collect();
         by_id.sort_by_key(|&k| instances[k].first_triangle);
         for k in by_id {
@@ -163,6 +167,7 @@ impl Accel {
                     to_base: None,
                     backdrop: None,
                     cull: 0.0,
+                    shadowless: false,
                 });
                 boxes.push(group.blas.bounds);
             }

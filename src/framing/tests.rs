@@ -198,4 +198,10 @@ fn an_open_room_is_framed_around_its_furniture() {
     tracer.render(&mut film, &|_, p| framed.camera.ray(p), None, None, &crate::progress::Progress::silent());
     let missed = film.hits.iter().filter(|h| h.object == crate::film::NO_HIT).count();
     assert!(nothing > 0 && missed == 0, "{missed} of {nothing} pixels left showing nothing");
+    // What the rays hit stays what they hit (only an edge of the floor may give way to it).
+    let changed = objects_seen(&framed, &prep)
+        .zip(&film.hits)
+        .filter(|(seen, hit)| seen.is_some_and(|o| o != hit.object))
+        .count();
+    assert!(share(changed as i32) < 0.01, "{changed} pixels show another object than they hit");
 }

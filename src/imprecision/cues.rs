@@ -196,7 +196,9 @@ fn seen_through(
                 let p = screen_point(i % w, i / w, DVec2::splat(0.5), ctx.width, ctx.height);
                 let ray = ctx.camera.ray(p);
                 let ray = if aim.moved() { aim.apply(ray, ctx.pixel_pos(p), ctx.clip_radius) } else { ray };
-                match ctx.accel.closest(ray.origin, ray.dir, 0.0, f32::INFINITY) {
+                // As the tracer sees it, backdrops running on (the re-trace trusts these hits).
+                let hit = ctx.accel.closest(ray.origin, ray.dir, 0.0, f32::INFINITY);
+                match crate::trace::run_on(cues.world, ray.origin, ray.dir, hit) {
                     Some(h) => {
                         cues.corners(h.tri, |slot| out.extend(keep(slot)));
                         hits.push(h);

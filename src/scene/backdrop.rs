@@ -8,9 +8,10 @@
 //!   (`Accel`). A converging camera wraps around its subject, so the rays of the lower rows
 //!   start below the floor, and the floor's unlit underside covered the lower half of the
 //!   canvas; through it they see the subject from below, another of its sides;
-//! - it runs on past its edges (`trace::run_on`): a ray that misses everything and meets its
-//!   plane from the subject's side shows it there, as a floor continued under a room's furniture
-//!   where the camera looks past the floor's near edge. What hangs on a room's side does not.
+//! - when the subject stands on or against it, it runs on past its edges (`trace::run_on`): a
+//!   ray that misses everything and meets its plane from the subject's side shows it there, as a
+//!   floor continued under a room's furniture where the camera looks past the floor's near edge.
+//!   What hangs on a room's side does not.
 
 use glam::{DVec3, Vec3};
 
@@ -114,12 +115,18 @@ pub fn backdrops(world: &World) -> Vec<Backdrop> {
     let mut found: Vec<Backdrop> = planes
         .chain(sweeps.into_iter().map(|(o, s)| (o, s.normal, s.offset, true, s.winding)))
         .filter(|&(_, normal, offset, ..)| normal.is_finite() && offset.is_finite())
-        .map(|(o, normal, offset, runs_on, winding)| Backdrop {
-            object: o,
-            normal: normal.as_vec3(),
-            offset: offset as f32,
-            face: if runs_on { face(world, o, normal, offset) } else { None },
-            winding,
+        .map(|(o, normal, offset, runs_on, winding)| {
+            // Only what the subject stands on or against runs on: a floor to the canvas's
+            // edge, not a low garden wall into the sky behind the subject.
+            let gap = box_corners(lo, hi).map(|c| c.dot(normal) - offset).fold(f64::INFINITY, f64::min);
+            let touches = gap.abs() <= TOUCH_SHARE * (hi - lo).length();
+            Backdrop {
+                object: o,
+                normal: normal.as_vec3(),
+                offset: offset as f32,
+                face: if runs_on && touches { face(world, o, normal, offset) } else { None },
+                winding,
+            }
         })
         .collect();
     found.sort_unstable_by_key(|b| b.object);
@@ -142,10 +149,27 @@ fn face(world: &World, o: usize, normal: DVec3, offset: f64) -> Option<u32> {
             let cross = (b - a).cross(c - a);
             let on = [a, b, c].iter().all(|p| (p.dot(normal) - offset).abs() <= tolerance);
             let flat = cross.try_normalize().is_some_and(|n| n.dot(normal).abs() >= FACE_COS);
-            (on && flat).then_some((tri, cross.length()))
+            // Its shading normals run on with it: a triangle whose vertex normals lean (the
+            // start of a bevel) would tilt them further away from it.
+            let geometry = &world.geometries[obj.geometry];
+            let corners = geometry.triangles[(tri - obj.first_triangle) as usize];
+            let upright = corners.iter().all(|&i| {
+                let n = obj.normal(geometry.normals[i as usize]).as_dvec3();
+                n.try_normalize().is_some_and(|n| n.dot(normal).abs() >= FACE_COS)
+            });
+            (on && flat).then_some((tri, upright, cross.length()))
         })
-        .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)))
-        .map(|(tri, _)| tri)
+        .max_by(|a, b| a.1.cmp(&b.1).then(a.2.total_cmp(&b.2)).then(b.0.cmp(&a.0)))
+        .map(|(tri, ..)| tri)
+}
+
+/// The subject touches a backdrop when its box is within this share of its extent of the
+/// backdrop's plane.
+const TOUCH_SHARE: f64 = 0.05;
+
+/// The eight corners of the box `lo`..`hi`.
+pub(super) fn box_corners(lo: DVec3, hi: DVec3) -> impl Iterator<Item = DVec3> {
+    (0..8).map(move |k| DVec3::new([lo.x, hi.x][k & 1], [lo.y, hi.y][(k >> 1) & 1], [lo.z, hi.z][k >> 2]))
 }
 
 /// A backdrop's face lies within this share of its extent of its plane.

@@ -88,7 +88,7 @@ pub fn sides(world: &World, candidates: &[usize]) -> Room {
         let level = point.dot(normal);
         let inside = |other: usize| {
             let Some((lo, hi)) = bounds(other) else { return true };
-            box_corners(lo, hi).all(|c| c.dot(normal) >= level - tolerance)
+            super::backdrop::box_corners(lo, hi).all(|c| c.dot(normal) >= level - tolerance)
                 || span(world, other, normal).0 >= level - tolerance
         };
         (run.abs() > 0.0 && others.iter().all(|&other| inside(other))).then_some((o, normal, point))
@@ -127,17 +127,6 @@ pub fn sides(world: &World, candidates: &[usize]) -> Room {
         return Room::default();
     }
     Room { sides, hangings }
-}
-
-/// The eight corners of the box `lo`..`hi`.
-fn box_corners(lo: DVec3, hi: DVec3) -> impl Iterator<Item = DVec3> {
-    (0..8).map(move |k| {
-        DVec3::new(
-            if k & 1 == 0 { lo.x } else { hi.x },
-            if k & 2 == 0 { lo.y } else { hi.y },
-            if k & 4 == 0 { lo.z } else { hi.z },
-        )
-    })
 }
 
 /// The least and greatest of `normal . p` over object `o`'s corners (render space), of up to
@@ -209,10 +198,11 @@ mod tests {
             let floor = w.backdrops[0];
             assert!(floor.behind(w.to_render.point(DVec3::new(0.0, -0.02, 0.0))));
             assert!(!floor.behind(w.to_render.point(DVec3::new(0.0, 0.02, 0.0))));
-            // The sides run on past their edges, on their inner faces; the picture does not.
+            // The floor runs on past its edges, on its top face; the walls, which nothing stands
+            // against, and the picture do not.
             let faces: Vec<bool> = w.backdrops.iter().map(|b| b.face.is_some()).collect();
-            assert_eq!(faces, vec![true, true, true, false]);
-            for b in &w.backdrops[..3] {
+            assert_eq!(faces, vec![true, false, false, false]);
+            for b in &w.backdrops[..1] {
                 let corners = w.triangle(b.face.unwrap());
                 assert!(corners.iter().all(|p| (b.normal.dot(*p) - b.offset).abs() < 1e-5), "{b:?}");
             }

@@ -4,7 +4,8 @@
 //! wall of planes. It is a backdrop on its floor's plane, the flat part the subject stands
 //! nearest: rays from below that floor pass the sweep, and the floor runs on past its edge. A
 //! cylinder, a half-pipe or a hill is no sweep (their normals turn more than `MAX_SPAN`, or not
-//! about one axis), nor a staircase (its treads lie on many planes).
+//! about one axis), nor a staircase (its treads lie on many planes), nor a roof, a tent or a
+//! canopy (the subject does not stand inside their bend).
 
 use glam::DVec3;
 
@@ -26,6 +27,9 @@ const MAX_SPAN: f64 = 110.0 * std::f64::consts::PI / 180.0;
 const PART_ANGLE: f64 = 2.0 * std::f64::consts::PI / 180.0;
 /// Each flat part holds at least this share of the sheet's area.
 const PART_SHARE: f64 = 0.1;
+/// The subject stands on the floor: its box within this share of its extent of the floor's
+/// plane.
+const STAND_SHARE: f64 = 0.05;
 /// Each flat part lies on one plane: its corners within this share of the sweep's extent of
 /// it (a sheet 25 cm thick in a sweep 8 m across; not the treads of a staircase).
 const PART_DEPTH: f64 = 0.03;
@@ -107,14 +111,24 @@ pub(super) fn sweep(world: &World, o: usize, (lo, hi): (DVec3, DVec3)) -> Option
         if offset - levels().fold(f64::INFINITY, f64::min) > PART_DEPTH * (hi_o - lo_o).length() {
             return None;
         }
-        let gap = (0..8)
-            .map(|k| DVec3::new([lo.x, hi.x][k & 1], [lo.y, hi.y][(k >> 1) & 1], [lo.z, hi.z][k >> 2]))
-            .map(|c| c.dot(normal) - offset)
-            .fold(f64::INFINITY, f64::min);
-        Some((normal, offset, gap))
+        let gap = super::backdrop::box_corners(lo, hi).map(|c| c.dot(normal) - offset).fold(f64::INFINITY, f64::min);
+        Some((normal, offset, gap, part))
     };
     let (a, b) = (part(least)?, part(most)?);
-    let (normal, offset, _) = if a.2.abs() <= b.2.abs() { a } else { b };
+    // Concave towards the subject: each part on the subject's side of the other's plane (a
+    // ridge, a tent seen from outside are not).
+    let tolerance = PART_DEPTH * (hi_o - lo_o).length();
+    let before = |x: &(DVec3, f64, f64, Vec<&Sampled>), y: &(DVec3, f64, f64, Vec<&Sampled>)| {
+        y.3.iter().flat_map(|t| t.0).all(|p| p.dot(x.0) >= x.1 - tolerance)
+    };
+    if !(before(&a, &b) && before(&b, &a)) {
+        return None;
+    }
+    // The floor: the part the subject stands on (a canopy or a tent over it is no sweep).
+    let (normal, offset, gap, _) = if a.2.abs() <= b.2.abs() { a } else { b };
+    if gap.abs() > STAND_SHARE * (hi - lo).length() {
+        return None;
+    }
     // The winding faces the subject where it turns towards the subject's centre.
     let facing: f64 = tris.iter().filter(|t| (centre - t.0[0]).dot(t.1) > 0.0).map(|t| t.2).sum();
     let winding = match facing / total {
@@ -171,7 +185,7 @@ mod tests {
     }
 
     #[test]
-    fn tubes_half_pipes_stairs_small_sheets_and_flat_bends_are_no_sweeps() {
+    fn tubes_roofs_canopies_stairs_small_sheets_and_flat_bends_are_no_sweeps() {
         let arc = |from: f32, to: f32, r: f32| -> Vec<(f32, f32)> {
             (0..=24).map(|k| from + (to - from) * k as f32 / 24.0).map(|a| (r * a.cos(), r + r * a.sin())).collect()
         };
@@ -181,6 +195,8 @@ mod tests {
             .map(|k| (2.0 - 0.4 * k as f32, 0.25 * k as f32))
             .flat_map(|(z, y)| [(z, y), (z - 0.4, y)])
             .collect();
+        // A sweep turned upside down: a ceiling 3 m above the ball curving down into a wall.
+        let canopy: Vec<(f32, f32)> = sweep_profile(0.0).iter().map(|&(z, y)| (z, 3.0 - y)).collect();
         for (what, mesh) in [
             ("a tube around the ball", test_sweep(&arc(0.0, tau, 4.0), 8.0, false)),
             ("a half-pipe", test_sweep(&arc(0.5 * tau, tau, 4.0), 8.0, false)),
@@ -194,6 +210,9 @@ mod tests {
             ),
             ("a floor bent 30 degrees", test_sweep(&[(3.0, 0.0), (-3.0, 0.0), (-8.0, 2.9)], 8.0, false)),
             ("a staircase", test_sweep(&stairs, 8.0, false)),
+            ("a tent over the ball", test_sweep(&[(4.0, 0.0), (0.0, 4.0), (-4.0, 0.0)], 8.0, false)),
+            ("a ridge under the ball", test_sweep(&[(4.0, -4.0), (0.0, 0.0), (-4.0, -4.0)], 8.0, false)),
+            ("a canopy over the ball", test_sweep(&canopy, 8.0, false)),
         ] {
             let w = scene(vec![(mesh, DVec3::ZERO), ball()]);
             assert!(w.backdrops.is_empty(), "{what}: {:?}", w.backdrops);
@@ -201,7 +220,7 @@ mod tests {
     }
 
     /// Rays from below the floor pass it and meet the wall, or the ball from below; from in
-    /// front they land on the floor; from behind the wall they pass it.
+    /// front they land on the floor; from behind the wall they pass it; its wall casts shadows.
     #[test]
     fn rays_meet_a_sweep_from_the_subjects_side_only() {
         for flipped in [false, true] {
@@ -216,6 +235,9 @@ mod tests {
             assert_eq!(seen(at(0.0, -1.0, 0.0), at(0.0, 1.0, 0.0)), Some(1), "the ball, from below");
             assert_eq!(seen(at(2.0, 2.0, 2.0), at(2.0, -1.0, 2.0)), Some(0), "the floor, from above");
             assert_eq!(seen(at(2.0, 3.0, -5.0), at(2.0, 3.0, 5.0)), None, "behind the wall");
+            // It casts shadows: a light behind the wall does not reach the floor before it.
+            let (from, to) = (at(2.0, 0.01, 1.0), at(2.0, 3.0, -6.0));
+            assert!(accel.occluded(from, towards(from, to), 0.0, f32::INFINITY), "the wall's shadow");
         }
     }
 }

@@ -19,6 +19,7 @@ use crate::util::rng::{splitmix64, unit_f64};
 mod antialias;
 mod bands;
 mod run_on;
+pub(crate) use run_on::run_on;
 mod sampler;
 mod shadows;
 mod tracer;
