@@ -114,21 +114,22 @@ impl Accel {
             if !(aabb.min.is_finite() && aabb.max.is_finite()) {
                 continue;
             }
+            let backdrop = world.backdrops.iter().find(|b| b.object == i).copied();
+            let enclosure = world.enclosures.iter().find(|e| e.object == i);
             instances.push(Instance {
                 blas,
                 object: i as u32,
                 first_triangle: o.first_triangle,
                 to_base: o.placement.map(|p| p.to_base),
-                backdrop: world.backdrops.iter().find(|b| b.object == i && b.winding.is_none()).copied(),
+                backdrop: backdrop.filter(|b| b.winding.is_none()),
                 cull: {
                     // Rays from the side away from the subject pass: an enclosure's outside, a
                     // sweep's back. A mirroring placement turns the winding over in base space.
-                    let enclosure = world.enclosures.iter().find(|e| e.object == i).map(|e| e.outward);
-                    let sweep = world.backdrops.iter().find(|b| b.object == i).and_then(|b| b.winding).map(|f| !f);
+                    let away = enclosure.map(|e| e.outward).or(backdrop.and_then(|b| b.winding).map(|f| !f));
                     let mirrored = o.placement.is_some_and(|p| p.to_base.matrix3.determinant() < 0.0);
-                    enclosure.or(sweep).map_or(0.0, |away| if away != mirrored { 1.0 } else { -1.0 })
+                    away.map_or(0.0, |away| if away != mirrored { 1.0 } else { -1.0 })
                 },
-                shadowless: world.enclosures.iter().any(|e| e.object == i),
+                shadowless: enclosure.is_some(),
             });
             boxes.push(aabb);
         }

@@ -89,28 +89,26 @@ pub fn backdrops(world: &World) -> Vec<Backdrop> {
             chosen.push(*side);
         }
     }
-    let runs_on: Vec<bool> = chosen.iter().map(|c| !hangs(c.0)).collect();
-    let chosen: Vec<_> = chosen.into_iter().zip(runs_on).collect();
     // Sweeps (`sweep`): a sheet bent from a floor into a wall, as large as a backdrop; its plane
     // is its floor's.
     let sweeps: Vec<(usize, super::sweep::Sweep)> = by_size
         .iter()
         .take(CANDIDATES)
-        .filter(|&&o| !chosen.iter().any(|c| c.0.0 == o))
+        .filter(|&&o| !chosen.iter().any(|c| c.0 == o))
         .filter_map(|&o| {
-            let (lo, hi) = box_without(&|k| k == o || chosen.iter().any(|c| c.0.0 == k));
+            let (lo, hi) = box_without(&|k| k == o || chosen.iter().any(|c| c.0 == k));
             let large = lo.is_finite() && extent(o) >= BACKDROP_RATIO * (hi - lo).length();
             large.then(|| super::sweep::sweep(world, o, (lo, hi)).map(|s| (o, s))).flatten()
         })
         .collect();
     // The subject's centre: the box of everything else.
-    let (lo, hi) = box_without(&|o| chosen.iter().any(|f| f.0.0 == o) || sweeps.iter().any(|s| s.0 == o));
+    let (lo, hi) = box_without(&|o| chosen.iter().any(|f| f.0 == o) || sweeps.iter().any(|s| s.0 == o));
     let centre = (lo + hi) * 0.5;
-    let planes = chosen.into_iter().map(|((o, normal, point), runs_on)| {
+    let planes = chosen.into_iter().map(|(o, normal, point)| {
         let normal = if (centre - point).dot(normal) >= 0.0 { normal } else { -normal };
         // The plane through the corner nearest the subject (a slab's top face).
         let offset = corners(world, o).map(|p| p.dot(normal)).fold(f64::NEG_INFINITY, f64::max);
-        (o, normal, offset, runs_on, None)
+        (o, normal, offset, !hangs(o), None)
     });
     let mut found: Vec<Backdrop> = planes
         .chain(sweeps.into_iter().map(|(o, s)| (o, s.normal, s.offset, true, s.winding)))
@@ -118,8 +116,7 @@ pub fn backdrops(world: &World) -> Vec<Backdrop> {
         .map(|(o, normal, offset, runs_on, winding)| {
             // Only what the subject stands on or against runs on: a floor to the canvas's
             // edge, not a low garden wall into the sky behind the subject.
-            let gap = box_corners(lo, hi).map(|c| c.dot(normal) - offset).fold(f64::INFINITY, f64::min);
-            let touches = gap.abs() <= TOUCH_SHARE * (hi - lo).length();
+            let touches = gap_to(lo, hi, normal, offset).abs() <= TOUCH_SHARE * (hi - lo).length();
             Backdrop {
                 object: o,
                 normal: normal.as_vec3(),
@@ -170,6 +167,12 @@ const TOUCH_SHARE: f64 = 0.05;
 /// The eight corners of the box `lo`..`hi`.
 pub(super) fn box_corners(lo: DVec3, hi: DVec3) -> impl Iterator<Item = DVec3> {
     (0..8).map(move |k| DVec3::new([lo.x, hi.x][k & 1], [lo.y, hi.y][(k >> 1) & 1], [lo.z, hi.z][k >> 2]))
+}
+
+/// How far the box `lo`..`hi` stands in front of the plane `normal . p = offset`: its nearest
+/// corner's distance, negative when it reaches behind.
+pub(super) fn gap_to(lo: DVec3, hi: DVec3, normal: DVec3, offset: f64) -> f64 {
+    box_corners(lo, hi).map(|c| c.dot(normal) - offset).fold(f64::INFINITY, f64::min)
 }
 
 /// A backdrop's face lies within this share of its extent of its plane.

@@ -36,6 +36,9 @@ const PART_DEPTH: f64 = 0.03;
 
 /// A sampled triangle: its corners, unit normal and area.
 type Sampled = ([DVec3; 3], DVec3, f64);
+/// A flat part of a sweep: its unit normal towards the subject, its plane's offset, how far the
+/// subject's box stands in front of it (`backdrop::gap_to`), its triangles.
+type Part<'a> = (DVec3, f64, f64, Vec<&'a Sampled>);
 
 /// A sweep's floor and which way its triangles face.
 pub(super) struct Sweep {
@@ -91,13 +94,12 @@ pub(super) fn sweep(world: &World, o: usize, (lo, hi): (DVec3, DVec3)) -> Option
         return None;
     }
     let across: Vec<_> = across.into_iter().map(|(t, a)| (t, (a - start).rem_euclid(half))).collect();
-    let (least, most) = (0.0, span);
     let centre = (lo + hi) * 0.5;
     let (lo_o, hi_o, _) = world.objects[o].bounds?;
-    let (lo_o, hi_o) = (lo_o.as_dvec3(), hi_o.as_dvec3());
+    let tolerance = PART_DEPTH * (hi_o - lo_o).as_dvec3().length();
     // A flat part at each end of the turn: its plane through its corner nearest the subject,
     // and how far the subject's box stands in front of it.
-    let part = |end: f64| {
+    let part = |end: f64| -> Option<Part> {
         let part: Vec<&Sampled> = across.iter().filter(|t| (t.1 - end).abs() <= PART_ANGLE).map(|t| t.0).collect();
         let area: f64 = part.iter().map(|t| t.2).sum();
         if area < PART_SHARE * total {
@@ -108,19 +110,15 @@ pub(super) fn sweep(world: &World, o: usize, (lo, hi): (DVec3, DVec3)) -> Option
         let normal = if (centre - point).dot(normal) >= 0.0 { normal } else { -normal };
         let levels = || part.iter().flat_map(|t| t.0).map(|p| p.dot(normal));
         let offset = levels().fold(f64::NEG_INFINITY, f64::max);
-        if offset - levels().fold(f64::INFINITY, f64::min) > PART_DEPTH * (hi_o - lo_o).length() {
+        if offset - levels().fold(f64::INFINITY, f64::min) > tolerance {
             return None;
         }
-        let gap = super::backdrop::box_corners(lo, hi).map(|c| c.dot(normal) - offset).fold(f64::INFINITY, f64::min);
-        Some((normal, offset, gap, part))
+        Some((normal, offset, super::backdrop::gap_to(lo, hi, normal, offset), part))
     };
-    let (a, b) = (part(least)?, part(most)?);
+    let (a, b) = (part(0.0)?, part(span)?);
     // Concave towards the subject: each part on the subject's side of the other's plane (a
     // ridge, a tent seen from outside are not).
-    let tolerance = PART_DEPTH * (hi_o - lo_o).length();
-    let before = |x: &(DVec3, f64, f64, Vec<&Sampled>), y: &(DVec3, f64, f64, Vec<&Sampled>)| {
-        y.3.iter().flat_map(|t| t.0).all(|p| p.dot(x.0) >= x.1 - tolerance)
-    };
+    let before = |x: &Part, y: &Part| y.3.iter().flat_map(|t| t.0).all(|p| p.dot(x.0) >= x.1 - tolerance);
     if !(before(&a, &b) && before(&b, &a)) {
         return None;
     }

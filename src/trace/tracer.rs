@@ -345,7 +345,10 @@ impl Tracer<'_> {
     pub(super) fn closest_of(&self, packet: &[CameraRay; TileRow::PACKET], n: usize) -> [Option<Hit>; TileRow::PACKET] {
         let lanes: [(Vec3, Vec3); TileRow::PACKET] = packet.map(|r| (r.origin, r.dir));
         let hits = self.accel.closest4(&lanes[..n], 0.0, f32::INFINITY);
-        std::array::from_fn(|l| super::run_on::run_on(self.world, lanes[l].0, lanes[l].1, hits[l]))
+        // The lanes past `n` repeat the last ray and are not read.
+        std::array::from_fn(|l| {
+            if l < n { super::run_on::run_on(self.world, lanes[l].0, lanes[l].1, hits[l]) } else { hits[l] }
+        })
     }
 
     /// The pixels of `list`, in parallel chunks, with what `known[k]` says of the lights of
