@@ -336,10 +336,15 @@ impl<'a> Poser<'a> {
         if let (true, Some(base)) = (objects_only, &self.base) {
             let mut world = base.clone();
             if world.set_transforms(&self.scene, &pose.transforms)?.is_empty() {
+                world.keep_backdrops_of(base);
                 return Ok(world);
             }
         }
-        Ok(World::in_space(&self.scene, space))
+        let mut world = World::in_space(&self.scene, space);
+        if let Some(base) = &self.base {
+            world.keep_backdrops_of(base);
+        }
+        Ok(world)
     }
 
     /// Frame `f`'s geometry, cheapest first (ARCHITECTURE "Changing a prepared scene"):
@@ -371,6 +376,7 @@ impl<'a> Poser<'a> {
             // A transform too singular to carry rays into the base's space (a zero scale)
             // would give the object a geometry of its own: such a frame is posed anew.
             if world.set_transforms(&self.scene, &pose.transforms)?.is_empty() {
+                world.keep_backdrops_of(base);
                 let accel = match previous {
                     Some(Geometry::Posed { mut accel, rigid: true, .. }) => {
                         accel.update_instances(&world);
@@ -385,9 +391,10 @@ impl<'a> Poser<'a> {
                 return Ok(Geometry::Posed { frame: f, world: Box::new(world), accel, rigid: true });
             }
         }
-        let world = World::in_space(&self.scene, space);
-        if self.base.is_none() {
-            self.base = Some(world.clone());
+        let mut world = World::in_space(&self.scene, space);
+        match &self.base {
+            Some(base) => world.keep_backdrops_of(base),
+            None => self.base = Some(world.clone()),
         }
         // Only geometries whose content changed get a BVH (`Accel::update` keys them by
         // content): the result is the same BVH as a fresh build, whatever frame came before.

@@ -463,6 +463,23 @@ impl World {
         self.enclosures = super::enclosure::enclosures(self, self.camera.as_ref().map(|c| c.position));
     }
 
+    /// Takes `layout`'s backdrops (the same scene at an animation's layout frame) when none of
+    /// their objects moved since: which objects are the setting, and which of them run on, are
+    /// decided once for an animation, so a character jumping clear of the floor does not stop
+    /// the floor running on, nor a stretched arm turn a wall into subject, for a few frames.
+    pub fn keep_backdrops_of(&mut self, layout: &World) {
+        let still = |o: usize| match (self.objects.get(o), layout.objects.get(o)) {
+            (Some(a), Some(b)) => {
+                (a.transform, a.first_triangle, a.triangle_count, a.bounds)
+                    == (b.transform, b.first_triangle, b.triangle_count, b.bounds)
+            }
+            _ => false,
+        };
+        if self.objects.len() == layout.objects.len() && layout.backdrops.iter().all(|b| still(b.object)) {
+            self.backdrops = layout.backdrops.clone();
+        }
+    }
+
     /// Whether object `o` is the scene's setting rather than its subject: a backdrop or an
     /// enclosure, which the cameras are not framed around.
     pub fn is_setting(&self, o: usize) -> bool {
@@ -638,5 +655,38 @@ mod tests {
         let added = w.set_transforms(&s, &[(1, DMat4::from_scale(DVec3::new(0.0, 1.0, 1.0)))]).unwrap();
         assert_eq!(added, vec![1]);
         assert_eq!(w.objects[1].geometry, 1);
+    }
+
+    /// An animation's setting is its layout frame's: a ball jumping clear of the floor leaves
+    /// the floor running on (found again, it would not); a floor that moves is found again.
+    #[test]
+    fn the_layout_frames_backdrops_hold_while_their_objects_stand_still() {
+        use crate::scene::default::{cuboid, ellipsoid};
+        let floor = cuboid("floor", Vec3::new(20.0, 0.02, 20.0), 0);
+        let ball = ellipsoid("ball", Vec3::splat(1.0), 12, 24, 0);
+        let at = |y: f64| DMat4::from_translation(DVec3::Y * y);
+        let s = Scene {
+            meshes: vec![floor, ball],
+            objects: vec![
+                Object { name: "floor".into(), mesh: 0, transform: at(-0.01) },
+                Object { name: "ball".into(), mesh: 1, transform: at(1.0) },
+            ],
+            materials: vec![crate::scene::Material::default()],
+            ..Scene::default()
+        };
+        let layout = World::new(&s);
+        assert!(layout.backdrops.len() == 1 && layout.backdrops[0].face.is_some());
+        let mut jump = layout.clone();
+        jump.set_transforms(&s, &[(1, at(3.0))]).unwrap();
+        assert!(jump.backdrops[0].face.is_none(), "found again, the floor no longer runs on");
+        jump.keep_backdrops_of(&layout);
+        assert_eq!(jump.backdrops, layout.backdrops);
+        // The floor lowered with the ball on it: its plane is found again.
+        let mut lowered = layout.clone();
+        lowered.set_transforms(&s, &[(0, at(-1.01)), (1, at(0.0))]).unwrap();
+        let found = lowered.backdrops.clone();
+        lowered.keep_backdrops_of(&layout);
+        assert_eq!(lowered.backdrops, found);
+        assert_ne!(found[0].offset, layout.backdrops[0].offset);
     }
 }
