@@ -51,29 +51,45 @@ fn the_default_look_on_odd_scenes() {
     }
 }
 
-/// Pixels on the picture's outermost rows and columns that show the subject (geometry, not a
-/// backdrop or an enclosure, which reach past the edges): a subject cut off.
-fn edge_hits(film: &cubist::film::Film, world: &cubist::scene::World) -> usize {
+/// Pixels on the picture's outermost columns, top row and bottom row that show the subject
+/// (geometry, not a backdrop or an enclosure, which reach past the edges): a subject cut off.
+fn edge_hits(film: &cubist::film::Film, world: &cubist::scene::World) -> Edges {
     let (w, h) = (film.width as usize, film.height as usize);
-    let backdrop = |o: u32| world.is_setting(o as usize);
-    (0..w * h)
-        .filter(|&i| {
-            let (x, y) = (i % w, i / w);
-            let hit = &film.hits[i];
-            (x == 0 || y == 0 || x == w - 1 || y == h - 1) && hit.is_hit() && !backdrop(hit.object)
-        })
-        .count()
+    let subject = |i: usize| film.hits[i].is_hit() && !world.is_setting(film.hits[i].object as usize);
+    let count = |pixels: &mut dyn Iterator<Item = usize>| pixels.filter(|&i| subject(i)).count();
+    Edges {
+        sides: count(&mut (0..h).flat_map(|y| [y * w, y * w + w - 1])),
+        top: count(&mut (0..w)),
+        bottom: count(&mut ((h - 1) * w..h * w)),
+    }
+}
+
+#[derive(Debug)]
+struct Edges {
+    sides: usize,
+    top: usize,
+    bottom: usize,
+}
+
+impl Edges {
+    /// Whole, but for a tall subject framed closer on a cylindrical camera: its foot (or, its
+    /// bulk lying low, its top) cropped, never both nor its sides.
+    fn whole_or_cropped(&self, camera: &str) -> bool {
+        let cylindrical = camera.starts_with("cylindrical");
+        self.sides == 0 && (self.top == 0 || self.bottom == 0) && (cylindrical || self.top + self.bottom == 0)
+    }
 }
 
 #[test]
 fn composed_subjects_stay_whole() {
-    // The pre-render's outermost pixels show no geometry: no part of the subject is cut off.
+    // The pre-render's outermost pixels show no geometry: no part of the subject is cut off,
+    // but a tall subject's foot or top (`framing::compose`'s crop).
     let s = Settings { faceting: Faceting::None, ..small(Preset::Analytic, 160, 120) };
     for (name, scene) in odd_scenes() {
         let prep = Prepared::new(scene);
         let r = pipeline::render(&prep, &s, &Progress::silent()).unwrap();
         let on_edge = edge_hits(&r.film, &prep.world);
-        assert_eq!(on_edge, 0, "{name}: {on_edge} edge pixels show geometry ({})", r.camera);
+        assert!(on_edge.whole_or_cropped(&r.camera), "{name}: edge pixels show geometry {on_edge:?} ({})", r.camera);
     }
 }
 
@@ -167,7 +183,8 @@ fn golden_default_and_thesis_still_life() {
     }
 }
 
-/// The tall thin shared samples keep their proportions and stay whole: CesiumMan (a figure
+/// The tall thin shared samples keep their proportions and stay whole (a tall one cropped
+/// at its foot at most): CesiumMan (a figure
 /// walking across the default view, an arm out) and the Fox. Needs ../shared.
 #[test]
 #[ignore = "needs ../shared/gltf-samples"]
@@ -182,6 +199,6 @@ fn tall_thin_samples_keep_their_proportions() {
         let s = Settings { faceting: Faceting::None, ..small(Preset::Analytic, 160, 120) };
         let r = pipeline::render(&prep, &s, &Progress::silent()).unwrap();
         let on_edge = edge_hits(&r.film, &prep.world);
-        assert_eq!(on_edge, 0, "{name}: {on_edge} edge pixels show geometry ({})", r.camera);
+        assert!(on_edge.whole_or_cropped(&r.camera), "{name}: edge pixels show geometry {on_edge:?} ({})", r.camera);
     }
 }

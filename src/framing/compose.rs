@@ -12,6 +12,9 @@
 //! 3. The spans are fitted to the vertices with both axes at the same scale per pixel: the
 //!    wider extent sets its span and the other span is widened to match (up to
 //!    `ISO_WIDEST`), so a tall or thin subject keeps its proportions with canvas beside it.
+//!    A subject taller than the canvas on the cylindrical camera is framed closer, as a
+//!    half-length portrait: the band shows part of its height (`TALL_CROP_POWER`,
+//!    `TALL_CROP_MAX`), its top, or lower down where its bulk lies (`Seen::bulk_at`).
 //! 4. Each candidate's fill is measured by tracing a tiny image; the closest candidate that
 //!    fills `FILL_GOAL`, else the closest within `NEAR_BEST` of the best fill, wins.
 //! 5. (`framing`) `auto` on a tall scene composes with both converging cameras and keeps the
@@ -45,6 +48,10 @@ pub const FILL_GOAL: f64 = 0.5;
 /// The widest span a canvas may be widened to so both axes have the same scale per pixel: a
 /// thin subject keeps its proportions with empty canvas beside it.
 pub const ISO_WIDEST: f64 = 150.0 * std::f64::consts::PI / 180.0;
+/// A subject taller than the canvas is shown (its height over the canvas's, at one scale per
+/// pixel) to this power, at most `TALL_CROP_MAX`: its foot cropped.
+const TALL_CROP_POWER: f64 = 0.5;
+const TALL_CROP_MAX: f64 = 1.5;
 /// Centring passes of step 2.
 const CENTRING_PASSES: usize = 2;
 /// Candidate distances of C behind its closest place, in scene radii (step 5).
@@ -63,6 +70,9 @@ pub struct Composition {
     pub angle_y: f64,
     /// Cylindrical: the band's height, render units. Spherical: unused (0).
     pub height: f64,
+    /// Cylindrical: how far the band's middle lies above the scene's (a tall subject's foot
+    /// cropped), render units; else 0.
+    pub lift: f64,
     /// The share of the canvas it fills (the probe's estimate; 0 until measured).
     pub fill: f64,
     /// Its place in the order of preference among the candidates that reach `FILL_GOAL`
@@ -171,20 +181,59 @@ struct Seen {
     v: (f64, f64),
     /// Cylindrical: the mean distance from the focal line (at least 1e-9); else unused.
     r: f64,
+    /// Cylindrical: the points' width across the view in each of `SLICES` equal bands of
+    /// height, from the top down (where the subject's bulk lies); else empty.
+    widths: Vec<f64>,
 }
 
 impl Seen {
     fn new(points: &[DVec3], kind: CameraKind, f: &CameraFrame, c: DVec3) -> Seen {
         let (h, v) = extents(points, kind, f, c);
-        let r = if kind == CameraKind::Cylindrical {
-            let centre = c + f.up * (0.5 * (v.0 + v.1));
-            mean_distance_from_line(points, f, centre).max(1e-9)
-        } else {
-            0.0
-        };
-        Seen { c, h, v, r }
+        if kind != CameraKind::Cylindrical {
+            return Seen { c, h, v, r: 0.0, widths: Vec::new() };
+        }
+        let centre = c + f.up * (0.5 * (v.0 + v.1));
+        let r = mean_distance_from_line(points, f, centre).max(1e-9);
+        let mut across = vec![(f64::INFINITY, f64::NEG_INFINITY); SLICES];
+        let tall = (v.1 - v.0).max(1e-300);
+        for p in points {
+            let w = *p - c;
+            let k = (((v.1 - w.dot(f.up)) / tall * SLICES as f64) as usize).min(SLICES - 1);
+            let x = w.dot(f.right);
+            across[k] = (across[k].0.min(x), across[k].1.max(x));
+        }
+        let widths = across.iter().map(|&(lo, hi)| if lo <= hi { hi - lo } else { 0.0 }).collect();
+        Seen { c, h, v, r, widths }
+    }
+
+    /// Where a band `1 / crop` of the subject's height is framed: at the subject's top (a
+    /// figure keeps its head, a bottle its neck), unless a band lower down shows `BULK_GAIN`
+    /// times its bulk (the sum of the slices' widths within it; a guitar's body below its
+    /// neck), then the bulkiest, the highest of equals. How far its top lies below the
+    /// subject's, as a share of the subject's height.
+    fn bulk_at(&self, crop: f64) -> f64 {
+        let shown = (SLICES as f64 / crop).round().max(1.0) as usize;
+        let mut best = (0, f64::NEG_INFINITY);
+        for first in 0..=SLICES.saturating_sub(shown) {
+            let bulk: f64 = self.widths[first..first + shown].iter().sum();
+            if bulk > best.1 * (1.0 + 1e-9) {
+                best = (first, bulk);
+            }
+        }
+        let top: f64 = self.widths[..shown].iter().sum();
+        if best.1 < BULK_GAIN * top {
+            return 0.0;
+        }
+        best.0 as f64 / SLICES as f64
     }
 }
+
+/// Bands of height `Seen::widths` measures a subject's bulk in.
+const SLICES: usize = 24;
+/// A tall subject's crop leaves its top for a band lower down showing this many times its
+/// bulk (a figure's, a bottle's or a statue's lower bands show 1.0-1.2 times their top's; a
+/// guitar's, a violin's or open scissors' 1.5-1.8 times).
+const BULK_GAIN: f64 = 1.3;
 
 /// The spans that hold the points seen from C (`Seen`), step 3 and 4 of the rule.
 fn spans_seen(
@@ -196,13 +245,14 @@ fn spans_seen(
     anisotropy: f64,
     max_half: f64,
 ) -> Composition {
-    let Seen { c, h, v, r } = *seen;
+    let Seen { c, h, v, r, .. } = *seen;
     let widest = 2.0 * max_half / margin;
     let span_x = (2.0 * h.0.abs().max(h.1.abs()) / margin).clamp(1e-6, widest);
     let mut angle_x = span_x;
     if kind == CameraKind::Cylindrical {
         // The band is centred on the scene's vertical middle (the focal line's point there).
-        let centre = c + f.up * (0.5 * (v.0 + v.1));
+        let mut centre = c + f.up * (0.5 * (v.0 + v.1));
+        let mut lift = 0.0;
         let mut height = ((v.1 - v.0) / margin).max(1e-6);
         // Scale per pixel: angle_x r / width (r = the scene's mean distance from the focal
         // line) against height / rows, both per image height here.
@@ -210,9 +260,17 @@ fn spans_seen(
         if sx > anisotropy * height {
             height = sx / anisotropy;
         } else if height > anisotropy * sx {
+            // A subject taller than the canvas: framed closer, on the part of it that holds
+            // the most of its bulk (a figure's head and shoulders, a guitar's body), as a
+            // half-length portrait, rather than a narrow strip.
+            let crop = (height / (anisotropy * sx)).powf(TALL_CROP_POWER).min(TALL_CROP_MAX);
+            let cropped = height / crop;
+            lift = 0.5 * (height - cropped) - seen.bulk_at(crop) * height;
+            centre += f.up * lift;
+            height = cropped;
             angle_x = ((height / anisotropy) * aspect / r).min(ISO_WIDEST);
         }
-        return Composition { centre, angle_x, angle_y: 0.0, height, fill: 0.0, rank: usize::MAX, candidate: 0 };
+        return Composition { centre, angle_x, angle_y: 0.0, height, lift, fill: 0.0, rank: usize::MAX, candidate: 0 };
     }
     let mut angle_y = (2.0 * v.0.abs().max(v.1.abs()) / margin).clamp(1e-6, widest);
     // Radians per pixel: angle_x / width against angle_y / height.
@@ -222,7 +280,7 @@ fn spans_seen(
     } else if angle_y > anisotropy * sx {
         angle_x = (angle_y / anisotropy * aspect).min(ISO_WIDEST);
     }
-    Composition { centre: c, angle_x, angle_y, height: 0.0, fill: 0.0, rank: usize::MAX, candidate: 0 }
+    Composition { centre: c, angle_x, angle_y, height: 0.0, lift: 0.0, fill: 0.0, rank: usize::MAX, candidate: 0 }
 }
 
 /// The `compose` framing of a spherical or cylindrical camera looking along `f.forward`, with
@@ -261,6 +319,7 @@ pub fn compose(
         angle_x: 1.0,
         angle_y: 1.0,
         height: 1.0,
+        lift: 0.0,
         fill: 0.0,
         rank: usize::MAX,
         candidate: 0,
@@ -527,6 +586,7 @@ mod tests {
             angle_x: 1.0,
             angle_y: 1.0,
             height: 0.0,
+            lift: 0.0,
             fill,
             rank,
             candidate: 0,
@@ -564,11 +624,47 @@ mod tests {
 
     #[test]
     fn cylinders_fit_the_height() {
-        let pts = ellipsoid(DVec3::new(0.3, 1.5, 0.3), DVec3::new(0.0, 2.0, 0.0));
+        let pts = ellipsoid(DVec3::new(2.0, 1.0, 0.3), DVec3::new(0.0, 2.0, 0.0));
         let f = frame();
         let k = compose(&pts, CameraKind::Cylindrical, &f, DVec3::ZERO, 4.0 / 3.0, 2.0, 0.9, &|_| 0.6);
         assert!(in_view(&k, CameraKind::Cylindrical, &pts), "{k:?}");
-        assert!(k.height >= 3.0 / 0.9 - 1e-6, "{}", k.height);
-        assert!((k.centre.y - 2.0).abs() < 1e-6);
+        assert!(k.height >= 2.0 / 0.9 - 1e-6, "{}", k.height);
+        assert!((k.centre.y - 2.0).abs() < 1e-6 && k.lift == 0.0);
+    }
+
+    /// The band's bottom and top, in height along the focal line.
+    fn band(k: &Composition) -> (f64, f64) {
+        (k.centre.y - 0.5 * k.height, k.centre.y + 0.5 * k.height)
+    }
+
+    /// A subject much taller than the canvas is framed closer, its foot cropped: the band
+    /// holds its top with the margin, `TALL_CROP_MAX` of its height less, in proportion.
+    #[test]
+    fn a_tall_subject_keeps_its_top_and_loses_its_foot() {
+        let pts = ellipsoid(DVec3::new(0.3, 1.5, 0.3), DVec3::new(0.0, 2.0, 0.0));
+        let f = frame();
+        let k = compose(&pts, CameraKind::Cylindrical, &f, DVec3::ZERO, 4.0 / 3.0, 2.0, 0.9, &|_| 0.6);
+        assert!((k.height - 3.0 / 0.9 / TALL_CROP_MAX).abs() < 1e-6, "{k:?}");
+        let (lo, hi) = band(&k);
+        assert!((3.5..=2.0 + 1.5 / 0.9 + 1e-6).contains(&hi) && lo > 1.0, "{lo} {hi}");
+        assert!(k.lift > 0.0);
+        // Both axes at one scale per pixel still: the width spans what the height does.
+        let r = mean_distance_from_line(&pts, &f, k.centre);
+        assert!((k.angle_x * r / (4.0 / 3.0) - k.height).abs() < 1e-6 * k.height);
+    }
+
+    /// A tall subject whose bulk lies low (a guitar's body under its neck) is framed on it.
+    #[test]
+    fn a_tall_subject_is_framed_on_its_bulk_when_that_lies_low() {
+        let neck = (0..=40).flat_map(|i| {
+            let y = 1.0 + 2.0 * i as f64 / 40.0;
+            [DVec3::new(-0.05, y, 0.0), DVec3::new(0.05, y, 0.0)]
+        });
+        let mut pts: Vec<DVec3> = ellipsoid(DVec3::new(0.45, 0.5, 0.15), DVec3::new(0.0, 0.5, 0.0));
+        pts.extend(neck);
+        let f = frame();
+        let k = compose(&pts, CameraKind::Cylindrical, &f, DVec3::ZERO, 4.0 / 3.0, 2.0, 0.9, &|_| 0.6);
+        let (lo, hi) = band(&k);
+        assert!(k.lift < 0.0 && lo <= 0.0 && hi < 3.0, "{lo} {hi} {k:?}");
     }
 }

@@ -230,8 +230,9 @@ pub(super) fn frame_view(
             frame.position = c - fwd * distance;
             if kind == CameraKind::Cylindrical {
                 let height = size_setting.or(band).unwrap_or((size.y * 1.08).max(1e-6));
-                // The band is centred on the scene's vertical middle.
-                let centre = c + frame.up * (0.5 * (ext_u.0 + ext_u.1) - c.dot(frame.up));
+                // The band is centred on the scene's vertical middle, or as composed above it.
+                let lift = composed.map_or(0.0, |k| k.lift);
+                let centre = c + frame.up * (0.5 * (ext_u.0 + ext_u.1) - c.dot(frame.up) + lift);
                 camera = Box::new(Cylindrical { frame, centre, distance, angle_x: alpha, height, clip_radius: clip });
                 focal_centre = Some(centre);
                 view_height = Some(height);

@@ -6,6 +6,7 @@
 //! features sliced by plane edges and an unbroken outline are what made pictures hard to read.
 
 use crate::accel::Accel;
+use crate::camera::CameraKind;
 use crate::error::Result;
 use crate::facets::FacetMap;
 use crate::framing::subject::{SceneView, Subject};
@@ -40,15 +41,25 @@ pub fn stretch(params: &FramingParams, world: &World, accel: &Accel) -> Result<O
     let own = params.position.is_none() && params.target.is_none();
     let view = world.camera.as_ref().filter(|_| own).and_then(|c| SceneView::of(c, aspect, world, accel));
     let subject = Subject::new(world, STRETCH_SAMPLES, STRETCH_SAMPLES / 10, view.as_ref());
-    let span = |axis: glam::DVec3| {
-        let (lo, hi) = subject
-            .points(false)
+    // A cylindrical camera's rows are heights along its focal line: what its band crops of a
+    // tall subject (its foot) is left out of the parallel view too (its height cut at the
+    // band, its width that of the sampled points within it).
+    let up = framed.frame.up;
+    let band = match (framed.kind, framed.focal_centre, framed.view_height) {
+        (CameraKind::Cylindrical, Some(c), Some(h)) => (c.dot(up) - 0.5 * h, c.dot(up) + 0.5 * h),
+        _ => (f64::NEG_INFINITY, f64::INFINITY),
+    };
+    let points = subject.points(false);
+    let within: Vec<glam::DVec3> = points.iter().copied().filter(|p| (band.0..=band.1).contains(&p.dot(up))).collect();
+    let span = |points: &[glam::DVec3], axis: glam::DVec3| {
+        points
             .iter()
             .map(|p| p.dot(axis))
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| (lo.min(x), hi.max(x)));
-        hi - lo
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| (lo.min(x), hi.max(x)))
     };
-    let theirs = span(framed.frame.right) / span(framed.frame.up);
+    let (lo, hi) = span(points, up);
+    let (left, right) = span(if within.is_empty() { points } else { &within }, framed.frame.right);
+    let theirs = (right - left) / (hi.min(band.1) - lo.max(band.0));
     let Some(a) = bbox_aspect(&ours).filter(|_| theirs.is_finite() && theirs > 0.0) else { return Ok(None) };
     let r = a / theirs;
     Ok(Some(r.max(1.0 / r)))
