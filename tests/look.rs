@@ -72,11 +72,12 @@ struct Edges {
 }
 
 impl Edges {
-    /// Whole, but for a tall subject framed closer on a cylindrical camera: its foot (or, its
-    /// bulk lying low, its top) cropped, never both nor its sides.
+    /// Whole, but for the end of a tall subject the composition says it cropped (the camera's
+    /// description): its foot, or its top where its bulk lies low; never its sides.
     fn whole_or_cropped(&self, camera: &str) -> bool {
-        let cylindrical = camera.starts_with("cylindrical");
-        self.sides == 0 && (self.top == 0 || self.bottom == 0) && (cylindrical || self.top + self.bottom == 0)
+        let foot = camera.contains("its foot cropped");
+        let top = camera.contains("its top cropped");
+        self.sides == 0 && (self.top == 0 || top) && (self.bottom == 0 || foot)
     }
 }
 

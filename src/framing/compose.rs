@@ -14,7 +14,7 @@
 //!    `ISO_WIDEST`), so a tall or thin subject keeps its proportions with canvas beside it.
 //!    A subject taller than the canvas on the cylindrical camera is framed closer, as a
 //!    half-length portrait: the band shows part of its height (`TALL_CROP_POWER`,
-//!    `TALL_CROP_MAX`), its top, or lower down where its bulk lies (`Seen::bulk_at`).
+//!    `TALL_CROP_MAX`), its top, or its foot where its bulk lies (`Seen::bulk_at`).
 //! 4. Each candidate's fill is measured by tracing a tiny image; the closest candidate that
 //!    fills `FILL_GOAL`, else the closest within `NEAR_BEST` of the best fill, wins.
 //! 5. (`framing`) `auto` on a tall scene composes with both converging cameras and keeps the
@@ -48,8 +48,9 @@ pub const FILL_GOAL: f64 = 0.5;
 /// The widest span a canvas may be widened to so both axes have the same scale per pixel: a
 /// thin subject keeps its proportions with empty canvas beside it.
 pub const ISO_WIDEST: f64 = 150.0 * std::f64::consts::PI / 180.0;
-/// A subject taller than the canvas is shown (its height over the canvas's, at one scale per
-/// pixel) to this power, at most `TALL_CROP_MAX`: its foot cropped.
+/// A subject taller than the canvas shows its height divided by (how much taller it is than
+/// the canvas, at one scale per pixel) to this power, at most `TALL_CROP_MAX`: its foot, or
+/// its top, cropped.
 const TALL_CROP_POWER: f64 = 0.5;
 const TALL_CROP_MAX: f64 = 1.5;
 /// Centring passes of step 2.
@@ -207,32 +208,25 @@ impl Seen {
     }
 
     /// Where a band `1 / crop` of the subject's height is framed: at the subject's top (a
-    /// figure keeps its head, a bottle its neck), unless a band lower down shows `BULK_GAIN`
-    /// times its bulk (the sum of the slices' widths within it; a guitar's body below its
-    /// neck), then the bulkiest, the highest of equals. How far its top lies below the
-    /// subject's, as a share of the subject's height.
+    /// figure keeps its head, a bottle its neck), or at its foot when the band there is
+    /// `BULK_GAIN` times as broad (its slices' mean width, the foot's without its lowest
+    /// quarter: a guitar's body below its neck, not a statue's plinth nor a walker's stride).
+    /// How far its top lies below the subject's, as a share of the subject's height: 0 or
+    /// 1 - 1/crop.
     fn bulk_at(&self, crop: f64) -> f64 {
-        let shown = (SLICES as f64 / crop).round().max(1.0) as usize;
-        let mut best = (0, f64::NEG_INFINITY);
-        for first in 0..=SLICES.saturating_sub(shown) {
-            let bulk: f64 = self.widths[first..first + shown].iter().sum();
-            if bulk > best.1 * (1.0 + 1e-9) {
-                best = (first, bulk);
-            }
-        }
-        let top: f64 = self.widths[..shown].iter().sum();
-        if best.1 < BULK_GAIN * top {
-            return 0.0;
-        }
-        best.0 as f64 / SLICES as f64
+        let shown = ((SLICES as f64 / crop).round() as usize).clamp(1, SLICES);
+        let mean = |slices: &[f64]| slices.iter().sum::<f64>() / slices.len().max(1) as f64;
+        let top = mean(&self.widths[..shown]);
+        let foot = mean(&self.widths[SLICES - shown..SLICES - shown / 4]);
+        if foot > BULK_GAIN * top { (SLICES - shown) as f64 / SLICES as f64 } else { 0.0 }
     }
 }
 
 /// Bands of height `Seen::widths` measures a subject's bulk in.
 const SLICES: usize = 24;
-/// A tall subject's crop leaves its top for a band lower down showing this many times its
-/// bulk (a figure's, a bottle's or a statue's lower bands show 1.0-1.2 times their top's; a
-/// guitar's, a violin's or open scissors' 1.5-1.8 times).
+/// A tall subject's crop leaves its top for its foot when the foot is this many times as broad
+/// (`Seen::bulk_at`: a figure's, a bottle's, a statue's on its plinth, a walking figure's 0.6-1.2
+/// times; a guitar's or a violin's 1.7 times).
 const BULK_GAIN: f64 = 1.3;
 
 /// The spans that hold the points seen from C (`Seen`), step 3 and 4 of the rule.
@@ -260,9 +254,8 @@ fn spans_seen(
         if sx > anisotropy * height {
             height = sx / anisotropy;
         } else if height > anisotropy * sx {
-            // A subject taller than the canvas: framed closer, on the part of it that holds
-            // the most of its bulk (a figure's head and shoulders, a guitar's body), as a
-            // half-length portrait, rather than a narrow strip.
+            // A subject taller than the canvas: framed closer, as a half-length portrait
+            // rather than a narrow strip, on its top or its foot (`Seen::bulk_at`).
             let crop = (height / (anisotropy * sx)).powf(TALL_CROP_POWER).min(TALL_CROP_MAX);
             let cropped = height / crop;
             lift = 0.5 * (height - cropped) - seen.bulk_at(crop) * height;
@@ -666,5 +659,25 @@ mod tests {
         let k = compose(&pts, CameraKind::Cylindrical, &f, DVec3::ZERO, 4.0 / 3.0, 2.0, 0.9, &|_| 0.6);
         let (lo, hi) = band(&k);
         assert!(k.lift < 0.0 && lo <= 0.0 && hi < 3.0, "{lo} {hi} {k:?}");
+    }
+
+    /// A statue on a plinth four times its width, and a figure striding (its feet far apart),
+    /// keep their tops: the foot's lowest quarter is not read as its bulk.
+    #[test]
+    fn a_plinth_or_a_stride_is_not_the_bulk() {
+        let f = frame();
+        let column = |x: f64| (0..=60).map(move |i| DVec3::new(x, 0.3 + 2.7 * i as f64 / 60.0, 0.0));
+        let mut statue: Vec<DVec3> = column(-0.1).chain(column(0.1)).collect();
+        statue.extend(ellipsoid(DVec3::new(0.4, 0.15, 0.4), DVec3::new(0.0, 0.15, 0.0)));
+        let mut stride: Vec<DVec3> = column(-0.25).chain(column(0.25)).filter(|p| p.y > 1.2).collect();
+        stride.extend((0..=30).flat_map(|i| {
+            let t = i as f64 / 30.0;
+            [DVec3::new(-0.1 - 0.35 * (1.0 - t), 1.2 * t, 0.0), DVec3::new(0.1 + 0.35 * (1.0 - t), 1.2 * t, 0.0)]
+        }));
+        for (name, pts) in [("statue", statue), ("stride", stride)] {
+            let k = compose(&pts, CameraKind::Cylindrical, &f, DVec3::ZERO, 4.0 / 3.0, 2.0, 0.9, &|_| 0.6);
+            let (lo, hi) = band(&k);
+            assert!(k.lift > 0.0 && hi >= 3.0 && lo > 0.0, "{name}: {lo} {hi} {k:?}");
+        }
     }
 }

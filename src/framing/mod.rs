@@ -111,6 +111,17 @@ pub struct Framed {
     pub focal_centre: Option<DVec3>,
     pub frame: CameraFrame,
     pub warnings: Vec<String>,
+    /// Which end of a tall subject the composition crops (`compose`), if it crops one.
+    pub cropped: Option<Cropped>,
+}
+
+/// The end of a tall subject a composition leaves out of the canvas.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Cropped {
+    /// Its foot: the band holds its top.
+    Foot,
+    /// Its top: the band holds its foot, where its bulk lies.
+    Top,
 }
 
 impl Framed {
@@ -122,6 +133,11 @@ impl Framed {
         }
         if let Some(w) = self.warped() {
             s += &format!(", canvas warped up to {:.2}x", w.x.max_scale().max(w.y.max_scale()));
+        }
+        match self.cropped {
+            Some(Cropped::Foot) => s += ", its foot cropped",
+            Some(Cropped::Top) => s += ", its top cropped",
+            None => {}
         }
         s
     }

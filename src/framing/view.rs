@@ -136,6 +136,7 @@ pub(super) fn frame_view(
     let fit_fill = params.fill.unwrap_or(FIT_FILL);
     let pinhole_fill = params.fill.unwrap_or(PINHOLE_FILL);
     let view_height;
+    let mut cropped = None;
 
     let camera: Box<dyn Camera>;
     let focal_centre;
@@ -230,8 +231,14 @@ pub(super) fn frame_view(
             frame.position = c - fwd * distance;
             if kind == CameraKind::Cylindrical {
                 let height = size_setting.or(band).unwrap_or((size.y * 1.08).max(1e-6));
-                // The band is centred on the scene's vertical middle, or as composed above it.
-                let lift = composed.map_or(0.0, |k| k.lift);
+                // The band is centred on the scene's vertical middle, or where the composition
+                // cropped a tall subject (not under a band height of the user's).
+                let lift = composed.filter(|_| size_setting.is_none()).map_or(0.0, |k| k.lift);
+                cropped = match lift {
+                    l if l > 0.0 => Some(super::Cropped::Foot),
+                    l if l < 0.0 => Some(super::Cropped::Top),
+                    _ => None,
+                };
                 let centre = c + frame.up * (0.5 * (ext_u.0 + ext_u.1) - c.dot(frame.up) + lift);
                 camera = Box::new(Cylindrical { frame, centre, distance, angle_x: alpha, height, clip_radius: clip });
                 focal_centre = Some(centre);
@@ -315,5 +322,5 @@ pub(super) fn frame_view(
             view_height = Some(height);
         }
     }
-    Ok((Framed { camera, kind, angle_deg, view_height, focal_centre, frame, warnings }, composition))
+    Ok((Framed { camera, kind, angle_deg, view_height, focal_centre, frame, warnings, cropped }, composition))
 }

@@ -467,16 +467,24 @@ impl World {
     /// their objects moved since: which objects are the setting, and which of them run on, are
     /// decided once for an animation, so a character jumping clear of the floor does not stop
     /// the floor running on, nor a stretched arm turn a wall into subject, for a few frames.
+    /// Still: the same transform, triangles, bounds and vertex positions.
     pub fn keep_backdrops_of(&mut self, layout: &World) {
         let still = |o: usize| match (self.objects.get(o), layout.objects.get(o)) {
             (Some(a), Some(b)) => {
                 (a.transform, a.first_triangle, a.triangle_count, a.bounds)
                     == (b.transform, b.first_triangle, b.triangle_count, b.bounds)
+                    && self.geometries[a.geometry].positions == layout.geometries[b.geometry].positions
             }
             _ => false,
         };
-        if self.objects.len() == layout.objects.len() && layout.backdrops.iter().all(|b| still(b.object)) {
-            self.backdrops = layout.backdrops.clone();
+        if self.objects.len() != layout.objects.len() || !layout.backdrops.iter().all(|b| still(b.object)) {
+            return;
+        }
+        let changed = self.backdrops.iter().map(|b| b.object).ne(layout.backdrops.iter().map(|b| b.object));
+        self.backdrops = layout.backdrops.clone();
+        // Enclosures are found among what is not a backdrop: found again for the kept set.
+        if changed {
+            self.enclosures = super::enclosure::enclosures(self, self.camera.as_ref().map(|c| c.position));
         }
     }
 
