@@ -71,8 +71,8 @@ pub struct Composition {
     pub angle_y: f64,
     /// Cylindrical: the band's height, render units. Spherical: unused (0).
     pub height: f64,
-    /// Cylindrical: how far the band's middle lies above the scene's (a tall subject's foot
-    /// cropped), render units; else 0.
+    /// Cylindrical: how far the band's middle lies above the scene's, render units: positive
+    /// when a tall subject's foot is cropped, negative when its top is; else 0.
     pub lift: f64,
     /// The share of the canvas it fills (the probe's estimate; 0 until measured).
     pub fill: f64,
@@ -183,7 +183,7 @@ struct Seen {
     /// Cylindrical: the mean distance from the focal line (at least 1e-9); else unused.
     r: f64,
     /// Cylindrical: the points' width across the view in each of `SLICES` equal bands of
-    /// height, from the top down (where the subject's bulk lies); else empty.
+    /// height, from the top down (`bulk_at` reads them); else empty.
     widths: Vec<f64>,
 }
 

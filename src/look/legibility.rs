@@ -42,8 +42,8 @@ pub fn stretch(params: &FramingParams, world: &World, accel: &Accel) -> Result<O
     let view = world.camera.as_ref().filter(|_| own).and_then(|c| SceneView::of(c, aspect, world, accel));
     let subject = Subject::new(world, STRETCH_SAMPLES, STRETCH_SAMPLES / 10, view.as_ref());
     // A cylindrical camera's rows are heights along its focal line: what its band crops of a
-    // tall subject (its foot) is left out of the parallel view too (its height cut at the
-    // band, its width that of the sampled points within it).
+    // tall subject (its foot or its top) is left out of the parallel view too (its height cut
+    // at the band, its width that of the sampled points within it).
     let up = framed.frame.up;
     let band = match (framed.kind, framed.focal_centre, framed.view_height) {
         (CameraKind::Cylindrical, Some(c), Some(h)) => (c.dot(up) - 0.5 * h, c.dot(up) + 0.5 * h),
