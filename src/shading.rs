@@ -144,6 +144,13 @@ pub fn surface(world: &World, hit: &Hit, origin: Vec3, dir: Vec3) -> SurfacePoin
         }
     }
     if let Some(c) = &g.colors {
+        // A backdrop run on past its edge (`trace::run_on`) has weights outside the
+        // triangle: its colours are held at the triangle's (a texture runs on, by its wrap).
+        let w = if w.min_element() < 0.0 {
+            w.max(Vec3::ZERO) / w.max(Vec3::ZERO).element_sum().max(f32::MIN_POSITIVE)
+        } else {
+            w
+        };
         albedo *= c[i0] * w.x + c[i1] * w.y + c[i2] * w.z;
     }
     SurfacePoint { position, geometric, normal, albedo, roughness: material.roughness, unlit: material.unlit }

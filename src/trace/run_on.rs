@@ -112,6 +112,30 @@ mod tests {
     }
 
     #[test]
+    fn a_floors_vertex_colours_hold_at_its_edge_where_it_runs_on() {
+        // The floor's colour grey at its far side (z < 0), white at its near side: run on 20 m
+        // past the far edge, the colours' weights would reach -1 and the albedo -0.6.
+        let (mut floor, at) = (cuboid("floor", glam::Vec3::new(20.0, 0.1, 20.0), 0), DVec3::new(0.0, -0.05, 0.0));
+        floor.colors = Some(
+            floor
+                .positions
+                .iter()
+                .map(|p| if p.z < 0.0 { glam::Vec4::new(0.2, 0.2, 0.2, 1.0) } else { glam::Vec4::ONE })
+                .collect(),
+        );
+        let ball = (ellipsoid("ball", glam::Vec3::splat(1.0), 12, 24, 0), DVec3::new(0.0, 1.0, 0.0));
+        let w = crate::scene::test_world(vec![(floor, at), ball], None);
+        let (o, d) = ray(&w, DVec3::new(0.0, 1.0, -15.0), DVec3::new(0.0, 0.0, -30.0));
+        let hit = run_on(&w, o, d, None).expect("runs on");
+        let albedo = crate::shading::surface(&w, &hit, o, d).albedo;
+        let base = w.materials[w.objects[0].material].base_color;
+        for k in 0..3 {
+            let c = albedo[k] / base[k];
+            assert!((0.2 - 1e-5..=1.0 + 1e-5).contains(&c), "channel {k}: {c}");
+        }
+    }
+
+    #[test]
     fn rays_away_from_below_or_hitting_something_do_not_run_on() {
         let w = floor_and_ball();
         let accel = Accel::new(&w);
